@@ -1,0 +1,80 @@
+#include "cli.h"
+
+#include <stdio.h>
+#include <string.h>
+
+#include "ohm_version.h"
+#include "pipeline.h"
+
+static int exit_code(int rc) { return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1; }
+
+static int report(int rc, const ohm_error *err)
+{
+    if (rc) fprintf(stderr, "ohm: error: %s\n", err->msg[0] ? err->msg : "failed");
+    return exit_code(rc);
+}
+
+static int run_chain(const ohm_chain *chain, int verbosity)
+{
+    ohm_state state;
+    ohm_state_init(&state);
+    state.log.verbosity = verbosity;
+    ohm_error err;
+    ohm_error_clear(&err);
+    int rc = ohm_chain_run(chain, &state, &err);
+    ohm_state_free(&state);
+    return report(rc, &err);
+}
+
+int ohm_cli_main(int argc, char **argv)
+{
+    ohm_error err;
+    ohm_error_clear(&err);
+    int verbosity = 1, first = 1;
+    while (first < argc) {
+        if (strcmp(argv[first], "--quiet") == 0 || strcmp(argv[first], "-q") == 0) verbosity = 0;
+        else if (strcmp(argv[first], "--verbose") == 0 || strcmp(argv[first], "-v") == 0) verbosity = 2;
+        else break;
+        ++first;
+    }
+    if (first >= argc) {
+        ohm_help_overview(stderr);
+        return 2;
+    }
+    const char *cmd = argv[first];
+    if (strcmp(cmd, "help") == 0 || strcmp(cmd, "--help") == 0 || strcmp(cmd, "-h") == 0 ||
+        strcmp(cmd, "-help") == 0) {
+        if (first + 1 < argc) return report(ohm_help_action(stdout, argv[first + 1], &err), &err);
+        ohm_help_overview(stdout);
+        return 0;
+    }
+    if (strcmp(cmd, "--version") == 0 || strcmp(cmd, "version") == 0) {
+        printf("ohm %s\n", OHM_VERSION);
+        return 0;
+    }
+    ohm_chain chain;
+    int rc;
+    if (strcmp(cmd, "run") == 0) {
+        if (first + 2 != argc) {
+            fprintf(stderr, "ohm: error: usage: ohm run PIPELINE_FILE\n");
+            return 2;
+        }
+        rc = ohm_chain_parse_file(&chain, argv[first + 1], &err);
+    } else if (cmd[0] != '-') {
+        const char *cmds[] = {"help", "run", "version"};
+        const char *s = ohm_suggest(cmd, cmds, 3);
+        if (!s && ohm_action_find(cmd)) {
+            fprintf(stderr, "ohm: error: unknown command '%s'; actions start with '-': did you mean '-%s'?\n", cmd, cmd);
+            return 2;
+        }
+        if (s) fprintf(stderr, "ohm: error: unknown command '%s'; did you mean '%s'? (see 'ohm help')\n", cmd, s);
+        else fprintf(stderr, "ohm: error: unknown command '%s' (see 'ohm help')\n", cmd);
+        return 2;
+    } else {
+        rc = ohm_chain_parse_args(&chain, argc - first, argv + first, &err);
+    }
+    if (rc) return report(rc, &err);
+    rc = run_chain(&chain, verbosity);
+    ohm_chain_free(&chain);
+    return rc;
+}

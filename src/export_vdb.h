@@ -1,0 +1,22 @@
+/* export_vdb.h — write the voxel object as OpenVDB grids (DESIGN.md §5, §7).
+ *
+ *   surface  level set: narrow-band signed distance (mm), negative inside
+ *   density  fog volume: 1 in every interior cell (Blender's Principled Volume
+ *            reads "density" by default), 0 elsewhere
+ *
+ * World units are millimetres; index (i,j,k) of ohm_voxel_grid is the VDB index,
+ * so the transform is scale h and translation = the centre of cell (0,0,0). */
+#ifndef OHM_EXPORT_VDB_H
+#define OHM_EXPORT_VDB_H
+
+#include "ohm_error.h"
+#include "voxelize.h"
+
+typedef struct ohm_vdb_provenance {
+    const char *source;        /* the mesh file the object came from        */
+    double mesh_scale_mm;      /* millimetres per mesh unit used by -read    */
+} ohm_vdb_provenance;
+
+int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_vdb_provenance *prov, ohm_error *err);
+
+#endif

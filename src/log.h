@@ -1,0 +1,41 @@
+/* log.h — messages and progress on stderr (data goes to stdout or files).
+ *
+ * A run owns one ohm_log (no global logger).  Progress lines appear only for a
+ * step that has already taken more than a second, at most once a second, so
+ * short runs stay quiet and long ones show they are alive. */
+#ifndef OHM_LOG_H
+#define OHM_LOG_H
+
+#include <stdio.h>
+
+typedef struct ohm_log {
+    FILE *stream;    /* where messages go; NULL = stderr                  */
+    int verbosity;   /* 0 errors and warnings only, 1 normal, 2 verbose    */
+} ohm_log;
+
+void ohm_log_info(const ohm_log *log, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+void ohm_log_warn(const ohm_log *log, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Monotonic wall clock, seconds. */
+double ohm_now(void);
+
+typedef struct ohm_progress {
+    const ohm_log *log;
+    const char *what;
+    double t_begin, t_last;
+    int printed;
+} ohm_progress;
+
+void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what);
+void ohm_progress_update(ohm_progress *p, double fraction);
+void ohm_progress_end(ohm_progress *p);
+
+#endif

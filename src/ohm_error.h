@@ -1,0 +1,51 @@
+/* ohm_error.h — status codes and the error record every ohm call fills.
+ *
+ * Convention (after libgit2/CHOLMOD): functions return int, 0 = OK, negative =
+ * error; the caller passes an ohm_error it owns, the callee writes a one-line
+ * message into it ("file:line: what is wrong, what was expected").  There is no
+ * global "last error": the record travels with the call, so two threads or two
+ * runs never see each other's messages.  This header is plain C and is also
+ * included by the C++ wrappers. */
+#ifndef OHM_ERROR_H
+#define OHM_ERROR_H
+
+#include <stddef.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+enum {
+    OHM_OK = 0,
+    OHM_ERR_IO = -1,       /* a file could not be opened, read or written   */
+    OHM_ERR_PARSE = -2,    /* a file's contents are malformed               */
+    OHM_ERR_INVALID = -3,  /* a value is out of range / inconsistent        */
+    OHM_ERR_NOMEM = -4,    /* an allocation failed or would be too large    */
+    OHM_ERR_USAGE = -5,    /* bad action, option or value (exit code 2)     */
+    OHM_ERR_NUMERIC = -6,  /* singular matrix, residual too large, NaN      */
+    OHM_ERR_INTERNAL = -7  /* a library threw, or a bug                     */
+};
+
+#define OHM_ERROR_MSG_MAX 1024
+
+typedef struct ohm_error {
+    int code;                      /* last status, 0 when none             */
+    char msg[OHM_ERROR_MSG_MAX];   /* one line, no trailing newline        */
+} ohm_error;
+
+/* Record an error (printf-style) and return `code`, so callers can write
+ * `return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: ...", path, line);`.
+ * A NULL err is allowed (the message is dropped). */
+int ohm_fail(ohm_error *err, int code, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+/* Clear the record. */
+void ohm_error_clear(ohm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,78 @@
+#!/usr/bin/env bash
+# Bad input through the real command: a one-line error naming the file and the
+# place, exit 1, no crash, and an existing output file left untouched.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+# An earlier result that every failing run below must leave byte-identical.
+"$OHM" --quiet -read file=samples/spot.obj -voxelize dim=8 -write file="$T/keep.vdb" -stats file="$T/keep.json"
+cp "$T/keep.vdb" "$T/keep.ref"
+cp "$T/keep.json" "$T/keep.json.ref"
+
+run_bad() { # NAME PATTERN MESH
+  local name=$1 pat=$2 mesh=$3
+  expect_exit 1 "$name" -- "$OHM" -read file="$mesh" -voxelize dim=8 -write file="$T/keep.vdb" -stats file="$T/keep.json"
+  expect_error_line "$name" "$pat"
+  check "$name: old output intact" cmp -s "$T/keep.vdb" "$T/keep.ref"
+  check "$name: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
+}
+
+: >"$T/empty.obj"
+run_bad "empty file" "empty.obj: empty file" "$T/empty.obj"
+
+# binary STL declaring 12 triangles, cut after 5
+$PY - "$T/cut.stl" <<'PY'
+import struct, sys
+tris = [((0,0,0),(1,0,0),(0,1,0))] * 12
+data = b"\0" * 80 + struct.pack("<I", len(tris))
+for t in tris:
+    data += struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *v) for v in t) + b"\0\0"
+open(sys.argv[1], "wb").write(data[:84 + 50 * 5 + 17])
+PY
+run_bad "truncated binary STL" "cut.stl: .*triangle 5" "$T/cut.stl"
+
+# binary PLY whose face data stops early
+$PY - "$T/cut.ply" <<'PY'
+import struct, sys
+v = [(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+f = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5)]
+hdr = ("ply\nformat binary_little_endian 1.0\nelement vertex 8\nproperty float x\nproperty float y\n"
+       "property float z\nelement face 12\nproperty list uchar int vertex_indices\nend_header\n").encode()
+body = b"".join(struct.pack("<3f", *p) for p in v) + b"".join(struct.pack("<B3i", 3, *t) for t in f)
+open(sys.argv[1], "wb").write(hdr + body)
+PY
+run_bad "truncated binary PLY" "cut.ply: .*(face 4|element)" "$T/cut.ply"
+
+printf 'v 0 0 0\nv 1 0 0\nv 0 1 0\nv 0 0 1\nf 1 2 3\nf 1 2 9\n' >"$T/range.obj"
+run_bad "face index out of range" "range.obj:6: .*9" "$T/range.obj"
+
+printf 'OFF\n4 4 0\n0 0 0\n1 0 0\nnan 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1 2 3\n' >"$T/nan.off"
+run_bad "NaN coordinate" "nan.off:5: .*nan" "$T/nan.off"
+
+mkdir "$T/dir.obj"
+run_bad "directory instead of a file" "dir.obj: is a directory" "$T/dir.obj"
+run_bad "missing file" "nothere.obj: cannot open" "$T/nothere.obj"
+
+# unwritable output: a missing directory, and a directory in the file's place
+expect_exit 1 "unwritable path" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -write file="$T/no/such/dir/x.vdb"
+expect_error_line "unwritable path" "cannot write '$T/no/such/dir/x.vdb'"
+mkdir "$T/taken.vdb"
+expect_exit 1 "output is a directory" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -write file="$T/taken.vdb"
+expect_error_line "output is a directory" "is a directory"
+expect_exit 1 "stats to a missing dir" -- "$OHM" -read file=samples/spot.obj -stats file="$T/no/such.json"
+expect_error_line "stats to a missing dir" "cannot write '$T/no/such.json'"
+
+# read-only directory: root ignores permissions, so only test as a normal user
+if [ "$(id -u)" != 0 ]; then
+  mkdir "$T/ro"; chmod 555 "$T/ro"
+  expect_exit 1 "read-only dir" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -write file="$T/ro/x.vdb"
+  expect_error_line "read-only dir" "cannot write"
+fi
+
+# no temporary files are left behind by any failure
+check "no temporaries left" test -z "$(find "$T" -name '.*.ohm-*')"
+# and a successful overwrite does replace the file
+expect_exit 0 "overwrite" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -write file="$T/keep.vdb"
+check "overwrite replaced the file" bash -c "! cmp -s '$T/keep.vdb' '$T/keep.ref'"
+
+finish

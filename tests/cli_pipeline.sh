@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# The action pipeline: help generated from the table, usage errors with
+# suggestions (exit 2), and a pipeline file replaying the command line exactly.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+# help lists every action of the table; help ACTION shows options + defaults
+"$OHM" help >"$T/help" 2>&1
+for a in read voxelize write stats; do check "help lists -$a" grep -q -- "-$a " "$T/help"; done
+"$OHM" help voxelize >"$T/hv" 2>&1
+check "help voxelize: dim with default 64" grep -Eq 'dim=<integer>.*default 64' "$T/hv"
+check "help voxelize: voxel=" grep -q 'voxel=<number>' "$T/hv"
+check "help voxelize: units choices" grep -q 'units=<mm|cm|m|in>.*default mm' "$T/hv"
+expect_exit 0 "--help" -- "$OHM" --help
+expect_exit 0 "--version" -- "$OHM" --version
+
+# usage errors: exit 2, one line, name the culprit and suggest the fix
+expect_exit 2 "misspelled option" -- "$OHM" -read file=samples/spot.obj -voxelize dimm=64
+expect_error_line "misspelled option" "unknown option 'dimm'; did you mean 'dim'"
+expect_exit 2 "misspelled action" -- "$OHM" -raed file=samples/spot.obj
+expect_error_line "misspelled action" "unknown action '-raed'; did you mean '-read'"
+expect_exit 2 "bad integer" -- "$OHM" -read file=samples/spot.obj -voxelize dim=sixty
+expect_error_line "bad integer" "dim=sixty: expected a whole number from 1 to 4096"
+expect_exit 2 "out of range" -- "$OHM" -read file=samples/spot.obj -voxelize dim=0
+expect_error_line "out of range" "dim=0"
+expect_exit 2 "bad enum" -- "$OHM" -read file=samples/spot.obj units=furlong
+expect_error_line "bad enum" "expected one of mm\|cm\|m\|in"
+expect_exit 2 "missing required" -- "$OHM" -read units=mm
+expect_error_line "missing required" "-read needs file="
+expect_exit 2 "not key=value" -- "$OHM" -read samples/spot.obj
+expect_error_line "not key=value" "'samples/spot.obj' is not key=value"
+expect_exit 2 "help for unknown action" -- "$OHM" help voxelise
+expect_error_line "help for unknown action" "did you mean 'voxelize'"
+expect_exit 2 "no actions" -- "$OHM"
+expect_exit 2 "unknown command" -- "$OHM" rnu x.ohm
+# a typo late in a chain fails before anything runs (no output written)
+expect_exit 2 "late typo" -- "$OHM" -read file=samples/spot.obj -voxelize dim=16 -write file="$T/late.vdb" -stats fiel=x
+check "late typo wrote nothing" test ! -e "$T/late.vdb"
+# a run failure (not a usage error) exits 1
+expect_exit 1 "voxelize before read" -- "$OHM" -voxelize dim=8
+expect_error_line "voxelize before read" "no mesh yet"
+
+# the same job from a pipeline file and from the command line: identical grids
+cat >"$T/job.ohm" <<OHM
+ohm-pipeline 1
+# comments and blank lines are fine
+
+read file=samples/cow.obj size="40"   # trailing comment
+-voxelize dim=32
+write file=$T/from_file.vdb
+OHM
+expect_exit 0 "pipeline file" -- "$OHM" run "$T/job.ohm"
+expect_exit 0 "command line" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=32 -write file="$T/from_cli.vdb"
+check "pipeline file == command line" $PY tests/vdb_inspect.py --same "$T/from_file.vdb" "$T/from_cli.vdb"
+
+# pipeline file errors name file:line
+printf 'ohm-pipeline 1\nread file=samples/cow.obj\nvoxelize dimm=3\n' >"$T/bad.ohm"
+expect_exit 2 "pipeline typo" -- "$OHM" run "$T/bad.ohm"
+expect_error_line "pipeline typo" "bad.ohm:3: -voxelize: unknown option 'dimm'; did you mean 'dim'"
+printf 'read file=samples/cow.obj\n' >"$T/nohdr.ohm"
+expect_exit 2 "pipeline without header" -- "$OHM" run "$T/nohdr.ohm"
+expect_error_line "pipeline without header" "nohdr.ohm:1: expected the header line 'ohm-pipeline 1'"
+printf 'ohm-pipeline 9\nread file=a.obj\n' >"$T/future.ohm"
+expect_exit 2 "pipeline from the future" -- "$OHM" run "$T/future.ohm"
+expect_error_line "pipeline from the future" "version 9 is newer"
+printf 'ohm-pipeline 1\nread file="samples/cow.obj\n' >"$T/quote.ohm"
+expect_exit 2 "unterminated quote" -- "$OHM" run "$T/quote.ohm"
+expect_error_line "unterminated quote" "quote.ohm:2: unterminated"
+expect_exit 1 "missing pipeline file" -- "$OHM" run "$T/nope.ohm"
+expect_error_line "missing pipeline file" "nope.ohm: cannot open"
+expect_exit 1 "pipeline is a directory" -- "$OHM" run "$T"
+expect_error_line "pipeline is a directory" "is a directory"
+
+# the bundled example pipeline parses (run from a scratch dir so out/ lands there)
+check "bundled pipeline parses" grep -q '^ohm-pipeline 1' pipelines/spot.ohm
+
+# -stats: JSON on stdout, with the stage fields
+"$OHM" --quiet -read file=samples/spot.obj size=50 -voxelize dim=16 -stats >"$T/stats.json"
+check "stats is JSON with cells and t_voxelize" $PY -c "
+import json,sys; s=json.load(open('$T/stats.json'))
+assert s['cells'] > 0 and s['t_voxelize'] >= 0 and s['mesh_scale_mm'] > 0, s
+assert abs(s['interior_volume_mm3'] - s['mesh_volume_mm3']) < 0.1 * s['mesh_volume_mm3'], s"
+
+finish

@@ -1,0 +1,33 @@
+# lib.sh — the little harness the cli_*.sh tests share.
+# usage: source tests/lib.sh "$1"   (the ohm binary)
+OHM=${1:?usage: $0 path/to/ohm}
+PY=/usr/bin/python3     # Debian's python, where python3-openvdb lives
+T=$(mktemp -d)
+trap 'rm -rf "$T"' EXIT
+passed=0 failed=0
+
+ok()   { passed=$((passed + 1)); }
+bad()  { failed=$((failed + 1)); echo "FAIL: $*" >&2; }
+check() { local what=$1; shift; if "$@"; then ok; else bad "$what"; fi; }
+
+# expect_exit CODE NAME -- command...: exit code, one-line error on stderr.
+expect_exit() {
+  local want=$1 name=$2; shift 3
+  local out="$T/stdout" err="$T/stderr" got
+  set +e; timeout 60 "$@" >"$out" 2>"$err"; got=$?; set -e
+  LAST_ERR=$(cat "$err")
+  if [ "$got" != "$want" ]; then bad "$name: exit $got, expected $want; stderr: $(tail -3 "$err")"; return; fi
+  ok
+}
+# expect_error_line NAME PATTERN: the last command printed exactly one
+# "ohm: error:" line and it matches PATTERN (grep -E).
+expect_error_line() {
+  local name=$1 pat=$2 n
+  n=$(grep -c '^ohm: error:' <<<"$LAST_ERR" || true)
+  if [ "$n" != 1 ]; then bad "$name: expected one 'ohm: error:' line, got $n: $LAST_ERR"; return; fi
+  if ! grep -E -q -- "$pat" <<<"$(grep '^ohm: error:' <<<"$LAST_ERR")"; then
+    bad "$name: error line does not match /$pat/: $LAST_ERR"; return
+  fi
+  ok
+}
+finish() { echo "$passed passed, $failed failed"; [ "$failed" = 0 ]; }
