@@ -340,16 +340,21 @@ static int tok_eq(tok t, const char *s)
     return t.n == n && memcmp(t.s, s, n) == 0;
 }
 
-static int tok_ieq(tok t, const char *s)
+/* ASCII case-insensitive comparison of n bytes. */
+static int ieq_n(const char *a, const char *b, size_t n)
 {
-    size_t n = strlen(s);
-    if (t.n != n) return 0;
     for (size_t i = 0; i < n; ++i) {
-        char c = t.s[i];
-        if (c >= 'A' && c <= 'Z') c = (char)(c - 'A' + 'a');
-        if (c != s[i]) return 0;
+        char x = a[i], y = b[i];
+        if (x >= 'A' && x <= 'Z') x = (char)(x - 'A' + 'a');
+        if (y >= 'A' && y <= 'Z') y = (char)(y - 'A' + 'a');
+        if (x != y) return 0;
     }
     return 1;
+}
+
+static int tok_ieq(tok t, const char *s)
+{
+    return t.n == strlen(s) && ieq_n(t.s, s, t.n);
 }
 
 /* A printable, bounded copy of a token for messages. */
@@ -418,6 +423,8 @@ static int parse_int(tok t, int64_t *out)
     return ovf ? 2 : 0;
 }
 
+static const char *const axis_name[3] = {"x", "y", "z"};
+
 /* A coordinate token on line `line`; `what` names it ("x"). */
 static int coord_tok(mb *b, size_t line, tok t, const char *what, double *out)
 {
@@ -434,13 +441,12 @@ static int coord_tok(mb *b, size_t line, tok t, const char *what, double *out)
 /* Three coordinates from the current line (extra tokens are left alone). */
 static int coords_line(mb *b, lines *L, const char *what, double c[3])
 {
-    static const char *const axis[3] = {"x", "y", "z"};
     for (int k = 0; k < 3; ++k) {
         tok t;
         if (!line_tok(L, &t))
             return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: %s has %d coordinate%s, expected 3 (x y z)",
                             b->name, L->line, what, k, k == 1 ? "" : "s");
-        int rc = coord_tok(b, L->line, t, axis[k], &c[k]);
+        int rc = coord_tok(b, L->line, t, axis_name[k], &c[k]);
         if (rc) return rc;
     }
     return 0;
@@ -819,17 +825,16 @@ static int ply_header(ply *P, lines *L)
     }
     if (!P->vert)
         return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: header has no 'vertex' element", b->name, L->line);
-    static const char *const axis[3] = {"x", "y", "z"};
     for (int k = 0; k < 3; ++k) {
         size_t j;
         for (j = 0; j < P->vert->nprops; ++j)
-            if (tok_eq(P->vert->props[j].name, axis[k])) break;
+            if (tok_eq(P->vert->props[j].name, axis_name[k])) break;
         if (j == P->vert->nprops)
             return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: element 'vertex' has no property '%s'", b->name,
-                            P->vert->line, axis[k]);
+                            P->vert->line, axis_name[k]);
         if (P->vert->props[j].ctype != PT_NONE)
             return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: vertex property '%s' is a list, expected a scalar",
-                            b->name, P->vert->line, axis[k]);
+                            b->name, P->vert->line, axis_name[k]);
         P->ix[k] = j;
     }
     if (P->face) {
@@ -910,10 +915,8 @@ static int ply_ascii(ply *P, lines *L)
                 if (p->ctype == PT_NONE) {
                     if (e == P->vert) {
                         for (int k = 0; k < 3; ++k)
-                            if (j == P->ix[k]) {
-                                static const char *const axis[3] = {"x", "y", "z"};
-                                if ((rc = coord_tok(b, L->line, t, axis[k], &c[k]))) return rc;
-                            }
+                            if (j == P->ix[k] && (rc = coord_tok(b, L->line, t, axis_name[k], &c[k])))
+                                return rc;
                     }
                     continue;
                 }
@@ -1033,9 +1036,9 @@ static int ply_binary(ply *P, const char *data, size_t len, size_t start)
                             if (j == P->ix[k]) {
                                 if (!isfinite(dv))
                                     return ohm_fail(err, OHM_ERR_PARSE,
-                                                    "%s: vertex %" PRId64 " (byte %zu): coordinate %c = %g "
+                                                    "%s: vertex %" PRId64 " (byte %zu): coordinate %s = %g "
                                                     "is not a finite number",
-                                                    b->name, i, at, "xyz"[k], dv);
+                                                    b->name, i, at, axis_name[k], dv);
                                 c[k] = dv;
                             }
                     continue;
@@ -1145,12 +1148,11 @@ static int stl_ascii(mb *b, const char *data, size_t len)
                 return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: expected 'vertex' or 'endloop', got '%s'",
                                 b->name, L.line, show(t).s);
             double c[3];
-            static const char *const axis[3] = {"x", "y", "z"};
             for (int k = 0; k < 3; ++k) {
                 if (!stream_tok(&L, &t))
                     return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: file ends early in a vertex", b->name,
                                     L.line);
-                if ((rc = coord_tok(b, L.line, t, axis[k], &c[k]))) return rc;
+                if ((rc = coord_tok(b, L.line, t, axis_name[k], &c[k]))) return rc;
             }
             if ((rc = mb_vert(b, c))) return rc;
             if ((rc = fan_add(b, &f, (int64_t)b->nv - 1))) return rc;
@@ -1208,9 +1210,9 @@ int ohm_mesh_parse_stl(ohm_mesh *out, const char *data, size_t len, const char *
                     memcpy(&f, &w, sizeof f);
                     if (!isfinite(f)) {
                         rc = ohm_fail(err, OHM_ERR_PARSE,
-                                      "%s: triangle %zu (byte %zu): coordinate %c of corner %d is %g, not a "
+                                      "%s: triangle %zu (byte %zu): coordinate %s of corner %d is %g, not a "
                                       "finite number",
-                                      b.name, i, (size_t)(p - (const unsigned char *)data), "xyz"[a], k,
+                                      b.name, i, (size_t)(p - (const unsigned char *)data), axis_name[a], k,
                                       (double)f);
                         goto fail;
                     }
@@ -1262,17 +1264,6 @@ static const struct {
                {"ply", "a PLY", ohm_mesh_parse_ply},
                {"stl", "an STL", ohm_mesh_parse_stl},
                {"off", "an OFF", ohm_mesh_parse_off}};
-
-static int ieq_n(const char *a, const char *b, size_t n)
-{
-    for (size_t i = 0; i < n; ++i) {
-        char x = a[i], y = b[i];
-        if (x >= 'A' && x <= 'Z') x = (char)(x - 'A' + 'a');
-        if (y >= 'A' && y <= 'Z') y = (char)(y - 'A' + 'a');
-        if (x != y) return 0;
-    }
-    return 1;
-}
 
 /* The format index for path (-1: unknown) and whether it is gzip-compressed. */
 static int format_of(const char *path, int *gz, const char **ext, size_t *extn)
@@ -1340,6 +1331,7 @@ static const char *gz_reason(const char *path, const char *m)
 
 static int read_gz(const char *path, off_t size, char **buf, size_t *len, ohm_error *err)
 {
+    errno = 0;
     gzFile f = gzopen(path, "rb");
     if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, errno ? strerror(errno) : "zlib");
     gzbuffer(f, 1 << 17);
@@ -1411,6 +1403,8 @@ int ohm_mesh_read(ohm_mesh *out, const char *path, ohm_error *err)
     struct stat st;
     if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     if (S_ISDIR(st.st_mode)) return ohm_fail(err, OHM_ERR_IO, "%s: is a directory, expected a mesh file", path);
+    /* FIFOs, devices, sockets: reading could block forever or never end. */
+    if (!S_ISREG(st.st_mode)) return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a mesh file", path);
     int gz;
     const char *ext;
     size_t extn;
