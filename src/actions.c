@@ -2,6 +2,7 @@
  * doc) and the function that runs it.  `ohm help` is generated from here. */
 #include <math.h>
 #include <stdio.h>
+#include <stdlib.h>
 #include <string.h>
 #include <strings.h>
 
@@ -24,6 +25,15 @@ void ohm_state_free(ohm_state *s)
 {
     ohm_mesh_free(&s->mesh);
     ohm_voxel_grid_free(&s->grid);
+    ohm_solution_free(&s->solution);
+    free(s->lights);
+}
+
+/* A new mesh, grid or material makes an earlier solution stale. */
+static void drop_solution(ohm_state *s)
+{
+    ohm_solution_free(&s->solution);
+    s->have_solution = 0;
 }
 
 /* millimetres per unit */
@@ -71,6 +81,7 @@ static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_mesh_scale(&m, scale);
 
     ohm_mesh_free(&s->mesh);
+    drop_solution(s);
     ohm_voxel_grid_free(&s->grid); /* a new mesh makes the old grid stale */
     s->have_grid = 0;
     s->mesh = m;
@@ -128,6 +139,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (rc) return rc;
     double t = ohm_now() - t0;
 
+    drop_solution(s);
     ohm_voxel_grid_free(&s->grid);
     s->grid = g;
     s->have_grid = 1;
@@ -159,6 +171,192 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     return OHM_OK;
 }
 
+/* ---- material ------------------------------------------------------------------ */
+
+static const ohm_opt_spec material_opts[] = {
+    {"preset", OHM_OPT_ENUM, NULL, "measured material (Jensen et al. 2001; eta 1.3)",
+     "apple|chicken1|chicken2|cream|ketchup|marble|potato|skimmilk|skin1|skin2|spectralon|wholemilk", 0, 0, 0},
+    {"sigma_a", OHM_OPT_REAL13, NULL, "absorption coefficient, 1/mm", NULL, 0, 1e6, 0},
+    {"sigma_s", OHM_OPT_REAL13, NULL, "reduced scattering coefficient sigma_s', 1/mm", NULL, 1e-9, 1e9, 0},
+    {"eta", OHM_OPT_REAL, "1.3", "relative index of refraction", NULL, 1, 3, 0},
+    {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, 1e-300, 1e300, 0},
+    {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, 1e-300, 1e300, 0},
+    {0}};
+
+static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_material m;
+    memset(&m, 0, sizeof m);
+    int preset = ohm_opt_given(inv, "preset");
+    int optical = ohm_opt_given(inv, "sigma_a") || ohm_opt_given(inv, "sigma_s");
+    int paper = ohm_opt_given(inv, "resistance") || ohm_opt_given(inv, "ground");
+    if (preset + optical + paper != 1)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s=, or resistance= with "
+                        "ground=",
+                        inv->where);
+    int rc;
+    if (preset) {
+        rc = ohm_material_preset(&m, ohm_opt_str(inv, "preset"), err);
+        if (rc) return rc;
+        if (ohm_opt_given(inv, "eta")) m.eta = ohm_opt_real(inv, "eta");
+    } else if (optical) {
+        if (!ohm_opt_given(inv, "sigma_a") || !ohm_opt_given(inv, "sigma_s"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: sigma_a= and sigma_s= go together", inv->where);
+        int ka = ohm_opt_real13(inv, "sigma_a", m.sigma_a), ks = ohm_opt_real13(inv, "sigma_s", m.sigma_s);
+        m.kind = OHM_MATERIAL_OPTICAL;
+        m.channels = (ka == 3 || ks == 3) ? 3 : 1;
+        m.eta = ohm_opt_real(inv, "eta");
+        snprintf(m.name, sizeof m.name, "custom");
+    } else {
+        if (!ohm_opt_given(inv, "resistance") || !ohm_opt_given(inv, "ground"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: resistance= and ground= go together", inv->where);
+        m.kind = OHM_MATERIAL_RESISTANCE;
+        m.channels = 1;
+        m.resistance = ohm_opt_real(inv, "resistance");
+        m.ground = ohm_opt_real(inv, "ground");
+        m.eta = 1.0;
+        snprintf(m.name, sizeof m.name, "resistances %g/%g ohm", m.resistance, m.ground);
+    }
+    rc = ohm_material_check(&m, err);
+    if (rc) return rc;
+    drop_solution(s);
+    s->material = m;
+    s->have_material = 1;
+    if (m.kind == OHM_MATERIAL_OPTICAL) {
+        static const char *cn[3] = {"R", "G", "B"};
+        for (int c = 0; c < m.channels; ++c) {
+            double alb = ohm_material_albedo(&m, c);
+            ohm_log_info(&s->log, "material %s%s%s: sigma_a %.4g, sigma_s' %.4g /mm, albedo %.4f, 1/sigma_t' %.4g mm, "
+                         "1/sigma_tr %.4g mm",
+                         m.name, m.channels == 1 ? "" : " ", m.channels == 1 ? "" : cn[c], m.sigma_a[c],
+                         m.sigma_s[c], alb, 1.0 / (m.sigma_a[c] + m.sigma_s[c]),
+                         m.sigma_a[c] > 0 ? 1.0 / ohm_material_sigma_tr(&m, c) : INFINITY);
+            if (alb < 0.8)
+                ohm_log_warn(&s->log,
+                             "material %s%s%s has albedo %.3f < 0.8: the diffusion approximation is poor there "
+                             "(light is absorbed before it scatters enough); expect errors of tens of percent",
+                             m.name, m.channels == 1 ? "" : " ", m.channels == 1 ? "" : cn[c], alb);
+        }
+    }
+    ohm_stats_set_str(&s->stats, "material", m.name);
+    return OHM_OK;
+}
+
+/* ---- light --------------------------------------------------------------------- */
+
+static const ohm_opt_spec light_opts[] = {
+    {"type", OHM_OPT_ENUM, "directional", "kind of light", "directional|point|pencil", 0, 0, 0},
+    {"pos", OHM_OPT_VEC3, NULL, "position in mm (point, pencil)", NULL, 0, 0, 0},
+    {"dir", OHM_OPT_VEC3, NULL, "direction the light travels (directional, pencil): 0,0,-1 shines down", NULL, 0,
+     0, 0},
+    {"intensity", OHM_OPT_REAL13, "1",
+     "directional: W/mm^2 on a face square to it; point: W/sr; pencil: W. One value or r,g,b", NULL, 0, 1e30, 0},
+    {0}};
+
+static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_light l;
+    memset(&l, 0, sizeof l);
+    const char *type = ohm_opt_str(inv, "type");
+    l.type = strcmp(type, "point") == 0 ? OHM_LIGHT_POINT
+             : strcmp(type, "pencil") == 0 ? OHM_LIGHT_PENCIL
+                                           : OHM_LIGHT_DIRECTIONAL;
+    int need_pos = l.type != OHM_LIGHT_DIRECTIONAL, need_dir = l.type != OHM_LIGHT_POINT;
+    if (need_pos && !ohm_opt_given(inv, "pos"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", inv->where, type);
+    if (need_dir && !ohm_opt_given(inv, "dir"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs dir=x,y,z", inv->where, type);
+    ohm_opt_vec3(inv, "pos", l.pos);
+    if (need_dir) {
+        ohm_opt_vec3(inv, "dir", l.dir);
+        double len = sqrt(l.dir[0] * l.dir[0] + l.dir[1] * l.dir[1] + l.dir[2] * l.dir[2]);
+        if (!(len > 0)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light dir=0,0,0 has no direction", inv->where);
+        for (int a = 0; a < 3; ++a) l.dir[a] /= len;
+    }
+    l.channels = ohm_opt_real13(inv, "intensity", l.intensity);
+    ohm_light *grown = realloc(s->lights, (s->nlights + 1) * sizeof *grown);
+    if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    s->lights = grown;
+    s->lights[s->nlights++] = l;
+    drop_solution(s);
+    return OHM_OK;
+}
+
+/* ---- solve --------------------------------------------------------------------- */
+
+static const ohm_opt_spec solve_opts[] = {
+    {"boundary", OHM_OPT_ENUM, "robin",
+     "robin (partial current, as the dipole assumes) | neumann (zero flux, the paper's) | dirichlet (phi = 0)",
+     "robin|neumann|dirichlet", 0, 0, 0},
+    {"ordering", OHM_OPT_ENUM, "metis", "fill-reducing ordering of the Cholesky factor; best tries metis and amd",
+     "metis|amd|nesdis|best", 0, 0, 0},
+    {"deposit", OHM_OPT_ENUM, "exponential",
+     "where entering light starts to diffuse: exponential (reduced-intensity profile) | point (at depth "
+     "1/sigma_t', the dipole's) | surface (first cell, the paper's)",
+     "exponential|point|surface", 0, 0, 0},
+    {0}};
+
+static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_grid)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no voxel object: -read and -voxelize first", inv->where);
+    if (!s->have_material)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no material: add -material (e.g. preset=marble) first",
+                        inv->where);
+    if (s->nlights == 0)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no lights: add -light first", inv->where);
+    const char *bname = ohm_opt_str(inv, "boundary"), *dname = ohm_opt_str(inv, "deposit");
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
+                 : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
+                                                   : OHM_BOUNDARY_ROBIN;
+    p.deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
+                : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
+                                                : OHM_DEPOSIT_EXPONENTIAL;
+    p.ordering = ohm_opt_str(inv, "ordering");
+    drop_solution(s);
+    double t0 = ohm_now();
+    int rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+    if (rc) return rc;
+    s->have_solution = 1;
+    const ohm_solution *sol = &s->solution;
+    snprintf(s->solution_desc, sizeof s->solution_desc, "boundary=%s deposit=%s lights=%zu ordering=%s", bname,
+             dname, s->nlights, sol->ordering);
+    double cons = ohm_solution_conservation_error(sol);
+    ohm_log_info(&s->log,
+                 "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
+                 "%.2g, power in %.6g W = absorbed %.6g + out %.6g (conservation error %.2g)",
+                 (long long)sol->n, sol->channels, sol->factors, s->nlights, ohm_now() - t0, sol->residual,
+                 sol->power_in, sol->power_absorbed, sol->power_out, cons);
+    if (p.boundary == OHM_BOUNDARY_NEUMANN)
+        ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
+    ohm_stats *st = &s->stats;
+    ohm_stats_set_int(st, "cells", (long long)sol->n);
+    ohm_stats_set_int(st, "channels", sol->channels);
+    ohm_stats_set_int(st, "factors", sol->factors);
+    ohm_stats_set_int(st, "lights", (long long)s->nlights);
+    ohm_stats_set_str(st, "boundary", bname);
+    ohm_stats_set_str(st, "deposit", dname);
+    ohm_stats_set_str(st, "ordering", sol->ordering);
+    ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
+    ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
+    ohm_stats_set(st, "flops", sol->flops);
+    ohm_stats_add(st, "t_assemble", sol->t_assemble);
+    ohm_stats_add(st, "t_analyze", sol->t_analyze);
+    ohm_stats_add(st, "t_factor", sol->t_factor);
+    ohm_stats_add(st, "t_source", sol->t_source);
+    ohm_stats_add(st, "t_solve", sol->t_solve);
+    ohm_stats_set(st, "residual", sol->residual);
+    ohm_stats_set(st, "power_incident", sol->power_incident);
+    ohm_stats_set(st, "power_in", sol->power_in);
+    ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
+    ohm_stats_set(st, "power_out", sol->power_out);
+    ohm_stats_set(st, "conservation_error", cons);
+    return OHM_OK;
+}
+
 /* ---- write --------------------------------------------------------------------- */
 
 static const ohm_opt_spec write_opts[] = {
@@ -179,11 +377,15 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (!s->have_grid)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -write: nothing to write yet: put -voxelize before it", inv->where);
     double t0 = ohm_now();
-    ohm_vdb_provenance prov = {s->mesh_path, s->mesh_scale_mm};
-    int rc = ohm_export_vdb(path, &s->grid, &prov, err);
+    ohm_vdb_provenance prov = {s->mesh_path, s->mesh_scale_mm, s->have_solution ? s->material.name : NULL,
+                               s->have_solution ? s->solution_desc : NULL};
+    int rc = ohm_export_vdb(path, &s->grid, s->have_solution ? &s->solution : NULL, &prov, err);
     if (rc) return rc;
     double t = ohm_now() - t0;
-    ohm_log_info(&s->log, "wrote %s (grids: surface, density), %.2f s", path, t);
+    ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path,
+                 s->have_solution ? (s->solution.channels == 1 ? ", fluence, exitance" : ", fluence_r/g/b, exitance_r/g/b")
+                                  : "",
+                 t);
     ohm_stats_add(&s->stats, "t_write", t);
     return OHM_OK;
 }
@@ -226,9 +428,25 @@ const ohm_action ohm_actions[] = {
      "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
      "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
      voxelize_opts, run_voxelize},
-    {"write", "write the voxel object as a .vdb (grids surface and density)",
+    {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
+     "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
+     "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
+     "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
+     material_opts, run_material},
+    {"light", "add a light (directional, point, or a pencil beam)",
+     "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
+     "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
+     "No shadows yet: every face turned to the light is lit.",
+     light_opts, run_light},
+    {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
+     "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
+     "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
+     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.",
+     solve_opts, run_solve},
+    {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
-     "interior cells, what Blender's Principled Volume reads).  World units are millimetres.",
+     "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
+     "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
      write_opts, run_write},
     {"stats", "write the run's figures as one JSON object",
      "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats},

@@ -91,11 +91,48 @@ static int set_common_meta(ohm_vdb_grid *grid, const ohm_voxel_grid *g, const oh
     return rc;
 }
 
-int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_vdb_provenance *prov, ohm_error *err)
+/* One solution grid: values per unknown, active where `where` is non-zero
+ * (NULL: every unknown). */
+static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quantity, const ohm_voxel_grid *g,
+                         const ohm_solution *sol, const double *values, const int *where,
+                         const ohm_vdb_provenance *prov, ohm_error *err)
+{
+    voxel_list l = {0};
+    const ohm_network *net = &sol->net;
+    for (int64_t v = 0; v < net->n; ++v) {
+        if (where && !where[v]) continue;
+        size_t c = (size_t)net->cell[v];
+        int32_t i = (int32_t)(c % (size_t)g->dims[0]);
+        int32_t j = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
+        int32_t k = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
+        if (list_push(&l, i, j, k, (float)values[v])) {
+            list_free(&l);
+            return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting %s", name);
+        }
+    }
+    int rc = ohm_vdb_grid_create(out, name, OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
+    if (!rc) rc = ohm_vdb_grid_set_values(*out, l.ijk, l.val, l.n, err);
+    if (!rc) rc = set_common_meta(*out, g, prov, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_quantity", quantity, err);
+    if (!rc && prov && prov->material) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_material", prov->material, err);
+    if (!rc && prov && prov->solve) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_solve", prov->solve, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_in_W", sol->power_in, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_out_W", sol->power_out, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_residual", sol->residual, err);
+    list_free(&l);
+    return rc;
+}
+
+enum { MAX_GRIDS = 2 + 2 * OHM_MAX_CHANNELS };
+
+int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol,
+                   const ohm_vdb_provenance *prov, ohm_error *err)
 {
     if (!g || !g->inside) return ohm_fail(err, OHM_ERR_INVALID, "write: nothing to write: run -voxelize first");
     voxel_list surface = {0}, density = {0};
-    ohm_vdb_grid *grids[2] = {NULL, NULL};
+    ohm_vdb_grid *grids[MAX_GRIDS] = {NULL};
+    size_t ngrids = 2;
+    int *boundary_cell = NULL;
     ohm_output out;
     int out_open = 0;
     int rc = OHM_OK;
@@ -112,12 +149,30 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_vdb_prov
     if (!rc) rc = ohm_vdb_grid_set_values(grids[1], density.ijk, density.val, density.n, err);
     if (!rc) rc = ohm_vdb_grid_prune(grids[1], err);
     if (!rc) rc = set_common_meta(grids[1], g, prov, err);
+    if (!rc && sol) {
+        boundary_cell = calloc((size_t)(sol->n ? sol->n : 1), sizeof *boundary_cell);
+        if (!boundary_cell) rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
+        for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) boundary_cell[sol->net.face_unknown[f]] = 1;
+        static const char *suffix[3] = {"_r", "_g", "_b"};
+        for (int c = 0; c < sol->channels && !rc; ++c) {
+            char name[32];
+            const char *sfx = sol->channels == 1 ? "" : suffix[c];
+            snprintf(name, sizeof name, "fluence%s", sfx);
+            rc = solution_grid(&grids[ngrids++], name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c], NULL,
+                               prov, err);
+            if (rc) break;
+            snprintf(name, sizeof name, "exitance%s", sfx);
+            rc = solution_grid(&grids[ngrids++], name,
+                               "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
+                               sol, sol->exitance[c], boundary_cell, prov, err);
+        }
+    }
     if (rc) goto done;
 
     rc = ohm_output_begin(&out, path, err);
     if (rc) goto done;
     out_open = 1;
-    rc = ohm_vdb_write(ohm_output_tmp_path(&out), grids, 2, err);
+    rc = ohm_vdb_write(ohm_output_tmp_path(&out), grids, ngrids, err);
     if (rc) {
         /* The wrapper names the temporary file; name the user's file instead. */
         char why[OHM_ERROR_MSG_MAX];
@@ -130,8 +185,8 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_vdb_prov
 
 done:
     if (out_open) ohm_output_abort(&out);
-    ohm_vdb_grid_free(grids[0]);
-    ohm_vdb_grid_free(grids[1]);
+    for (size_t i = 0; i < MAX_GRIDS; ++i) ohm_vdb_grid_free(grids[i]);
+    free(boundary_cell);
     list_free(&surface);
     list_free(&density);
     return rc;

@@ -124,6 +124,17 @@ static int parse_vec3(const char *s, double out[3])
     return 0;
 }
 
+/* "x" or "r,g,b" */
+static int parse_real13(const char *s, double out[3])
+{
+    if (!strchr(s, ',')) {
+        if (parse_real(s, &out[0])) return 0;
+        out[1] = out[2] = out[0];
+        return 1;
+    }
+    return parse_vec3(s, out) ? 0 : 3;
+}
+
 static int enum_has(const char *choices, const char *v)
 {
     size_t lv = strlen(v);
@@ -168,6 +179,20 @@ static int validate_value(const ohm_action *a, const ohm_opt_spec *o, const char
         if (parse_vec3(v, x))
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected three numbers x,y,z", where, a->name, o->name,
                             v);
+        return OHM_OK;
+    }
+    case OHM_OPT_REAL13: {
+        double x[3];
+        int k = parse_real13(v, x);
+        int bad = k == 0;
+        for (int i = 0; i < k && !bad; ++i) bad = has_range && (x[i] < o->min || x[i] > o->max);
+        if (bad) {
+            if (has_range)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b), each "
+                                "from %g to %g", where, a->name, o->name, v, o->min, o->max);
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b)", where,
+                            a->name, o->name, v);
+        }
         return OHM_OK;
     }
     case OHM_OPT_ENUM:
@@ -448,6 +473,13 @@ void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3])
     if (v) parse_vec3(v, out);
 }
 
+int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
+{
+    const char *v = value_or_default(inv, name);
+    out[0] = out[1] = out[2] = 0;
+    return v ? parse_real13(v, out) : 0;
+}
+
 /* ---- running ------------------------------------------------------------------- */
 
 int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
@@ -470,6 +502,7 @@ static const char *type_name(const ohm_opt_spec *o)
     case OHM_OPT_STRING: return "text";
     case OHM_OPT_ENUM: return o->choices;
     case OHM_OPT_VEC3: return "x,y,z";
+    case OHM_OPT_REAL13: return "v|r,g,b";
     }
     return "";
 }
@@ -512,7 +545,7 @@ int ohm_help_action(FILE *f, const char *name, ohm_error *err)
         fprintf(f, "  %-28s %s", left, o->doc);
         if (o->required) fputs(" (required)", f);
         else if (o->def) fprintf(f, " (default %s)", o->def);
-        if ((o->type == OHM_OPT_INT || o->type == OHM_OPT_REAL) && o->min != o->max)
+        if ((o->type == OHM_OPT_INT || o->type == OHM_OPT_REAL || o->type == OHM_OPT_REAL13) && o->min != o->max)
             fprintf(f, " [%g .. %g]", o->min, o->max);
         fputc('\n', f);
     }

@@ -25,7 +25,8 @@ typedef enum ohm_opt_type {
     OHM_OPT_REAL,   /* finite real in [min, max]                            */
     OHM_OPT_STRING, /* any text (file names)                                */
     OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
-    OHM_OPT_VEC3    /* x,y,z finite reals                                   */
+    OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
+    OHM_OPT_REAL13  /* one finite real (grey) or three (r,g,b), each in [min, max] */
 } ohm_opt_type;
 
 typedef struct ohm_opt_spec {
@@ -70,6 +71,9 @@ const char *ohm_opt_str(const ohm_invocation *inv, const char *name);
 long long ohm_opt_int(const ohm_invocation *inv, const char *name);
 double ohm_opt_real(const ohm_invocation *inv, const char *name);
 void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3]);
+/* REAL13: returns how many values (1 or 3) and fills out[0..2] (one value is
+ * copied to all three). */
+int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3]);
 
 typedef struct ohm_chain {
     ohm_invocation *items;

@@ -4,9 +4,12 @@
 #ifndef OHM_STATE_H
 #define OHM_STATE_H
 
+#include "light.h"
 #include "log.h"
+#include "material.h"
 #include "mesh.h"
 #include "output.h"
+#include "solve.h"
 #include "stats.h"
 #include "voxelize.h"
 
@@ -21,6 +24,16 @@ typedef struct ohm_state {
 
     int have_grid;
     ohm_voxel_grid grid;
+
+    int have_material;
+    ohm_material material;
+
+    ohm_light *lights;              /* every -light so far, in order           */
+    size_t nlights;
+
+    int have_solution;              /* valid for the current grid and material */
+    ohm_solution solution;
+    char solution_desc[256];        /* boundary, deposit: for metadata         */
 } ohm_state;
 
 void ohm_state_init(ohm_state *s);

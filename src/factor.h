@@ -1,0 +1,48 @@
+/* factor.h — sparse Cholesky with CHOLMOD (64-bit cholmod_l_*), the paper's
+ * precomputed quantity.  One analysis (fill-reducing ordering + symbolic
+ * factor) per grid, shared by every channel's numeric factorization; many
+ * right-hand sides per solve; every solve checks its scaled backward error
+ * ||Ax - b|| / (||A|| ||x|| + ||b||) (infinity norms), refines once when it is
+ * above 1e-12, and fails when refinement leaves it above 1e-10 — because
+ * CHOLMOD itself may return TRUE on an indefinite or singular matrix
+ * (DESIGN.md §3, numerical traps).  The solver owns its cholmod_common: no
+ * global state. */
+#ifndef OHM_FACTOR_H
+#define OHM_FACTOR_H
+
+#include <stddef.h>
+
+#include <cholmod.h>
+
+#include "ohm_error.h"
+
+typedef struct ohm_solver {
+    cholmod_common cc;
+    int started;
+    cholmod_factor *symbolic;   /* from analyze; copied for each factorization */
+    char ordering[16];          /* the ordering used: metis, amd, nesdis        */
+    double t_analyze;           /* seconds                                      */
+    double nnz_L;               /* entries of L (from the analysis)             */
+    double flops;               /* floating-point operations of one factorization */
+    double nnz_A;               /* entries of A (upper triangle)                */
+} ohm_solver;
+
+int ohm_solver_start(ohm_solver *s, ohm_error *err);
+void ohm_solver_finish(ohm_solver *s); /* frees everything; fine on a zeroed solver */
+
+/* ordering: "metis" | "amd" | "nesdis" | "best" (tries METIS and AMD, keeps the
+ * one with the smaller factor). */
+int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, ohm_error *err);
+
+/* Numeric factor of A (same pattern as analysed) into a new *L; t: seconds. */
+int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, double *t, ohm_error *err);
+
+/* Solve A X = B for ncols columns (column-major, n rows each).  *berr gets the
+ * largest scaled backward error over the columns, *refined whether a step of
+ * iterative refinement was taken. */
+int ohm_solver_solve(double *X, ohm_solver *s, cholmod_factor *L, cholmod_sparse *A, const double *B, size_t ncols,
+                     double *berr, int *refined, ohm_error *err);
+
+void ohm_factor_free(cholmod_factor **L, ohm_solver *s);
+
+#endif

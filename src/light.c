@@ -1,0 +1,232 @@
+#include "light.h"
+
+#include <math.h>
+#include <string.h>
+
+static inline void cell_ijk(const ohm_voxel_grid *g, int64_t cell, int32_t ijk[3])
+{
+    size_t c = (size_t)cell;
+    ijk[0] = (int32_t)(c % (size_t)g->dims[0]);
+    ijk[1] = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
+    ijk[2] = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
+}
+
+/* Signed distance at a cell (negative inside); NaN when unknown. */
+static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2] || !g->dist) return NAN;
+    size_t idx = ohm_voxel_index(g, i, j, k);
+    double d = g->dist[idx];
+    if (!isfinite(d)) d = g->band;
+    return g->inside[idx] ? -d : d;
+}
+
+void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int d = net->face_dir[f];
+    int32_t c[3];
+    cell_ijk(g, net->cell[net->face_unknown[f]], c);
+    double grad[3], len2 = 0;
+    for (int a = 0; a < 3; ++a) {
+        int32_t p[3] = {c[0], c[1], c[2]}, m[3] = {c[0], c[1], c[2]};
+        p[a] += 1;
+        m[a] -= 1;
+        grad[a] = signed_dist(g, p[0], p[1], p[2]) - signed_dist(g, m[0], m[1], m[2]);
+        len2 += grad[a] * grad[a];
+    }
+    if (isfinite(len2) && len2 > 0) {
+        double inv = 1.0 / sqrt(len2);
+        for (int a = 0; a < 3; ++a) n[a] = grad[a] * inv;
+        /* a gradient pointing away from this face's side is noise: use the face */
+        double along = n[0] * ohm_face_offset[d][0] + n[1] * ohm_face_offset[d][1] + n[2] * ohm_face_offset[d][2];
+        if (along > 0) return;
+    }
+    for (int a = 0; a < 3; ++a) n[a] = ohm_face_offset[d][a];
+}
+
+static inline double med_sigma_t(const ohm_channel_medium *m, int64_t v)
+{
+    return (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) + (m->sigma_s ? m->sigma_s[v] : m->sigma_s0);
+}
+static inline double med_albedo(const ohm_channel_medium *m, int64_t v)
+{
+    return (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) / med_sigma_t(m, v);
+}
+
+double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
+                               const ohm_channel_medium *med, ohm_deposit deposit)
+{
+    const ohm_voxel_grid *g = net->grid;
+    int64_t v0 = net->face_unknown[f];
+    if (med->resistance_mode || deposit == OHM_DEPOSIT_SURFACE) {
+        double w = med->resistance_mode ? P : P * med_albedo(med, v0);
+        b[v0] += w;
+        return w;
+    }
+    /* walk inward: against the face's outward normal */
+    int d = net->face_dir[f];
+    int32_t step[3] = {-ohm_face_offset[d][0], -ohm_face_offset[d][1], -ohm_face_offset[d][2]};
+    int32_t c[3];
+    cell_ijk(g, net->cell[v0], c);
+    const double h = g->h;
+    double put = 0.0;
+    if (deposit == OHM_DEPOSIT_POINT) {
+        /* everything at depth z0 = 1/sigma_t' (the dipole's real source),
+         * split linearly between the two cell centres around it */
+        double z0 = 1.0 / med_sigma_t(med, v0), a0 = med_albedo(med, v0);
+        double s = z0 / h - 0.5; /* position in cell-centre units */
+        int64_t m = s <= 0 ? 0 : (int64_t)floor(s);
+        double frac = s <= 0 ? 0.0 : s - (double)m;
+        /* the column of interior cells below the face, down to cell m+1 */
+        int64_t upper = v0, lower = -1;
+        for (int64_t q = 1; q <= m + 1; ++q) {
+            int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
+            if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2])
+                break;
+            int64_t u = net->unknown[ohm_voxel_index(g, p[0], p[1], p[2])];
+            if (u < 0) break;
+            if (q <= m) upper = u;
+            else lower = u;
+        }
+        /* a part thinner than z0 keeps everything in its deepest cell */
+        if (lower < 0) frac = 0.0;
+        b[upper] += a0 * P * (1.0 - frac);
+        if (frac > 0) b[lower] += a0 * P * frac;
+        return a0 * P;
+    }
+    /* exponential: optical depth accumulated cell by cell */
+    double tau = 0.0;
+    for (int64_t q = 0;; ++q) {
+        int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
+        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
+        int64_t u = net->unknown[ohm_voxel_index(g, p[0], p[1], p[2])];
+        if (u < 0) break; /* the rest passes through a thin part unscattered */
+        double t1 = tau + med_sigma_t(med, u) * h;
+        double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
+        b[u] += w;
+        put += w;
+        tau = t1;
+        if (tau > 40.0) break; /* e^-40: nothing left */
+    }
+    return put;
+}
+
+static void face_centre(const ohm_network *net, int64_t f, double p[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int32_t c[3];
+    cell_ijk(g, net->cell[net->face_unknown[f]], c);
+    int d = net->face_dir[f];
+    for (int a = 0; a < 3; ++a) p[a] = g->origin[a] + g->h * (c[a] + 0.5 * ohm_face_offset[d][a]);
+}
+
+/* Pencil beam: walk the ray through the grid (Amanatides & Woo 1987) to the
+ * first interior cell; the face it crosses is where the beam enters. */
+static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], const double dir[3], ohm_error *err)
+{
+    const ohm_voxel_grid *g = net->grid;
+    double gp[3], t_enter = 0.0, t_exit = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        gp[a] = (pos[a] - g->origin[a]) / g->h + 0.5; /* cell i spans [i, i+1) */
+        double lo = 0.0, hi = (double)g->dims[a];
+        if (fabs(dir[a]) < 1e-300) {
+            if (gp[a] < lo || gp[a] >= hi) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+            continue;
+        }
+        double t0 = (lo - gp[a]) / dir[a], t1 = (hi - gp[a]) / dir[a];
+        if (t0 > t1) { double tmp = t0; t0 = t1; t1 = tmp; }
+        if (t0 > t_enter) t_enter = t0;
+        if (t1 < t_exit) t_exit = t1;
+    }
+    if (t_enter > t_exit) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object's grid");
+    int32_t c[3], stepv[3];
+    double tmax[3], tdelta[3];
+    for (int a = 0; a < 3; ++a) {
+        double x = gp[a] + t_enter * dir[a];
+        c[a] = (int32_t)floor(x);
+        if (c[a] < 0) c[a] = 0;
+        if (c[a] >= g->dims[a]) c[a] = g->dims[a] - 1;
+        stepv[a] = dir[a] > 0 ? 1 : (dir[a] < 0 ? -1 : 0);
+        if (stepv[a] == 0) {
+            tmax[a] = INFINITY;
+            tdelta[a] = INFINITY;
+        } else {
+            double next = stepv[a] > 0 ? c[a] + 1.0 : (double)c[a];
+            tmax[a] = (next - gp[a]) / dir[a];
+            tdelta[a] = 1.0 / fabs(dir[a]);
+        }
+    }
+    int last_axis = -1;
+    for (;;) {
+        int64_t u = net->unknown[ohm_voxel_index(g, c[0], c[1], c[2])];
+        if (u >= 0) {
+            if (last_axis < 0)
+                return ohm_fail(err, OHM_ERR_INVALID, "pencil beam starts inside the object: put pos= outside it");
+            int d = 2 * last_axis + (stepv[last_axis] > 0 ? 0 : 1);
+            /* faces are stored in unknown order: find (u, d) */
+            int64_t lo = 0, hi = net->nfaces;
+            while (lo < hi) {
+                int64_t mid = (lo + hi) / 2;
+                if (net->face_unknown[mid] < u) lo = mid + 1;
+                else hi = mid;
+            }
+            for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == u; ++f)
+                if (net->face_dir[f] == d) return f;
+            return ohm_fail(err, OHM_ERR_INVALID, "pencil beam enters through a symmetry plane");
+        }
+        int a = tmax[0] < tmax[1] ? (tmax[0] < tmax[2] ? 0 : 2) : (tmax[1] < tmax[2] ? 1 : 2);
+        c[a] += stepv[a];
+        if (c[a] < 0 || c[a] >= g->dims[a]) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+        tmax[a] += tdelta[a];
+        last_axis = a;
+    }
+}
+
+int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
+                   const ohm_channel_medium *med, ohm_deposit deposit, ohm_error *err)
+{
+    const ohm_voxel_grid *g = net->grid;
+    double I = light->intensity[light->channels == 1 ? 0 : c];
+    double eta = med->resistance_mode ? 1.0 : med->eta;
+    if (light->type == OHM_LIGHT_PENCIL) {
+        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
+        if (f < 0) return (int)f;
+        double ns[3];
+        ohm_surface_normal(net, f, ns);
+        double cos_i = -(ns[0] * light->dir[0] + ns[1] * light->dir[1] + ns[2] * light->dir[2]);
+        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+        pw->incident += I;
+        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
+        return OHM_OK;
+    }
+    const double area = g->h * g->h;
+    for (int64_t f = 0; f < net->nfaces; ++f) {
+        int d = net->face_dir[f];
+        double l[3], scale = 1.0;
+        if (light->type == OHM_LIGHT_DIRECTIONAL) {
+            for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
+        } else {
+            double p[3], dist2 = 0;
+            face_centre(net, f, p);
+            for (int a = 0; a < 3; ++a) {
+                l[a] = light->pos[a] - p[a];
+                dist2 += l[a] * l[a];
+            }
+            if (!(dist2 > 0)) continue;
+            double inv = 1.0 / sqrt(dist2);
+            for (int a = 0; a < 3; ++a) l[a] *= inv;
+            scale = 1.0 / dist2;
+        }
+        double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
+        if (cos_face <= 0) continue; /* faces turned away: skipped, no work */
+        double E = I * cos_face * scale;
+        double ns[3];
+        ohm_surface_normal(net, f, ns);
+        double cos_i = ns[0] * l[0] + ns[1] * l[1] + ns[2] * l[2];
+        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+        pw->incident += E * area;
+        if (T > 0) pw->deposited += ohm_source_deposit_face(b, net, f, T * E * area, med, deposit);
+    }
+    return OHM_OK;
+}

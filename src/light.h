@@ -1,0 +1,59 @@
+/* light.h — lights and the source vector b (DESIGN.md §2, "Sources").
+ *
+ * A light puts irradiance E = I max(0, n.l) on every boundary face it sees
+ * (n the face's outward normal; point lights also fall off as 1/d^2).  Using
+ * the voxel faces' own normals makes the captured power exactly the light's
+ * irradiance times the object's projected area.  The fraction (1 - F_r) that
+ * enters — Fresnel at the smooth surface normal, taken from the distance
+ * field — is deposited along the inward normal with the reduced-intensity
+ * profile alpha' (e^{-sigma_t' z0} - e^{-sigma_t' z1}) per cell it crosses
+ * (deposit=exponential), all at depth 1/sigma_t' (deposit=point, the dipole's
+ * assumption) or all in the first cell (deposit=surface, the paper's).
+ * No shadow rays yet: every face facing the light is lit (issue 4 adds
+ * visibility through ohm_source_build's face loop). */
+#ifndef OHM_LIGHT_H
+#define OHM_LIGHT_H
+
+#include "material.h"
+#include "network.h"
+#include "ohm_error.h"
+
+typedef enum ohm_light_type {
+    OHM_LIGHT_DIRECTIONAL = 0, /* intensity: irradiance (W/mm^2) on a face square to the light */
+    OHM_LIGHT_POINT = 1,       /* intensity: W/sr                                              */
+    OHM_LIGHT_PENCIL = 2       /* intensity: beam power (W), entering at one surface point     */
+} ohm_light_type;
+
+typedef struct ohm_light {
+    ohm_light_type type;
+    double pos[3];                  /* point, pencil: position (mm)                         */
+    double dir[3];                  /* directional, pencil: direction light travels (unit)  */
+    double intensity[OHM_MAX_CHANNELS];
+    int channels;                   /* 1 (grey) or 3                                        */
+} ohm_light;
+
+typedef enum ohm_deposit {
+    OHM_DEPOSIT_EXPONENTIAL = 0,
+    OHM_DEPOSIT_POINT = 1,
+    OHM_DEPOSIT_SURFACE = 2
+} ohm_deposit;
+
+typedef struct ohm_source_power {
+    double incident;   /* arriving on lit faces, before Fresnel (W) */
+    double deposited;  /* put into b: the scattered part (W)        */
+} ohm_source_power;
+
+/* Add light's contribution for channel c to b (n entries, not cleared). */
+int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
+                   const ohm_channel_medium *med, ohm_deposit deposit, ohm_error *err);
+
+/* Deposit power P entering through boundary face f (used by ohm_source_add and
+ * by validation scenes that place a beam themselves).  Returns what went in. */
+double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
+                               const ohm_channel_medium *med, ohm_deposit deposit);
+
+/* Outward unit normal of the surface at the interior cell of face f, from the
+ * distance field (falls back to the face normal). */
+void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3]);
+
+#endif

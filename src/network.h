@@ -1,0 +1,77 @@
+/* network.h — the resistor network of DESIGN.md §2 (cell-centred finite
+ * volumes).  Unknown phi_c is the fluence at the centre of every interior cell;
+ * KCL at cell c:  sum_d G_cd (phi_c - phi_d) + G_a,c phi_c + sum_f G_b,f phi_c = S_c.
+ *
+ *   G_cd  = h * D_f, D_f the harmonic mean of D_c and D_d (exact for layers)
+ *   G_a,c = sigma_a,c * h^3
+ *   G_b,f = 0 (neumann, the paper's Eq. 11) | h^2/(h/(2D_c) + 2A) (robin,
+ *           partial current) | 2 D_c h (dirichlet, phi = 0 on the face)
+ *
+ * The matrix is symmetric positive definite when every connected piece has
+ * some absorption or a non-Neumann boundary face; ohm checks that per piece
+ * before factorizing and says which physical cause makes it singular.
+ *
+ * ohm_network holds the topology (unknown numbering, boundary faces, pieces),
+ * built once per voxel grid; ohm_network_assemble builds one channel's matrix
+ * from per-cell coefficients, straight into CHOLMOD's compressed-column form
+ * (upper triangle, stype = 1, 64-bit indices). */
+#ifndef OHM_NETWORK_H
+#define OHM_NETWORK_H
+
+#include <stdint.h>
+
+#include <cholmod.h>
+
+#include "ohm_error.h"
+#include "voxelize.h"
+
+typedef enum ohm_boundary {
+    OHM_BOUNDARY_ROBIN = 0,
+    OHM_BOUNDARY_NEUMANN = 1,
+    OHM_BOUNDARY_DIRICHLET = 2
+} ohm_boundary;
+
+/* Face directions: outward normal -x, +x, -y, +y, -z, +z. */
+extern const int32_t ohm_face_offset[6][3];
+
+typedef struct ohm_network {
+    const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
+    int64_t n;                    /* unknowns = interior cells                */
+    int64_t *cell;                /* n: dense grid index of unknown u         */
+    int64_t *unknown;             /* grid size: unknown of a cell, or -1      */
+    int64_t nfaces;               /* boundary faces (mirror faces excluded)   */
+    int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
+    uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
+    int64_t npieces;              /* connected pieces (face-adjacent cells)   */
+    int64_t *piece;               /* n: piece of unknown u                    */
+    int64_t nnz;                  /* entries of the upper triangle of A       */
+    int32_t mirror_low[3];        /* symmetry planes (see ohm_network_build)  */
+} ohm_network;
+
+/* Mirror (symmetry) planes for the built-in validation scenes: a face on the
+ * low side of axis a of a cell whose index on that axis is mirror_low[a] has
+ * zero flux and is not a boundary face.  -1: no mirror on that axis. */
+int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err);
+void ohm_network_free(ohm_network *net);
+
+/* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
+ * constant beside them. */
+typedef struct ohm_channel_medium {
+    int resistance_mode;        /* paper mode: G = 1/R between neighbours, 1/R_g to ground */
+    double resistance, ground;  /* ohms, paper mode                           */
+    const double *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
+    const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
+    double sigma_a0, sigma_s0;
+    double eta;
+} ohm_channel_medium;
+
+/* Assemble A (caller frees with cholmod_l_free_sparse) and, optionally, the
+ * per-unknown ground conductance ga[n] and per-face boundary conductance
+ * gb[nfaces] (for power bookkeeping and exitance).  Fails with a physical
+ * explanation when a piece can neither absorb nor lose light. */
+int ohm_network_assemble(cholmod_sparse **A, double *ga, double *gb, const ohm_network *net,
+                         const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err);
+
+const char *ohm_boundary_name(ohm_boundary b);
+
+#endif

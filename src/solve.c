@@ -1,0 +1,197 @@
+#include "solve.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+void ohm_solution_free(ohm_solution *sol)
+{
+    if (!sol) return;
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(sol->fluence[c]);
+        free(sol->exitance[c]);
+        free(sol->face_exitance[c]);
+    }
+    ohm_network_free(&sol->net);
+    memset(sol, 0, sizeof *sol);
+}
+
+double ohm_solution_conservation_error(const ohm_solution *sol)
+{
+    if (!(sol->power_in > 0)) return 0.0;
+    return fabs(sol->power_in - sol->power_absorbed - sol->power_out) / sol->power_in;
+}
+
+static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c)
+{
+    memset(med, 0, sizeof *med);
+    int mc = mat->channels == 1 ? 0 : c;
+    med->resistance_mode = mat->kind == OHM_MATERIAL_RESISTANCE;
+    med->resistance = mat->resistance;
+    med->ground = mat->ground;
+    med->sigma_a0 = mat->sigma_a[mc];
+    med->sigma_s0 = mat->sigma_s[mc];
+    med->sigma_a = p->sigma_a[c];
+    med->sigma_s = p->sigma_s[c];
+    med->eta = mat->eta;
+}
+
+/* Channels c and e share a factor when their coefficients are identical. */
+static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e)
+{
+    if (p->sigma_a[c] != p->sigma_a[e] || p->sigma_s[c] != p->sigma_s[e]) return 0;
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || mat->channels == 1) return 1;
+    return mat->sigma_a[c] == mat->sigma_a[e] && mat->sigma_s[c] == mat->sigma_s[e];
+}
+
+int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
+              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
+{
+    memset(sol, 0, sizeof *sol);
+    if (nlights == 0) return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
+    int channels = mat->channels;
+    for (size_t l = 0; l < nlights; ++l)
+        if (lights[l].channels > channels) channels = lights[l].channels;
+    sol->channels = channels;
+
+    double t0 = ohm_now();
+    int rc = ohm_network_build(&sol->net, grid, params->mirror_low, err);
+    if (rc) return rc;
+    const ohm_network *net = &sol->net;
+    int64_t n = net->n;
+    sol->n = n;
+    sol->t_assemble += ohm_now() - t0;
+
+    ohm_solver solver;
+    rc = ohm_solver_start(&solver, err);
+    if (rc) {
+        ohm_solution_free(sol);
+        return rc;
+    }
+    double *B = malloc((size_t)n * nlights * sizeof *B);
+    double *X = malloc((size_t)n * nlights * sizeof *X);
+    double *ga = malloc((size_t)n * sizeof *ga);
+    double *gb = malloc((size_t)(net->nfaces ? net->nfaces : 1) * sizeof *gb);
+    cholmod_sparse *A = NULL;
+    cholmod_factor *L = NULL;
+    if (!B || !X || !ga || !gb) {
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", nlights,
+                      (long long)n);
+        goto done;
+    }
+    for (int c = 0; c < channels; ++c) {
+        sol->fluence[c] = calloc((size_t)n, sizeof(double));
+        sol->exitance[c] = calloc((size_t)n, sizeof(double));
+        sol->face_exitance[c] = calloc((size_t)(net->nfaces ? net->nfaces : 1), sizeof(double));
+        if (!sol->fluence[c] || !sol->exitance[c] || !sol->face_exitance[c]) {
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution");
+            goto done;
+        }
+    }
+
+    /* Group channels by medium: each distinct medium is assembled and
+     * factorized once, and all its channels' lights are solved with that
+     * factor.  Grey materials with grey lights have one channel. */
+    int cls[OHM_MAX_CHANNELS];
+    for (int c = 0; c < channels; ++c) {
+        cls[c] = c;
+        for (int e = 0; e < c; ++e)
+            if (same_medium(mat, params, c, e)) {
+                cls[c] = cls[e];
+                break;
+            }
+    }
+    int *face_count = calloc((size_t)n, sizeof(int));
+    if (!face_count) {
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+        goto done;
+    }
+    for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
+    for (int k = 0; k < channels && !rc; ++k) {
+        if (cls[k] != k) continue; /* not the first channel of its class */
+        ohm_channel_medium med;
+        medium_for(&med, mat, params, k);
+        t0 = ohm_now();
+        cholmod_l_free_sparse(&A, &solver.cc);
+        rc = ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &solver.cc, err);
+        sol->t_assemble += ohm_now() - t0;
+        if (rc) break;
+        if (!solver.symbolic) {
+            ohm_log_info(log, "solve: %lld unknowns, %lld boundary faces, %lld matrix entries; analysing (%s)",
+                         (long long)n, (long long)net->nfaces, (long long)net->nnz, params->ordering);
+            rc = ohm_solver_analyze(&solver, A, params->ordering, err);
+            if (rc) break;
+            sol->t_analyze += solver.t_analyze;
+            sol->nnz_A = solver.nnz_A;
+            sol->nnz_L = solver.nnz_L;
+            sol->flops = solver.flops;
+            snprintf(sol->ordering, sizeof sol->ordering, "%s", solver.ordering);
+        }
+        double tf = 0;
+        ohm_factor_free(&L, &solver);
+        rc = ohm_solver_factorize(&L, &solver, A, &tf, err);
+        if (rc) break;
+        sol->t_factor += tf;
+        sol->factors++;
+        ohm_log_info(log, "solve: factorized (nnz(L) %.3g, %.3g flops) in %.2f s", sol->nnz_L, sol->flops, tf);
+
+        for (int c = k; c < channels && !rc; ++c) {
+            if (cls[c] != k) continue;
+            /* sources: one column per light */
+            t0 = ohm_now();
+            memset(B, 0, (size_t)n * nlights * sizeof *B);
+            for (size_t l = 0; l < nlights && !rc; ++l) {
+                ohm_source_power pw = {0, 0};
+                rc = ohm_source_add(B + (size_t)l * (size_t)n, &pw, net, &lights[l], c, &med, params->deposit, err);
+                sol->power_incident += pw.incident;
+            }
+            sol->t_source += ohm_now() - t0;
+            if (rc) break;
+            t0 = ohm_now();
+            double berr = 0;
+            int refined = 0;
+            rc = ohm_solver_solve(X, &solver, L, A, B, nlights, &berr, &refined, err);
+            sol->t_solve += ohm_now() - t0;
+            if (rc) break;
+            if (berr > sol->residual) sol->residual = berr;
+            sol->refined += refined;
+
+            /* sum the lights; book the power */
+            double *phi = sol->fluence[c];
+            double in = 0, absorbed = 0, out = 0;
+            for (size_t l = 0; l < nlights; ++l) {
+                const double *x = X + (size_t)l * (size_t)n, *b = B + (size_t)l * (size_t)n;
+                for (int64_t v = 0; v < n; ++v) {
+                    phi[v] += x[v];
+                    in += b[v];
+                    absorbed += ga[v] * x[v];
+                }
+            }
+            const double area = grid->h * grid->h;
+            for (int64_t f = 0; f < net->nfaces; ++f) {
+                int64_t v = net->face_unknown[f];
+                double p = gb[f] * phi[v];
+                out += p;
+                sol->face_exitance[c][f] = p / area;
+                sol->exitance[c][v] += p / (area * face_count[v]);
+            }
+            sol->power_in += in;
+            sol->power_absorbed += absorbed;
+            sol->power_out += out;
+            sol->power_in_channel[c] = in;
+            sol->power_out_channel[c] = out;
+        }
+    }
+    free(face_count);
+
+done:
+    ohm_factor_free(&L, &solver);
+    cholmod_l_free_sparse(&A, &solver.cc);
+    ohm_solver_finish(&solver);
+    free(B);
+    free(X);
+    free(ga);
+    free(gb);
+    if (rc) ohm_solution_free(sol);
+    return rc;
+}

@@ -1,0 +1,56 @@
+/* solve.h — stage: material + lights + voxel object -> fluence and exitance.
+ *
+ * For each distinct channel material: assemble A, factorize it (one symbolic
+ * analysis shared by all channels), and solve every light of that channel as
+ * one column of a multi-column right-hand side.  Power is booked per solve:
+ * in (deposited) = absorbed (sum G_a phi) + out (sum G_b phi), exact in this
+ * discretisation up to round-off (DESIGN.md §2). */
+#ifndef OHM_SOLVE_H
+#define OHM_SOLVE_H
+
+#include "factor.h"
+#include "light.h"
+#include "log.h"
+#include "material.h"
+#include "network.h"
+
+typedef struct ohm_solve_params {
+    ohm_boundary boundary;
+    const char *ordering;      /* metis | amd | nesdis | best            */
+    ohm_deposit deposit;
+    const int32_t *mirror_low; /* validation scenes only; NULL for none  */
+    /* per-unknown coefficients (n entries per channel) for inhomogeneous
+     * media; NULL: the material's constants */
+    const double *sigma_a[OHM_MAX_CHANNELS];
+    const double *sigma_s[OHM_MAX_CHANNELS];
+} ohm_solve_params;
+
+typedef struct ohm_solution {
+    int channels;
+    int64_t n;                          /* unknowns                                   */
+    ohm_network net;                    /* topology (cell of each unknown, faces)     */
+    double *fluence[OHM_MAX_CHANNELS];  /* n per channel, all lights summed (W/mm^2)  */
+    double *exitance[OHM_MAX_CHANNELS]; /* n per channel: power leaving through the
+                                           cell's boundary faces per unit area, 0 for
+                                           cells with none (W/mm^2)                   */
+    double *face_exitance[OHM_MAX_CHANNELS]; /* nfaces: G_b phi / h^2 per face        */
+    /* statistics (DESIGN.md §7) */
+    int factors;
+    double nnz_A, nnz_L, flops;
+    char ordering[16];
+    double t_assemble, t_analyze, t_factor, t_source, t_solve;
+    double residual;                    /* largest scaled backward error              */
+    int refined;                        /* solves that took a refinement step         */
+    double power_incident, power_in, power_absorbed, power_out;
+    double power_out_channel[OHM_MAX_CHANNELS], power_in_channel[OHM_MAX_CHANNELS];
+} ohm_solution;
+
+int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
+              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err);
+
+void ohm_solution_free(ohm_solution *sol);
+
+/* |in - absorbed - out| / in */
+double ohm_solution_conservation_error(const ohm_solution *sol);
+
+#endif
