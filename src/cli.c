@@ -5,6 +5,7 @@
 
 #include "ohm_version.h"
 #include "pipeline.h"
+#include "validate.h"
 
 static int exit_code(int rc) { return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1; }
 
@@ -52,6 +53,16 @@ int ohm_cli_main(int argc, char **argv)
         printf("ohm %s\n", OHM_VERSION);
         return 0;
     }
+    if (strcmp(cmd, "validate") == 0) {
+        /* the solver against exact references; the table goes to stdout */
+        ohm_log log = {NULL, verbosity > 1 ? 1 : 0};
+        ohm_validation v;
+        memset(&v, 0, sizeof v);
+        int vrc = ohm_validate_all(&v, &log, &err);
+        int failed = ohm_validation_print(stdout, &v);
+        if (vrc) return report(vrc, &err);
+        return failed ? 1 : 0;
+    }
     ohm_chain chain;
     int rc;
     if (strcmp(cmd, "run") == 0) {
@@ -61,8 +72,8 @@ int ohm_cli_main(int argc, char **argv)
         }
         rc = ohm_chain_parse_file(&chain, argv[first + 1], &err);
     } else if (cmd[0] != '-') {
-        const char *cmds[] = {"help", "run", "version"};
-        const char *s = ohm_suggest(cmd, cmds, 3);
+        const char *cmds[] = {"help", "run", "version", "validate"};
+        const char *s = ohm_suggest(cmd, cmds, 4);
         if (!s && ohm_action_find(cmd)) {
             fprintf(stderr, "ohm: error: unknown command '%s'; actions start with '-': did you mean '-%s'?\n", cmd, cmd);
             return 2;

@@ -134,6 +134,28 @@ static int residual(cholmod_dense *R, cholmod_sparse *A, const cholmod_dense *B,
     return cholmod_l_sdmult(A, 0, minus_one, one, X, R, cc);
 }
 
+int ohm_solver_backward_error(double *berr, ohm_solver *s, cholmod_sparse *A, const double *Bin, const double *Xin,
+                              size_t ncols, ohm_error *err)
+{
+    cholmod_common *cc = &s->cc;
+    size_t n = A->nrow;
+    cholmod_dense *B = cholmod_l_allocate_dense(n, ncols, n, CHOLMOD_REAL, cc);
+    cholmod_dense *X = cholmod_l_allocate_dense(n, ncols, n, CHOLMOD_REAL, cc);
+    cholmod_dense *R = cholmod_l_allocate_dense(n, ncols, n, CHOLMOD_REAL, cc);
+    int rc = OHM_OK;
+    if (!B || !X || !R) rc = ohm_fail(err, OHM_ERR_NOMEM, "out of memory computing a residual");
+    if (!rc) {
+        memcpy(B->x, Bin, n * ncols * sizeof(double));
+        memcpy(X->x, Xin, n * ncols * sizeof(double));
+        if (!residual(R, A, B, X, cc)) rc = ohm_fail(err, OHM_ERR_NOMEM, "CHOLMOD multiply failed");
+        else *berr = backward_error(B, X, R, cholmod_l_norm_sparse(A, 0, cc));
+    }
+    cholmod_l_free_dense(&B, cc);
+    cholmod_l_free_dense(&X, cc);
+    cholmod_l_free_dense(&R, cc);
+    return rc;
+}
+
 int ohm_solver_solve(double *Xout, ohm_solver *s, cholmod_factor *L, cholmod_sparse *A, const double *Bin,
                      size_t ncols, double *berr, int *refined, ohm_error *err)
 {

@@ -45,4 +45,8 @@ int ohm_solver_solve(double *X, ohm_solver *s, cholmod_factor *L, cholmod_sparse
 
 void ohm_factor_free(cholmod_factor **L, ohm_solver *s);
 
+/* Largest scaled backward error of X (n x ncols) for A X = B. */
+int ohm_solver_backward_error(double *berr, ohm_solver *s, cholmod_sparse *A, const double *B, const double *X,
+                              size_t ncols, ohm_error *err);
+
 #endif

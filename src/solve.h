@@ -23,6 +23,11 @@ typedef struct ohm_solve_params {
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
     const double *sigma_s[OHM_MAX_CHANNELS];
+    /* Validation scenes place their own sources: when set, called once per
+     * channel instead of the lights (nlights then counts its columns, and
+     * `lights` may be NULL).  Fills b (n x ncols, zeroed) and returns 0. */
+    int (*custom_source)(void *user, double *b, size_t ncols, const ohm_network *net, int channel);
+    void *custom_user;
 } ohm_solve_params;
 
 typedef struct ohm_solution {
@@ -41,6 +46,9 @@ typedef struct ohm_solution {
     double t_assemble, t_analyze, t_factor, t_source, t_solve;
     double residual;                    /* largest scaled backward error              */
     int refined;                        /* solves that took a refinement step         */
+    int64_t mode_corrections;           /* near-singular pieces whose constant mode was
+                                           projected onto exact conservation          */
+    double mode_shift;                  /* largest such shift relative to the fluence */
     double power_incident, power_in, power_absorbed, power_out;
     double power_out_channel[OHM_MAX_CHANNELS], power_in_channel[OHM_MAX_CHANNELS];
 } ohm_solution;

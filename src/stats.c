@@ -77,7 +77,7 @@ int ohm_stats_write_json(const ohm_stats *s, FILE *f)
         if (st->is_string) json_string(f, st->str);
         else if (!isfinite(st->num)) fputs("null", f);
         else if (st->is_integer) fprintf(f, "%.0f", st->num);
-        else fprintf(f, "%.9g", st->num);
+        else fprintf(f, "%.17g", st->num); /* round-trips */
         fputs(i + 1 < s->n ? ",\n" : "\n", f);
     }
     fputs("}\n", f);

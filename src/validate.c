@@ -1,0 +1,455 @@
+/* validate.c — built-in scenes with exact answers (validate.h). */
+#include "validate.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "reference.h"
+#include "solve.h"
+
+/* ---- rows ---------------------------------------------------------------- */
+
+static ohm_check_row *add_row(ohm_validation *v, const char *name, const char *reference, double measured,
+                              double expected, double error, double tolerance)
+{
+    if (v->n == OHM_VALIDATION_MAX_ROWS) return NULL;
+    ohm_check_row *r = &v->rows[v->n++];
+    memset(r, 0, sizeof *r);
+    snprintf(r->name, sizeof r->name, "%s", name);
+    snprintf(r->reference, sizeof r->reference, "%s", reference);
+    r->measured = measured;
+    r->expected = expected;
+    r->error = error;
+    r->tolerance = tolerance;
+    r->pass = tolerance < 0 ? 1 : (error <= tolerance); /* NaN fails */
+    return r;
+}
+
+static double rel(double a, double b) { return fabs(a - b) / fabs(b); }
+
+int ohm_validation_print(FILE *f, const ohm_validation *v)
+{
+    int failed = 0;
+    fprintf(f, "%-46s %-34s %12s %12s %10s %9s  %s\n", "check", "reference", "measured", "expected", "error",
+            "tolerance", "result");
+    for (int i = 0; i < v->n; ++i) {
+        const ohm_check_row *r = &v->rows[i];
+        char tol[16];
+        if (r->tolerance < 0) snprintf(tol, sizeof tol, "%9s", "report");
+        else snprintf(tol, sizeof tol, "%9.2g", r->tolerance);
+        fprintf(f, "%-46s %-34s %12.6g %12.6g %10.3g %s  %s\n", r->name, r->reference, r->measured, r->expected,
+                r->error, tol, r->tolerance < 0 ? "-" : (r->pass ? "pass" : "FAIL"));
+        if (!r->pass) ++failed;
+    }
+    fprintf(f, "%d passed, %d failed\n", v->n - failed, failed);
+    return failed;
+}
+
+/* ---- scenes ---------------------------------------------------------------- */
+
+/* A box of nx x ny x nz cells of size h, one outside cell around it; the box's
+ * low corner is at world 0, so cell (i,j,k) (1-based inside) has its centre at
+ * ((i-1/2) h, (j-1/2) h, (k-1/2) h).  No distance field: face normals are used. */
+static int make_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error *err)
+{
+    memset(g, 0, sizeof *g);
+    g->dims[0] = nx + 2;
+    g->dims[1] = ny + 2;
+    g->dims[2] = nz + 2;
+    g->h = h;
+    g->band = h;
+    for (int a = 0; a < 3; ++a) g->origin[a] = -0.5 * h;
+    size_t n = (size_t)g->dims[0] * g->dims[1] * g->dims[2];
+    g->inside = calloc(n, 1);
+    if (!g->inside) return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+    for (int k = 1; k <= nz; ++k)
+        for (int j = 1; j <= ny; ++j)
+            for (int i = 1; i <= nx; ++i) g->inside[ohm_voxel_index(g, i, j, k)] = 1;
+    g->interior_cells = (size_t)nx * ny * nz;
+    return OHM_OK;
+}
+
+static ohm_material grey(double sigma_a, double sigma_s)
+{
+    ohm_material m;
+    memset(&m, 0, sizeof m);
+    m.kind = OHM_MATERIAL_OPTICAL;
+    m.channels = 1;
+    m.sigma_a[0] = sigma_a;
+    m.sigma_s[0] = sigma_s;
+    m.eta = 1.3;
+    snprintf(m.name, sizeof m.name, "validation");
+    return m;
+}
+
+static int64_t unknown_at(const ohm_solution *s, int i, int j, int k)
+{
+    return s->net.unknown[ohm_voxel_index(s->net.grid, i, j, k)];
+}
+
+/* Trilinear interpolation of the fluence between cell centres. */
+static double fluence_at(const ohm_solution *s, const double x[3])
+{
+    const ohm_voxel_grid *g = s->net.grid;
+    int i0[3];
+    double t[3];
+    for (int a = 0; a < 3; ++a) {
+        double q = (x[a] - g->origin[a]) / g->h;
+        i0[a] = (int)floor(q);
+        t[a] = q - i0[a];
+    }
+    double sum = 0;
+    for (int c = 0; c < 8; ++c) {
+        int i = i0[0] + (c & 1), j = i0[1] + ((c >> 1) & 1), k = i0[2] + ((c >> 2) & 1);
+        double w = ((c & 1) ? t[0] : 1 - t[0]) * (((c >> 1) & 1) ? t[1] : 1 - t[1]) * (((c >> 2) & 1) ? t[2] : 1 - t[2]);
+        int64_t u = unknown_at(s, i, j, k);
+        if (u < 0) return NAN;
+        sum += w * s->fluence[0][u];
+    }
+    return sum;
+}
+
+/* ---- infinite medium: octant with three mirror planes ---------------------- */
+
+/* The corner cell of the octant holds 1/8 of the source: in the mirrored full
+ * domain, a 2x2x2-cell source of power P centred on the origin. */
+static int src_corner(void *user, double *b, size_t ncols, const ohm_network *net, int c)
+{
+    (void)ncols;
+    (void)net;
+    (void)c;
+    b[0] = *(const double *)user / 8.0;
+    return 0;
+}
+
+static const double INF_SA = 0.3, INF_SS = 1.0; /* sigma_tr = 1.08/mm: walls far in few cells */
+static const double INF_L = 6.0;                 /* octant edge, mm (walls: phi = 0)           */
+
+static int infinite_run(ohm_solution *sol, ohm_voxel_grid *g, double h, const ohm_log *log, ohm_error *err)
+{
+    int n = (int)lround(INF_L / h);
+    int rc = make_box(g, n, n, n, h, err);
+    if (rc) return rc;
+    ohm_material m = grey(INF_SA, INF_SS);
+    static double P = 1.0;
+    int32_t mirror[3] = {1, 1, 1};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_DIRICHLET;
+    p.ordering = "metis";
+    p.mirror_low = mirror;
+    p.custom_source = src_corner;
+    p.custom_user = &P;
+    rc = ohm_solve(sol, g, &m, NULL, 1, &p, log, err);
+    if (rc) ohm_voxel_grid_free(g);
+    return rc;
+}
+
+int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    /* A fixed physical point at r = 1.5 mm on the diagonal, three grids. */
+    const double hs[3] = {0.4, 0.2, 0.1};
+    const double x[3] = {1.5 / sqrt(3.0), 1.5 / sqrt(3.0), 1.5 / sqrt(3.0)};
+    const double exact = ohm_ref_infinite(1.0, INF_SA, INF_SS, 1.5);
+    double e[3];
+    for (int s = 0; s < 3; ++s) {
+        ohm_voxel_grid g;
+        ohm_solution sol;
+        int rc = infinite_run(&sol, &g, hs[s], log, err);
+        if (rc) return rc;
+        double phi = fluence_at(&sol, x);
+        e[s] = rel(phi, exact);
+        char name[80];
+        snprintf(name, sizeof name, "infinite medium phi(1.5 mm), h=%.2g", hs[s]);
+        add_row(v, name, "P e^-str r/(4 pi D r)", phi, exact, e[s], -1);
+        snprintf(name, sizeof name, "infinite medium conservation, h=%.2g", hs[s]);
+        add_row(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+                ohm_solution_conservation_error(&sol), 1e-10);
+        if (s == 2) {
+            /* every cell with 5h <= r <= 3 mm on the finest grid */
+            double worst = 0, at = 0;
+            for (int64_t u = 0; u < sol.n; ++u) {
+                size_t c = (size_t)sol.net.cell[u];
+                int i = (int)(c % (size_t)g.dims[0]), j = (int)((c / (size_t)g.dims[0]) % (size_t)g.dims[1]),
+                    k = (int)(c / ((size_t)g.dims[0] * (size_t)g.dims[1]));
+                double px = (i - 0.5) * g.h, py = (j - 0.5) * g.h, pz = (k - 0.5) * g.h;
+                double r = sqrt(px * px + py * py + pz * pz);
+                if (r < 5 * g.h || r > 3.0) continue;
+                double er = rel(sol.fluence[0][u], ohm_ref_infinite(1.0, INF_SA, INF_SS, r));
+                if (er > worst) worst = er, at = r;
+            }
+            snprintf(name, sizeof name, "infinite medium, worst over 5h<=r<=3mm (r=%.2f)", at);
+            add_row(v, name, "P e^-str r/(4 pi D r)", worst, 0, worst, 0.02);
+        }
+        ohm_solution_free(&sol);
+        ohm_voxel_grid_free(&g);
+    }
+    double order = log2(e[1] / e[2]);
+    ohm_check_row *r = add_row(v, "infinite medium convergence order in h", "1.7 .. 2.3", order, 2.0,
+                               fabs(order - 2.0), 0.3);
+    (void)r;
+    return OHM_OK;
+}
+
+/* ---- semi-infinite medium, Robin boundary, pencil beam ----------------------- */
+
+static const double HS_SA = 0.05, HS_SS = 0.95; /* 1/sigma_t' = 1 mm, 1/sigma_tr = 2.58 mm */
+
+typedef struct beam_source {
+    double P;       /* power in the full (mirrored) domain */
+    double z0;      /* depth of the point source           */
+    int columns;    /* 4: quarter domain, 1 x 1 corner column */
+} beam_source;
+
+/* Corner column of the quarter domain; depth z0 split linearly between the
+ * two cell centres around it (the deposit=point rule of light.c). */
+static int src_beam(void *user, double *b, size_t ncols, const ohm_network *net, int c)
+{
+    (void)ncols;
+    (void)c;
+    const beam_source *bs = user;
+    const ohm_voxel_grid *g = net->grid;
+    double s = bs->z0 / g->h - 0.5;
+    int m = (int)floor(s);
+    double frac = s - m;
+    int64_t u0 = net->unknown[ohm_voxel_index(g, 1, 1, 1 + m)], u1 = net->unknown[ohm_voxel_index(g, 1, 1, 2 + m)];
+    if (u0 < 0 || u1 < 0) return -1;
+    b[u0] += bs->P / bs->columns * (1 - frac);
+    b[u1] += bs->P / bs->columns * frac;
+    return 0;
+}
+
+static int halfspace_run(ohm_solution *sol, ohm_voxel_grid *g, double h, double L, double depth, ohm_boundary bnd,
+                         beam_source *bs, const ohm_log *log, ohm_error *err)
+{
+    int nl = (int)lround(L / h), nd = (int)lround(depth / h);
+    int rc = make_box(g, nl, nl, nd, h, err);
+    if (rc) return rc;
+    ohm_material m = grey(HS_SA, HS_SS);
+    int32_t mirror[3] = {1, 1, -1}; /* the beam's axis is the corner line x = y = 0 */
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = bnd;
+    p.ordering = "metis";
+    p.mirror_low = mirror;
+    p.custom_source = src_beam;
+    p.custom_user = bs;
+    rc = ohm_solve(sol, g, &m, NULL, 1, &p, log, err);
+    if (rc) ohm_voxel_grid_free(g);
+    return rc;
+}
+
+int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    /* h = 0.25 mm = z0/4; lateral walls 16 mm and floor 12 mm away: their
+     * images are > 16 mm from every compared point, e^{-sigma_tr 16} ~ 2e-3. */
+    const double h = 0.25, z0 = 1.0 / (HS_SA + HS_SS);
+    const double rmin = 1.0 / (HS_SA + HS_SS), rmax = 3.0 / sqrt(3.0 * HS_SA * (HS_SA + HS_SS));
+    beam_source bs = {1.0, z0, 4};
+    ohm_voxel_grid g;
+    ohm_solution sol;
+    int rc = halfspace_run(&sol, &g, h, 16.0, 12.0, OHM_BOUNDARY_ROBIN, &bs, log, err);
+    if (rc) return rc;
+    double worst = 0, worst_r = 0, worst_dip = 0, worst_dip_r = 0;
+    for (int64_t f = 0; f < sol.net.nfaces; ++f) {
+        if (sol.net.face_dir[f] != 4) continue; /* the surface z = 0, outward -z */
+        size_t c = (size_t)sol.net.cell[sol.net.face_unknown[f]];
+        int i = (int)(c % (size_t)g.dims[0]), j = (int)((c / (size_t)g.dims[0]) % (size_t)g.dims[1]);
+        double x = (i - 0.5) * h, y = (j - 0.5) * h, r = sqrt(x * x + y * y);
+        if (r < rmin || r > rmax) continue;
+        double J = sol.face_exitance[0][f];
+        double Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, 1.3);
+        double e = rel(J, Jref);
+        if (e > worst) worst = e, worst_r = r;
+        /* the dipole's R_d is per unit incident power; our source is the
+         * scattered power, albedo times that */
+        double Jdip = ohm_ref_dipole_Rd(r, HS_SA, HS_SS, 1.3) * (HS_SA + HS_SS) / HS_SS;
+        double ed = rel(J, Jdip);
+        if (ed > worst_dip) worst_dip = ed, worst_dip_r = r;
+    }
+    char name[80];
+    snprintf(name, sizeof name, "half-space J(r), worst over 1/st'..3/str (r=%.2f)", worst_r);
+    add_row(v, name, "exact Robin half-space", worst, 0, worst, 0.02);
+    snprintf(name, sizeof name, "half-space J(r) vs dipole, worst (r=%.2f)", worst_dip_r);
+    add_row(v, name, "Jensen 2001 dipole (loose)", worst_dip, 0, worst_dip, -1);
+    /* what leaves through the surface z = 0 (the floor and far walls are the
+     * box's, not the half-space's) */
+    double surface_out = 0;
+    for (int64_t f = 0; f < sol.net.nfaces; ++f)
+        if (sol.net.face_dir[f] == 4) surface_out += sol.face_exitance[0][f] * h * h;
+    double escape = surface_out / sol.power_in;
+    double escape_ref = ohm_ref_halfspace_escape(z0, HS_SA, HS_SS, 1.3);
+    add_row(v, "half-space escaped fraction of the source", "1-D closed form", escape, escape_ref,
+            rel(escape, escape_ref), 0.02);
+    double dip_total = ohm_ref_dipole_Rd_total(HS_SA, HS_SS, 1.3) * (HS_SA + HS_SS) / HS_SS;
+    add_row(v, "half-space escaped fraction vs dipole Rd", "Jensen 2001 total Rd (loose)", escape, dip_total,
+            rel(escape, dip_total), -1);
+    add_row(v, "half-space: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
+            (double)sol.mode_corrections, 0);
+    add_row(v, "half-space conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+            ohm_solution_conservation_error(&sol), 1e-10);
+    add_row(v, "half-space scaled backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    ohm_solution_free(&sol);
+    ohm_voxel_grid_free(&g);
+    return OHM_OK;
+}
+
+/* ---- Neumann (the paper's) against Robin ------------------------------------ */
+
+int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    const double h = 0.5, z0 = 1.0 / (HS_SA + HS_SS);
+    beam_source bs = {1.0, z0, 4};
+    ohm_voxel_grid gr, gn;
+    ohm_solution robin, neumann;
+    int rc = halfspace_run(&robin, &gr, h, 16.0, 12.0, OHM_BOUNDARY_ROBIN, &bs, log, err);
+    if (rc) return rc;
+    rc = halfspace_run(&neumann, &gn, h, 16.0, 12.0, OHM_BOUNDARY_NEUMANN, &bs, log, err);
+    if (rc) {
+        ohm_solution_free(&robin);
+        ohm_voxel_grid_free(&gr);
+        return rc;
+    }
+    add_row(v, "neumann: power out", "exactly 0", neumann.power_out, 0, fabs(neumann.power_out), 0);
+    add_row(v, "neumann: absorbed / in", "1", neumann.power_absorbed / neumann.power_in, 1,
+            ohm_solution_conservation_error(&neumann), 1e-10);
+    add_row(v, "robin: escaped fraction (neumann: 0)", "report", robin.power_out / robin.power_in, 0,
+            robin.power_out / robin.power_in, -1);
+    /* how much too bright the paper's boundary makes the surface, 5 mm out */
+    int i5 = 1 + (int)lround(5.0 / h - 0.5);
+    int64_t ur = unknown_at(&robin, i5, 1, 1), un = unknown_at(&neumann, i5, 1, 1);
+    double ratio = neumann.fluence[0][un] / robin.fluence[0][ur];
+    add_row(v, "neumann/robin surface fluence at r=5 mm", "report (paper: too bright)", ratio, 1, ratio, -1);
+    ohm_solution_free(&robin);
+    ohm_solution_free(&neumann);
+    ohm_voxel_grid_free(&gr);
+    ohm_voxel_grid_free(&gn);
+    return OHM_OK;
+}
+
+/* ---- singular and ill-conditioned systems ------------------------------------ */
+
+typedef struct two_media {
+    double *sa, *ss;
+} two_media;
+
+/* Directional light from below (travels +z) onto the box's z = 0 face. */
+static ohm_light light_up(void)
+{
+    ohm_light l;
+    memset(&l, 0, sizeof l);
+    l.type = OHM_LIGHT_DIRECTIONAL;
+    l.dir[2] = 1.0;
+    l.intensity[0] = 1.0;
+    l.channels = 1;
+    return l;
+}
+
+/* Box of n^3 cells of 1 mm; the top half (k > n/2) gets (sa_top, ss_top). */
+static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot, double sa_top, double ss_top,
+                         ohm_boundary bnd, const ohm_log *log, ohm_error *err)
+{
+    ohm_voxel_grid g;
+    int rc = make_box(&g, n, n, n, 1.0, err);
+    if (rc) return rc;
+    size_t cells = (size_t)n * n * n;
+    double *sa = malloc(cells * sizeof *sa), *ss = malloc(cells * sizeof *ss);
+    if (!sa || !ss) {
+        free(sa);
+        free(ss);
+        ohm_voxel_grid_free(&g);
+        return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+    }
+    /* unknowns are the inside cells in x-fastest order */
+    for (size_t u = 0; u < cells; ++u) {
+        int k = (int)(u / ((size_t)n * n)) + 1;
+        int top = k > n / 2;
+        sa[u] = top ? sa_top : sa_bot;
+        ss[u] = top ? ss_top : ss_bot;
+    }
+    ohm_material m = grey(sa_bot, ss_bot);
+    ohm_light l = light_up();
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = bnd;
+    p.ordering = "metis";
+    p.sigma_a[0] = sa;
+    p.sigma_s[0] = ss;
+    rc = ohm_solve(sol, &g, &m, &l, 1, &p, log, err);
+    /* the solution keeps a pointer to the grid: detach before freeing it */
+    sol->net.grid = NULL;
+    free(sa);
+    free(ss);
+    ohm_voxel_grid_free(&g);
+    return rc;
+}
+
+int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    ohm_solution sol;
+    ohm_error e2;
+    /* sigma_a = 0 with Neumann: singular, refused with the physical cause */
+    ohm_error_clear(&e2);
+    int rc = run_two_layer(&sol, 8, 0.0, 1.0, 0.0, 1.0, OHM_BOUNDARY_NEUMANN, log, &e2);
+    int refused = rc == OHM_ERR_NUMERIC && strstr(e2.msg, "sigma_a = 0") && strstr(e2.msg, "neither leave nor be absorbed");
+    add_row(v, "sigma_a=0, neumann: refused as singular", "clear error, no solve", refused, 1, !refused, 0);
+    if (!rc) ohm_solution_free(&sol);
+
+    /* sigma_a = 0 with Robin: light leaves through the boundary, fine */
+    rc = run_two_layer(&sol, 8, 0.0, 1.0, 0.0, 1.0, OHM_BOUNDARY_ROBIN, log, err);
+    if (rc) return rc;
+    add_row(v, "sigma_a=0, robin: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    add_row(v, "sigma_a=0, robin: all deposited power leaves", "out = in", sol.power_out, sol.power_in,
+            ohm_solution_conservation_error(&sol), 1e-10);
+    ohm_solution_free(&sol);
+
+    /* conductance contrasts of 1e6 and 1e12 across one face */
+    const double contrast[2] = {1e6, 1e12};
+    for (int i = 0; i < 2; ++i) {
+        rc = run_two_layer(&sol, 16, 0.01, 1.0, 0.01, contrast[i], OHM_BOUNDARY_ROBIN, log, err);
+        if (rc) return rc;
+        char name[80];
+        snprintf(name, sizeof name, "contrast %.0e in sigma_s': backward error", contrast[i]);
+        add_row(v, name, "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+        snprintf(name, sizeof name, "contrast %.0e in sigma_s': conservation", contrast[i]);
+        add_row(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+                ohm_solution_conservation_error(&sol), 1e-10);
+        ohm_solution_free(&sol);
+    }
+
+    /* sigma_a = 1e-9 with Neumann: nearly singular, still backward stable */
+    rc = run_two_layer(&sol, 16, 1e-9, 1.0, 1e-9, 1.0, OHM_BOUNDARY_NEUMANN, log, err);
+    if (rc) return rc;
+    add_row(v, "sigma_a=1e-9, neumann: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    add_row(v, "sigma_a=1e-9, neumann: conservation", "in = absorbed", sol.power_absorbed, sol.power_in,
+            ohm_solution_conservation_error(&sol), 1e-10);
+    add_row(v, "sigma_a=1e-9, neumann: constant-mode shift", "report (relative to phi)", sol.mode_shift, 0,
+            sol.mode_shift, -1);
+    ohm_solution_free(&sol);
+    return OHM_OK;
+}
+
+int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    /* an inhomogeneous scene: two different media, lit from below */
+    ohm_solution sol;
+    int rc = run_two_layer(&sol, 20, 0.02, 1.5, 0.2, 0.5, OHM_BOUNDARY_ROBIN, log, err);
+    if (rc) return rc;
+    add_row(v, "two layers: conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+            ohm_solution_conservation_error(&sol), 1e-10);
+    add_row(v, "two layers: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
+            (double)sol.mode_corrections, 0);
+    ohm_solution_free(&sol);
+    return OHM_OK;
+}
+
+int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    int rc = ohm_validate_infinite(v, log, err);
+    if (!rc) rc = ohm_validate_halfspace(v, log, err);
+    if (!rc) rc = ohm_validate_boundaries(v, log, err);
+    if (!rc) rc = ohm_validate_extremes(v, log, err);
+    if (!rc) rc = ohm_validate_layered(v, log, err);
+    return rc;
+}

@@ -1,0 +1,43 @@
+/* validate.h — `ohm validate`: the solver against references that do not
+ * depend on ohm's own code (DESIGN.md §3), on built-in scenes.  Each check is a
+ * row: what was compared, measured, expected, error, tolerance, pass.  The
+ * test suite runs the same functions and asserts every row passes. */
+#ifndef OHM_VALIDATE_H
+#define OHM_VALIDATE_H
+
+#include <stdio.h>
+
+#include "log.h"
+#include "ohm_error.h"
+
+typedef struct ohm_check_row {
+    char name[80];       /* the scene and quantity                         */
+    char reference[64];  /* what it is compared with                       */
+    double measured, expected;
+    double error;        /* relative error (or the quantity, see kind)     */
+    double tolerance;    /* pass when error <= tolerance; < 0: report only */
+    int pass;
+} ohm_check_row;
+
+enum { OHM_VALIDATION_MAX_ROWS = 64 };
+
+typedef struct ohm_validation {
+    ohm_check_row rows[OHM_VALIDATION_MAX_ROWS];
+    int n;
+} ohm_validation;
+
+/* Each adds rows; returns non-zero only when a scene could not be run at all
+ * (err says why).  A failed comparison is a row with pass = 0. */
+int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err);
+int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err);
+int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *err);
+int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err);
+int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err);
+
+/* All of the above, in order. */
+int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);
+
+/* The table; returns the number of failed rows. */
+int ohm_validation_print(FILE *f, const ohm_validation *v);
+
+#endif

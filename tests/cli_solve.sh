@@ -1,0 +1,91 @@
+#!/usr/bin/env bash
+# -material / -light / -solve through the real command: stats, grids, errors.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+# marble on spot, lit from above: three distinct channels, three factorizations
+expect_exit 0 "solve spot marble" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 \
+  -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve \
+  -write file="$T/spot.vdb" -stats file="$T/spot.json"
+check "stats: physics fields" $PY - "$T/spot.json" <<'PY'
+import json, sys
+s = json.load(open(sys.argv[1]))
+for k in ("cells", "channels", "factors", "nnz_A", "nnz_L", "flops", "t_voxelize", "t_assemble", "t_analyze",
+          "t_factor", "t_source", "t_solve", "residual", "power_incident", "power_in", "power_absorbed", "power_out"):
+    assert k in s, k
+assert s["channels"] == 3 and s["factors"] == 3, s
+assert s["residual"] < 1e-12, s["residual"]
+assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-10 * s["power_in"], s
+# light arrives, some is reflected by Fresnel / absorbed directly, the rest enters
+assert 0 < s["power_in"] < s["power_incident"], s
+assert s["nnz_L"] >= s["nnz_A"] > s["cells"], s
+PY
+check "vdb: fluence and exitance per channel" $PY - "$T/spot.vdb" <<'PY'
+import sys, pyopenvdb as vdb
+g = {x.name: x for x in vdb.readAll(sys.argv[1])[0]}
+want = {"surface", "density", "fluence_r", "fluence_g", "fluence_b", "exitance_r", "exitance_g", "exitance_b"}
+assert want <= set(g), sorted(g)
+d, f, e = g["density"], g["fluence_g"], g["exitance_g"]
+assert f.activeVoxelCount() == d.activeVoxelCount(), (f.activeVoxelCount(), d.activeVoxelCount())
+assert 0 < e.activeVoxelCount() < d.activeVoxelCount()
+lo, hi = f.evalMinMax()
+assert lo >= 0 and hi > 0, (lo, hi)
+assert f["ohm_material"] == "marble" and "boundary=robin" in f["ohm_solve"], f["ohm_solve"]
+# lit from above (+y): boundary cells in the top quarter leave far more light
+# per cell than those in the bottom quarter (the hooves)
+(x0, y0, z0), (x1, y1, z1) = e.evalActiveVoxelBoundingBox()
+top, bottom = [], []
+for it in e.citerOnValues():
+    y = it.min[1]
+    if y > y1 - (y1 - y0) / 4: top.append(it.value)
+    elif y < y0 + (y1 - y0) / 4: bottom.append(it.value)
+mt, mb = sum(top) / len(top), sum(bottom) / len(bottom)
+assert mt > 3 * mb, (mt, mb)
+PY
+
+# grey material, grey light: one channel, grids without suffix
+expect_exit 0 "grey solve" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 \
+  -material sigma_a=0.01 sigma_s=1 -light type=point pos=0,100,0 intensity=1000 -solve -write file="$T/cow.vdb" -stats file="$T/cow.json"
+check "grey: one channel, one factor" $PY -c "
+import json; s = json.load(open('$T/cow.json')); assert s['channels'] == 1 and s['factors'] == 1, s"
+check "grey: fluence and exitance grids" $PY -c "
+import pyopenvdb as vdb; n = {g.name for g in vdb.readAll('$T/cow.vdb')[0]}; assert {'fluence', 'exitance'} <= n, n"
+
+# neumann (the paper's boundary) lets nothing out
+expect_exit 0 "neumann" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 \
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve boundary=neumann -stats file="$T/n.json"
+check "neumann: power_out is 0" $PY -c "
+import json; s = json.load(open('$T/n.json')); assert s['power_out'] == 0 and s['power_absorbed'] > 0, s"
+
+# singular: sigma_a = 0 with neumann is refused with the physical cause, exit 1
+expect_exit 1 "singular" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
+  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve boundary=neumann
+expect_error_line "singular" "sigma_a = 0 with boundary=neumann.*neither leave nor be absorbed"
+# the same with robin solves
+expect_exit 0 "sigma_a=0 robin" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
+  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve
+
+# paper mode: resistances, neumann boundary; robin needs optics (usage error)
+expect_exit 0 "paper resistances" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
+  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve boundary=neumann
+expect_exit 2 "resistances with robin" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
+  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve
+expect_error_line "resistances with robin" "boundary=robin needs optical coefficients"
+
+# low albedo gets a warning; pencil beam and missing pieces give clear errors
+expect_exit 0 "ketchup" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=ketchup
+check "ketchup warns: albedo < 0.8" grep -q "albedo 0.0.* < 0.8: the diffusion approximation is poor" <<<"$LAST_ERR"
+expect_exit 0 "pencil" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=skin1 \
+  -light type=pencil pos=0,100,0 dir=0,-1,0 -solve
+expect_exit 1 "solve without light" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -material preset=marble -solve
+expect_error_line "solve without light" "no lights"
+expect_exit 2 "light without pos" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -light type=point
+expect_error_line "light without pos" "type=point needs pos="
+expect_exit 2 "two material kinds" -- "$OHM" -material preset=marble sigma_a=1 sigma_s=1
+expect_exit 2 "bad rgb" -- "$OHM" -material sigma_a=1,2 sigma_s=1
+
+# ohm validate: the table, all passing
+expect_exit 0 "ohm validate" -- "$OHM" validate
+check "validate prints the summary" grep -q " 0 failed" "$T/stdout"
+
+finish
