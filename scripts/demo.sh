@@ -16,5 +16,6 @@ echo "ohm demo: wrote"
 for f in out/spot.vdb out/spot.json; do
   [ -f "$f" ] && echo "  $PWD/$f ($(stat -c %s "$f") bytes)"
 done
+echo "Grids: surface, density, fluence_r/g/b, exitance_r/g/b (world mm)."
 echo "Open out/spot.vdb in Blender (File > Import > OpenVDB) or inspect it with"
 echo "  /usr/bin/python3 -c 'import pyopenvdb as v; print([g.name for g in v.readAll(\"out/spot.vdb\")[0]])'"

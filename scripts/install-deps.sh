@@ -12,6 +12,7 @@ packages=(
   libsuitesparse-dev libmetis-dev libopenblas-dev
   libopenimageio-dev
   python3 python3-openvdb python3-numpy
+  gnuplot-nox
 )
 
 missing=()

@@ -54,10 +54,29 @@ int ohm_cli_main(int argc, char **argv)
         return 0;
     }
     if (strcmp(cmd, "validate") == 0) {
-        /* the solver against exact references; the table goes to stdout */
+        /* the solver against exact references; the table goes to stdout.
+         * `ohm validate figure1 FILE.csv`: the paper's Figure 1 profiles. */
         ohm_log log = {NULL, verbosity > 1 ? 1 : 0};
         ohm_validation v;
         memset(&v, 0, sizeof v);
+        if (first + 1 < argc && strcmp(argv[first + 1], "figure1") == 0) {
+            if (first + 3 != argc) {
+                fprintf(stderr, "ohm: error: usage: ohm validate figure1 FILE.csv\n");
+                return 2;
+            }
+            ohm_output out;
+            int frc = ohm_output_begin(&out, argv[first + 2], &err);
+            if (!frc) frc = ohm_paper_figure1(out.stream, &v, &log, &err);
+            if (!frc) frc = ohm_output_commit(&out, &err);
+            else ohm_output_abort(&out);
+            if (frc) return report(frc, &err);
+            ohm_validation_print(stdout, &v);
+            return 0;
+        }
+        if (first + 1 < argc) {
+            fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv]\n");
+            return 2;
+        }
         int vrc = ohm_validate_all(&v, &log, &err);
         int failed = ohm_validation_print(stdout, &v);
         if (vrc) return report(vrc, &err);

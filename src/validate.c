@@ -453,3 +453,200 @@ int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err)
     if (!rc) rc = ohm_validate_layered(v, log, err);
     return rc;
 }
+
+/* ---- the paper's Figure 1 --------------------------------------------------------- */
+
+enum { FIG1_N = 15, FIG1_STEP = 3 };
+static const double FIG1_SA = 0.0041, FIG1_SS = 2.6, FIG1_V = 1.18, FIG1_R = 1000.0;
+
+static int src_step(void *user, double *b, size_t ncols, const ohm_network *net, int c)
+{
+    (void)ncols;
+    (void)c;
+    double amps = *(const double *)user;
+    const ohm_voxel_grid *g = net->grid;
+    int lo = (FIG1_N - FIG1_STEP) / 2 + 1;
+    for (int j = lo; j < lo + FIG1_STEP; ++j)
+        for (int i = lo; i < lo + FIG1_STEP; ++i) b[net->unknown[ohm_voxel_index(g, i, j, 1)]] = amps;
+    return 0;
+}
+
+/* ohm's own model of the same experiment: a 15 x 15 x 10 mm block of milk at
+ * h = 0.25 mm, Robin boundary, unit irradiance on the middle 3 x 3 mm square
+ * entering at depth 1/sigma_t' (the dipole's source depth). */
+typedef struct fig1_slab {
+    double h, z0;
+} fig1_slab;
+
+static int src_lit_square(void *user, double *b, size_t ncols, const ohm_network *net, int c)
+{
+    (void)ncols;
+    (void)c;
+    const fig1_slab *fs = user;
+    const ohm_voxel_grid *g = net->grid;
+    double s = fs->z0 / fs->h - 0.5;
+    int m = s <= 0 ? 0 : (int)floor(s);
+    double frac = s <= 0 ? 0 : s - m;
+    double lo = (FIG1_N - FIG1_STEP) / 2.0, hi = lo + FIG1_STEP; /* mm */
+    for (int j = 1; j < g->dims[1] - 1; ++j)
+        for (int i = 1; i < g->dims[0] - 1; ++i) {
+            double x = (i - 0.5) * fs->h, y = (j - 0.5) * fs->h;
+            if (x < lo || x > hi || y < lo || y > hi) continue;
+            double P = fs->h * fs->h; /* unit irradiance on the cell's face */
+            b[net->unknown[ohm_voxel_index(g, i, j, 1 + m)]] += P * (1 - frac);
+            b[net->unknown[ohm_voxel_index(g, i, j, 2 + m)]] += P * frac;
+        }
+    return 0;
+}
+
+/* Width of a profile at half its peak, by linear interpolation (cells). */
+static double half_width(const double *p, int n)
+{
+    double peak = 0;
+    int at = 0;
+    for (int i = 0; i < n; ++i)
+        if (p[i] > peak) peak = p[i], at = i;
+    double left = 0, right = n - 1;
+    for (int i = at; i > 0; --i)
+        if (p[i - 1] < 0.5 * peak) {
+            left = i - 1 + (0.5 * peak - p[i - 1]) / (p[i] - p[i - 1]);
+            break;
+        }
+    for (int i = at; i < n - 1; ++i)
+        if (p[i + 1] < 0.5 * peak) {
+            right = i + (p[i] - 0.5 * peak) / (p[i] - p[i + 1]);
+            break;
+        }
+    return right - left;
+}
+
+int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_error *err)
+{
+    const double h = 1.0;
+    ohm_voxel_grid g;
+    int rc = make_box(&g, FIG1_N, FIG1_N, 1, h, err);
+    if (rc) return rc;
+    double amps = FIG1_V / FIG1_R;
+
+    /* (a) the paper's network: every resistor 1 kOhm, Neumann boundary */
+    ohm_material paper;
+    memset(&paper, 0, sizeof paper);
+    paper.kind = OHM_MATERIAL_RESISTANCE;
+    paper.channels = 1;
+    paper.resistance = FIG1_R;
+    paper.ground = FIG1_R;
+    paper.eta = 1.0;
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_NEUMANN;
+    p.ordering = "amd";
+    p.custom_source = src_step;
+    p.custom_user = &amps;
+    ohm_solution sa, sb;
+    rc = ohm_solve(&sa, &g, &paper, NULL, 1, &p, log, err);
+    if (rc) {
+        ohm_voxel_grid_free(&g);
+        return rc;
+    }
+    /* (b) the same grid with conductances from the milk coefficients */
+    ohm_material milk = grey(FIG1_SA, FIG1_SS);
+    rc = ohm_solve(&sb, &g, &milk, NULL, 1, &p, log, err);
+    if (rc) {
+        ohm_solution_free(&sa);
+        ohm_voxel_grid_free(&g);
+        return rc;
+    }
+    /* (c) the dipole: exitance at x for unit irradiance on the lit square,
+     * integrated over the square with 40 x 40 points per cell */
+    int lo = (FIG1_N - FIG1_STEP) / 2; /* 0-based first lit column */
+    double prof_a[FIG1_N], prof_b[FIG1_N], prof_c[FIG1_N];
+    int mid = FIG1_N / 2 + 1;
+    for (int i = 1; i <= FIG1_N; ++i) {
+        prof_a[i - 1] = sa.fluence[0][unknown_at(&sa, i, mid, 1)]; /* node voltage, V */
+        prof_b[i - 1] = sb.fluence[0][unknown_at(&sb, i, mid, 1)];
+        double x = (i - 0.5) * h, y = (mid - 0.5) * h, sum = 0;
+        const int q = 40;
+        for (int sj = 0; sj < FIG1_STEP * q; ++sj)
+            for (int si = 0; si < FIG1_STEP * q; ++si) {
+                double sx = lo * h + (si + 0.5) * h / q, sy = lo * h + (sj + 0.5) * h / q;
+                double r = sqrt((x - sx) * (x - sx) + (y - sy) * (y - sy));
+                sum += ohm_ref_dipole_Rd(r, FIG1_SA, FIG1_SS, 1.3) * (h / q) * (h / q);
+            }
+        prof_c[i - 1] = sum;
+    }
+    /* (d) ohm's 3-D model: exitance through z = 0, averaged over each 1 mm
+     * cell of the middle row */
+    double prof_d[FIG1_N];
+    {
+        fig1_slab fs = {0.25, 1.0 / (FIG1_SA + FIG1_SS)};
+        ohm_voxel_grid g3;
+        int n3 = (int)lround(FIG1_N / fs.h);
+        rc = make_box(&g3, n3, n3, (int)lround(10.0 / fs.h), fs.h, err);
+        ohm_solution sd;
+        ohm_solve_params p3;
+        memset(&p3, 0, sizeof p3);
+        p3.boundary = OHM_BOUNDARY_ROBIN;
+        p3.ordering = "metis";
+        p3.custom_source = src_lit_square;
+        p3.custom_user = &fs;
+        if (!rc) rc = ohm_solve(&sd, &g3, &milk, NULL, 1, &p3, log, err);
+        if (rc) {
+            ohm_voxel_grid_free(&g3);
+            ohm_solution_free(&sa);
+            ohm_solution_free(&sb);
+            ohm_voxel_grid_free(&g);
+            return rc;
+        }
+        double sum[FIG1_N] = {0};
+        int cnt[FIG1_N] = {0};
+        for (int64_t f = 0; f < sd.net.nfaces; ++f) {
+            if (sd.net.face_dir[f] != 4) continue;
+            size_t cc = (size_t)sd.net.cell[sd.net.face_unknown[f]];
+            int i = (int)(cc % (size_t)g3.dims[0]), j = (int)((cc / (size_t)g3.dims[0]) % (size_t)g3.dims[1]);
+            double x = (i - 0.5) * fs.h, y = (j - 0.5) * fs.h;
+            if (y < mid - 1 || y > mid) continue; /* the middle 1 mm row */
+            int bin = (int)floor(x);
+            if (bin < 0 || bin >= FIG1_N) continue;
+            sum[bin] += sd.face_exitance[0][f];
+            cnt[bin]++;
+        }
+        for (int i = 0; i < FIG1_N; ++i) prof_d[i] = cnt[i] ? sum[i] / cnt[i] : NAN;
+        if (v)
+            add_row(v, "figure 1: ohm 3-D block conservation", "in = absorbed + out", sd.power_absorbed + sd.power_out,
+                    sd.power_in, ohm_solution_conservation_error(&sd), 1e-10);
+        ohm_solution_free(&sd);
+        ohm_voxel_grid_free(&g3);
+    }
+    double pa = 0, pb = 0, pc = 0, pd = 0;
+    for (int i = 0; i < FIG1_N; ++i)
+        pa = fmax(pa, prof_a[i]), pb = fmax(pb, prof_b[i]), pc = fmax(pc, prof_c[i]), pd = fmax(pd, prof_d[i]);
+    if (csv) {
+        fprintf(csv, "x_mm,paper_1kohm_V,milk_network_phi,dipole_exitance,ohm3d_exitance,paper_norm,milk_network_norm,"
+                     "dipole_norm,ohm3d_norm\n");
+        for (int i = 0; i < FIG1_N; ++i)
+            fprintf(csv, "%.2f,%.9g,%.9g,%.9g,%.9g,%.6f,%.6f,%.6f,%.6f\n", (i + 0.5) * h, prof_a[i], prof_b[i],
+                    prof_c[i], prof_d[i], prof_a[i] / pa, prof_b[i] / pb, prof_c[i] / pc, prof_d[i] / pd);
+    }
+    if (v) {
+        double wa = half_width(prof_a, FIG1_N), wb = half_width(prof_b, FIG1_N), wc = half_width(prof_c, FIG1_N);
+        add_row(v, "figure 1: half-width, paper 1 kOhm network (mm)", "dipole half-width", wa * h, wc * h,
+                rel(wa, wc), -1);
+        add_row(v, "figure 1: half-width, milk-derived network (mm)", "dipole half-width", wb * h, wc * h,
+                rel(wb, wc), -1);
+        double wd = half_width(prof_d, FIG1_N);
+        add_row(v, "figure 1: half-width, ohm 3-D robin block (mm)", "dipole half-width", wd * h, wc * h,
+                rel(wd, wc), -1);
+        add_row(v, "figure 1: edge/peak, ohm 3-D robin block", "dipole edge/peak", prof_d[0] / pd, prof_c[0] / pc,
+                rel(prof_d[0] / pd, prof_c[0] / pc), -1);
+        add_row(v, "figure 1: edge/peak, paper 1 kOhm network", "dipole edge/peak", prof_a[0] / pa, prof_c[0] / pc,
+                rel(prof_a[0] / pa, prof_c[0] / pc), -1);
+        add_row(v, "figure 1: edge/peak, milk-derived network", "dipole edge/peak", prof_b[0] / pb, prof_c[0] / pc,
+                rel(prof_b[0] / pb, prof_c[0] / pc), -1);
+        add_row(v, "figure 1: paper network conservation", "in = absorbed", sa.power_absorbed, sa.power_in,
+                ohm_solution_conservation_error(&sa), 1e-10);
+    }
+    ohm_solution_free(&sa);
+    ohm_solution_free(&sb);
+    ohm_voxel_grid_free(&g);
+    return OHM_OK;
+}

@@ -37,6 +37,15 @@ int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err);
 /* All of the above, in order. */
 int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);
 
+/* The seed paper's Figure 1: a 15 x 15 single-layer grid (h = 1 mm), every
+ * resistor 1 kOhm, Neumann boundary, a step source of 1.18 V behind 1 kOhm
+ * (1.18 mA) into the middle 3 x 3 cells.  Writes the profile along the middle
+ * row as CSV: the paper's network, a network whose resistors come from the
+ * same milk coefficients (sigma_a 0.0041, sigma_s' 2.6 /mm: G = h D,
+ * G_a = sigma_a h^3), and the Jensen dipole's exitance for that lit square —
+ * each also normalised to its peak.  Adds rows comparing their widths. */
+int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_error *err);
+
 /* The table; returns the number of failed rows. */
 int ohm_validation_print(FILE *f, const ohm_validation *v);
 

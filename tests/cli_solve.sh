@@ -88,4 +88,16 @@ expect_exit 2 "bad rgb" -- "$OHM" -material sigma_a=1,2 sigma_s=1
 expect_exit 0 "ohm validate" -- "$OHM" validate
 check "validate prints the summary" grep -q " 0 failed" "$T/stdout"
 
+# the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
+expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
+check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'
+import csv, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+assert len(rows) == 15, len(rows)
+for col in ("paper_norm", "dipole_norm", "ohm3d_norm", "milk_network_norm"):
+    v = [float(r[col]) for r in rows]
+    assert abs(max(v) - 1) < 1e-9 and v[7] == max(v), (col, v)
+    assert all(abs(v[i] - v[14 - i]) < 1e-6 for i in range(15)), (col, v)
+PY
+
 finish
