@@ -33,47 +33,63 @@ void ohm_factor_free(cholmod_factor **L, ohm_solver *s)
     if (L && *L) cholmod_l_free_factor(L, &s->cc);
 }
 
-static const char *ordering_name(int ord)
+/* One analysis with one ordering; the factor and its statistics in *out. */
+static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_solver *s, cholmod_sparse *A, int ordering,
+                       const char *name, ohm_error *err)
 {
-    switch (ord) {
-    case CHOLMOD_METIS: return "metis";
-    case CHOLMOD_AMD: return "amd";
-    case CHOLMOD_NESDIS: return "nesdis";
-    case CHOLMOD_NATURAL: return "natural";
-    case CHOLMOD_COLAMD: return "colamd";
+    cholmod_common *cc = &s->cc;
+    cc->nmethods = 1;
+    cc->postorder = 1;
+    cc->method[0].ordering = ordering;
+    *out = cholmod_l_analyze(A, cc);
+    if (!*out || cc->status < CHOLMOD_OK) {
+        cholmod_l_free_factor(out, cc);
+        if (cc->status == CHOLMOD_NOT_INSTALLED)
+            return ohm_fail(err, OHM_ERR_INTERNAL, "ordering=%s is not available in this CHOLMOD build", name);
+        if (cc->status == CHOLMOD_OUT_OF_MEMORY)
+            return ohm_fail(err, OHM_ERR_NOMEM, "out of memory analysing a %lld x %lld matrix", (long long)A->nrow,
+                            (long long)A->ncol);
+        return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD analysis failed (status %d)", cc->status);
     }
-    return "other";
+    *lnz = cc->lnz;
+    *fl = cc->fl;
+    return OHM_OK;
 }
 
 int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     cholmod_l_free_factor(&s->symbolic, cc);
-    cc->nmethods = 1;
-    cc->postorder = 1;
-    if (strcmp(ordering, "metis") == 0) cc->method[0].ordering = CHOLMOD_METIS;
-    else if (strcmp(ordering, "amd") == 0) cc->method[0].ordering = CHOLMOD_AMD;
-    else if (strcmp(ordering, "nesdis") == 0) cc->method[0].ordering = CHOLMOD_NESDIS;
-    else if (strcmp(ordering, "best") == 0) {
-        cc->nmethods = 2;
-        cc->method[0].ordering = CHOLMOD_METIS;
-        cc->method[1].ordering = CHOLMOD_AMD;
-    } else
-        return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected metis, amd, nesdis or best", ordering);
+    static const struct {
+        const char *name;
+        int id;
+    } orders[] = {{"metis", CHOLMOD_METIS}, {"amd", CHOLMOD_AMD}, {"nesdis", CHOLMOD_NESDIS}};
+    int best = strcmp(ordering, "best") == 0;
     double t0 = ohm_now();
-    s->symbolic = cholmod_l_analyze(A, cc);
-    s->t_analyze = ohm_now() - t0;
-    if (!s->symbolic || cc->status < CHOLMOD_OK) {
-        if (cc->status == CHOLMOD_NOT_INSTALLED)
-            return ohm_fail(err, OHM_ERR_INTERNAL, "ordering=%s is not available in this CHOLMOD build", ordering);
-        if (cc->status == CHOLMOD_OUT_OF_MEMORY)
-            return ohm_fail(err, OHM_ERR_NOMEM, "out of memory analysing a %lld x %lld matrix", (long long)A->nrow,
-                            (long long)A->ncol);
-        return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD analysis failed (status %d)", cc->status);
+    int found = 0;
+    for (int i = 0; i < 3; ++i) {
+        /* best: METIS and AMD, keep the smaller factor */
+        if (best ? orders[i].id == CHOLMOD_NESDIS : strcmp(ordering, orders[i].name) != 0) continue;
+        found = 1;
+        cholmod_factor *F = NULL;
+        double lnz = 0, fl = 0;
+        int rc = analyze_one(&F, &lnz, &fl, s, A, orders[i].id, orders[i].name, err);
+        if (rc) {
+            cholmod_l_free_factor(&s->symbolic, cc);
+            return rc;
+        }
+        if (!s->symbolic || lnz < s->nnz_L) {
+            cholmod_l_free_factor(&s->symbolic, cc);
+            s->symbolic = F;
+            s->nnz_L = lnz;
+            s->flops = fl;
+            snprintf(s->ordering, sizeof s->ordering, "%s", orders[i].name);
+        } else {
+            cholmod_l_free_factor(&F, cc);
+        }
     }
-    snprintf(s->ordering, sizeof s->ordering, "%s", ordering_name(cc->method[cc->selected].ordering));
-    s->nnz_L = cc->lnz;
-    s->flops = cc->fl;
+    if (!found) return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected metis, amd, nesdis or best", ordering);
+    s->t_analyze = ohm_now() - t0;
     s->nnz_A = (double)cholmod_l_nnz(A, cc);
     return OHM_OK;
 }

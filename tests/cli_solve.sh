@@ -88,6 +88,17 @@ expect_exit 2 "bad rgb" -- "$OHM" -material sigma_a=1,2 sigma_s=1
 expect_exit 0 "ohm validate" -- "$OHM" validate
 check "validate prints the summary" grep -q " 0 failed" "$T/stdout"
 
+# ordering=best keeps the smaller of the METIS and AMD factors
+for o in metis amd best; do
+  "$OHM" --quiet -read file=samples/spot.obj size=50 -voxelize dim=28 -material sigma_a=0.01 sigma_s=1 \
+    -light dir=0,-1,0 -solve ordering=$o -stats file="$T/o_$o.json"
+done
+check "ordering=best picks the smaller factor" $PY -c "
+import json
+L = {o: json.load(open('$T/o_%s.json' % o)) for o in ('metis', 'amd', 'best')}
+assert L['best']['nnz_L'] == min(L['metis']['nnz_L'], L['amd']['nnz_L']), L
+assert L['best']['ordering'] in ('metis', 'amd')"
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'
