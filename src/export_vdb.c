@@ -101,10 +101,9 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
     const ohm_network *net = &sol->net;
     for (int64_t v = 0; v < net->n; ++v) {
         if (where && !where[v]) continue;
-        size_t c = (size_t)net->cell[v];
-        int32_t i = (int32_t)(c % (size_t)g->dims[0]);
-        int32_t j = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
-        int32_t k = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
+        int32_t ijk[3];
+        ohm_voxel_coords(g, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         if (list_push(&l, i, j, k, (float)values[v])) {
             list_free(&l);
             return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting %s", name);

@@ -3,14 +3,6 @@
 #include <math.h>
 #include <string.h>
 
-static inline void cell_ijk(const ohm_voxel_grid *g, int64_t cell, int32_t ijk[3])
-{
-    size_t c = (size_t)cell;
-    ijk[0] = (int32_t)(c % (size_t)g->dims[0]);
-    ijk[1] = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
-    ijk[2] = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
-}
-
 /* Signed distance at a cell (negative inside); NaN when unknown. */
 static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
 {
@@ -26,7 +18,7 @@ void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
     const ohm_voxel_grid *g = net->grid;
     int d = net->face_dir[f];
     int32_t c[3];
-    cell_ijk(g, net->cell[net->face_unknown[f]], c);
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
     double grad[3], len2 = 0;
     for (int a = 0; a < 3; ++a) {
         int32_t p[3] = {c[0], c[1], c[2]}, m[3] = {c[0], c[1], c[2]};
@@ -68,7 +60,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     int d = net->face_dir[f];
     int32_t step[3] = {-ohm_face_offset[d][0], -ohm_face_offset[d][1], -ohm_face_offset[d][2]};
     int32_t c[3];
-    cell_ijk(g, net->cell[v0], c);
+    ohm_voxel_coords(g, net->cell[v0], c);
     const double h = g->h;
     double put = 0.0;
     if (deposit == OHM_DEPOSIT_POINT) {
@@ -116,7 +108,7 @@ static void face_centre(const ohm_network *net, int64_t f, double p[3])
 {
     const ohm_voxel_grid *g = net->grid;
     int32_t c[3];
-    cell_ijk(g, net->cell[net->face_unknown[f]], c);
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
     int d = net->face_dir[f];
     for (int a = 0; a < 3; ++a) p[a] = g->origin[a] + g->h * (c[a] + 0.5 * ohm_face_offset[d][a]);
 }

@@ -80,10 +80,9 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
     int64_t nfaces = 0, offdiag = 0;
     for (int64_t v = 0; v < n; ++v) net->piece[v] = v;
     for (int64_t v = 0; v < n; ++v) {
-        size_t c = (size_t)net->cell[v];
-        int32_t i = (int32_t)(c % (size_t)grid->dims[0]);
-        int32_t j = (int32_t)((c / (size_t)grid->dims[0]) % (size_t)grid->dims[1]);
-        int32_t k = (int32_t)(c / ((size_t)grid->dims[0] * (size_t)grid->dims[1]));
+        int32_t ijk[3];
+        ohm_voxel_coords(grid, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         for (int d = 0; d < 6; ++d) {
             int64_t w = across(net, i, j, k, d);
             if (w == -1) ++nfaces;
@@ -116,10 +115,9 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
     if (!net->face_unknown || !net->face_dir) goto nomem;
     int64_t f = 0;
     for (int64_t v = 0; v < n; ++v) {
-        size_t c = (size_t)net->cell[v];
-        int32_t i = (int32_t)(c % (size_t)grid->dims[0]);
-        int32_t j = (int32_t)((c / (size_t)grid->dims[0]) % (size_t)grid->dims[1]);
-        int32_t k = (int32_t)(c / ((size_t)grid->dims[0] * (size_t)grid->dims[1]));
+        int32_t ijk[3];
+        ohm_voxel_coords(grid, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         for (int d = 0; d < 6; ++d)
             if (across(net, i, j, k, d) == -1) {
                 net->face_unknown[f] = v;
@@ -194,10 +192,9 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
     int64_t f = 0; /* boundary faces come in unknown order, as built */
     for (int64_t v = 0; v < n; ++v) {
         Ap[v] = pos;
-        size_t c = (size_t)net->cell[v];
-        int32_t i = (int32_t)(c % (size_t)g->dims[0]);
-        int32_t j = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
-        int32_t k = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
+        int32_t ijk[3];
+        ohm_voxel_coords(g, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         double diag = 0.0;
         /* lower neighbours in the order -z, -y, -x give ascending rows */
         static const int lower[3] = {4, 2, 0};
@@ -237,10 +234,9 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
         if (sink[p] > 0) continue;
         int64_t v = 0;
         while (net->piece[v] != p) ++v;
-        size_t c = (size_t)net->cell[v];
-        int32_t i = (int32_t)(c % (size_t)g->dims[0]);
-        int32_t j = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]);
-        int32_t k = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
+        int32_t ijk[3];
+        ohm_voxel_coords(g, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         free(sink);
         cholmod_l_free_sparse(&M, cc);
         if (med->resistance_mode)

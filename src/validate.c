@@ -170,10 +170,9 @@ int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err)
             /* every cell with 5h <= r <= 3 mm on the finest grid */
             double worst = 0, at = 0;
             for (int64_t u = 0; u < sol.n; ++u) {
-                size_t c = (size_t)sol.net.cell[u];
-                int i = (int)(c % (size_t)g.dims[0]), j = (int)((c / (size_t)g.dims[0]) % (size_t)g.dims[1]),
-                    k = (int)(c / ((size_t)g.dims[0] * (size_t)g.dims[1]));
-                double px = (i - 0.5) * g.h, py = (j - 0.5) * g.h, pz = (k - 0.5) * g.h;
+                int32_t c[3];
+                ohm_voxel_coords(&g, sol.net.cell[u], c);
+                double px = (c[0] - 0.5) * g.h, py = (c[1] - 0.5) * g.h, pz = (c[2] - 0.5) * g.h;
                 double r = sqrt(px * px + py * py + pz * pz);
                 if (r < 5 * g.h || r > 3.0) continue;
                 double er = rel(sol.fluence[0][u], ohm_ref_infinite(1.0, INF_SA, INF_SS, r));
@@ -254,9 +253,9 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
     double worst = 0, worst_r = 0, worst_dip = 0, worst_dip_r = 0;
     for (int64_t f = 0; f < sol.net.nfaces; ++f) {
         if (sol.net.face_dir[f] != 4) continue; /* the surface z = 0, outward -z */
-        size_t c = (size_t)sol.net.cell[sol.net.face_unknown[f]];
-        int i = (int)(c % (size_t)g.dims[0]), j = (int)((c / (size_t)g.dims[0]) % (size_t)g.dims[1]);
-        double x = (i - 0.5) * h, y = (j - 0.5) * h, r = sqrt(x * x + y * y);
+        int32_t c[3];
+        ohm_voxel_coords(&g, sol.net.cell[sol.net.face_unknown[f]], c);
+        double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < rmin || r > rmax) continue;
         double J = sol.face_exitance[0][f];
         double Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, 1.3);
@@ -601,9 +600,9 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         int cnt[FIG1_N] = {0};
         for (int64_t f = 0; f < sd.net.nfaces; ++f) {
             if (sd.net.face_dir[f] != 4) continue;
-            size_t cc = (size_t)sd.net.cell[sd.net.face_unknown[f]];
-            int i = (int)(cc % (size_t)g3.dims[0]), j = (int)((cc / (size_t)g3.dims[0]) % (size_t)g3.dims[1]);
-            double x = (i - 0.5) * fs.h, y = (j - 0.5) * fs.h;
+            int32_t c3[3];
+            ohm_voxel_coords(&g3, sd.net.cell[sd.net.face_unknown[f]], c3);
+            double x = (c3[0] - 0.5) * fs.h, y = (c3[1] - 0.5) * fs.h;
             if (y < mid - 1 || y > mid) continue; /* the middle 1 mm row */
             int bin = (int)floor(x);
             if (bin < 0 || bin >= FIG1_N) continue;

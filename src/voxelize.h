@@ -60,6 +60,15 @@ static inline size_t ohm_voxel_index(const ohm_voxel_grid *g, int32_t i, int32_t
     return (size_t)i + (size_t)g->dims[0] * ((size_t)j + (size_t)g->dims[1] * (size_t)k);
 }
 
+/* The inverse: (i,j,k) of a dense cell index. */
+static inline void ohm_voxel_coords(const ohm_voxel_grid *g, int64_t cell, int32_t ijk[3])
+{
+    size_t c = (size_t)cell, nx = (size_t)g->dims[0], ny = (size_t)g->dims[1];
+    ijk[0] = (int32_t)(c % nx);
+    ijk[1] = (int32_t)((c / nx) % ny);
+    ijk[2] = (int32_t)(c / (nx * ny));
+}
+
 /* Generalized winding number of the mesh at point q (exact, O(triangles)).
  * Used by tests to check the fast evaluation. */
 double ohm_winding_number_exact(const ohm_mesh *mesh, const double q[3]);
