@@ -13,6 +13,8 @@ packages=(
   libopenimageio-dev
   python3 python3-openvdb python3-numpy
   gnuplot-nox
+  libembree-dev
+  blender
 )
 
 missing=()

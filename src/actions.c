@@ -379,13 +379,25 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     double t0 = ohm_now();
     ohm_vdb_provenance prov = {s->mesh_path, s->mesh_scale_mm, s->have_solution ? s->material.name : NULL,
                                s->have_solution ? s->solution_desc : NULL};
-    int rc = ohm_export_vdb(path, &s->grid, s->have_solution ? &s->solution : NULL, &prov, err);
+    const ohm_solution *sol = s->have_solution ? &s->solution : NULL;
+    int frames = sol ? sol->frames : 1;
+    int rc = OHM_OK;
+    /* Several frames: a numbered sequence NAME_0001.vdb ... (Blender's volume
+     * sequences start at frame 1 and read trailing digits). */
+    size_t stem = strlen(path) - 4;
+    for (int f = 0; f < frames && !rc; ++f) {
+        char framepath[OHM_PATH_MAX];
+        if (frames == 1) snprintf(framepath, sizeof framepath, "%s", path);
+        else snprintf(framepath, sizeof framepath, "%.*s_%04d.vdb", (int)stem, path, f + 1);
+        rc = ohm_export_vdb(framepath, &s->grid, sol, f, &prov, err);
+    }
     if (rc) return rc;
     double t = ohm_now() - t0;
-    ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path,
-                 s->have_solution ? (s->solution.channels == 1 ? ", fluence, exitance" : ", fluence_r/g/b, exitance_r/g/b")
-                                  : "",
-                 t);
+    const char *grids = !sol ? "" : sol->channels == 1 ? ", fluence, exitance" : ", fluence_r/g/b, exitance_r/g/b";
+    if (frames == 1) ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path, grids, t);
+    else
+        ohm_log_info(&s->log, "wrote %.*s_0001.vdb .. _%04d.vdb (%d frames; grids: surface, density%s), %.2f s",
+                     (int)stem, path, frames, frames, grids, t);
     ohm_stats_add(&s->stats, "t_write", t);
     return OHM_OK;
 }

@@ -124,7 +124,7 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
 
 enum { MAX_GRIDS = 2 + 2 * OHM_MAX_CHANNELS };
 
-int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol,
+int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
                    const ohm_vdb_provenance *prov, ohm_error *err)
 {
     if (!g || !g->inside) return ohm_fail(err, OHM_ERR_INVALID, "write: nothing to write: run -voxelize first");
@@ -148,6 +148,8 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
     if (!rc) rc = ohm_vdb_grid_set_values(grids[1], density.ijk, density.val, density.n, err);
     if (!rc) rc = ohm_vdb_grid_prune(grids[1], err);
     if (!rc) rc = set_common_meta(grids[1], g, prov, err);
+    if (!rc && sol && (frame < 0 || frame >= sol->frames))
+        rc = ohm_fail(err, OHM_ERR_INTERNAL, "write: frame %d of %d", frame, sol->frames);
     if (!rc && sol) {
         boundary_cell = calloc((size_t)(sol->n ? sol->n : 1), sizeof *boundary_cell);
         if (!boundary_cell) rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
@@ -157,13 +159,14 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
             char name[32];
             const char *sfx = sol->channels == 1 ? "" : suffix[c];
             snprintf(name, sizeof name, "fluence%s", sfx);
-            rc = solution_grid(&grids[ngrids++], name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c], NULL,
-                               prov, err);
+            size_t off = (size_t)frame * (size_t)sol->n;
+            rc = solution_grid(&grids[ngrids++], name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off,
+                               NULL, prov, err);
             if (rc) break;
             snprintf(name, sizeof name, "exitance%s", sfx);
             rc = solution_grid(&grids[ngrids++], name,
                                "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
-                               sol, sol->exitance[c], boundary_cell, prov, err);
+                               sol, sol->exitance[c] + off, boundary_cell, prov, err);
         }
     }
     if (rc) goto done;

@@ -24,8 +24,8 @@ typedef struct ohm_vdb_provenance {
     const char *solve;         /* boundary / deposit / lights, or NULL      */
 } ohm_vdb_provenance;
 
-/* sol may be NULL (no solve yet). */
-int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol,
+/* sol may be NULL (no solve yet); frame (0-based) picks the solution's frame. */
+int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
                    const ohm_vdb_provenance *prov, ohm_error *err);
 
 #endif

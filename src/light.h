@@ -30,6 +30,7 @@ typedef struct ohm_light {
     double dir[3];                  /* directional, pencil: direction light travels (unit)  */
     double intensity[OHM_MAX_CHANNELS];
     int channels;                   /* 1 (grey) or 3                                        */
+    int frame;                      /* 0: lights every frame; k >= 1: only frame k (orbits) */
 } ohm_light;
 
 typedef enum ohm_deposit {

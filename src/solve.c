@@ -98,11 +98,15 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
 {
     memset(sol, 0, sizeof *sol);
-    if (nlights == 0) return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
-    int channels = mat->channels;
-    for (size_t l = 0; l < nlights && lights; ++l)
+    if (nlights == 0 && !params->custom_source)
+        return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
+    int channels = mat->channels, frames = 1;
+    for (size_t l = 0; l < nlights && lights; ++l) {
         if (lights[l].channels > channels) channels = lights[l].channels;
+        if (lights[l].frame > frames) frames = lights[l].frame;
+    }
     sol->channels = channels;
+    sol->frames = frames;
 
     double t0 = ohm_now();
     int rc = ohm_network_build(&sol->net, grid, params->mirror_low, err);
@@ -112,36 +116,45 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     sol->n = n;
     sol->t_assemble += ohm_now() - t0;
 
+    /* Frames per batch: B and X together within the memory cap. */
+    double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
+    size_t batch = (size_t)(cap / (2.0 * sizeof(double) * (double)n));
+    if (batch < 1) batch = 1;
+    if (batch > (size_t)frames) batch = (size_t)frames;
+
     ohm_solver solver;
     rc = ohm_solver_start(&solver, err);
     if (rc) {
         ohm_solution_free(sol);
         return rc;
     }
-    double *B = malloc((size_t)n * nlights * sizeof *B);
-    double *X = malloc((size_t)n * nlights * sizeof *X);
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    double *B = malloc((size_t)n * batch * sizeof *B);
+    double *X = malloc((size_t)n * batch * sizeof *X);
     double *ga = malloc((size_t)n * sizeof *ga);
-    double *gb = malloc((size_t)(net->nfaces ? net->nfaces : 1) * sizeof *gb);
+    double *gb = malloc(nf * sizeof *gb);
+    int *face_count = calloc((size_t)n, sizeof *face_count);
     cholmod_sparse *A = NULL;
     cholmod_factor *L = NULL;
-    if (!B || !X || !ga || !gb) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", nlights,
+    if (!B || !X || !ga || !gb || !face_count) {
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
                       (long long)n);
         goto done;
     }
     for (int c = 0; c < channels; ++c) {
-        sol->fluence[c] = calloc((size_t)n, sizeof(double));
-        sol->exitance[c] = calloc((size_t)n, sizeof(double));
-        sol->face_exitance[c] = calloc((size_t)(net->nfaces ? net->nfaces : 1), sizeof(double));
+        sol->fluence[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
+        sol->exitance[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
+        sol->face_exitance[c] = calloc(nf * (size_t)frames, sizeof(double));
         if (!sol->fluence[c] || !sol->exitance[c] || !sol->face_exitance[c]) {
-            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution");
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
             goto done;
         }
     }
+    for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
 
     /* Group channels by medium: each distinct medium is assembled and
-     * factorized once, and all its channels' lights are solved with that
-     * factor.  Grey materials with grey lights have one channel. */
+     * factorized once, and all its channels' frames are solved with it.
+     * Grey materials with grey lights have one channel. */
     int cls[OHM_MAX_CHANNELS];
     for (int c = 0; c < channels; ++c) {
         cls[c] = c;
@@ -151,12 +164,6 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 break;
             }
     }
-    int *face_count = calloc((size_t)n, sizeof(int));
-    if (!face_count) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-        goto done;
-    }
-    for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
     for (int k = 0; k < channels && !rc; ++k) {
         if (cls[k] != k) continue; /* not the first channel of its class */
         ohm_channel_medium med;
@@ -187,66 +194,80 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
 
         for (int c = k; c < channels && !rc; ++c) {
             if (cls[c] != k) continue;
-            /* sources: one column per light */
-            t0 = ohm_now();
-            memset(B, 0, (size_t)n * nlights * sizeof *B);
-            if (params->custom_source && params->custom_source(params->custom_user, B, nlights, net, c))
-                rc = ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
-            for (size_t l = 0; l < nlights && !rc && !params->custom_source; ++l) {
-                ohm_source_power pw = {0, 0};
-                rc = ohm_source_add(B + (size_t)l * (size_t)n, &pw, net, &lights[l], c, &med, params->deposit, err);
-                sol->power_incident += pw.incident;
-            }
-            sol->t_source += ohm_now() - t0;
-            if (rc) break;
-            t0 = ohm_now();
-            double berr = 0;
-            int refined = 0;
-            rc = ohm_solver_solve(X, &solver, L, A, B, nlights, &berr, &refined, err);
-            if (!rc) {
-                int corrected = correct_constant_modes(sol, X, B, nlights, ga, gb, A);
-                if (corrected < 0) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-                else if (corrected > 0) {
-                    rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nlights, err);
-                    if (!rc && !(berr <= 1e-10))
-                        rc = ohm_fail(err, OHM_ERR_NUMERIC,
-                                      "solve: backward error %.3g after the constant-mode correction", berr);
+            for (size_t f0 = 0; f0 < (size_t)frames && !rc; f0 += batch) {
+                size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
+                /* sources: column j is frame f0 + j + 1 */
+                t0 = ohm_now();
+                memset(B, 0, (size_t)n * nb * sizeof *B);
+                if (params->custom_source) {
+                    if (params->custom_source(params->custom_user, B, nb, net, c))
+                        rc = ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
+                } else {
+                    for (size_t l = 0; l < nlights && !rc; ++l) {
+                        int lf = lights[l].frame;
+                        for (size_t j = 0; j < nb && !rc; ++j) {
+                            if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
+                            ohm_source_power pw = {0, 0};
+                            rc = ohm_source_add(B + j * (size_t)n, &pw, net, &lights[l], c, &med, params->deposit,
+                                                err);
+                            sol->power_incident += pw.incident;
+                        }
+                    }
                 }
-            }
-            sol->t_solve += ohm_now() - t0;
-            if (rc) break;
-            if (berr > sol->residual) sol->residual = berr;
-            sol->refined += refined;
+                sol->t_source += ohm_now() - t0;
+                if (rc) break;
+                t0 = ohm_now();
+                double berr = 0;
+                int refined = 0;
+                rc = ohm_solver_solve(X, &solver, L, A, B, nb, &berr, &refined, err);
+                if (!rc) {
+                    int corrected = correct_constant_modes(sol, X, B, nb, ga, gb, A);
+                    if (corrected < 0) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+                    else if (corrected > 0) {
+                        rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nb, err);
+                        if (!rc && !(berr <= 1e-10))
+                            rc = ohm_fail(err, OHM_ERR_NUMERIC,
+                                          "solve: backward error %.3g after the constant-mode correction", berr);
+                    }
+                }
+                sol->t_solve += ohm_now() - t0;
+                if (rc) break;
+                if (berr > sol->residual) sol->residual = berr;
+                sol->refined += refined;
+                sol->solves += (int64_t)nb;
 
-            /* sum the lights; book the power */
-            double *phi = sol->fluence[c];
-            double in = 0, absorbed = 0, out = 0;
-            for (size_t l = 0; l < nlights; ++l) {
-                const double *x = X + (size_t)l * (size_t)n, *b = B + (size_t)l * (size_t)n;
-                for (int64_t v = 0; v < n; ++v) {
-                    phi[v] += x[v];
-                    in += b[v];
-                    absorbed += ga[v] * x[v];
+                /* book the power per frame */
+                const double area = grid->h * grid->h;
+                double in = 0, absorbed = 0, out = 0;
+                for (size_t j = 0; j < nb; ++j) {
+                    size_t fr = f0 + j;
+                    const double *x = X + j * (size_t)n, *b = B + j * (size_t)n;
+                    double *phi = sol->fluence[c] + fr * (size_t)n, *ex = sol->exitance[c] + fr * (size_t)n;
+                    double *fx = sol->face_exitance[c] + fr * nf;
+                    for (int64_t v = 0; v < n; ++v) {
+                        phi[v] = x[v];
+                        in += b[v];
+                        absorbed += ga[v] * x[v];
+                    }
+                    for (int64_t f = 0; f < net->nfaces; ++f) {
+                        int64_t v = net->face_unknown[f];
+                        double p = gb[f] * x[v];
+                        out += p;
+                        fx[f] = p / area;
+                        ex[v] += p / (area * face_count[v]);
+                    }
                 }
+                sol->power_in += in;
+                sol->power_absorbed += absorbed;
+                sol->power_out += out;
+                sol->power_in_channel[c] += in;
+                sol->power_out_channel[c] += out;
             }
-            const double area = grid->h * grid->h;
-            for (int64_t f = 0; f < net->nfaces; ++f) {
-                int64_t v = net->face_unknown[f];
-                double p = gb[f] * phi[v];
-                out += p;
-                sol->face_exitance[c][f] = p / area;
-                sol->exitance[c][v] += p / (area * face_count[v]);
-            }
-            sol->power_in += in;
-            sol->power_absorbed += absorbed;
-            sol->power_out += out;
-            sol->power_in_channel[c] = in;
-            sol->power_out_channel[c] = out;
         }
     }
-    free(face_count);
 
 done:
+    free(face_count);
     ohm_factor_free(&L, &solver);
     cholmod_l_free_sparse(&A, &solver.cc);
     ohm_solver_finish(&solver);

@@ -1,8 +1,11 @@
 /* solve.h — stage: material + lights + voxel object -> fluence and exitance.
  *
- * For each distinct channel material: assemble A, factorize it (one symbolic
- * analysis shared by all channels), and solve every light of that channel as
- * one column of a multi-column right-hand side.  Power is booked per solve:
+ * Lights belong to frames (ohm_light.frame: 0 = every frame, k = frame k); a
+ * frame is one column of the right-hand side, its lights summed.  For each
+ * distinct channel material: assemble A, factorize it once (one symbolic
+ * analysis shared by all channels), and solve every frame as a column of
+ * multi-column right-hand sides (in batches when memory asks for it) — the
+ * paper's point: a change of light never refactors.  Power is booked per solve:
  * in (deposited) = absorbed (sum G_a phi) + out (sum G_b phi), exact in this
  * discretisation up to round-off (DESIGN.md §2). */
 #ifndef OHM_SOLVE_H
@@ -19,28 +22,32 @@ typedef struct ohm_solve_params {
     const char *ordering;      /* metis | amd | nesdis | best            */
     ohm_deposit deposit;
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
+    double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
     /* per-unknown coefficients (n entries per channel) for inhomogeneous
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
     const double *sigma_s[OHM_MAX_CHANNELS];
     /* Validation scenes place their own sources: when set, called once per
-     * channel instead of the lights (nlights then counts its columns, and
-     * `lights` may be NULL).  Fills b (n x ncols, zeroed) and returns 0. */
+     * channel instead of the lights (`lights` may be NULL, one frame).
+     * Fills b (n x ncols, zeroed) and returns 0. */
     int (*custom_source)(void *user, double *b, size_t ncols, const ohm_network *net, int channel);
     void *custom_user;
 } ohm_solve_params;
 
 typedef struct ohm_solution {
     int channels;
+    int frames;                         /* columns solved (1 without orbits)          */
     int64_t n;                          /* unknowns                                   */
     ohm_network net;                    /* topology (cell of each unknown, faces)     */
-    double *fluence[OHM_MAX_CHANNELS];  /* n per channel, all lights summed (W/mm^2)  */
-    double *exitance[OHM_MAX_CHANNELS]; /* n per channel: power leaving through the
-                                           cell's boundary faces per unit area, 0 for
-                                           cells with none (W/mm^2)                   */
-    double *face_exitance[OHM_MAX_CHANNELS]; /* nfaces: G_b phi / h^2 per face        */
+    /* Per channel, frame-major: value of unknown v in frame f at [f * n + v]. */
+    double *fluence[OHM_MAX_CHANNELS];  /* fluence rate phi (W/mm^2)                  */
+    double *exitance[OHM_MAX_CHANNELS]; /* power leaving through the cell's boundary
+                                           faces per unit area, 0 for cells with none */
+    double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
+                                           G_b phi / h^2 per face                     */
     /* statistics (DESIGN.md §7) */
     int factors;
+    int64_t solves;                     /* columns solved, summed over channels       */
     double nnz_A, nnz_L, flops;
     char ordering[16];
     double t_assemble, t_analyze, t_factor, t_source, t_solve;
