@@ -6,6 +6,10 @@
 #include <string.h>
 #include <strings.h>
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 #include "export_vdb.h"
 #include "ohm_vdb.h"
 #include "ohm_version.h"
@@ -142,6 +146,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     drop_solution(s);
     ohm_voxel_grid_free(&s->grid);
     s->grid = g;
+    s->mesh_flipped = rep.flipped;
     s->have_grid = 1;
     double cell_volume = g.h * g.h * g.h;
     double vol = (double)g.interior_cells * cell_volume;
@@ -246,23 +251,56 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 /* ---- light --------------------------------------------------------------------- */
 
 static const ohm_opt_spec light_opts[] = {
-    {"type", OHM_OPT_ENUM, "directional", "kind of light", "directional|point|pencil", 0, 0, 0},
-    {"pos", OHM_OPT_VEC3, NULL, "position in mm (point, pencil)", NULL, 0, 0, 0},
-    {"dir", OHM_OPT_VEC3, NULL, "direction the light travels (directional, pencil): 0,0,-1 shines down", NULL, 0,
-     0, 0},
+    {"type", OHM_OPT_ENUM, "directional", "kind of light", "directional|point|spot|area|pencil", 0, 0, 0},
+    {"pos", OHM_OPT_VEC3, NULL, "position in mm (point, spot, area centre, pencil)", NULL, 0, 0, 0},
+    {"dir", OHM_OPT_VEC3, NULL,
+     "direction the light travels (directional, spot axis, area facing, pencil): 0,0,-1 shines down", NULL, 0, 0,
+     0},
     {"intensity", OHM_OPT_REAL13, "1",
-     "directional: W/mm^2 on a face square to it; point: W/sr; pencil: W. One value or r,g,b", NULL, 0, 1e30, 0},
+     "directional: W/mm^2 on a face square to it; point, spot: W/sr; area: total W emitted; pencil: W. One value "
+     "or r,g,b",
+     NULL, 0, 1e30, 0},
+    {"angle", OHM_OPT_REAL, "30", "spot: cone half-angle, degrees", NULL, 0.01, 90, 0},
+    {"falloff", OHM_OPT_REAL, "0", "spot: soft edge inside the cone, degrees", NULL, 0, 90, 0},
+    {"shape", OHM_OPT_ENUM, "rect", "area: rectangle or disk", "rect|disk", 0, 0, 0},
+    {"width", OHM_OPT_REAL, "10", "area: width, or the disk's diameter (mm)", NULL, 1e-9, 1e9, 0},
+    {"height", OHM_OPT_REAL, "10", "area: height of the rectangle (mm)", NULL, 1e-9, 1e9, 0},
+    {"samples", OHM_OPT_INT, "64", "area: sample points (rounded down to a square)", NULL, 1, 4096, 0},
+    {"orbit", OHM_OPT_INT, "0",
+     "N > 0: N frames with the light turned about the object's centre (a .vdb sequence, one factorization)", NULL,
+     0, 100000, 0},
+    {"axis", OHM_OPT_ENUM, "y", "orbit axis through the object's centre", "x|y|z", 0, 0, 0},
     {0}};
+
+/* Rotate v about the axis (0 x, 1 y, 2 z) by angle a (right-handed). */
+static void rotate_axis(double v[3], int axis, double a)
+{
+    int p = (axis + 1) % 3, q = (axis + 2) % 3;
+    double x = v[p], y = v[q];
+    v[p] = x * cos(a) - y * sin(a);
+    v[q] = x * sin(a) + y * cos(a);
+}
 
 static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     ohm_light l;
     memset(&l, 0, sizeof l);
     const char *type = ohm_opt_str(inv, "type");
-    l.type = strcmp(type, "point") == 0 ? OHM_LIGHT_POINT
+    l.type = strcmp(type, "point") == 0    ? OHM_LIGHT_POINT
              : strcmp(type, "pencil") == 0 ? OHM_LIGHT_PENCIL
+             : strcmp(type, "spot") == 0   ? OHM_LIGHT_SPOT
+             : strcmp(type, "area") == 0   ? OHM_LIGHT_AREA
                                            : OHM_LIGHT_DIRECTIONAL;
     int need_pos = l.type != OHM_LIGHT_DIRECTIONAL, need_dir = l.type != OHM_LIGHT_POINT;
+    l.angle = ohm_opt_real(inv, "angle");
+    l.falloff = ohm_opt_real(inv, "falloff");
+    if (l.falloff > l.angle)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light falloff=%g is wider than angle=%g", inv->where, l.falloff,
+                        l.angle);
+    l.disk = strcmp(ohm_opt_str(inv, "shape"), "disk") == 0;
+    l.width = ohm_opt_real(inv, "width");
+    l.height = l.disk ? l.width : ohm_opt_real(inv, "height");
+    l.samples = (int)ohm_opt_int(inv, "samples");
     if (need_pos && !ohm_opt_given(inv, "pos"))
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", inv->where, type);
     if (need_dir && !ohm_opt_given(inv, "dir"))
@@ -275,10 +313,36 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         for (int a = 0; a < 3; ++a) l.dir[a] /= len;
     }
     l.channels = ohm_opt_real13(inv, "intensity", l.intensity);
-    ohm_light *grown = realloc(s->lights, (s->nlights + 1) * sizeof *grown);
+    int orbit = (int)ohm_opt_int(inv, "orbit");
+    size_t add = orbit > 0 ? (size_t)orbit : 1;
+    double centre[3] = {0, 0, 0};
+    if (orbit > 0) {
+        if (!s->have_mesh && !s->have_grid)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d turns about the object: -read it first",
+                            inv->where, orbit);
+        for (size_t i = 0; i < s->nlights; ++i)
+            if (s->lights[i].frame != 0)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=: only one orbiting light per run", inv->where);
+        double lo[3], hi[3];
+        ohm_mesh_bounds(&s->mesh, lo, hi);
+        for (int a = 0; a < 3; ++a) centre[a] = 0.5 * (lo[a] + hi[a]);
+    }
+    int axis = ohm_opt_str(inv, "axis")[0] - 'x';
+    ohm_light *grown = realloc(s->lights, (s->nlights + add) * sizeof *grown);
     if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
     s->lights = grown;
-    s->lights[s->nlights++] = l;
+    for (size_t k = 0; k < add; ++k) {
+        ohm_light lk = l;
+        if (orbit > 0) {
+            double angle = 2.0 * M_PI * (double)k / (double)orbit, rel[3];
+            for (int a = 0; a < 3; ++a) rel[a] = l.pos[a] - centre[a];
+            rotate_axis(rel, axis, angle);
+            for (int a = 0; a < 3; ++a) lk.pos[a] = centre[a] + rel[a];
+            rotate_axis(lk.dir, axis, angle);
+            lk.frame = (int)k + 1;
+        }
+        s->lights[s->nlights++] = lk;
+    }
     drop_solution(s);
     return OHM_OK;
 }
@@ -295,6 +359,12 @@ static const ohm_opt_spec solve_opts[] = {
      "where entering light starts to diffuse: exponential (reduced-intensity profile) | point (at depth "
      "1/sigma_t', the dipole's) | surface (first cell, the paper's)",
      "exponential|point|surface", 0, 0, 0},
+    {"shadows", OHM_OPT_ENUM, "auto",
+     "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
+     "there is one",
+     "auto|mesh|grid|none", 0, 0, 0},
+    {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
+     NULL, 1, 1e7, 0},
     {0}};
 
 static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
@@ -316,14 +386,24 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                 : OHM_DEPOSIT_EXPONENTIAL;
     p.ordering = ohm_opt_str(inv, "ordering");
+    const char *sh = ohm_opt_str(inv, "shadows");
+    p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
+                : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
+                : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
+                : s->have_mesh            ? OHM_SHADOWS_MESH
+                                          : OHM_SHADOWS_GRID;
+    p.mesh = s->have_mesh ? &s->mesh : NULL;
+    p.orientation = s->mesh_flipped ? -1 : 1;
+    p.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
     drop_solution(s);
     double t0 = ohm_now();
     int rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
     if (rc) return rc;
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
-    snprintf(s->solution_desc, sizeof s->solution_desc, "boundary=%s deposit=%s lights=%zu ordering=%s", bname,
-             dname, s->nlights, sol->ordering);
+    snprintf(s->solution_desc, sizeof s->solution_desc,
+             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d ordering=%s", bname, dname,
+             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->ordering);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -337,6 +417,11 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_int(st, "channels", sol->channels);
     ohm_stats_set_int(st, "factors", sol->factors);
     ohm_stats_set_int(st, "lights", (long long)s->nlights);
+    ohm_stats_set_int(st, "frames", sol->frames);
+    ohm_stats_set_int(st, "solves", (long long)sol->solves);
+    ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.shadows));
+    ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
+    ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
     ohm_stats_set_str(st, "boundary", bname);
     ohm_stats_set_str(st, "deposit", dname);
     ohm_stats_set_str(st, "ordering", sol->ordering);

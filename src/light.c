@@ -1,7 +1,12 @@
 #include "light.h"
 
 #include <math.h>
+#include <stdlib.h>
 #include <string.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
 
 /* Signed distance at a cell (negative inside); NaN when unknown. */
 static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
@@ -175,8 +180,66 @@ static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], co
     }
 }
 
+/* An orthonormal basis (u, v) of the plane perpendicular to unit vector n. */
+static void plane_basis(const double n[3], double u[3], double v[3])
+{
+    double up[3] = {0, 1, 0};
+    if (fabs(n[1]) > 0.9) up[0] = 1, up[1] = 0;
+    u[0] = up[1] * n[2] - up[2] * n[1];
+    u[1] = up[2] * n[0] - up[0] * n[2];
+    u[2] = up[0] * n[1] - up[1] * n[0];
+    double len = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int a = 0; a < 3; ++a) u[a] /= len;
+    v[0] = n[1] * u[2] - n[2] * u[1];
+    v[1] = n[2] * u[0] - n[0] * u[2];
+    v[2] = n[0] * u[1] - n[1] * u[0];
+}
+
+/* Sample points of an area light: a stratified k x k grid over the
+ * rectangle (or over the disk's square, mapped concentrically so every
+ * sample covers equal area: Shirley & Chiu 1997). */
+static int area_samples(const ohm_light *light, double (*pts)[3], int max)
+{
+    int k = (int)floor(sqrt((double)(light->samples > 0 ? light->samples : 64)));
+    if (k < 1) k = 1;
+    if (k * k > max) k = (int)floor(sqrt((double)max));
+    double u[3], v[3];
+    plane_basis(light->dir, u, v);
+    int n = 0;
+    for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+            double a = 2.0 * (i + 0.5) / k - 1.0, b = 2.0 * (j + 0.5) / k - 1.0, x, y;
+            if (light->disk) {
+                double r, phi, R = 0.5 * light->width;
+                if (fabs(a) > fabs(b)) r = a, phi = (M_PI / 4) * (b / a);
+                else r = b, phi = (M_PI / 2) - (M_PI / 4) * (a / b);
+                x = R * r * cos(phi);
+                y = R * r * sin(phi);
+            } else {
+                x = 0.5 * light->width * a;
+                y = 0.5 * light->height * b;
+            }
+            for (int c = 0; c < 3; ++c) pts[n][c] = light->pos[c] + x * u[c] + y * v[c];
+            ++n;
+        }
+    return n;
+}
+
+/* Spot cone: 1 inside angle - falloff, 0 outside angle, smoothstep between. */
+static double spot_factor(const ohm_light *light, const double to_face[3])
+{
+    double c = to_face[0] * light->dir[0] + to_face[1] * light->dir[1] + to_face[2] * light->dir[2];
+    double outer = cos(light->angle * M_PI / 180.0), inner = cos((light->angle - light->falloff) * M_PI / 180.0);
+    if (c >= inner) return 1.0;
+    if (c <= outer) return 0.0;
+    double t = (c - outer) / (inner - outer);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+enum { AREA_MAX_SAMPLES = 4096 };
+
 int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
-                   const ohm_channel_medium *med, ohm_deposit deposit, ohm_error *err)
+                   const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_voxel_grid *g = net->grid;
     double I = light->intensity[light->channels == 1 ? 0 : c];
@@ -192,33 +255,69 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
         return OHM_OK;
     }
+    /* emitters: one for directional / point / spot, many for an area light */
+    double one_point[1][3];
+    double (*pts)[3] = one_point;
+    int npts = 1;
+    double I_each = I;
+    if (light->type == OHM_LIGHT_AREA) {
+        pts = malloc(AREA_MAX_SAMPLES * sizeof *pts);
+        if (!pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
+        npts = area_samples(light, pts, AREA_MAX_SAMPLES);
+        /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
+        I_each = I / (M_PI * npts);
+    } else {
+        memcpy(pts[0], light->pos, sizeof pts[0]);
+    }
     const double area = g->h * g->h;
     for (int64_t f = 0; f < net->nfaces; ++f) {
         int d = net->face_dir[f];
-        double l[3], scale = 1.0;
-        if (light->type == OHM_LIGHT_DIRECTIONAL) {
-            for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
-        } else {
-            double p[3], dist2 = 0;
-            face_centre(net, f, p);
-            for (int a = 0; a < 3; ++a) {
-                l[a] = light->pos[a] - p[a];
-                dist2 += l[a] * l[a];
+        double p[3];
+        face_centre(net, f, p);
+        int32_t cell[3];
+        ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
+        double E = 0.0, l_mean[3] = {0, 0, 0};
+        for (int k = 0; k < npts; ++k) {
+            double l[3], scale = 1.0, dist = INFINITY;
+            if (light->type == OHM_LIGHT_DIRECTIONAL) {
+                for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
+            } else {
+                double dist2 = 0;
+                for (int a = 0; a < 3; ++a) {
+                    l[a] = pts[k][a] - p[a];
+                    dist2 += l[a] * l[a];
+                }
+                if (!(dist2 > 0)) continue;
+                dist = sqrt(dist2);
+                for (int a = 0; a < 3; ++a) l[a] /= dist;
+                scale = 1.0 / dist2;
             }
-            if (!(dist2 > 0)) continue;
-            double inv = 1.0 / sqrt(dist2);
-            for (int a = 0; a < 3; ++a) l[a] *= inv;
-            scale = 1.0 / dist2;
+            double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
+            if (cos_face <= 0) continue; /* faces turned away: skipped, no ray */
+            double emit = 1.0;
+            if (light->type == OHM_LIGHT_SPOT) {
+                double to_face[3] = {-l[0], -l[1], -l[2]};
+                emit = spot_factor(light, to_face);
+            } else if (light->type == OHM_LIGHT_AREA) {
+                emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]); /* cos at the emitter */
+            }
+            if (emit <= 0) continue;
+            double vis = ohm_face_visibility(occ, cell, d, l, dist);
+            if (vis <= 0) continue;
+            double e = (light->type == OHM_LIGHT_AREA ? I_each : I) * emit * cos_face * scale * vis;
+            E += e;
+            for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
         }
-        double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
-        if (cos_face <= 0) continue; /* faces turned away: skipped, no work */
-        double E = I * cos_face * scale;
+        if (!(E > 0)) continue;
+        /* Fresnel at the smooth normal, for the irradiance-weighted direction */
+        double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
         double ns[3];
         ohm_surface_normal(net, f, ns);
-        double cos_i = ns[0] * l[0] + ns[1] * l[1] + ns[2] * l[2];
+        double cos_i = (ns[0] * l_mean[0] + ns[1] * l_mean[1] + ns[2] * l_mean[2]) / len;
         double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
         pw->incident += E * area;
         if (T > 0) pw->deposited += ohm_source_deposit_face(b, net, f, T * E * area, med, deposit);
     }
+    if (pts != one_point) free(pts);
     return OHM_OK;
 }

@@ -17,11 +17,14 @@
 #include "material.h"
 #include "network.h"
 #include "ohm_error.h"
+#include "shadow.h"
 
 typedef enum ohm_light_type {
     OHM_LIGHT_DIRECTIONAL = 0, /* intensity: irradiance (W/mm^2) on a face square to the light */
     OHM_LIGHT_POINT = 1,       /* intensity: W/sr                                              */
-    OHM_LIGHT_PENCIL = 2       /* intensity: beam power (W), entering at one surface point     */
+    OHM_LIGHT_PENCIL = 2,      /* intensity: beam power (W), entering at one surface point     */
+    OHM_LIGHT_SPOT = 3,        /* intensity: W/sr on the axis dir, inside the cone              */
+    OHM_LIGHT_AREA = 4         /* intensity: total power (W) of a one-sided Lambertian emitter  */
 } ohm_light_type;
 
 typedef struct ohm_light {
@@ -31,6 +34,10 @@ typedef struct ohm_light {
     double intensity[OHM_MAX_CHANNELS];
     int channels;                   /* 1 (grey) or 3                                        */
     int frame;                      /* 0: lights every frame; k >= 1: only frame k (orbits) */
+    double angle, falloff;          /* spot: cone half-angle and soft edge inside it (deg)  */
+    int disk;                       /* area: a disk of radius width/2, else a rectangle     */
+    double width, height;           /* area: size (mm), centred on pos, facing dir          */
+    int samples;                    /* area: sample points (stratified); 0 means 64         */
 } ohm_light;
 
 typedef enum ohm_deposit {
@@ -44,9 +51,10 @@ typedef struct ohm_source_power {
     double deposited;  /* put into b: the scattered part (W)        */
 } ohm_source_power;
 
-/* Add light's contribution for channel c to b (n entries, not cleared). */
+/* Add light's contribution for channel c to b (n entries, not cleared).
+ * occ (NULL: no shadows) decides which faces see the light. */
 int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
-                   const ohm_channel_medium *med, ohm_deposit deposit, ohm_error *err);
+                   const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err);
 
 /* Deposit power P entering through boundary face f (used by ohm_source_add and
  * by validation scenes that place a beam themselves).  Returns what went in. */

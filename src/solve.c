@@ -122,9 +122,18 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     if (batch < 1) batch = 1;
     if (batch > (size_t)frames) batch = (size_t)frames;
 
+    ohm_occluder *occ = NULL;
+    t0 = ohm_now();
+    rc = ohm_occluder_create(&occ, params->shadows, grid, params->mesh, params->orientation, err);
+    sol->t_shadow_setup = ohm_now() - t0;
+    if (rc) {
+        ohm_solution_free(sol);
+        return rc;
+    }
     ohm_solver solver;
     rc = ohm_solver_start(&solver, err);
     if (rc) {
+        ohm_occluder_free(occ);
         ohm_solution_free(sol);
         return rc;
     }
@@ -209,7 +218,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                             if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
                             ohm_source_power pw = {0, 0};
                             rc = ohm_source_add(B + j * (size_t)n, &pw, net, &lights[l], c, &med, params->deposit,
-                                                err);
+                                                occ, err);
                             sol->power_incident += pw.incident;
                         }
                     }
@@ -267,6 +276,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     }
 
 done:
+    ohm_occluder_free(occ);
     free(face_count);
     ohm_factor_free(&L, &solver);
     cholmod_l_free_sparse(&A, &solver.cc);

@@ -23,6 +23,9 @@ typedef struct ohm_solve_params {
     ohm_deposit deposit;
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
+    ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
+    const ohm_mesh *mesh;      /* for shadows=mesh                       */
+    int orientation;           /* +1, or -1 for an inside-out mesh       */
     /* per-unknown coefficients (n entries per channel) for inhomogeneous
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
@@ -51,6 +54,7 @@ typedef struct ohm_solution {
     double nnz_A, nnz_L, flops;
     char ordering[16];
     double t_assemble, t_analyze, t_factor, t_source, t_solve;
+    double t_shadow_setup;              /* building the occluder (Embree BVH)         */
     double residual;                    /* largest scaled backward error              */
     int refined;                        /* solves that took a refinement step         */
     int64_t mode_corrections;           /* near-singular pieces whose constant mode was

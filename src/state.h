@@ -24,6 +24,7 @@ typedef struct ohm_state {
 
     int have_grid;
     ohm_voxel_grid grid;
+    int mesh_flipped;               /* the voxelizer read the mesh inside-out  */
 
     int have_material;
     ohm_material material;

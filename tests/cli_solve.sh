@@ -99,6 +99,35 @@ L = {o: json.load(open('$T/o_%s.json' % o)) for o in ('metis', 'amd', 'best')}
 assert L['best']['nnz_L'] == min(L['metis']['nnz_L'], L['amd']['nnz_L']), L
 assert L['best']['ordering'] in ('metis', 'amd')"
 
+# relighting: a 16-frame orbit is one factorization per distinct channel and a
+# numbered .vdb sequence
+expect_exit 0 "orbit" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 -material preset=skin1 \
+  -light type=point pos=0,30,60 intensity=1000 orbit=16 -solve -write file="$T/orbit.vdb" -stats file="$T/orbit.json"
+check "orbit: 16 files" test "$(ls "$T"/orbit_00*.vdb | wc -l)" = 16
+check "orbit: stats" $PY -c "
+import json; s = json.load(open('$T/orbit.json'))
+assert s['frames'] == 16 and s['factors'] == 3 and s['solves'] == 48, s
+assert s['t_update_per_frame'] > 0 and s['shadows'] == 'mesh', s"
+check "orbit: frames differ, first and ninth opposite" $PY - "$T" <<'PY'
+import sys, pyopenvdb as vdb
+def total(k):
+    g = [x for x in vdb.readAll('%s/orbit_%04d.vdb' % (sys.argv[1], k))[0] if x.name == 'exitance_r'][0]
+    lo, hi = g.evalActiveVoxelBoundingBox()
+    xs = [(it.min[0], it.value) for it in g.citerOnValues()]
+    mid = (lo[0] + hi[0]) / 2
+    return sum(v for x, v in xs if x > mid), sum(v for x, v in xs if x <= mid)
+a, b = total(5), total(13)   # the light at +x, then at -x
+assert a[0] > a[1] and b[1] > b[0], (a, b)
+PY
+# spot and area lights, shadows by grid, a second orbit rejected
+expect_exit 0 "spot + area" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=marble \
+  -light type=spot pos=0,60,0 dir=0,-1,0 angle=25 falloff=5 -light type=area pos=0,0,60 dir=0,0,-1 shape=disk width=20 samples=16 \
+  -solve shadows=grid
+expect_exit 2 "two orbits" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -light type=point pos=0,1,9 orbit=4 \
+  -light type=point pos=0,1,9 orbit=4
+expect_error_line "two orbits" "only one orbiting light"
+expect_exit 2 "falloff wider than the cone" -- "$OHM" -light type=spot pos=0,1,0 dir=0,-1,0 angle=10 falloff=20
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'
