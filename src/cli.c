@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "ohm_version.h"
+#include "bench.h"
 #include "pipeline.h"
 #include "validate.h"
 
@@ -53,6 +54,7 @@ int ohm_cli_main(int argc, char **argv)
         printf("ohm %s\n", OHM_VERSION);
         return 0;
     }
+    if (strcmp(cmd, "bench") == 0) return ohm_bench_main(argc - first - 1, argv + first + 1);
     if (strcmp(cmd, "validate") == 0) {
         /* the solver against exact references; the table goes to stdout.
          * `ohm validate figure1 FILE.csv`: the paper's Figure 1 profiles. */
@@ -91,8 +93,8 @@ int ohm_cli_main(int argc, char **argv)
         }
         rc = ohm_chain_parse_file(&chain, argv[first + 1], &err);
     } else if (cmd[0] != '-') {
-        const char *cmds[] = {"help", "run", "version", "validate"};
-        const char *s = ohm_suggest(cmd, cmds, 4);
+        const char *cmds[] = {"help", "run", "version", "validate", "bench"};
+        const char *s = ohm_suggest(cmd, cmds, 5);
         if (!s && ohm_action_find(cmd)) {
             fprintf(stderr, "ohm: error: unknown command '%s'; actions start with '-': did you mean '-%s'?\n", cmd, cmd);
             return 2;

@@ -350,6 +350,31 @@ static void distance_band(ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *l
 enum { BLOCK = 4 };
 static const double FILL_MARGIN = 0.25; /* corners must agree beyond 1/2 +- this */
 
+/* Cubic voxel size that fits the box lo..hi into fit[] cells, the largest
+ * count on the longest axis (both sorted, ties in axis order): the largest
+ * extent / count over the axes, so no axis needs more cells than it is given. */
+static double fit_voxel_size(const double lo[3], const double hi[3], const int fit[3])
+{
+    int axis[3] = {0, 1, 2};
+    int count[3] = {fit[0], fit[1], fit[2]};
+    for (int a = 0; a < 3; ++a)
+        for (int b = a + 1; b < 3; ++b) {
+            if (hi[axis[b]] - lo[axis[b]] > hi[axis[a]] - lo[axis[a]]) {
+                int t = axis[a];
+                axis[a] = axis[b];
+                axis[b] = t;
+            }
+            if (count[b] > count[a]) {
+                int t = count[a];
+                count[a] = count[b];
+                count[b] = t;
+            }
+        }
+    double h = 0.0;
+    for (int r = 0; r < 3; ++r) h = fmax(h, (hi[axis[r]] - lo[axis[r]]) / count[r]);
+    return h;
+}
+
 int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mesh *mesh,
                  const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
 {
@@ -369,7 +394,13 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
 
     double h;
-    if (params->dim > 0) {
+    int fitted = params->fit[0] > 0 || params->fit[1] > 0 || params->fit[2] > 0;
+    if (fitted) {
+        if (!(params->fit[0] > 0 && params->fit[1] > 0 && params->fit[2] > 0))
+            return ohm_fail(err, OHM_ERR_USAGE, "voxelize: fit needs three positive cell counts, got %d x %d x %d",
+                            params->fit[0], params->fit[1], params->fit[2]);
+        h = fit_voxel_size(lo, hi, params->fit);
+    } else if (params->dim > 0) {
         h = extent / params->dim;
     } else if (params->voxel > 0 && isfinite(params->voxel)) {
         h = params->voxel;

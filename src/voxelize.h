@@ -39,6 +39,13 @@ typedef struct ohm_voxelize_params {
     double voxel;     /* voxel size in mm (used when dim == 0)                 */
     int band_voxels;  /* narrow-band half width in voxels; 0 means 3           */
     double max_cells; /* refuse a dense grid larger than this; 0 means 2^31    */
+    /* Fit the bounding box into fit[0] x fit[1] x fit[2] cells (all three > 0;
+     * all zero = unused, and then dim/voxel decide).  Voxels stay cubic: the
+     * largest count goes to the longest axis, the next to the next, and
+     * h = max over axes of extent / count, so every axis fits — the paper's
+     * "cube of cells around the model" at its grid sizes (8x8x4 ... 64x64x32).
+     * Takes precedence over dim and voxel; the margin is added as usual. */
+    int fit[3];
 } ohm_voxelize_params;
 
 /* What the voxelizer found and did, for the log and the stats. */

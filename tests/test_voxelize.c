@@ -230,8 +230,75 @@ static void cube_exact(void)
     ohm_mesh_free(&m);
 }
 
+/* fit: the paper's grid sizes.  Cubic voxels, the largest count on the
+ * longest axis, every axis within its count and one of them exactly at it;
+ * the margin comes on top as with dim=.  A partial fit is a usage error. */
+static void fit_grid(const char *path)
+{
+    ohm_mesh m;
+    if (load(&m, path)) return;
+    double lo[3], hi[3];
+    ohm_mesh_bounds(&m, lo, hi);
+    const int fits[][3] = {{8, 8, 4}, {64, 64, 32}, {32, 16, 32}, {5, 7, 3}};
+    for (size_t t = 0; t < sizeof fits / sizeof *fits; ++t) {
+        ohm_error err;
+        ohm_error_clear(&err);
+        ohm_voxelize_params p = {0};
+        memcpy(p.fit, fits[t], sizeof p.fit);
+        ohm_voxel_grid g;
+        ohm_voxelize_report rep;
+        int rc = ohm_voxelize(&g, &rep, &m, &p, &quiet, &err);
+        CHECK_MSG(rc == 0, "fit: %s", err.msg);
+        if (rc) continue;
+        /* the counts and the extents, both sorted descending */
+        int cnt[3] = {fits[t][0], fits[t][1], fits[t][2]};
+        double ext[3] = {hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]};
+        int core[3], margin = 2 * (3 + 1);
+        for (int d = 0; d < 3; ++d) core[d] = g.dims[d] - margin;
+        int ax[3] = {0, 1, 2};
+        for (int a = 0; a < 3; ++a)
+            for (int b = a + 1; b < 3; ++b) {
+                if (cnt[b] > cnt[a]) {
+                    int x = cnt[a];
+                    cnt[a] = cnt[b];
+                    cnt[b] = x;
+                }
+                if (ext[ax[b]] > ext[ax[a]]) {
+                    int x = ax[a];
+                    ax[a] = ax[b];
+                    ax[b] = x;
+                }
+            }
+        int exact = 0;
+        double want_h = 0;
+        for (int r = 0; r < 3; ++r) {
+            CHECK_MSG(core[ax[r]] <= cnt[r], "%s fit %dx%dx%d: axis %d has %d cells > %d", path, fits[t][0],
+                      fits[t][1], fits[t][2], ax[r], core[ax[r]], cnt[r]);
+            exact |= core[ax[r]] == cnt[r];
+            want_h = fmax(want_h, ext[ax[r]] / cnt[r]);
+        }
+        CHECK_MSG(exact, "%s fit %dx%dx%d: no axis uses its full count", path, fits[t][0], fits[t][1], fits[t][2]);
+        CHECK_REL(g.h, want_h, 1e-12);
+        CHECK(g.interior_cells > 0);
+        ohm_voxel_grid_free(&g);
+    }
+    /* fit wins over dim; a partial fit is refused */
+    ohm_error err;
+    ohm_error_clear(&err);
+    ohm_voxelize_params p = {0};
+    p.dim = 100;
+    p.fit[0] = 8, p.fit[1] = 8;
+    ohm_voxel_grid g;
+    ohm_voxelize_report rep;
+    CHECK(ohm_voxelize(&g, &rep, &m, &p, &quiet, &err) == OHM_ERR_USAGE);
+    CHECK(strstr(err.msg, "fit") != NULL);
+    ohm_mesh_free(&m);
+}
+
 int main(void)
 {
+    fit_grid("samples/spot.obj");
+    fit_grid("samples/cow.obj");
     cube_exact();
     winding_accuracy("samples/spot.obj");
     winding_accuracy("samples/teapot.obj");
