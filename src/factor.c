@@ -97,10 +97,11 @@ int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, o
 int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, double *t, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
-    *L = NULL;
     if (!s->symbolic) return ohm_fail(err, OHM_ERR_INTERNAL, "factorize before analyze");
-    cholmod_factor *F = cholmod_l_copy_factor(s->symbolic, cc);
+    cholmod_factor *F = *L ? *L : cholmod_l_copy_factor(s->symbolic, cc);
+    *L = NULL;
     if (!F) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory copying the symbolic factor");
+    s->norm_A = cholmod_l_norm_sparse(A, 0, cc); /* for every solve's backward error */
     double t0 = ohm_now();
     int ok = cholmod_l_factorize(A, F, cc);
     if (t) *t = ohm_now() - t0;
@@ -192,7 +193,7 @@ int ohm_solver_solve(double *Xout, ohm_solver *s, cholmod_factor *L, cholmod_spa
         rc = ohm_fail(err, OHM_ERR_NOMEM, "CHOLMOD solve failed (status %d)", cc->status);
         goto done;
     }
-    double normA = cholmod_l_norm_sparse(A, 0, cc);
+    double normA = s->norm_A > 0 ? s->norm_A : cholmod_l_norm_sparse(A, 0, cc);
     double e = backward_error(B, X, R, normA);
     if (!(e <= BERR_REFINE)) {
         /* one step of iterative refinement: x += A^-1 (b - A x) */

@@ -25,6 +25,7 @@ typedef struct ohm_solver {
     double nnz_L;               /* entries of L (from the analysis)             */
     double flops;               /* floating-point operations of one factorization */
     double nnz_A;               /* entries of A (upper triangle)                */
+    double norm_A;              /* ||A||_inf of the last factorized matrix      */
 } ohm_solver;
 
 int ohm_solver_start(ohm_solver *s, ohm_error *err);
@@ -34,7 +35,9 @@ void ohm_solver_finish(ohm_solver *s); /* frees everything; fine on a zeroed sol
  * one with the smaller factor). */
 int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, ohm_error *err);
 
-/* Numeric factor of A (same pattern as analysed) into a new *L; t: seconds. */
+/* Numeric factor of A (same pattern as analysed): into *L when it holds an
+ * earlier factor of this analysis (refactorized in place), else into a new
+ * copy of the symbolic factor.  t: seconds.  On failure *L is freed. */
 int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, double *t, ohm_error *err);
 
 /* Solve A X = B for ncols columns (column-major, n rows each).  *berr gets the

@@ -238,34 +238,21 @@ static double spot_factor(const ohm_light *light, const double to_face[3])
 
 enum { AREA_MAX_SAMPLES = 4096 };
 
-int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
-                   const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err)
+int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
+                          const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_voxel_grid *g = net->grid;
-    double I = light->intensity[light->channels == 1 ? 0 : c];
-    double eta = med->resistance_mode ? 1.0 : med->eta;
-    if (light->type == OHM_LIGHT_PENCIL) {
-        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
-        if (f < 0) return (int)f;
-        double ns[3];
-        ohm_surface_normal(net, f, ns);
-        double cos_i = -(ns[0] * light->dir[0] + ns[1] * light->dir[1] + ns[2] * light->dir[2]);
-        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
-        pw->incident += I;
-        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
-        return OHM_OK;
-    }
     /* emitters: one for directional / point / spot, many for an area light */
     double one_point[1][3];
     double (*pts)[3] = one_point;
     int npts = 1;
-    double I_each = I;
+    double scale_each = 1.0;
     if (light->type == OHM_LIGHT_AREA) {
         pts = malloc(AREA_MAX_SAMPLES * sizeof *pts);
         if (!pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
         npts = area_samples(light, pts, AREA_MAX_SAMPLES);
         /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
-        I_each = I / (M_PI * npts);
+        scale_each = 1.0 / (M_PI * npts);
     } else {
         memcpy(pts[0], light->pos, sizeof pts[0]);
     }
@@ -276,7 +263,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         face_centre(net, f, p);
         int32_t cell[3];
         ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
-        double E = 0.0, l_mean[3] = {0, 0, 0};
+        double E = 0.0, l_mean[3] = {0, 0, 0}; /* irradiance per unit intensity */
         for (int k = 0; k < npts; ++k) {
             double l[3], scale = 1.0, dist = INFINITY;
             if (light->type == OHM_LIGHT_DIRECTIONAL) {
@@ -299,12 +286,12 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
                 double to_face[3] = {-l[0], -l[1], -l[2]};
                 emit = spot_factor(light, to_face);
             } else if (light->type == OHM_LIGHT_AREA) {
-                emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]); /* cos at the emitter */
+                emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]) * scale_each;
             }
             if (emit <= 0) continue;
             double vis = ohm_face_visibility(occ, cell, d, l, dist);
             if (vis <= 0) continue;
-            double e = (light->type == OHM_LIGHT_AREA ? I_each : I) * emit * cos_face * scale * vis;
+            double e = emit * cos_face * scale * vis;
             E += e;
             for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
         }
@@ -315,9 +302,58 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         ohm_surface_normal(net, f, ns);
         double cos_i = (ns[0] * l_mean[0] + ns[1] * l_mean[1] + ns[2] * l_mean[2]) / len;
         double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
-        pw->incident += E * area;
-        if (T > 0) pw->deposited += ohm_source_deposit_face(b, net, f, T * E * area, med, deposit);
+        for (int c = 0; c < channels; ++c) {
+            double I = light->intensity[light->channels == 1 ? 0 : c];
+            arrive[c][f] += I * E * area;
+            enter[c][f] += I * T * E * area;
+        }
     }
     if (pts != one_point) free(pts);
     return OHM_OK;
+}
+
+double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
+                                ohm_deposit deposit)
+{
+    double put = 0;
+    for (int64_t f = 0; f < net->nfaces; ++f)
+        if (enter[f] > 0) put += ohm_source_deposit_face(b, net, f, enter[f], med, deposit);
+    return put;
+}
+
+int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
+                   const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err)
+{
+    double I = light->intensity[light->channels == 1 ? 0 : c];
+    double eta = med->resistance_mode ? 1.0 : med->eta;
+    if (light->type == OHM_LIGHT_PENCIL) {
+        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
+        if (f < 0) return (int)f;
+        double ns[3];
+        ohm_surface_normal(net, f, ns);
+        double cos_i = -(ns[0] * light->dir[0] + ns[1] * light->dir[1] + ns[2] * light->dir[2]);
+        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+        pw->incident += I;
+        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
+        return OHM_OK;
+    }
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    double *enter = calloc(nf, sizeof *enter), *arrive = calloc(nf, sizeof *arrive);
+    if (!enter || !arrive) {
+        free(enter);
+        free(arrive);
+        return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory");
+    }
+    /* one channel: pass the light's intensity for c through a copy */
+    ohm_light one = *light;
+    one.channels = 1;
+    one.intensity[0] = I;
+    int rc = ohm_light_face_powers(&enter, &arrive, 1, net, &one, eta, occ, err);
+    if (!rc) {
+        for (int64_t f = 0; f < net->nfaces; ++f) pw->incident += arrive[f];
+        pw->deposited += ohm_source_deposit_faces(b, net, enter, med, deposit);
+    }
+    free(enter);
+    free(arrive);
+    return rc;
 }

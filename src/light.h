@@ -56,6 +56,19 @@ typedef struct ohm_source_power {
 int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
                    const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err);
 
+/* The channel-independent half of ohm_source_add, for every light but a
+ * pencil beam: trace the shadow rays once and ADD, per channel c < channels,
+ * the power arriving on each boundary face (arrive[c][f], W, before Fresnel)
+ * and the power entering it (enter[c][f], after Fresnel at relative index
+ * eta).  ohm_solve computes this once per frame and reuses it for every
+ * channel: visibility does not depend on the colour. */
+int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
+                          const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err);
+
+/* Deposit per-face entering powers (nfaces) into b; returns the total deposited. */
+double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
+                                ohm_deposit deposit);
+
 /* Deposit power P entering through boundary face f (used by ohm_source_add and
  * by validation scenes that place a beam themselves).  Returns what went in. */
 double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,

@@ -161,6 +161,38 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     }
     for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
 
+    /* Shadow rays and Fresnel do not depend on the channel: trace every
+     * frame's lights once, keep the per-face powers for all channels (when
+     * they fit in the batch budget), deposit them per channel below. */
+    double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
+    int cached = 0;
+    const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
+    if (!params->custom_source &&
+        2.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
+        cached = 1;
+        for (int c = 0; c < channels && cached; ++c) {
+            fp_enter[c] = calloc(nf * (size_t)frames, sizeof(double));
+            fp_arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
+            if (!fp_enter[c] || !fp_arrive[c]) cached = 0; /* fall back to tracing per channel */
+        }
+        t0 = ohm_now();
+        double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
+        for (int fr = 0; fr < frames && cached && !rc; ++fr) {
+            double *en[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
+            for (int c = 0; c < channels; ++c) {
+                en[c] = fp_enter[c] + (size_t)fr * nf;
+                ar[c] = fp_arrive[c] + (size_t)fr * nf;
+            }
+            for (size_t l = 0; l < nlights && !rc; ++l) {
+                if (lights[l].type == OHM_LIGHT_PENCIL) continue;
+                if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
+                rc = ohm_light_face_powers(en, ar, channels, net, &lights[l], eta, occ, err);
+            }
+        }
+        sol->t_source += ohm_now() - t0;
+        if (rc) goto done;
+    }
+
     /* Group channels by medium: each distinct medium is assembled and
      * factorized once, and all its channels' frames are solved with it.
      * Grey materials with grey lights have one channel. */
@@ -194,7 +226,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             snprintf(sol->ordering, sizeof sol->ordering, "%s", solver.ordering);
         }
         double tf = 0;
-        ohm_factor_free(&L, &solver);
+        /* the next channel refactorizes into the same L: same pattern, and
+         * its memory is already mapped */
         rc = ohm_solver_factorize(&L, &solver, A, &tf, err);
         if (rc) break;
         sol->t_factor += tf;
@@ -212,8 +245,14 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                     if (params->custom_source(params->custom_user, B, nb, net, c))
                         rc = ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
                 } else {
+                    for (size_t j = 0; j < nb && cached; ++j) {
+                        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
+                        ohm_source_deposit_faces(B + j * (size_t)n, net, en, &med, params->deposit);
+                        for (int64_t f = 0; f < net->nfaces; ++f) sol->power_incident += ar[f];
+                    }
                     for (size_t l = 0; l < nlights && !rc; ++l) {
                         int lf = lights[l].frame;
+                        if (cached && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced above */
                         for (size_t j = 0; j < nb && !rc; ++j) {
                             if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
                             ohm_source_power pw = {0, 0};
@@ -276,6 +315,10 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     }
 
 done:
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(fp_enter[c]);
+        free(fp_arrive[c]);
+    }
     ohm_occluder_free(occ);
     free(face_count);
     ohm_factor_free(&L, &solver);
