@@ -201,22 +201,29 @@ typedef struct beam_source {
     int columns;    /* 4: quarter domain, 1 x 1 corner column */
 } beam_source;
 
-/* Corner column of the quarter domain; depth z0 split linearly between the
- * two cell centres around it (the deposit=point rule of light.c). */
+/* Power P at depth z0 below the z = 0 face of column (i, j) (1-based, the
+ * surface layer is k = 1): split linearly between the two cell centres around
+ * z0, the deposit=point rule of light.c. */
+static int deposit_at_depth(double *b, const ohm_network *net, int i, int j, double z0, double P)
+{
+    const ohm_voxel_grid *g = net->grid;
+    double s = z0 / g->h - 0.5;
+    int m = s <= 0 ? 0 : (int)floor(s);
+    double frac = s <= 0 ? 0 : s - m;
+    int64_t u0 = net->unknown[ohm_voxel_index(g, i, j, 1 + m)], u1 = net->unknown[ohm_voxel_index(g, i, j, 2 + m)];
+    if (u0 < 0 || u1 < 0) return -1;
+    b[u0] += P * (1 - frac);
+    b[u1] += P * frac;
+    return 0;
+}
+
+/* The beam's corner column of the quarter domain. */
 static int src_beam(void *user, double *b, size_t ncols, const ohm_network *net, int c)
 {
     (void)ncols;
     (void)c;
     const beam_source *bs = user;
-    const ohm_voxel_grid *g = net->grid;
-    double s = bs->z0 / g->h - 0.5;
-    int m = (int)floor(s);
-    double frac = s - m;
-    int64_t u0 = net->unknown[ohm_voxel_index(g, 1, 1, 1 + m)], u1 = net->unknown[ohm_voxel_index(g, 1, 1, 2 + m)];
-    if (u0 < 0 || u1 < 0) return -1;
-    b[u0] += bs->P / bs->columns * (1 - frac);
-    b[u1] += bs->P / bs->columns * frac;
-    return 0;
+    return deposit_at_depth(b, net, 1, 1, bs->z0, bs->P / bs->columns);
 }
 
 static int halfspace_run(ohm_solution *sol, ohm_voxel_grid *g, double h, double L, double depth, ohm_boundary bnd,
@@ -483,17 +490,13 @@ static int src_lit_square(void *user, double *b, size_t ncols, const ohm_network
     (void)c;
     const fig1_slab *fs = user;
     const ohm_voxel_grid *g = net->grid;
-    double s = fs->z0 / fs->h - 0.5;
-    int m = s <= 0 ? 0 : (int)floor(s);
-    double frac = s <= 0 ? 0 : s - m;
     double lo = (FIG1_N - FIG1_STEP) / 2.0, hi = lo + FIG1_STEP; /* mm */
     for (int j = 1; j < g->dims[1] - 1; ++j)
         for (int i = 1; i < g->dims[0] - 1; ++i) {
             double x = (i - 0.5) * fs->h, y = (j - 0.5) * fs->h;
             if (x < lo || x > hi || y < lo || y > hi) continue;
-            double P = fs->h * fs->h; /* unit irradiance on the cell's face */
-            b[net->unknown[ohm_voxel_index(g, i, j, 1 + m)]] += P * (1 - frac);
-            b[net->unknown[ohm_voxel_index(g, i, j, 2 + m)]] += P * frac;
+            /* unit irradiance on the cell's face */
+            if (deposit_at_depth(b, net, i, j, fs->z0, fs->h * fs->h)) return -1;
         }
     return 0;
 }
