@@ -13,9 +13,10 @@ mkdir -p out
 
 echo
 echo "ohm demo: wrote"
-for f in out/spot.vdb out/spot.json; do
+for f in out/spot.vdb out/spot.json out/spot.png; do
   [ -f "$f" ] && echo "  $PWD/$f ($(stat -c %s "$f") bytes)"
 done
 echo "Grids: surface, density, fluence_r/g/b, exitance_r/g/b (world mm)."
+echo "out/spot.png is a preview: with scattering (left), without (right)."
 echo "Open out/spot.vdb in Blender (File > Import > OpenVDB) or inspect it with"
 echo "  /usr/bin/python3 -c 'import pyopenvdb as v; print([g.name for g in v.readAll(\"out/spot.vdb\")[0]])'"

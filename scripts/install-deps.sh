@@ -15,6 +15,7 @@ packages=(
   gnuplot-nox
   libembree-dev
   blender
+  povray python3-pil
 )
 
 missing=()

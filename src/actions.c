@@ -10,10 +10,12 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+#include "export_action.h"
 #include "export_vdb.h"
 #include "ohm_vdb.h"
 #include "ohm_version.h"
 #include "pipeline.h"
+#include "render.h"
 
 /* ---- state --------------------------------------------------------------------- */
 
@@ -540,11 +542,24 @@ const ohm_action ohm_actions[] = {
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
      "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.",
      solve_opts, run_solve},
+    {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
+     "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
+     "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
+     "the 99th percentile maps to 1; recorded as 'comment ohm exposure').  df3=BASE writes one POV-Ray\n"
+     "density file per channel (BASE_r.df3 ..., BASE.df3 for grey; the grid padded by one zero voxel,\n"
+     "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.",
+     ohm_export_opts, ohm_run_export},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
      "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
      "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
      write_opts, run_write},
+    {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
+     "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
+     "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
+     "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
+     "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
+     ohm_render_opts, ohm_run_render},
     {"stats", "write the run's figures as one JSON object",
      "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats},
     {NULL, NULL, NULL, NULL, NULL}};

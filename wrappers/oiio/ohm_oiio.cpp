@@ -1,0 +1,122 @@
+// ohm_oiio.cpp — the C API of ohm_oiio.h over OpenImageIO 2.4 (C++17).
+//
+// The only translation unit of ohm that sees OpenImageIO.  Every exported
+// function body runs inside OHM_OIIO_TRY ... OHM_OIIO_CATCH(err, path), so no
+// C++ exception crosses into C; OIIO's own errors (geterror) are reported with
+// the file name.
+
+#include "ohm_oiio.h"
+
+#include <OpenImageIO/imageio.h>
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include <strings.h>
+
+// One catch-all per exported function.  `err` may be NULL (ohm_fail allows it).
+#define OHM_OIIO_TRY try {
+#define OHM_OIIO_CATCH(err, path)                                                                 \
+    }                                                                                             \
+    catch (const std::bad_alloc &) {                                                              \
+        return ohm_fail((err), OHM_ERR_NOMEM, "%s: OpenImageIO: out of memory", (path));          \
+    }                                                                                             \
+    catch (const std::exception &e_) {                                                            \
+        return ohm_fail((err), OHM_ERR_INTERNAL, "%s: OpenImageIO wrapper: %s", (path), e_.what()); \
+    }                                                                                             \
+    catch (...) {                                                                                 \
+        return ohm_fail((err), OHM_ERR_INTERNAL, "%s: OpenImageIO wrapper: unknown exception", (path)); \
+    }
+
+namespace {
+
+enum class Format { none, png, exr };
+
+Format format_of(const char *path)
+{
+    size_t n = std::strlen(path);
+    if (n >= 4 && strcasecmp(path + n - 4, ".png") == 0) return Format::png;
+    if (n >= 4 && strcasecmp(path + n - 4, ".exr") == 0) return Format::exr;
+    return Format::none;
+}
+
+// The sRGB transfer curve (IEC 61966-2-1).
+inline float srgb_encode(float v)
+{
+    if (!(v > 0.0f)) return 0.0f;
+    if (v >= 1.0f) return 1.0f;
+    return v <= 0.0031308f ? 12.92f * v : 1.055f * std::pow(v, 1.0f / 2.4f) - 0.055f;
+}
+
+std::string one_line(std::string s)
+{
+    for (char &c : s)
+        if (c == '\n' || c == '\r') c = ' ';
+    while (!s.empty() && s.back() == ' ') s.pop_back();
+    return s;
+}
+
+} // namespace
+
+extern "C" int ohm_image_format_supported(const char *path)
+{
+    return path && format_of(path) != Format::none;
+}
+
+extern "C" int ohm_image_write(const char *path, const float *rgb, int width, int height, int channels,
+                               ohm_error *err)
+{
+    return ohm_image_write_to(path, path, rgb, width, height, channels, err);
+}
+
+extern "C" int ohm_image_write_to(const char *path, const char *write_path, const float *rgb, int width, int height,
+                                  int channels, ohm_error *err)
+{
+    if (!path || !write_path) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_write: NULL path");
+    OHM_OIIO_TRY
+    Format fmt = format_of(path);
+    if (fmt == Format::none)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: unsupported image format: use .png or .exr", path);
+    if (!rgb || width <= 0 || height <= 0 || (channels != 1 && channels != 3 && channels != 4))
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: bad image (%d x %d, %d channels)", path, width, height, channels);
+    if ((double)width * height * channels > 1e9)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: image of %d x %d is too large", path, width, height);
+    const size_t count = (size_t)width * (size_t)height * (size_t)channels;
+
+    std::unique_ptr<OIIO::ImageOutput> out = OIIO::ImageOutput::create(fmt == Format::png ? "png" : "openexr");
+    if (!out)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "%s: OpenImageIO has no %s writer: %s", path,
+                        fmt == Format::png ? "PNG" : "OpenEXR", one_line(OIIO::geterror()).c_str());
+    bool ok;
+    if (fmt == Format::png) {
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::UINT8);
+        spec.attribute("oiio:ColorSpace", "sRGB");
+        spec.attribute("Software", "ohm");
+        std::vector<uint8_t> px(count);
+        for (size_t i = 0; i < count; ++i) {
+            bool alpha = channels == 4 && i % 4 == 3;
+            float v = alpha ? std::fmin(std::fmax(rgb[i], 0.0f), 1.0f) : srgb_encode(rgb[i]);
+            px[i] = (uint8_t)std::lround(v * 255.0f);
+        }
+        ok = out->open(write_path, spec) && out->write_image(OIIO::TypeDesc::UINT8, px.data());
+    } else {
+        OIIO::ImageSpec spec(width, height, channels, OIIO::TypeDesc::HALF);
+        spec.attribute("oiio:ColorSpace", "linear");
+        spec.attribute("compression", "zip");
+        spec.attribute("Software", "ohm");
+        ok = out->open(write_path, spec) && out->write_image(OIIO::TypeDesc::FLOAT, rgb);
+    }
+    if (ok) ok = out->close();
+    if (!ok) {
+        std::string msg = one_line(out->geterror());
+        if (msg.empty()) msg = one_line(OIIO::geterror());
+        return ohm_fail(err, OHM_ERR_IO, "%s: cannot write image: %s", path, msg.empty() ? "unknown error" : msg.c_str());
+    }
+    return OHM_OK;
+    OHM_OIIO_CATCH(err, path)
+}

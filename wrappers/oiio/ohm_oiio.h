@@ -1,0 +1,39 @@
+/* ohm_oiio.h — a small C API over OpenImageIO (the only code that sees OIIO).
+ *
+ * Int status codes (0 ok, negative ohm error code) and a caller-owned
+ * ohm_error for the message, which names the file.  Every exported function
+ * body runs inside one catch-all (OHM_OIIO_TRY in ohm_oiio.cpp), so no C++
+ * exception ever reaches C.
+ *
+ * Pixels are linear floats, row-major from the top-left, `channels` (1, 3 or
+ * 4) interleaved per pixel.  The format comes from the extension of `path`:
+ *   .png  8-bit, sRGB-encoded here (the standard sRGB transfer curve), values
+ *         clamped to [0, 1];
+ *   .exr  half float, linear (zip compression).
+ * Anything else is OHM_ERR_USAGE. */
+#ifndef OHM_OIIO_H
+#define OHM_OIIO_H
+
+#include "ohm_error.h"
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* 1 when path ends in an extension ohm_image_write handles (.png, .exr,
+ * case-insensitive), else 0. */
+int ohm_image_format_supported(const char *path);
+
+/* Write exactly `path`. */
+int ohm_image_write(const char *path, const float *rgb, int width, int height, int channels, ohm_error *err);
+
+/* The same, but the bytes go to `write_path` (a temporary name from
+ * ohm_output_tmp_path, which has no image extension) while the format and
+ * every message come from `path`, the final name. */
+int ohm_image_write_to(const char *path, const char *write_path, const float *rgb, int width, int height,
+                       int channels, ohm_error *err);
+
+#ifdef __cplusplus
+}
+#endif
+#endif
