@@ -115,6 +115,14 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
     if (!rc) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_quantity", quantity, err);
     if (!rc && prov && prov->material) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_material", prov->material, err);
     if (!rc && prov && prov->solve) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_solve", prov->solve, err);
+    /* Values are physical and unscaled (see docs/blender.md: EEVEE keeps half
+     * floats, so values below ~6e-8 vanish there; scale intensity= instead). */
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_value_scale", 1.0, err);
+    if (!rc)
+        rc = ohm_vdb_grid_set_meta_string(*out, "ohm_scaling",
+                                          "none: values are W/mm^2 for the lights' stated intensities; the solution "
+                                          "is linear in intensity=",
+                                          err);
     if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_in_W", sol->power_in, err);
     if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_out_W", sol->power_out, err);
     if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_residual", sol->residual, err);

@@ -31,6 +31,7 @@ assert 0 < e.activeVoxelCount() < d.activeVoxelCount()
 lo, hi = f.evalMinMax()
 assert lo >= 0 and hi > 0, (lo, hi)
 assert f["ohm_material"] == "marble" and "boundary=robin" in f["ohm_solve"], f["ohm_solve"]
+assert f["ohm_value_scale"] == 1.0 and f["ohm_scaling"].startswith("none"), f["ohm_scaling"]
 # lit from above (+y): boundary cells in the top quarter leave far more light
 # per cell than those in the bottom quarter (the hooves)
 (x0, y0, z0), (x1, y1, z1) = e.evalActiveVoxelBoundingBox()
