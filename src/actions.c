@@ -33,6 +33,8 @@ void ohm_state_free(ohm_state *s)
     ohm_voxel_grid_free(&s->grid);
     ohm_solution_free(&s->solution);
     free(s->lights);
+    ohm_scan_free(&s->scan);
+    ohm_transfer_free(&s->transfer);
 }
 
 /* A new mesh, grid or material makes an earlier solution stale. */
@@ -54,14 +56,75 @@ static double unit_mm(const char *u)
 /* ---- read ---------------------------------------------------------------------- */
 
 static const ohm_opt_spec read_opts[] = {
-    {"file", OHM_OPT_STRING, NULL, "mesh to read: .obj .ply .stl .off, optionally .gz", NULL, 0, 0, 1},
+    {"file", OHM_OPT_STRING, NULL,
+     "mesh (.obj .ply .stl .off, optionally .gz) or density volume (.vdb .nii .nii.gz .raw .raw.gz)", NULL, 0, 0,
+     1},
+    {"grid", OHM_OPT_STRING, "density", "volume: the .vdb grid to read", NULL, 0, 0, 0},
+    {"dims", OHM_OPT_VEC3, NULL, "raw volume: voxels per axis nx,ny,nz (x fastest)", NULL, 0, 0, 0},
+    {"type", OHM_OPT_ENUM, "u16", "raw volume: voxel type", "u8|u16|i16|f32", 0, 0, 0},
+    {"endian", OHM_OPT_ENUM, "little", "raw volume: byte order", "little|big", 0, 0, 0},
+    {"spacing", OHM_OPT_REAL13, "1", "raw volume: voxel size in mm (one value or x,y,z)", NULL, 1e-9, 1e9, 0},
     {"units", OHM_OPT_ENUM, "mm", "what one unit of the file is", "mm|cm|m|in", 0, 0, 0},
     {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
     {0}};
 
+static int is_volume_path(const char *p)
+{
+    static const char *ext[] = {".vdb", ".nii", ".nii.gz", ".raw", ".raw.gz"};
+    size_t lp = strlen(p);
+    for (size_t i = 0; i < sizeof ext / sizeof *ext; ++i) {
+        size_t le = strlen(ext[i]);
+        if (lp >= le && strcasecmp(p + lp - le, ext[i]) == 0) return 1;
+    }
+    return 0;
+}
+
+/* A density volume: the material's source (transfer functions) and, alone,
+ * the object itself (-voxelize threshold=). */
+static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path, ohm_error *err)
+{
+    double t0 = ohm_now();
+    ohm_scan_params p;
+    memset(&p, 0, sizeof p);
+    p.grid = ohm_opt_str(inv, "grid");
+    p.type = ohm_opt_str(inv, "type");
+    p.endian = ohm_opt_str(inv, "endian");
+    ohm_opt_real13(inv, "spacing", p.spacing);
+    if (ohm_opt_given(inv, "dims")) {
+        double d[3];
+        ohm_opt_vec3(inv, "dims", d);
+        for (int a = 0; a < 3; ++a) {
+            if (d[a] < 1 || d[a] > 1e6 || d[a] != floor(d[a]))
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -read dims=: expected three whole numbers >= 1", inv->where);
+            p.dims[a] = (int32_t)d[a];
+        }
+    }
+    ohm_scan scan;
+    int rc = ohm_scan_read(&scan, path, &p, err);
+    if (rc) return rc;
+    ohm_scan_free(&s->scan);
+    s->scan = scan;
+    s->have_scan = 1;
+    snprintf(s->scan_path, sizeof s->scan_path, "%s", path);
+    drop_solution(s);
+    double lo[3], hi[3];
+    ohm_scan_bounds(&scan, lo, hi);
+    double t = ohm_now() - t0;
+    ohm_log_info(&s->log, "read %s: %d x %d x %d voxels, values %.6g .. %.6g, %.4g x %.4g x %.4g mm, %.2f s", path,
+                 scan.dims[0], scan.dims[1], scan.dims[2], scan.min, scan.max, hi[0] - lo[0], hi[1] - lo[1],
+                 hi[2] - lo[2], t);
+    ohm_stats_set_str(&s->stats, "scan_file", path);
+    ohm_stats_set_int(&s->stats, "scan_x", scan.dims[0]);
+    ohm_stats_set_int(&s->stats, "scan_y", scan.dims[1]);
+    ohm_stats_set_int(&s->stats, "scan_z", scan.dims[2]);
+    ohm_stats_add(&s->stats, "t_read", t);
+    return OHM_OK;
+}
+
 static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     const char *path = ohm_opt_str(inv, "file");
+    if (is_volume_path(path)) return read_volume(s, inv, path, err);
     double t0 = ohm_now();
     ohm_mesh m;
     int rc = ohm_mesh_read(&m, path, err);
@@ -127,12 +190,22 @@ static const ohm_opt_spec voxelize_opts[] = {
     {"voxel", OHM_OPT_REAL, NULL, "voxel size, in units= (overrides dim=)", NULL, 1e-12, 1e12, 0},
     {"units", OHM_OPT_ENUM, "mm", "unit of voxel=", "mm|cm|m|in", 0, 0, 0},
     {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
+    {"threshold", OHM_OPT_REAL, NULL,
+     "with a volume and no mesh: the object is where the density is >= this (its iso-surface)", NULL, -1e300, 1e300,
+     0},
     {0}};
+
+static double scan_field(void *user, const double world[3]) { return ohm_scan_sample(user, world); }
 
 static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
-    if (!s->have_mesh)
+    if (!s->have_mesh && !(s->have_scan && ohm_opt_given(inv, "threshold"))) {
+        if (s->have_scan)
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -voxelize: a volume without a mesh needs threshold= (the density of its surface)",
+                            inv->where);
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -voxelize: no mesh yet: put -read file=MESH before it", inv->where);
+    }
     ohm_voxelize_params p = {0};
     if (ohm_opt_given(inv, "voxel")) p.voxel = ohm_opt_real(inv, "voxel") * unit_mm(ohm_opt_str(inv, "units"));
     else p.dim = (int)ohm_opt_int(inv, "dim");
@@ -141,7 +214,15 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     double t0 = ohm_now();
     ohm_voxel_grid g;
     ohm_voxelize_report rep;
-    int rc = ohm_voxelize(&g, &rep, &s->mesh, &p, &s->log, err);
+    memset(&rep, 0, sizeof rep);
+    int rc;
+    if (s->have_mesh) {
+        rc = ohm_voxelize(&g, &rep, &s->mesh, &p, &s->log, err);
+    } else {
+        double lo[3], hi[3];
+        ohm_scan_bounds(&s->scan, lo, hi);
+        rc = ohm_voxelize_field(&g, scan_field, &s->scan, lo, hi, ohm_opt_real(inv, "threshold"), &p, &s->log, err);
+    }
     if (rc) return rc;
     double t = ohm_now() - t0;
 
@@ -158,10 +239,17 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (rep.ambiguous)
         ohm_log_info(&s->log, "%zu cells had a winding number between 0.4 and 0.6 (near holes or overlaps)",
                      rep.ambiguous);
-    ohm_log_info(&s->log,
-                 "voxelized: %d x %d x %d grid, voxel %.4g mm, %zu interior cells (%.6g mm^3; mesh encloses %.6g "
-                 "mm^3), %.2f s",
-                 g.dims[0], g.dims[1], g.dims[2], g.h, g.interior_cells, vol, fabs(rep.signed_volume), t);
+    if (s->have_mesh)
+        ohm_log_info(&s->log,
+                     "voxelized: %d x %d x %d grid, voxel %.4g mm, %zu interior cells (%.6g mm^3; mesh encloses "
+                     "%.6g mm^3), %.2f s",
+                     g.dims[0], g.dims[1], g.dims[2], g.h, g.interior_cells, vol, fabs(rep.signed_volume), t);
+    else
+        ohm_log_info(&s->log,
+                     "voxelized %s at density >= %g: %d x %d x %d grid, voxel %.4g mm, %zu interior cells (%.6g "
+                     "mm^3), %.2f s",
+                     s->scan_path, ohm_opt_real(inv, "threshold"), g.dims[0], g.dims[1], g.dims[2], g.h,
+                     g.interior_cells, vol, t);
     if (g.interior_cells == 0)
         ohm_log_warn(&s->log, "no cell centre lies inside the mesh: use a larger dim= or a smaller voxel=");
 
@@ -188,6 +276,9 @@ static const ohm_opt_spec material_opts[] = {
     {"eta", OHM_OPT_REAL, "1.3", "relative index of refraction", NULL, 1, 3, 0},
     {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, 1e-300, 1e300, 0},
     {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, 1e-300, 1e300, 0},
+    {"transfer", OHM_OPT_STRING, NULL,
+     "transfer function file: the volume's density -> coefficients per cell (see docs/transfer-functions.md)", NULL,
+     0, 0, 0},
     {0}};
 
 static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
@@ -197,12 +288,41 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     int preset = ohm_opt_given(inv, "preset");
     int optical = ohm_opt_given(inv, "sigma_a") || ohm_opt_given(inv, "sigma_s");
     int paper = ohm_opt_given(inv, "resistance") || ohm_opt_given(inv, "ground");
-    if (preset + optical + paper != 1)
+    int transfer = ohm_opt_given(inv, "transfer");
+    if (preset + optical + paper + transfer != 1)
         return ohm_fail(err, OHM_ERR_USAGE,
-                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s=, or resistance= with "
-                        "ground=",
+                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s=, resistance= with "
+                        "ground=, or transfer=FILE",
                         inv->where);
     int rc;
+    ohm_transfer_free(&s->transfer);
+    s->have_transfer = 0;
+    if (transfer) {
+        const char *tp = ohm_opt_str(inv, "transfer");
+        ohm_transfer t;
+        rc = ohm_transfer_read(&t, tp, err);
+        if (rc) return rc;
+        /* the material records the kind and channels; the coefficients come
+         * per cell from the volume at -solve */
+        m.kind = t.resistance_mode ? OHM_MATERIAL_RESISTANCE : OHM_MATERIAL_OPTICAL;
+        m.channels = t.channels;
+        m.eta = t.resistance_mode ? 1.0 : t.eta;
+        ohm_transfer_eval(&t, t.density[0], m.sigma_a, m.sigma_s);
+        if (t.resistance_mode) m.resistance = m.sigma_a[0], m.ground = m.sigma_s[0];
+        const char *base = strrchr(tp, '/');
+        snprintf(m.name, sizeof m.name, "transfer %s", base ? base + 1 : tp);
+        drop_solution(s);
+        s->material = m;
+        s->have_material = 1;
+        s->transfer = t;
+        s->have_transfer = 1;
+        snprintf(s->transfer_path, sizeof s->transfer_path, "%s", tp);
+        ohm_stats_set_str(&s->stats, "material", m.name);
+        ohm_stats_set_str(&s->stats, "transfer", tp);
+        ohm_log_info(&s->log, "material: transfer function %s, %zu points, %d channel(s)%s", tp, t.n, t.channels,
+                     t.resistance_mode ? ", resistances" : "");
+        return OHM_OK;
+    }
     if (preset) {
         rc = ohm_material_preset(&m, ohm_opt_str(inv, "preset"), err);
         if (rc) return rc;
@@ -319,14 +439,20 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     size_t add = orbit > 0 ? (size_t)orbit : 1;
     double centre[3] = {0, 0, 0};
     if (orbit > 0) {
-        if (!s->have_mesh && !s->have_grid)
+        if (!s->have_mesh && !s->have_grid && !s->have_scan)
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d turns about the object: -read it first",
                             inv->where, orbit);
         for (size_t i = 0; i < s->nlights; ++i)
             if (s->lights[i].frame != 0)
                 return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=: only one orbiting light per run", inv->where);
         double lo[3], hi[3];
-        ohm_mesh_bounds(&s->mesh, lo, hi);
+        if (s->have_mesh) ohm_mesh_bounds(&s->mesh, lo, hi);
+        else if (s->have_grid)
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = s->grid.origin[a];
+                hi[a] = s->grid.origin[a] + s->grid.h * (s->grid.dims[a] - 1);
+            }
+        else ohm_scan_bounds(&s->scan, lo, hi);
         for (int a = 0; a < 3; ++a) centre[a] = 0.5 * (lo[a] + hi[a]);
     }
     int axis = ohm_opt_str(inv, "axis")[0] - 'x';
@@ -369,6 +495,65 @@ static const ohm_opt_spec solve_opts[] = {
      NULL, 1, 1e7, 0},
     {0}};
 
+/* Per-cell coefficients from the volume through the transfer function: the
+ * density at each interior cell (trilinear at its centre, or the mean over
+ * the cell when the grid is coarser than the scan), then the transfer
+ * function.  Arrays in unknown order (interior cells, x fastest). */
+static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, ohm_error *err)
+{
+    const ohm_voxel_grid *g = &s->grid;
+    const ohm_transfer *t = &s->transfer;
+    size_t n = g->interior_cells;
+    int nc = t->resistance_mode ? 1 : t->channels;
+    for (int q = 0; q < 2 * nc; ++q) {
+        percell[q] = malloc((n ? n : 1) * sizeof(double));
+        if (!percell[q]) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the material");
+    }
+    /* the scan's finest spacing decides between sampling and averaging */
+    double spacing = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        double col = sqrt(s->scan.index_to_world[0][a] * s->scan.index_to_world[0][a] +
+                          s->scan.index_to_world[1][a] * s->scan.index_to_world[1][a] +
+                          s->scan.index_to_world[2][a] * s->scan.index_to_world[2][a]);
+        if (col < spacing) spacing = col;
+    }
+    int average = g->h > 1.5 * spacing;
+    size_t u = 0;
+    for (int32_t k = 0; k < g->dims[2]; ++k)
+        for (int32_t j = 0; j < g->dims[1]; ++j)
+            for (int32_t i = 0; i < g->dims[0]; ++i) {
+                if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
+                double c[3] = {g->origin[0] + g->h * i, g->origin[1] + g->h * j, g->origin[2] + g->h * k};
+                double density;
+                if (average) {
+                    double lo[3], hi[3];
+                    for (int a = 0; a < 3; ++a) lo[a] = c[a] - 0.5 * g->h, hi[a] = c[a] + 0.5 * g->h;
+                    density = ohm_scan_box_mean(&s->scan, lo, hi);
+                } else {
+                    density = ohm_scan_sample(&s->scan, c);
+                }
+                double sa[OHM_MAX_CHANNELS], ss[OHM_MAX_CHANNELS];
+                ohm_transfer_eval(t, density, sa, ss);
+                for (int ch = 0; ch < nc; ++ch) {
+                    percell[ch][u] = sa[ch];
+                    percell[nc + ch][u] = ss[ch];
+                }
+                ++u;
+            }
+    if (t->resistance_mode) {
+        p->resistance_v = percell[0];
+        p->ground_v = percell[1];
+    } else {
+        for (int ch = 0; ch < nc; ++ch) {
+            p->sigma_a[ch] = percell[ch];
+            p->sigma_s[ch] = percell[nc + ch];
+        }
+    }
+    ohm_log_info(&s->log, "material: %zu cells from %s through %s (%s)", n, s->scan_path, s->transfer_path,
+                 average ? "box-averaged: the grid is coarser than the volume" : "trilinear");
+    return OHM_OK;
+}
+
 static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     if (!s->have_grid)
@@ -399,7 +584,16 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     p.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
     drop_solution(s);
     double t0 = ohm_now();
-    int rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+    double *percell[2 * OHM_MAX_CHANNELS] = {NULL};
+    int rc = OHM_OK;
+    if (s->have_transfer) {
+        if (!s->have_scan)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
+                            inv->where);
+        rc = material_from_scan(s, &p, percell, err);
+    }
+    if (!rc) rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
     if (rc) return rc;
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
@@ -418,6 +612,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_int(st, "cells", (long long)sol->n);
     ohm_stats_set_int(st, "channels", sol->channels);
     ohm_stats_set_int(st, "factors", sol->factors);
+    ohm_stats_set_int(st, "analyses", sol->analyses);
     ohm_stats_set_int(st, "lights", (long long)s->nlights);
     ohm_stats_set_int(st, "frames", sol->frames);
     ohm_stats_set_int(st, "solves", (long long)sol->solves);
@@ -441,6 +636,47 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
     ohm_stats_set(st, "power_out", sol->power_out);
     ohm_stats_set(st, "conservation_error", cons);
+    return OHM_OK;
+}
+
+/* ---- place ---------------------------------------------------------------------- */
+
+static const ohm_opt_spec place_opts[] = {
+    {"fit", OHM_OPT_ENUM, "1", "1: stretch the volume's box onto the mesh's bounding box", "0|1", 0, 0, 0},
+    {"scale", OHM_OPT_REAL, "1", "then scale the volume about its centre", NULL, 1e-9, 1e9, 0},
+    {"offset", OHM_OPT_VEC3, "0,0,0", "then move it by this many mm", NULL, 0, 0, 0},
+    {0}};
+
+static int run_place(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_scan)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -place: no volume to place: -read one first", inv->where);
+    double (*M)[4] = s->scan.index_to_world;
+    double lo[3], hi[3];
+    if (strcmp(ohm_opt_str(inv, "fit"), "1") == 0) {
+        if (!s->have_mesh)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -place fit=1: no mesh to fit the volume into", inv->where);
+        double mlo[3], mhi[3];
+        ohm_mesh_bounds(&s->mesh, mlo, mhi);
+        ohm_scan_bounds(&s->scan, lo, hi);
+        for (int a = 0; a < 3; ++a) {
+            double k = hi[a] > lo[a] ? (mhi[a] - mlo[a]) / (hi[a] - lo[a]) : 1.0;
+            for (int b = 0; b < 3; ++b) M[a][b] *= k;
+            M[a][3] = k * (M[a][3] - lo[a]) + mlo[a];
+        }
+    }
+    double k = ohm_opt_real(inv, "scale"), off[3];
+    ohm_opt_vec3(inv, "offset", off);
+    ohm_scan_bounds(&s->scan, lo, hi);
+    for (int a = 0; a < 3; ++a) {
+        double c = 0.5 * (lo[a] + hi[a]);
+        for (int b = 0; b < 3; ++b) M[a][b] *= k;
+        M[a][3] = k * (M[a][3] - c) + c + off[a];
+    }
+    drop_solution(s);
+    ohm_scan_bounds(&s->scan, lo, hi);
+    ohm_log_info(&s->log, "placed %s at %.4g..%.4g, %.4g..%.4g, %.4g..%.4g mm", s->scan_path, lo[0], hi[0], lo[1],
+                 hi[1], lo[2], hi[2]);
     return OHM_OK;
 }
 
@@ -480,7 +716,11 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     if (rc) return rc;
     double t = ohm_now() - t0;
-    const char *grids = !sol ? "" : sol->channels == 1 ? ", fluence, exitance" : ", fluence_r/g/b, exitance_r/g/b";
+    const char *grids = !sol                 ? ""
+                        : sol->channels == 1 ? (sol->medium_sa[0] ? ", fluence, exitance, sigma_a, sigma_s"
+                                                                  : ", fluence, exitance")
+                        : sol->medium_sa[0]  ? ", fluence_r/g/b, exitance_r/g/b, sigma_a_r/g/b, sigma_s_r/g/b"
+                                             : ", fluence_r/g/b, exitance_r/g/b";
     if (frames == 1) ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path, grids, t);
     else
         ohm_log_info(&s->log, "wrote %.*s_0001.vdb .. _%04d.vdb (%d frames; grids: surface, density%s), %.2f s",
@@ -522,11 +762,15 @@ const ohm_action ohm_actions[] = {
      "Reads a triangle mesh; polygons are split into triangles.  Reports open and non-manifold edges.\n"
      "Meshes come in arbitrary units: units= says what one unit is, size= scales the longest axis to a length.",
      read_opts, run_read},
-    {"voxelize", "find the cells inside the mesh on a regular grid",
+    {"voxelize", "find the cells inside the mesh (or above a volume's threshold) on a regular grid",
      "Classifies cell centres with the generalized winding number (robust to holes, open rims, overlapping\n"
      "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
      "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
      voxelize_opts, run_voxelize},
+    {"place", "put a density volume where the mesh is (fit its box, scale, offset)",
+     "For a mesh whose material comes from a scan: fit=1 stretches the volume's box onto the mesh's, then\n"
+     "scale= and offset= adjust it.  A NIfTI volume already carries its world placement (sform/qform).",
+     place_opts, run_place},
     {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
      "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"

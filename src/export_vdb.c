@@ -130,7 +130,7 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
     return rc;
 }
 
-enum { MAX_GRIDS = 2 + 2 * OHM_MAX_CHANNELS };
+enum { MAX_GRIDS = 2 + 4 * OHM_MAX_CHANNELS };
 
 int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
                    const ohm_vdb_provenance *prov, ohm_error *err)
@@ -175,6 +175,17 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
             rc = solution_grid(&grids[ngrids++], name,
                                "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
                                sol, sol->exitance[c] + off, boundary_cell, prov, err);
+            /* the material, when it varies cell by cell (scans) */
+            if (!rc && sol->medium_sa[c]) {
+                snprintf(name, sizeof name, "sigma_a%s", sfx);
+                rc = solution_grid(&grids[ngrids++], name, "absorption coefficient sigma_a, 1/mm", g, sol,
+                                   sol->medium_sa[c], NULL, prov, err);
+            }
+            if (!rc && sol->medium_ss[c]) {
+                snprintf(name, sizeof name, "sigma_s%s", sfx);
+                rc = solution_grid(&grids[ngrids++], name, "reduced scattering coefficient sigma_s', 1/mm", g, sol,
+                                   sol->medium_ss[c], NULL, prov, err);
+            }
         }
     }
     if (rc) goto done;

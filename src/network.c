@@ -140,14 +140,15 @@ static inline double med_D(const ohm_channel_medium *m, int64_t v) { return 1.0 
 /* Conductance between neighbouring unknowns v and w. */
 static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w)
 {
-    if (m->resistance_mode) return 1.0 / m->resistance;
+    if (m->resistance_mode)
+        return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
     double dv = med_D(m, v), dw = med_D(m, w);
     return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
 }
 
 static inline double ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
 {
-    if (m->resistance_mode) return 1.0 / m->ground;
+    if (m->resistance_mode) return 1.0 / (m->ground_v ? m->ground_v[v] : m->ground);
     return med_sa(m, v) * h * h * h;
 }
 
@@ -157,7 +158,8 @@ static inline double boundary_conductance(const ohm_channel_medium *m, double h,
     case OHM_BOUNDARY_NEUMANN: return 0.0;
     case OHM_BOUNDARY_DIRICHLET:
         /* phi = 0 on the face, half a cell away: D h^2 / (h/2) */
-        return m->resistance_mode ? 2.0 / m->resistance : 2.0 * med_D(m, v) * h;
+        if (m->resistance_mode) return 2.0 / (m->resistance_v ? m->resistance_v[v] : m->resistance);
+        return 2.0 * med_D(m, v) * h;
     case OHM_BOUNDARY_ROBIN:
         /* half a cell of diffusion in series with the partial-current
          * condition phi_face = 2 A J (Jensen et al. 2001, Eq. 5-6) */

@@ -59,6 +59,9 @@ void ohm_network_free(ohm_network *net);
 typedef struct ohm_channel_medium {
     int resistance_mode;        /* paper mode: G = 1/R between neighbours, 1/R_g to ground */
     double resistance, ground;  /* ohms, paper mode                           */
+    const double *resistance_v; /* n, paper mode per cell, or NULL: the link between two
+                                   cells is two half-resistors in series        */
+    const double *ground_v;     /* n, paper mode per cell, or NULL             */
     const double *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
     const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
     double sigma_a0, sigma_s0;

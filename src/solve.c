@@ -61,6 +61,8 @@ void ohm_solution_free(ohm_solution *sol)
         free(sol->fluence[c]);
         free(sol->exitance[c]);
         free(sol->face_exitance[c]);
+        free(sol->medium_sa[c]);
+        free(sol->medium_ss[c]);
     }
     ohm_network_free(&sol->net);
     memset(sol, 0, sizeof *sol);
@@ -83,6 +85,8 @@ static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const o
     med->sigma_s0 = mat->sigma_s[mc];
     med->sigma_a = p->sigma_a[c];
     med->sigma_s = p->sigma_s[c];
+    med->resistance_v = p->resistance_v;
+    med->ground_v = p->ground_v;
     med->eta = mat->eta;
 }
 
@@ -145,6 +149,9 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     int *face_count = calloc((size_t)n, sizeof *face_count);
     cholmod_sparse *A = NULL;
     cholmod_factor *L = NULL;
+    /* per-face powers per frame, shared by the channels (below); declared
+     * before the first goto so `done:` may free them */
+    double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
     if (!B || !X || !ga || !gb || !face_count) {
         rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
                       (long long)n);
@@ -160,11 +167,23 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         }
     }
     for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
+    for (int c = 0; c < channels; ++c) {
+        const double *src[2] = {params->sigma_a[c], params->sigma_s[c]};
+        double **dst[2] = {&sol->medium_sa[c], &sol->medium_ss[c]};
+        for (int q = 0; q < 2; ++q) {
+            if (!src[q]) continue;
+            *dst[q] = malloc((size_t)n * sizeof(double));
+            if (!*dst[q]) {
+                rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+                goto done;
+            }
+            memcpy(*dst[q], src[q], (size_t)n * sizeof(double));
+        }
+    }
 
     /* Shadow rays and Fresnel do not depend on the channel: trace every
      * frame's lights once, keep the per-face powers for all channels (when
      * they fit in the batch budget), deposit them per channel below. */
-    double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
     int cached = 0;
     const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
     if (!params->custom_source &&
@@ -220,6 +239,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             rc = ohm_solver_analyze(&solver, A, params->ordering, err);
             if (rc) break;
             sol->t_analyze += solver.t_analyze;
+            sol->analyses++;
             sol->nnz_A = solver.nnz_A;
             sol->nnz_L = solver.nnz_L;
             sol->flops = solver.flops;

@@ -30,6 +30,8 @@ typedef struct ohm_solve_params {
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
     const double *sigma_s[OHM_MAX_CHANNELS];
+    /* paper mode with per-cell resistances (transfer functions): n each */
+    const double *resistance_v, *ground_v;
     /* Validation scenes place their own sources: when set, called once per
      * channel instead of the lights (`lights` may be NULL, one frame).
      * Fills b (n x ncols, zeroed) and returns 0. */
@@ -48,8 +50,12 @@ typedef struct ohm_solution {
                                            faces per unit area, 0 for cells with none */
     double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
                                            G_b phi / h^2 per face                     */
+    /* The medium when it varies cell by cell (copies of the params' arrays,
+     * NULL when homogeneous), for the sigma_a / sigma_s output grids. */
+    double *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
     /* statistics (DESIGN.md §7) */
     int factors;
+    int analyses;                       /* symbolic analyses (one per grid)           */
     int64_t solves;                     /* columns solved, summed over channels       */
     double nnz_A, nnz_L, flops;
     char ordering[16];

@@ -9,6 +9,8 @@
 #include "material.h"
 #include "mesh.h"
 #include "output.h"
+#include "scan.h"
+#include "transfer.h"
 #include "solve.h"
 #include "stats.h"
 #include "voxelize.h"
@@ -26,8 +28,15 @@ typedef struct ohm_state {
     ohm_voxel_grid grid;
     int mesh_flipped;               /* the voxelizer read the mesh inside-out  */
 
+    int have_scan;                  /* a density volume (CT / MRI / .vdb)      */
+    ohm_scan scan;
+    char scan_path[OHM_PATH_MAX];
+
     int have_material;
     ohm_material material;
+    int have_transfer;              /* the material maps the scan's density    */
+    ohm_transfer transfer;
+    char transfer_path[OHM_PATH_MAX];
 
     ohm_light *lights;              /* every -light so far, in order           */
     size_t nlights;

@@ -375,24 +375,11 @@ static double fit_voxel_size(const double lo[3], const double hi[3], const int f
     return h;
 }
 
-int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mesh *mesh,
-                 const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
+/* The grid over box [lo, hi] (world mm): voxel size from fit / dim / voxel,
+ * a margin of band_voxels + 1 cells, cells zeroed and distances +inf. */
+static int layout_grid(ohm_voxel_grid *out, const double lo[3], const double hi[3], double extent,
+                       const ohm_voxelize_params *params, ohm_error *err)
 {
-    memset(out, 0, sizeof *out);
-    ohm_voxelize_report rep;
-    memset(&rep, 0, sizeof rep);
-    if (!mesh || mesh->ntris == 0) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: no mesh with triangles was read");
-
-    double lo[3], hi[3];
-    ohm_mesh_bounds(mesh, lo, hi);
-    double extent = 0.0;
-    for (int d = 0; d < 3; ++d) {
-        if (!isfinite(lo[d]) || !isfinite(hi[d]))
-            return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh bounds are not finite");
-        if (hi[d] - lo[d] > extent) extent = hi[d] - lo[d];
-    }
-    if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
-
     double h;
     int fitted = params->fit[0] > 0 || params->fit[1] > 0 || params->fit[2] > 0;
     if (fitted) {
@@ -447,6 +434,31 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     }
     for (size_t c = 0; c < n; ++c) out->dist[c] = INFINITY;
 
+    return OHM_OK;
+}
+
+int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mesh *mesh,
+                 const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    ohm_voxelize_report rep;
+    memset(&rep, 0, sizeof rep);
+    if (!mesh || mesh->ntris == 0) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: no mesh with triangles was read");
+
+    double lo[3], hi[3];
+    ohm_mesh_bounds(mesh, lo, hi);
+    double extent = 0.0;
+    for (int d = 0; d < 3; ++d) {
+        if (!isfinite(lo[d]) || !isfinite(hi[d]))
+            return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh bounds are not finite");
+        if (hi[d] - lo[d] > extent) extent = hi[d] - lo[d];
+    }
+    if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
+
+    int lrc = layout_grid(out, lo, hi, extent, params, err);
+    if (lrc) return lrc;
+    size_t n = (size_t)out->dims[0] * (size_t)out->dims[1] * (size_t)out->dims[2];
+
     rep.signed_volume = ohm_mesh_signed_volume(mesh);
     double orient = 1.0;
     if (rep.signed_volume < 0) {
@@ -482,7 +494,7 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the coarse pass");
     }
     for (size_t l = 0; l < nlattice; ++l) lattice_w[l] = NAN;
-    const float near_dist = (float)h; /* > sqrt(3)/2 h: no triangle slips between far cells */
+    const float near_dist = (float)out->h; /* > sqrt(3)/2 h: no triangle slips between far cells */
     for (int32_t k = 0; k < dims[2]; ++k)
         for (int32_t j = 0; j < dims[1]; ++j)
             for (int32_t i = 0; i < dims[0]; ++i) {
@@ -568,5 +580,57 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     free(decided);
     bvh_free(&tree);
     if (report) *report = rep;
+    return OHM_OK;
+}
+
+int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, const double lo[3], const double hi[3],
+                       double threshold, const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    double extent = 0.0;
+    for (int d = 0; d < 3; ++d) {
+        if (!isfinite(lo[d]) || !isfinite(hi[d])) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: bounds not finite");
+        if (hi[d] - lo[d] > extent) extent = hi[d] - lo[d];
+    }
+    if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: the volume has zero extent");
+    int rc = layout_grid(out, lo, hi, extent, params, err);
+    if (rc) return rc;
+    size_t n = (size_t)out->dims[0] * (size_t)out->dims[1] * (size_t)out->dims[2];
+    double *f = malloc(n * sizeof *f);
+    if (!f) {
+        ohm_voxel_grid_free(out);
+        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
+    }
+    ohm_progress prog;
+    ohm_progress_begin(&prog, log, "voxelize: sampling the volume");
+    size_t interior = 0;
+    for (int32_t k = 0; k < out->dims[2]; ++k) {
+        ohm_progress_update(&prog, (double)k / out->dims[2]);
+        for (int32_t j = 0; j < out->dims[1]; ++j)
+            for (int32_t i = 0; i < out->dims[0]; ++i) {
+                double p[3];
+                cell_centre(out, i, j, k, p);
+                size_t idx = ohm_voxel_index(out, i, j, k);
+                f[idx] = field(user, p);
+                out->inside[idx] = f[idx] >= threshold;
+                interior += out->inside[idx];
+            }
+    }
+    ohm_progress_end(&prog);
+    /* distance estimate |f - T| / |grad f| within the band */
+    for (int32_t k = 1; k + 1 < out->dims[2]; ++k)
+        for (int32_t j = 1; j + 1 < out->dims[1]; ++j)
+            for (int32_t i = 1; i + 1 < out->dims[0]; ++i) {
+                size_t idx = ohm_voxel_index(out, i, j, k);
+                double g[3] = {f[ohm_voxel_index(out, i + 1, j, k)] - f[ohm_voxel_index(out, i - 1, j, k)],
+                               f[ohm_voxel_index(out, i, j + 1, k)] - f[ohm_voxel_index(out, i, j - 1, k)],
+                               f[ohm_voxel_index(out, i, j, k + 1)] - f[ohm_voxel_index(out, i, j, k - 1)]};
+                double grad = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / (2.0 * out->h);
+                if (!(grad > 0)) continue;
+                double d = fabs(f[idx] - threshold) / grad;
+                if (d <= out->band) out->dist[idx] = (float)d;
+            }
+    free(f);
+    out->interior_cells = interior;
     return OHM_OK;
 }

@@ -62,6 +62,16 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
 
 void ohm_voxel_grid_free(ohm_voxel_grid *g);
 
+/* An object from a scalar field instead of a mesh (a CT's iso-surface): the
+ * cells whose centre value is >= threshold, on a grid laid out over the world
+ * box [lo, hi] like ohm_voxelize's (dim / voxel / fit, margin).  The distance
+ * band is the first-order estimate |f - T| / |grad f| (central differences at
+ * h), so the surface level set and the smooth normals follow the iso-surface
+ * between cell centres. */
+typedef double (*ohm_field_fn)(void *user, const double world[3]);
+int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, const double lo[3], const double hi[3],
+                       double threshold, const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err);
+
 static inline size_t ohm_voxel_index(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
 {
     return (size_t)i + (size_t)g->dims[0] * ((size_t)j + (size_t)g->dims[1] * (size_t)k);

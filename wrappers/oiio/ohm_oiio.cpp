@@ -9,7 +9,9 @@
 
 #include <OpenImageIO/imageio.h>
 
+#include <cinttypes>
 #include <cmath>
+#include <cstdlib>
 #include <cstdint>
 #include <cstring>
 #include <memory>
@@ -117,6 +119,61 @@ extern "C" int ohm_image_write_to(const char *path, const char *write_path, cons
         if (msg.empty()) msg = one_line(OIIO::geterror());
         return ohm_fail(err, OHM_ERR_IO, "%s: cannot write image: %s", path, msg.empty() ? "unknown error" : msg.c_str());
     }
+    return OHM_OK;
+    OHM_OIIO_CATCH(err, path)
+}
+
+extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+{
+    if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_gray: NULL argument");
+    *pixels = nullptr;
+    *w = *h = 0;
+    OHM_OIIO_TRY
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) {
+        std::string msg = one_line(OIIO::geterror());
+        return ohm_fail(err, OHM_ERR_IO, "%s: cannot read image: %s", path,
+                        msg.empty() ? "unknown error" : msg.c_str());
+    }
+    const OIIO::ImageSpec &spec = in->spec();
+    const int64_t pw = spec.width, ph = spec.height, nc = spec.nchannels;
+    if (pw <= 0 || ph <= 0 || nc <= 0 || spec.depth > 1)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: image is %" PRId64 " x %" PRId64 " x %d with %" PRId64
+                        " channels, expected a 2-D image", path, pw, ph, spec.depth, nc);
+    if (pw * ph > (int64_t(1) << 28) || nc > 64)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: image %" PRId64 " x %" PRId64 " x %" PRId64
+                        " channels is larger than the limit of 2^28 pixels", path, pw, ph, nc);
+    double scale = 1.0;
+    switch (spec.format.basetype) {
+    case OIIO::TypeDesc::UINT8: scale = 255.0; break;
+    case OIIO::TypeDesc::INT8: scale = 127.0; break;
+    case OIIO::TypeDesc::UINT16: scale = 65535.0; break;
+    case OIIO::TypeDesc::INT16: scale = 32767.0; break;
+    case OIIO::TypeDesc::UINT32: scale = 4294967295.0; break;
+    case OIIO::TypeDesc::INT32: scale = 2147483647.0; break;
+    default: break;
+    }
+    std::vector<float> buf(size_t(pw * ph * nc));
+    if (!in->read_image(0, 0, 0, int(nc), OIIO::TypeDesc::FLOAT, buf.data())) {
+        std::string msg = one_line(in->geterror());
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels: %s", path,
+                        msg.empty() ? "unknown error" : msg.c_str());
+    }
+    in->close();
+    float *out = static_cast<float *>(std::malloc(size_t(pw * ph) * sizeof(float)));
+    if (!out) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory for %" PRId64 " pixels", path, pw * ph);
+    const int use = nc >= 3 ? 3 : 1;
+    for (size_t i = 0; i < size_t(pw * ph); ++i) {
+        double s = 0;
+        for (int c = 0; c < use; ++c) {
+            const double v = double(buf[i * size_t(nc) + size_t(c)]) * scale;
+            s += scale != 1.0 ? std::nearbyint(v) : v; // integers come back exact
+        }
+        out[i] = float(s / use);
+    }
+    *pixels = out;
+    *w = int(pw);
+    *h = int(ph);
     return OHM_OK;
     OHM_OIIO_CATCH(err, path)
 }

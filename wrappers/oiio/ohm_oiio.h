@@ -33,6 +33,14 @@ int ohm_image_write(const char *path, const float *rgb, int width, int height, i
 int ohm_image_write_to(const char *path, const char *write_path, const float *rgb, int width, int height,
                        int channels, ohm_error *err);
 
+/* Read one image as a single grey channel: *pixels is a malloc'd w*h array,
+ * row-major from the top-left, that the caller frees.  Integer pixels keep
+ * their stored values (0-255 for 8-bit, 0-65535 for 16-bit); float pixels are
+ * as stored.  Two channels are grey + alpha (alpha ignored); RGB(A) becomes
+ * the mean of R, G and B.  Any format OpenImageIO reads (TIFF, PNG, ...);
+ * only the first subimage. */
+int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

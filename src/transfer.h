@@ -1,0 +1,36 @@
+/* transfer.h — transfer functions: density -> optical coefficients.
+ *
+ * The file format (documented in docs/transfer-functions.md):
+ *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3]
+ *   # comments; then one control point per line, increasing density:
+ *   density  sigma_a  sigma_s'                      (grey)
+ *   density  sa_r sa_g sa_b  ss_r ss_g ss_b         (RGB)
+ *   density  resistance  ground                     (mode=resistance, ohms)
+ * Piecewise linear between points, clamped outside them.  Validated on load:
+ * increasing densities, finite non-negative values (sigma_s' and resistances
+ * > 0), consistent column counts; errors say "file:line: what". */
+#ifndef OHM_TRANSFER_H
+#define OHM_TRANSFER_H
+
+#include <stddef.h>
+
+#include "ohm_error.h"
+
+typedef struct ohm_transfer {
+    int resistance_mode;      /* points hold resistance, ground instead          */
+    int channels;             /* 1 or 3 (resistance mode: 1)                     */
+    double eta;
+    size_t n;                 /* control points                                  */
+    double *density;          /* n                                              */
+    double *sigma_a;          /* n * channels (resistance mode: resistance, ohm) */
+    double *sigma_s;          /* n * channels (resistance mode: ground, ohm)     */
+} ohm_transfer;
+
+int ohm_transfer_read(ohm_transfer *out, const char *path, ohm_error *err);
+int ohm_transfer_parse(ohm_transfer *out, const char *text, size_t len, const char *name, ohm_error *err);
+void ohm_transfer_free(ohm_transfer *t);
+
+/* Coefficients at a density (clamped at the ends): sa[c], ss[c] for c < channels. */
+void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss);
+
+#endif

@@ -1,0 +1,51 @@
+#!/usr/bin/env bash
+# Scans end to end: a CT alone (iso-surface) and an MRI alone, materials from
+# transfer functions, material and fluence grids written; a scan placed in a
+# mesh; errors.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+for p in walnut head; do
+  sed "s|out/|$T/|g" "pipelines/$p.ohm" >"$T/$p.ohm"
+  expect_exit 0 "pipeline $p" -- "$OHM" run "$T/$p.ohm"
+  check "$p: grids, one analysis, conservation" $PY - "$T/$p.vdb" "$T/$p.json" <<'PY'
+import json, sys, pyopenvdb as vdb
+grids = {g.name: g for g in vdb.readAll(sys.argv[1])[0]}
+s = json.load(open(sys.argv[2]))
+want = {"surface", "density", "fluence_r", "exitance_r", "sigma_a_r", "sigma_a_g", "sigma_a_b", "sigma_s_r", "sigma_s_b"}
+assert want <= set(grids), sorted(grids)
+# the material varies cell by cell (shell / kernel, tissue types)
+lo, hi = grids["sigma_s_g"].evalMinMax()
+assert hi > 1.5 * lo > 0, (lo, hi)
+assert grids["sigma_a_r"].activeVoxelCount() == s["cells"] == grids["density"].activeVoxelCount()
+assert s["analyses"] == 1 and s["factors"] == 3, s
+assert s["conservation_error"] < 1e-10 and s["residual"] < 1e-12, s
+assert s["transfer"].endswith(".transfer") and s["scan_file"], s
+PY
+done
+
+# a scan placed in a mesh: the head MRI stretched over spot's box
+expect_exit 0 "place" -- "$OHM" -read file=samples/spot.obj size=50 -read file=samples/ch2_2mm.nii.gz -place fit=1 \
+  -voxelize dim=24 -material transfer=samples/mri-head.transfer -light dir=0,-1,0 -solve -write file="$T/placed.vdb"
+check "placed: material varies inside spot" $PY -c "
+import pyopenvdb as vdb
+g = {x.name: x for x in vdb.readAll('$T/placed.vdb')[0]}
+lo, hi = g['sigma_s_g'].evalMinMax(); assert hi > lo > 0, (lo, hi)"
+
+# errors
+expect_exit 2 "volume without threshold" -- "$OHM" -read file=samples/ch2_2mm.nii.gz -voxelize dim=16
+expect_error_line "volume without threshold" "needs threshold="
+expect_exit 1 "transfer without a volume" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
+  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve
+expect_error_line "transfer without a volume" "maps a volume's density"
+expect_exit 2 "raw without dims" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz
+expect_error_line "raw without dims" "walnut_64x48x57_uint16.raw.gz"
+expect_exit 1 "raw with wrong dims" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,56
+expect_error_line "raw with wrong dims" "walnut_64x48x57_uint16.raw.gz.*bytes"
+printf 'ohm-transfer 1\n0 0.1 1\n0 0.2 1\n' >"$T/bad.transfer"
+expect_exit 1 "bad transfer" -- "$OHM" -material transfer="$T/bad.transfer"
+expect_error_line "bad transfer" "bad.transfer:3:"
+expect_exit 1 "place without a volume" -- "$OHM" -read file=samples/cow.obj -place
+expect_error_line "place without a volume" "no volume to place"
+
+finish
