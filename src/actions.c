@@ -190,6 +190,8 @@ static const ohm_opt_spec voxelize_opts[] = {
     {"voxel", OHM_OPT_REAL, NULL, "voxel size, in units= (overrides dim=)", NULL, 1e-12, 1e12, 0},
     {"units", OHM_OPT_ENUM, "mm", "unit of voxel=", "mm|cm|m|in", 0, 0, 0},
     {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
+    {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
+     1e12, 0},
     {"threshold", OHM_OPT_REAL, NULL,
      "with a volume and no mesh: the object is where the density is >= this (its iso-surface)", NULL, -1e300, 1e300,
      0},
@@ -210,6 +212,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (ohm_opt_given(inv, "voxel")) p.voxel = ohm_opt_real(inv, "voxel") * unit_mm(ohm_opt_str(inv, "units"));
     else p.dim = (int)ohm_opt_int(inv, "dim");
     p.band_voxels = (int)ohm_opt_int(inv, "band");
+    if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
 
     double t0 = ohm_now();
     ohm_voxel_grid g;
@@ -493,6 +496,10 @@ static const ohm_opt_spec solve_opts[] = {
      "auto|mesh|grid|none", 0, 0, 0},
     {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
      NULL, 1, 1e7, 0},
+    {"max_memory", OHM_OPT_REAL, NULL,
+     "MB the factor may take, estimated from the symbolic analysis before factorizing (default: what the machine "
+     "has available)",
+     NULL, 1e-3, 1e12, 0},
     {0}};
 
 /* Per-cell coefficients from the volume through the transfer function: the
@@ -582,6 +589,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     p.mesh = s->have_mesh ? &s->mesh : NULL;
     p.orientation = s->mesh_flipped ? -1 : 1;
     p.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
+    if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
     drop_solution(s);
     double t0 = ohm_now();
     double *percell[2 * OHM_MAX_CHANNELS] = {NULL};

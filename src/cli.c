@@ -5,6 +5,7 @@
 
 #include "ohm_version.h"
 #include "bench.h"
+#include "output.h"
 #include "pipeline.h"
 #include "validate.h"
 
@@ -30,6 +31,7 @@ static int run_chain(const ohm_chain *chain, int verbosity)
 
 int ohm_cli_main(int argc, char **argv)
 {
+    ohm_output_install_signal_cleanup(); /* Ctrl-C leaves no partial output */
     ohm_error err;
     ohm_error_clear(&err);
     int verbosity = 1, first = 1;

@@ -2,10 +2,52 @@
 
 #include <errno.h>
 #include <fcntl.h>
+#include <signal.h>
+#include <time.h>
 #include <stdlib.h>
 #include <string.h>
 #include <sys/stat.h>
 #include <unistd.h>
+
+/* The temporaries in flight, for the signal handler (see output.h). */
+enum { IN_FLIGHT_MAX = 16 };
+static char in_flight[IN_FLIGHT_MAX][OHM_PATH_MAX];
+static volatile sig_atomic_t in_flight_used[IN_FLIGHT_MAX];
+
+static void in_flight_add(const char *tmp)
+{
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
+        if (!in_flight_used[i]) {
+            snprintf(in_flight[i], sizeof in_flight[i], "%s", tmp);
+            in_flight_used[i] = 1;
+            return;
+        }
+}
+
+static void in_flight_remove(const char *tmp)
+{
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
+        if (in_flight_used[i] && strcmp(in_flight[i], tmp) == 0) in_flight_used[i] = 0;
+}
+
+static void cleanup_and_die(int sig)
+{
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
+        if (in_flight_used[i]) unlink(in_flight[i]); /* async-signal-safe */
+    signal(sig, SIG_DFL);
+    raise(sig);
+}
+
+void ohm_output_install_signal_cleanup(void)
+{
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = cleanup_and_die;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, NULL);
+    sigaction(SIGTERM, &sa, NULL);
+    sigaction(SIGHUP, &sa, NULL);
+}
 
 int ohm_output_begin(ohm_output *o, const char *path, ohm_error *err)
 {
@@ -35,11 +77,13 @@ int ohm_output_begin(ohm_output *o, const char *path, ohm_error *err)
     mode_t um = umask(0);
     umask(um);
     (void)fchmod(fd, 0666 & ~um);
+    in_flight_add(o->tmp);
     o->stream = fdopen(fd, "wb");
     if (!o->stream) {
         int e = errno;
         close(fd);
         unlink(o->tmp);
+        in_flight_remove(o->tmp);
         o->tmp[0] = '\0';
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", path, strerror(e));
     }
@@ -73,9 +117,16 @@ int ohm_output_commit(ohm_output *o, ohm_error *err)
             close(fd);
         }
     }
+    const char *delay = getenv("OHM_TEST_COMMIT_DELAY_MS"); /* test hook, see output.h */
+    if (delay && !failed) {
+        long ms = strtol(delay, NULL, 10);
+        struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+        if (ms > 0) nanosleep(&ts, NULL);
+    }
     if (!failed && rename(o->tmp, o->path) != 0) failed = 1, e = errno;
+    if (failed) unlink(o->tmp);
+    in_flight_remove(o->tmp);
     if (failed) {
-        unlink(o->tmp);
         o->tmp[0] = '\0';
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", o->path, strerror(e));
     }
@@ -91,6 +142,7 @@ void ohm_output_abort(ohm_output *o)
     }
     if (o->tmp[0]) {
         unlink(o->tmp);
+        in_flight_remove(o->tmp);
         o->tmp[0] = '\0';
     }
 }

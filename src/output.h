@@ -32,4 +32,16 @@ int ohm_output_commit(ohm_output *o, ohm_error *err);
 /* Remove the temporary; safe to call after commit (does nothing then). */
 void ohm_output_abort(ohm_output *o);
 
+/* Ctrl-C / SIGTERM while a file is being written: remove the temporaries in
+ * flight, then die of the signal as usual, so an interruption leaves neither
+ * a partial output nor litter (the earlier file at the path is untouched, as
+ * it always is until the rename).  This needs the one piece of process-wide
+ * state in ohm, a small table of the temporaries in flight: a signal handler
+ * can reach nothing else.  The ohm command installs it; a library user may.
+ * (SIGKILL cannot be caught: the old file is still intact, a temporary named
+ * ".NAME.ohm-XXXXXX" may remain.)
+ * Test hook: OHM_TEST_COMMIT_DELAY_MS=N in the environment waits N ms before
+ * each rename, so tests can interrupt a write deterministically. */
+void ohm_output_install_signal_cleanup(void);
+
 #endif

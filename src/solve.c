@@ -1,5 +1,7 @@
 #include "solve.h"
 
+#include "memory.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -240,6 +242,26 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             if (rc) break;
             sol->t_analyze += solver.t_analyze;
             sol->analyses++;
+            /* nnz(L) is known now, before factorizing: the factor stores at
+             * least its values (supernodal: xsize, with amalgamation zeros)
+             * and their row indices, and the symbolic copy is kept beside it */
+            {
+                const cholmod_factor *F = solver.symbolic;
+                double values = F->is_super ? fmax((double)F->xsize, solver.nnz_L) : solver.nnz_L;
+                double index = F->is_super ? (double)F->ssize : solver.nnz_L;
+                double need = 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)n * (double)batch;
+                double limit = ohm_memory_limit(params->max_memory);
+                if (need > limit) {
+                    char nb[32], lb[32];
+                    rc = ohm_fail(err, OHM_ERR_NOMEM,
+                                  "solve: the Cholesky factor of %lld cells needs about %s (nnz(L) = %.3g), more than "
+                                  "the %s %s; use a smaller dim= or a larger voxel=",
+                                  (long long)n, ohm_format_bytes(need, nb, 32), solver.nnz_L,
+                                  ohm_format_bytes(limit, lb, 32),
+                                  params->max_memory > 0 ? "max_memory= allows" : "available");
+                    break;
+                }
+            }
             sol->nnz_A = solver.nnz_A;
             sol->nnz_L = solver.nnz_L;
             sol->flops = solver.flops;

@@ -23,6 +23,7 @@ typedef struct ohm_solve_params {
     ohm_deposit deposit;
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
+    double max_memory;         /* bytes the factor may take; 0: what the machine has */
     ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
     const ohm_mesh *mesh;      /* for shadows=mesh                       */
     int orientation;           /* +1, or -1 for an inside-out mesh       */

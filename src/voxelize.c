@@ -1,6 +1,8 @@
 /* voxelize.c — mesh -> interior cells + narrow-band distance (see voxelize.h). */
 #include "voxelize.h"
 
+#include "memory.h"
+
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -415,6 +417,18 @@ static int layout_grid(ohm_voxel_grid *out, const double lo[3], const double hi[
                         "use a smaller dim= or a larger voxel=",
                         core[0] + 2 * pad, core[1] + 2 * pad, core[2] + 2 * pad, ncells, ncells * 5.0 / (1 << 30),
                         max_cells);
+
+    /* inside flags (1 byte) + distances (4) + the inside test's or the
+     * field's per-cell work (8): estimate before allocating */
+    double need = ncells * 13.0, limit = ohm_memory_limit(params->max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "voxelize: a %d x %d x %d grid needs about %s, more than the %s %s; use a smaller dim= or a "
+                        "larger voxel=",
+                        core[0] + 2 * pad, core[1] + 2 * pad, core[2] + 2 * pad, ohm_format_bytes(need, nb, 32),
+                        ohm_format_bytes(limit, lb, 32), params->max_memory > 0 ? "max_memory= allows" : "available");
+    }
 
     out->h = h;
     out->band = band_voxels * h;

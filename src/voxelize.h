@@ -39,6 +39,7 @@ typedef struct ohm_voxelize_params {
     double voxel;     /* voxel size in mm (used when dim == 0)                 */
     int band_voxels;  /* narrow-band half width in voxels; 0 means 3           */
     double max_cells; /* refuse a dense grid larger than this; 0 means 2^31    */
+    double max_memory;/* bytes the grid may take; 0: what the machine has      */
     /* Fit the bounding box into fit[0] x fit[1] x fit[2] cells (all three > 0;
      * all zero = unused, and then dim/voxel decide).  Voxels stay cubic: the
      * largest count goes to the longest axis, the next to the next, and

@@ -1,0 +1,46 @@
+#!/usr/bin/env bash
+# Never lose a file: killing ohm while it writes leaves the earlier output
+# intact; Ctrl-C (SIGINT) also removes the temporary.  And the memory
+# estimates: a deliberately small max_memory= refuses before allocating.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+"$OHM" --quiet -read file=samples/cow.obj -voxelize dim=8 -write file="$T/keep.vdb" -stats file="$T/keep.json"
+cp "$T/keep.vdb" "$T/keep.ref"
+cp "$T/keep.json" "$T/keep.json.ref"
+
+# Start a different write that pauses just before its rename (a test hook),
+# then kill it there: the new bytes are complete in the temporary, the old file
+# must still be the old one.
+for sig in KILL INT TERM; do
+  OHM_TEST_COMMIT_DELAY_MS=4000 "$OHM" --quiet -read file=samples/spot.obj -voxelize dim=20 \
+    -write file="$T/keep.vdb" -stats file="$T/keep.json" &
+  pid=$!
+  # wait until the temporary exists (the write has happened), at most 10 s
+  for _ in $(seq 100); do
+    ls -a "$T" | grep -q '^\.keep\.vdb\.ohm-' && break
+    sleep 0.1
+  done
+  check "SIG$sig: a temporary was being written" bash -c "ls -a '$T' | grep -q '^\.keep\.vdb\.ohm-'"
+  kill -s "$sig" "$pid"
+  set +e; wait "$pid"; code=$?; set -e
+  check "SIG$sig: ohm died of the signal (exit $code)" test "$code" -gt 128
+  check "SIG$sig: old .vdb intact" cmp -s "$T/keep.vdb" "$T/keep.ref"
+  check "SIG$sig: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
+  if [ "$sig" != KILL ]; then
+    check "SIG$sig: no temporary left" test -z "$(ls -a "$T" | grep '\.ohm-' || true)"
+  fi
+  rm -f "$T"/.*.ohm-* 2>/dev/null || true
+done
+
+# memory estimates, before allocating
+expect_exit 1 "grid over max_memory" -- "$OHM" -read file=samples/spot.obj -voxelize dim=400 max_memory=100
+expect_error_line "grid over max_memory" "needs about [0-9.]+ MiB, more than the 100.0 MiB max_memory= allows; use a smaller dim="
+expect_exit 1 "factor over max_memory" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=48 \
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve max_memory=5
+expect_error_line "factor over max_memory" "Cholesky factor of [0-9]+ cells needs about .*nnz\(L\) = .*more than the 5.0 MiB"
+# and the same runs within a sufficient limit
+expect_exit 0 "factor within max_memory" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=48 \
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve max_memory=2000
+
+finish
