@@ -226,7 +226,16 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         ohm_scan_bounds(&s->scan, lo, hi);
         rc = ohm_voxelize_field(&g, scan_field, &s->scan, lo, hi, ohm_opt_real(inv, "threshold"), &p, &s->log, err);
     }
-    if (rc) return rc;
+    if (rc) {
+        /* name the file the object came from (DESIGN.md §6) */
+        const char *src = s->have_mesh ? s->mesh_path : s->scan_path;
+        if (err && !strstr(err->msg, src)) {
+            char why[OHM_ERROR_MSG_MAX];
+            snprintf(why, sizeof why, "%s", err->msg);
+            ohm_fail(err, rc, "%s: %s", src, why);
+        }
+        return rc;
+    }
     double t = ohm_now() - t0;
 
     drop_solution(s);

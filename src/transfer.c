@@ -12,6 +12,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 #define TRANSFER_LINE_MAX 4096 /* characters per line, terminator excluded */
 #define TRANSFER_TOKENS_MAX 8  /* the widest row has 7 columns            */
@@ -235,6 +236,12 @@ fail:
 int ohm_transfer_read(ohm_transfer *out, const char *path, ohm_error *err)
 {
     if (out) memset(out, 0, sizeof *out);
+    /* FIFOs, devices, directories: opening or reading could block or never end */
+    struct stat st;
+    if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    if (S_ISDIR(st.st_mode)) return ohm_fail(err, OHM_ERR_IO, "%s: is a directory, expected a transfer function", path);
+    if (!S_ISREG(st.st_mode))
+        return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a transfer function", path);
     FILE *f = fopen(path, "rb");
     if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     size_t cap = 4096, len = 0;

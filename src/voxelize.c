@@ -418,6 +418,11 @@ static int layout_grid(ohm_voxel_grid *out, const double lo[3], const double hi[
                         core[0] + 2 * pad, core[1] + 2 * pad, core[2] + 2 * pad, ncells, ncells * 5.0 / (1 << 30),
                         max_cells);
 
+    if (!isfinite(h * h * h) || !(h * h * h > 0))
+        return ohm_fail(err, OHM_ERR_INVALID,
+                        "voxelize: a %g mm voxel has no finite volume: the object's coordinates are out of range "
+                        "(%g mm across)",
+                        h, extent);
     /* inside flags (1 byte) + distances (4) + the inside test's or the
      * field's per-cell work (8): estimate before allocating */
     double need = ncells * 13.0, limit = ohm_memory_limit(params->max_memory);

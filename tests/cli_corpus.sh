@@ -1,0 +1,109 @@
+#!/usr/bin/env bash
+# The bad-input corpus (tests/data/corpus/MANIFEST.tsv): every file must make
+# ohm stop within 10 s with its expected exit code (1 or 2, never 0, never a
+# signal) and exactly one "ohm: error:" line that names the file (and, for
+# text formats, the line) and matches the manifest's regex. Inputs that need
+# the file system (FIFO, directory, non-UTF-8 name, 5 MB pipeline, .vdb files
+# with the wrong grids) are made here at run time.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+export LC_ALL=C    # the non-UTF-8 file name below is plain bytes to grep
+C=tests/data/corpus
+M=$C/MANIFEST.tsv
+
+# run_case NAME HOW FILE CODE REGEX [no-name]: run ohm on FILE as HOW says;
+# check it. "no-name" skips the check that the error line names the file.
+run_case() {
+  local name=$1 how=$2 f=$3 want=$4 pat=$5 noname=${6:-} got cmd
+  case $how in
+    mesh)     cmd=(-read "file=$f" -voxelize dim=8) ;;
+    pipeline) cmd=(run "$f") ;;
+    transfer) cmd=(-material "transfer=$f") ;;
+    raw:*)    local a=${how#raw:}; cmd=(-read "file=$f" "dims=${a%%:*}" "type=${a#*:}") ;;
+    nifti)    cmd=(-read "file=$f" -voxelize dim=8 threshold=1) ;;
+    vdb)      cmd=(-read "file=$f") ;;
+    *) bad "$name: unknown kind '$how' in the manifest"; return ;;
+  esac
+  set +e; timeout 10 "$OHM" "${cmd[@]}" >"$T/out" 2>"$T/err" </dev/null; got=$?; set -e
+  LAST_ERR=$(cat "$T/err")
+  if [ "$got" = 124 ]; then bad "$name: timed out (hang) running: ohm ${cmd[*]}"; return; fi
+  if [ "$got" -gt 128 ]; then bad "$name: killed by signal $((got - 128)) running: ohm ${cmd[*]}"; return; fi
+  if [ "$want" = 0 ]; then
+    if [ "$got" = 0 ]; then ok; else bad "$name: exit $got, expected 0: $(tail -2 "$T/err")"; fi
+    return
+  fi
+  if [ "$got" != "$want" ]; then bad "$name: exit $got, expected $want: $(tail -3 "$T/err")"; return; fi
+  ok
+  expect_error_line "$name" "$pat"
+  [ "$noname" = no-name ] && return
+  # the error line names the file by its basename
+  local base; base=$(basename -- "$f")
+  if ! grep -a '^ohm: error:' <<<"$LAST_ERR" | grep -a -F -q -- "$base"; then
+    bad "$name: error line does not name '$base': $LAST_ERR"
+  else ok; fi
+}
+
+# ---- the committed corpus --------------------------------------------------
+n=0
+while IFS=$'\t' read -r file how code pat note; do
+  case $file in ''|'#'*) continue ;; esac
+  n=$((n + 1))
+  # exit 0 only for inputs the manifest documents as accepted
+  case $code in 1|2) ;; 0) case $note in VALID-RUNS*|'KNOWN GAP'*) ;; *) bad "$file: exit 0 without a VALID-RUNS/KNOWN GAP note" ;; esac ;;
+    *) bad "$file: manifest expects exit $code" ;; esac
+  if [ ! -e "$C/$file" ]; then bad "$file: listed in the manifest but missing"; continue; fi
+  nn=; case $note in '[no-name]'*) nn=no-name ;; esac
+  run_case "$file" "$how" "$C/$file" "$code" "$pat" $nn
+done <"$M"
+check "the corpus has at least 50 files (has $n)" test "$n" -ge 50
+# every committed file is in the manifest
+for f in "$C"/*; do
+  b=$(basename "$f")
+  case $b in MANIFEST.tsv|generate.py) continue ;; esac
+  check "$b is listed in MANIFEST.tsv" grep -q "^$(sed 's/[.[\*^$]/\\&/g' <<<"$b")	" "$M"
+done
+
+# ---- made at run time ---------------------------------------------------------
+# a non-UTF-8 file name (Latin-1 "é"): broken, so it must fail, and name it
+bad_name=$(printf 'caf\351.off')
+head -c 30 "$C/trunc-4.off" >"$T/$bad_name"
+run_case "non-UTF-8 name" mesh "$T/$bad_name" 1 ""
+
+# a directory, under each reader
+mkdir "$T/adir.obj" "$T/adir.ohm" "$T/adir.transfer" "$T/adir.nii" "$T/adir.vdb" "$T/adir.raw"
+run_case "directory (mesh)" mesh "$T/adir.obj" 1 "adir\.obj"
+run_case "directory (pipeline)" pipeline "$T/adir.ohm" 1 "adir\.ohm"
+run_case "directory (transfer)" transfer "$T/adir.transfer" 1 "adir\.transfer"
+run_case "directory (raw)" raw:4,4,4:u8 "$T/adir.raw" 1 "adir\.raw"
+run_case "directory (vdb)" vdb "$T/adir.vdb" 1 "adir\.vdb"
+
+# a FIFO with no writer: ohm must refuse it, not block in open()
+for ext in obj ohm transfer nii raw vdb; do mkfifo "$T/fifo.$ext"; done
+run_case "FIFO (mesh)" mesh "$T/fifo.obj" 1 "fifo\.obj"
+run_case "FIFO (pipeline)" pipeline "$T/fifo.ohm" 1 "fifo\.ohm"
+run_case "FIFO (transfer)" transfer "$T/fifo.transfer" 1 "fifo\.transfer"
+run_case "FIFO (nifti)" nifti "$T/fifo.nii" 1 "fifo\.nii"
+run_case "FIFO (raw)" raw:4,4,4:u8 "$T/fifo.raw" 1 "fifo\.raw"
+run_case "FIFO (vdb)" vdb "$T/fifo.vdb" 1 "fifo\.vdb"
+
+# a 5 MB pipeline: refused as too large, without parsing it
+$PY - "$T/big.ohm" <<'PY'
+import sys
+line = "# " + "x" * 97 + "\n"
+open(sys.argv[1], "w").write("ohm-pipeline 1\n" + line * (5 * 1024 * 1024 // len(line)) + "read file=samples/cow.obj\n")
+PY
+run_case "5 MB pipeline" pipeline "$T/big.ohm" 2 "big\.ohm.*(large|big|size)"
+
+# .vdb files with the wrong grids: a vec3 grid only, and no grids at all
+$PY - "$T/vec3.vdb" "$T/nogrids.vdb" <<'PY'
+import sys, numpy, pyopenvdb as vdb
+g = vdb.Vec3SGrid(); g.name = "velocity"
+g.copyFromArray(numpy.ones((4, 4, 4, 3), dtype=numpy.float32))
+vdb.write(sys.argv[1], grids=[g])
+vdb.write(sys.argv[2], grids=[])
+PY
+run_case "vec3 .vdb" vdb "$T/vec3.vdb" 1 "vec3\.vdb"
+# exit 2, as for junk.vdb: "no float grid named 'density'" is reported as a usage error
+run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 2 "nogrids\.vdb.*grid"
+
+finish

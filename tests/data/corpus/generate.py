@@ -1,0 +1,281 @@
+#!/usr/bin/python3
+"""Regenerate the bad-input corpus and MANIFEST.tsv (run from the repo root:
+/usr/bin/python3 tests/data/corpus/generate.py). Each manifest row: file, how
+to run it, expected exit code, a regex (grep -E) the one 'ohm: error:' line
+must match, and a note. A note starting with [no-name] means ohm's error line
+does not name this file (a known gap: the test then skips that check); exit 0
+rows are inputs ohm accepts (VALID-RUNS: fine; KNOWN GAP: should be refused).
+Inputs that need the file system (FIFO, directory, non-UTF-8 name, 5 MB
+pipeline, .vdb grids) are made at run time by tests/cli_corpus.sh."""
+import gzip, os, struct
+
+D = os.path.dirname(os.path.abspath(__file__))
+rows = []
+ANY = r"(:[0-9]+)?: "
+
+def esc(name):
+    return name.replace(".", r"\.")
+
+def add(name, data, how, code, pat=None, note="", whole=False):
+    if isinstance(data, str):
+        data = data.encode()
+    with open(os.path.join(D, name), "wb") as f:
+        f.write(data)
+    if pat is None or pat == ": ":
+        pat = ANY
+    rows.append((name, how, str(code), pat if whole else esc(name) + pat, note))
+
+# ---- the valid small meshes that get truncated --------------------------
+V = [(x, y, z) for x in (0, 1) for y in (0, 1) for z in (0, 1)]
+F = [(0, 1, 3), (0, 3, 2), (4, 6, 7), (4, 7, 5), (0, 4, 5), (0, 5, 1),
+     (2, 3, 7), (2, 7, 6), (0, 2, 6), (0, 6, 4), (1, 5, 7), (1, 7, 3)]
+
+def obj_text(v=V, f=F):
+    return "".join("v %g %g %g\n" % p for p in v) + "".join("f %d %d %d\n" % (a+1, b+1, c+1) for a, b, c in f)
+
+def off_text(v=V, f=F, head=None):
+    h = head if head is not None else "OFF\n%d %d 0\n" % (len(v), len(f))
+    return h + "".join("%g %g %g\n" % p for p in v) + "".join("3 %d %d %d\n" % t for t in f)
+
+def ply_ascii(v=V, f=F, nv=None, nf=None):
+    return ("ply\nformat ascii 1.0\nelement vertex %d\nproperty float x\nproperty float y\nproperty float z\n"
+            "element face %d\nproperty list uchar int vertex_indices\nend_header\n" % (nv or len(v), nf or len(f))
+            + "".join("%g %g %g\n" % p for p in v) + "".join("3 %d %d %d\n" % t for t in f))
+
+def ply_bin_hdr(nv, nf):
+    return ("ply\nformat binary_little_endian 1.0\nelement vertex %d\nproperty float x\nproperty float y\n"
+            "property float z\nelement face %d\nproperty list uchar int vertex_indices\nend_header\n" % (nv, nf)).encode()
+
+def ply_bin(v=V, f=F, nv=None, nf=None):
+    return (ply_bin_hdr(nv if nv is not None else len(v), nf if nf is not None else len(f))
+            + b"".join(struct.pack("<3f", *p) for p in v) + b"".join(struct.pack("<B3i", 3, *t) for t in f))
+
+def tri_pts(t):
+    return [V[i] for i in t]
+
+def stl_ascii(f=F):
+    s = "solid cube\n"
+    for t in f:
+        s += " facet normal 0 0 0\n  outer loop\n"
+        for p in tri_pts(t):
+            s += "   vertex %g %g %g\n" % p
+        s += "  endloop\n endfacet\n"
+    return s + "endsolid cube\n"
+
+def stl_bin(tris, count=None, header=b"\0" * 80):
+    d = header + struct.pack("<I", len(tris) if count is None else count)
+    for t in tris:
+        d += struct.pack("<3f", 0, 0, 1) + b"".join(struct.pack("<3f", *p) for p in t) + b"\0\0"
+    return d
+
+CUBE_TRIS = [tri_pts(t) for t in F]
+LINE = r":[0-9]+:"
+
+# ---- empty files of each format -----------------------------------------
+for ext in ("obj", "ply", "stl", "off", "obj.gz"):
+    add("empty." + ext, b"", "mesh", 1, ": .*empty")
+add("empty-gzip.off.gz", gzip.compress(b"", mtime=0), "mesh", 1, ": .*empty",
+    "a valid gzip stream holding nothing")
+add("blank-lines.obj", "\n\n   \n# only a comment\n", "mesh", 1, ": ", "no vertices or faces")
+
+# ---- truncations ----------------------------------------------------------
+o = obj_text()
+# cut inside lines so the last line is malformed (OBJ has no counts, so a cut
+# at a line end is just a smaller valid mesh)
+i = o.index("v 1 0 0") + len("v 1 0")
+add("trunc-1.obj", o[:i], "mesh", 1, ":5:", "cut inside the 5th vertex line: 2 coordinates")
+i = o.index("v 1 1 1") + 3
+add("trunc-2.obj", o[:i], "mesh", 1, ":8:", "cut inside the last vertex line")
+i = o.index("f 1 2 4") + len("f 1 2")
+add("trunc-3.obj", o[:i], "mesh", 1, ":9:", "cut inside the first face: 2 vertices")
+i = o.index("f 2 6 8") + len("f 2 6 ")
+add("trunc-4.obj", o[:i], "mesh", 1, ":19:", "cut inside the 11th face")
+i = o.index("f 2 8 4") + 1
+add("trunc-5.obj", o[:i], "mesh", 1, ":20:", "cut after the last 'f'")
+
+t = off_text()
+for k, frac in enumerate((0.02, 0.1, 0.3, 0.5, 0.75, 0.97), 1):
+    add("trunc-%d.off" % k, t[:int(len(t) * frac)], "mesh", 1, LINE, "first %d%% of a cube" % int(frac*100))
+
+t = ply_ascii()
+for k, frac in enumerate((0.05, 0.2, 0.5, 0.7, 0.85, 0.98), 1):
+    add("trunc-ascii-%d.ply" % k, t[:int(len(t) * frac)], "mesh", 1, LINE, "first %d%% of a cube" % int(frac*100))
+
+b = ply_bin()
+hl = len(ply_bin_hdr(8, 12))
+for k, cut in enumerate((hl // 2, hl, hl + 7, hl + 96, hl + 96 + 13 * 6 + 5, len(b) - 1), 1):
+    add("trunc-bin-%d.ply" % k, b[:cut], "mesh", 1, ANY, "binary cube cut at byte %d of %d" % (cut, len(b)))
+
+t = stl_ascii()
+for k, frac in enumerate((0.03, 0.3, 0.6, 0.95), 1):
+    add("trunc-ascii-%d.stl" % k, t[:int(len(t) * frac)], "mesh", 1, LINE, "first %d%% of an ASCII cube" % int(frac*100))
+
+b = stl_bin(CUBE_TRIS)
+for k, cut in enumerate((40, 83, 84 + 25, 84 + 50 * 6, len(b) - 1), 1):
+    add("trunc-bin-%d.stl" % k, b[:cut], "mesh", 1, ": ", "binary cube cut at byte %d of %d" % (cut, len(b)))
+
+g = gzip.compress(off_text().encode(), mtime=0)
+add("trunc-gz-1.off.gz", g[:len(g) // 2], "mesh", 1, ": ", "gzip stream cut in half")
+add("trunc-gz-2.off.gz", g[:12], "mesh", 1, ": ", "gzip stream cut after 12 bytes")
+
+# ---- wrong magic ------------------------------------------------------------
+add("magic.ply", ply_ascii().replace("ply\n", "plx\n", 1), "mesh", 1, ":1: .*PLY")
+add("magic-format.ply", ply_ascii().replace("format ascii", "format ebcdic", 1), "mesh", 1, LINE)
+add("magic.off", off_text(head="FOO\n8 12 0\n"), "mesh", 1, ":1: .*OFF")
+add("magic.obj.gz", b"\x1f\x8cthis is not gzip at all", "mesh", 1, ": ")
+add("png-bytes.obj", b"\x89PNG\r\n\x1a\n\0\0\0\rIHDR\0\0\0\x01\0\0\0\x01\x08\x02\0\0\0", "mesh", 1, ": ",
+    "a PNG signature under an .obj name")
+add("garbage.stl", bytes((i * 37 + 11) % 256 for i in range(300)), "mesh", 1, ": ", "300 junk bytes")
+
+# ---- huge declared counts --------------------------------------------------
+add("huge-faces.ply", ply_ascii(nf=10**12), "mesh", 1, ":7: .*1000000000000", "PLY claiming 10^12 faces")
+add("huge-faces-bin.ply", ply_bin(nf=10**12), "mesh", 1, ": ", "binary PLY claiming 10^12 faces")
+add("huge-verts.off", off_text(head="OFF\n1000000000000 12 0\n"), "mesh", 1, LINE, "OFF claiming 10^12 vertices")
+add("huge-tris.stl", stl_bin(CUBE_TRIS, count=4000000000), "mesh", 1, ": ", "binary STL declaring 4e9 triangles")
+add("huge-count-overflow.off", off_text(head="OFF\n99999999999999999999999 12 0\n"), "mesh", 1, LINE,
+    "count beyond 64 bits")
+add("negative-count.ply", ply_ascii().replace("element vertex 8", "element vertex -8"), "mesh", 1, ":3: .*-8")
+
+# ---- negative / overflowing indices -----------------------------------------
+add("index-neg-rel.obj", obj_text() + "f -1 -2 -99\n", "mesh", 1, ":21:", "relative index before the first vertex")
+add("index-huge.obj", obj_text() + "f 1 2 99999999999999999999\n", "mesh", 1, ":21:")
+add("index-int-max.obj", obj_text() + "f 1 2 2147483648\n", "mesh", 1, ":21:")
+add("index-neg.off", off_text(f=F[:-1] + [(1, 7, -1)]), "mesh", 1, ":22: .*-1")
+add("index-2p32.off", off_text(f=F[:-1] + [(1, 7, 4294967296)]), "mesh", 1, ":22: .*4294967296")
+add("index-neg-bin.ply", ply_bin(f=F[:-1] + [(1, 7, -1)]), "mesh", 1, ": ")
+add("index-big-bin.ply", ply_bin(f=F[:-1] + [(1, 7, 2**31 - 1)]), "mesh", 1, ": ")
+add("index-neg-ascii.ply", ply_ascii(f=F[:-1] + [(1, 7, -5)]), "mesh", 1, ":29: .*-5")
+add("face-size-huge.off", off_text().replace("3 1 7 3\n", "2000000000 1 7 3\n"), "mesh", 1, ":22: .*2000000000",
+    "face declaring 2e9 corners")
+
+# ---- NaN / Inf / 1e308 -------------------------------------------------------
+add("nan.obj", obj_text().replace("v 1 1 1", "v 1 nan 1"), "mesh", 1, ":8:")
+add("inf.obj", obj_text().replace("v 0 1 0", "v 0 inf 0"), "mesh", 1, ":3:")
+add("big-1e308.obj", obj_text().replace("v 1 0 0", "v 1e308 0 0"), "mesh", 0, "",
+    "KNOWN GAP: accepted (exit 0); voxel 1.25e307 mm, 0 interior cells, '-nan mm^3' in the log; should be refused")
+add("big-1e309.off", off_text().replace("1 1 1\n", "1 1e309 1\n"), "mesh", 1, ":10:")
+add("neg-inf.ply", ply_ascii().replace("0 0 1\n", "0 0 -inf\n", 1), "mesh", 1, LINE)
+add("nan-bin.stl", stl_bin([CUBE_TRIS[0], [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)]] + CUBE_TRIS[2:]),
+    "mesh", 1, ": ", "binary STL with a NaN x")
+add("inf-bin.ply", ply_bin(v=V[:-1] + [(1, float("inf"), 1)]), "mesh", 1, ": ")
+add("nan-ascii.stl", stl_ascii().replace("vertex 0 0 1", "vertex 0 NaN 1", 1), "mesh", 1, LINE)
+
+# ---- degenerate / zero-area / tiny --------------------------------------------
+add("degenerate-all.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 1\nf 2 3 2\n", "mesh", 0, "",
+    "VALID-RUNS: only zero-area faces: read warns '3 degenerate triangles', voxelize warns 0 interior cells, exit 0 (-solve would then fail: no interior cells)")
+add("point.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n", "mesh", 1, "voxelize: mesh has zero extent",
+    "[no-name] three identical vertices: voxelize refuses it, but its error does not name the file", whole=True)
+add("flat.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n", "mesh", 0, "",
+    "KNOWN GAP: a flat square (zero volume) runs, exit 0, and voxelize reports 1 interior cell")
+add("single-triangle.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "mesh", 0, "",
+    "VALID-RUNS: one triangle reads and voxelizes (0 interior cells, a warning), exit 0; adding -solve fails with exit 1 'network: the voxel object has no interior cells'")
+add("no-faces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "mesh", 1, ": ", "vertices only")
+add("one-vertex-face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1\n", "mesh", 1, ":4:")
+
+# ---- pipelines -----------------------------------------------------------------
+P = "ohm-pipeline 1\n"
+add("unknown-action.ohm", P + "read file=samples/cow.obj\nvoxelise dim=8\n", "pipeline", 2, ":3: .*voxelise")
+add("self-run.ohm", P + "run file=self.ohm\n", "pipeline", 2, ":2: .*unknown action",
+    "'run' is a command, not an action: a usage error, nothing runs")
+add("bad-value.ohm", P + "read file=samples/cow.obj\nvoxelize dim=banana\n", "pipeline", 2, ":3: .*dim")
+add("out-of-range.ohm", P + "read file=samples/cow.obj\nvoxelize dim=-5\n", "pipeline", 2, ":3: .*dim")
+add("unknown-option.ohm", P + "read file=samples/cow.obj\nvoxelize dimm=8\n", "pipeline", 2, ":3: .*dimm")
+add("missing-file.ohm", P + "read file=tests/data/corpus/nothere.obj\nvoxelize dim=8\n", "pipeline", 1,
+    r"nothere\.obj: cannot open", "[no-name] the error names the missing mesh, not the pipeline file", whole=True)
+add("no-header.ohm", "read file=samples/cow.obj\n", "pipeline", 2, ":1:")
+add("bad-version.ohm", "ohm-pipeline 9\nread file=samples/cow.obj\n", "pipeline", 2, ":1:")
+add("open-quote.ohm", P + 'read file="samples/cow.obj\n', "pipeline", 2, ":2:")
+add("binary-junk.ohm", bytes((i * 73 + 5) % 256 for i in range(512)), "pipeline", 2, ":1: .*NUL")
+add("nul-byte.ohm", P + "read file=samples/cow.obj\0\nvoxelize dim=8\n", "pipeline", 2, ":2:")
+add("empty.ohm", b"", "pipeline", 2, ": ")
+add("header-only.ohm", P, "pipeline", 2, ": ", "no actions")
+
+# ---- transfer functions ---------------------------------------------------------
+T = "ohm-transfer 1\n"
+add("empty.transfer", b"", "transfer", 1, ":1: .*empty")
+add("no-header.transfer", "0 0.1 1\n", "transfer", 1, ":1: .*header")
+add("version.transfer", "ohm-transfer 2\n0 0.1 1\n", "transfer", 1, ":1: .*version")
+add("header-word.transfer", "ohm-transfer 1 colour=rgb\n0 0.1 1\n", "transfer", 1, ":1: .*colour")
+add("mode.transfer", "ohm-transfer 1 mode=magic\n0 0.1 1\n", "transfer", 1, ":1: .*magic")
+add("eta.transfer", "ohm-transfer 1 eta=7\n0 0.1 1\n", "transfer", 1, ":1: .*eta")
+add("columns.transfer", T + "0 0.1 0.1 0.1 1 1 1\n100 0.1 1\n", "transfer", 1, ":3: .*columns")
+add("not-number.transfer", T + "0 0.1x 1\n", "transfer", 1, ":2: .*0\\.1x")
+add("nan.transfer", T + "0 nan 1\n", "transfer", 1, ":2: .*nan")
+add("inf.transfer", T + "0 0.1 inf\n", "transfer", 1, ":2: .*inf")
+add("neg-sigma-a.transfer", T + "0 -0.1 1\n", "transfer", 1, ":2: .*sigma_a")
+add("zero-sigma-s.transfer", T + "0 0.1 0\n", "transfer", 1, ":2: .*sigma_s")
+add("zero-resistance.transfer", "ohm-transfer 1 mode=resistance\n0 0 1000\n", "transfer", 1, ":2: ")
+add("rgb-resistance.transfer", "ohm-transfer 1 mode=resistance\n0 1 1 1 1 1 1\n", "transfer", 1, ":2: ")
+add("not-increasing.transfer", T + "0 0.1 1\n100 0.1 1\n100 0.2 1\n", "transfer", 1, ":4: .*increasing")
+add("no-points.transfer", T + "# nothing here\n", "transfer", 1, ":2: .*no control points")
+add("long-line.transfer", T + "0 0.1 1" + " " * 5000 + "\n", "transfer", 1, ":2: ")
+add("binary-junk.transfer", bytes((i * 91 + 3) % 256 for i in range(400)), "transfer", 1, ":1: .*NUL")
+
+# ---- raw volumes ---------------------------------------------------------------------
+add("empty.raw", b"", "raw:4,4,4:u8", 1, ": .*64 bytes")
+add("short.raw", b"\1" * 63, "raw:4,4,4:u8", 1, ": .*63")
+add("long.raw", b"\1" * 65, "raw:4,4,4:u8", 1, ": .*65")
+add("short-u16.raw", b"\1" * 127, "raw:4,4,4:u16", 1, ": .*127")
+add("short-f32.raw", b"\0" * 255, "raw:4,4,4:f32", 1, ": .*255")
+add("nan-f32.raw", struct.pack("<64f", *([float("nan")] * 64)), "raw:4,4,4:f32", 1, ": ")
+add("trunc.raw.gz", gzip.compress(b"\1" * 64, mtime=0)[:20], "raw:4,4,4:u8", 1, ": ")
+add("huge-dims.raw", b"\1" * 64, "raw:65535,65535,65535:u8", 1, ": ")
+
+# ---- NIfTI ----------------------------------------------------------------------------
+def nifti(dims=(4, 4, 4), datatype=2, bitpix=8, magic=b"n+1\0", voxoff=352.0, data=None, sizeof=348):
+    h = bytearray(348)
+    struct.pack_into("<i", h, 0, sizeof)
+    struct.pack_into("<8h", h, 40, len(dims), *(list(dims) + [1] * (7 - len(dims))))
+    struct.pack_into("<hh", h, 70, datatype, bitpix)
+    struct.pack_into("<8f", h, 76, 1, 1, 1, 1, 1, 1, 1, 1)
+    struct.pack_into("<f", h, 108, voxoff)
+    struct.pack_into("<f", h, 112, 1.0)
+    h[344:348] = magic
+    n = 1
+    for d in dims:
+        n *= max(d, 0)
+    if data is None:
+        data = bytes([(i * 7) % 200 for i in range(min(n, 4096) * bitpix // 8)])
+    return bytes(h) + b"\0" * 4 + data
+
+def nifti2(dims, data):
+    h = bytearray(540)
+    struct.pack_into("<i", h, 0, 540)
+    h[4:12] = b"n+2\0\r\n\x1a\n"
+    struct.pack_into("<hh", h, 12, 2, 8)
+    struct.pack_into("<8q", h, 16, len(dims), *(list(dims) + [1] * (7 - len(dims))))
+    struct.pack_into("<8d", h, 104, 1, 1, 1, 1, 1, 1, 1, 1)
+    struct.pack_into("<q", h, 168, 544)
+    struct.pack_into("<d", h, 176, 1.0)
+    return bytes(h) + b"\0" * 4 + data
+
+good = nifti()
+add("empty.nii", b"", "nifti", 1, ": ")
+add("trunc-header.nii", good[:200], "nifti", 1, ": ")
+add("trunc-data.nii", good[:352 + 30], "nifti", 1, ": ")
+add("magic.nii", nifti(magic=b"xyz\0"), "nifti", 0, "",
+    "KNOWN GAP: magic 'xyz' with sizeof_hdr 348 is read as NIfTI-1 (as an Analyze 7.5 header would be), exit 0")
+add("sizeof.nii", nifti(sizeof=1234), "nifti", 1, ": ")
+add("huge-dims.nii", nifti(dims=(32767, 32767, 32767), data=b"\0" * 64), "nifti", 1, ": ",
+    "NIfTI-1 declaring 32767^3 voxels (its dims are int16)")
+add("huge-dims-2.nii", nifti2((65535, 65535, 65535), b"\0" * 64), "nifti", 1, ": ",
+    "NIfTI-2 declaring 65535^3 voxels")
+add("huge-dims-2-int64.nii", nifti2((2**40, 2**40, 2**40), b"\0" * 64), "nifti", 1, ": ",
+    "NIfTI-2 dims whose product overflows 64 bits")
+add("negative-dim.nii", nifti(dims=(4, -4, 4), data=b"\0" * 64), "nifti", 0, "",
+    "KNOWN GAP: dim[2] = -4 is read as 1 (a 4 x 1 x 4 volume), exit 0; should be refused")
+add("zero-dim.nii", nifti(dims=(4, 0, 4), data=b""), "nifti", 1, ": ")
+add("datatype.nii", nifti(datatype=1234, bitpix=8), "nifti", 1, ": ", "unknown datatype code")
+add("trunc.nii.gz", gzip.compress(good, mtime=0)[:60], "nifti", 1, ": ")
+
+# ---- .vdb (the error names the file as '/path/x.vdb' or path/x.vdb: ) ---------
+add("empty.vdb", b"", "vdb", 1, r"empty\.vdb", whole=True)
+add("junk.vdb", b"\x20\x42\x44\x56" + bytes(200), "vdb", 2, r"junk\.vdb", whole=True,
+    note="VDB magic then zeros: opens as a .vdb with no grids; 'no float grid named density' is exit 2")
+add("text.vdb", "this is not a vdb\n", "vdb", 1, r"text\.vdb", whole=True)
+
+with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
+    f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
+    for r in rows:
+        f.write("\t".join(r) + "\n")
+print(len(rows), "files")
