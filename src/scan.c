@@ -185,6 +185,19 @@ static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void
     if (nim->iname_offset < 0)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: vox_offset %" PRId64 " is negative", path,
                         (int64_t)nim->iname_offset);
+    /* Never allocate what the file cannot hold: a plain file must have the
+     * bytes; a gzip stream expands at most ~1032:1 (deflate's limit). */
+    struct stat st;
+    if (stat(iname, &st) == 0 && S_ISREG(st.st_mode)) {
+        double have = (double)st.st_size - (double)nim->iname_offset;
+        if (nifti_is_gzfile(iname)) have = 1032.0 * (double)st.st_size;
+        if ((double)want > have)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: truncated: %zu voxels of %s need %zu bytes from byte %" PRId64
+                            ", more than the %lld-byte file can hold",
+                            path, nvox, nifti_datatype_string(nim->datatype), want, (int64_t)nim->iname_offset,
+                            (long long)st.st_size);
+    }
     znzFile f = znzopen(iname, "rb", nifti_is_gzfile(iname));
     if (znz_isnull(f)) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open image data %s", path, iname);
     int rc = 0;
