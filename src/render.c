@@ -84,34 +84,7 @@ static void scene_free(render_ctx *r)
 
 static int scene_build(render_ctx *r, const ohm_mesh *mesh, ohm_error *err)
 {
-    if (mesh->ntris > 0xFFFFFFFFu || mesh->nverts > 0xFFFFFFFFu)
-        return ohm_fail(err, OHM_ERR_INVALID, "-render: %zu triangles is more than Embree indexes", mesh->ntris);
-    r->device = rtcNewDevice("threads=1");
-    if (!r->device)
-        return ohm_fail(err, OHM_ERR_INTERNAL, "-render: Embree could not start (error %d)",
-                        (int)rtcGetDeviceError(NULL));
-    r->scene = rtcNewScene(r->device);
-    RTCGeometry geom = rtcNewGeometry(r->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                        mesh->nverts);
-    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                           mesh->ntris);
-    if (!vb || !ib) {
-        rtcReleaseGeometry(geom);
-        scene_free(r);
-        return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for %zu triangles", mesh->ntris);
-    }
-    for (size_t i = 0; i < 3 * mesh->nverts; ++i) vb[i] = (float)mesh->verts[i];
-    for (size_t i = 0; i < 3 * mesh->ntris; ++i) ib[i] = (unsigned)mesh->tris[i];
-    rtcCommitGeometry(geom);
-    rtcAttachGeometry(r->scene, geom);
-    rtcReleaseGeometry(geom);
-    rtcCommitScene(r->scene);
-    if (rtcGetDeviceError(r->device) != RTC_ERROR_NONE) {
-        scene_free(r);
-        return ohm_fail(err, OHM_ERR_INTERNAL, "-render: Embree failed to build the scene");
-    }
-    return OHM_OK;
+    return ohm_embree_mesh_scene(&r->device, &r->scene, mesh, NULL, NULL, "-render", err);
 }
 
 static int occluded(const render_ctx *r, const double p[3], const double l[3], double tmax)

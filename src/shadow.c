@@ -4,7 +4,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include <embree3/rtcore.h>
 
 #include "network.h"
 
@@ -59,6 +58,49 @@ void ohm_occluder_free(ohm_occluder *occ)
     free(occ);
 }
 
+int ohm_embree_mesh_scene(RTCDevice *device, RTCScene *scene, const ohm_mesh *mesh, RTCFilterFunctionN occluded_filter,
+                          void *user, const char *who, ohm_error *err)
+{
+    *device = NULL;
+    *scene = NULL;
+    if (mesh->ntris > 0xFFFFFFFFu || mesh->nverts > 0xFFFFFFFFu)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: %zu triangles is more than Embree indexes", who, mesh->ntris);
+    RTCDevice dev = rtcNewDevice("threads=1");
+    if (!dev)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "%s: Embree could not start (error %d)", who,
+                        (int)rtcGetDeviceError(NULL));
+    RTCScene sc = rtcNewScene(dev);
+    RTCGeometry geom = rtcNewGeometry(dev, RTC_GEOMETRY_TYPE_TRIANGLE);
+    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
+                                        mesh->nverts);
+    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
+                                           mesh->ntris);
+    if (!vb || !ib) {
+        rtcReleaseGeometry(geom);
+        rtcReleaseScene(sc);
+        rtcReleaseDevice(dev);
+        return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory for %zu triangles", who, mesh->ntris);
+    }
+    for (size_t i = 0; i < 3 * mesh->nverts; ++i) vb[i] = (float)mesh->verts[i];
+    for (size_t i = 0; i < 3 * mesh->ntris; ++i) ib[i] = (unsigned)mesh->tris[i];
+    if (occluded_filter) {
+        rtcSetGeometryUserData(geom, user);
+        rtcSetGeometryOccludedFilterFunction(geom, occluded_filter);
+    }
+    rtcCommitGeometry(geom);
+    rtcAttachGeometry(sc, geom);
+    rtcReleaseGeometry(geom);
+    rtcCommitScene(sc);
+    if (rtcGetDeviceError(dev) != RTC_ERROR_NONE) {
+        rtcReleaseScene(sc);
+        rtcReleaseDevice(dev);
+        return ohm_fail(err, OHM_ERR_INTERNAL, "%s: Embree failed to build the scene", who);
+    }
+    *device = dev;
+    *scene = sc;
+    return OHM_OK;
+}
+
 int ohm_occluder_create(ohm_occluder **out, ohm_shadows mode, const ohm_voxel_grid *grid, const ohm_mesh *mesh,
                         int orientation, ohm_error *err)
 {
@@ -78,37 +120,10 @@ int ohm_occluder_create(ohm_occluder **out, ohm_shadows mode, const ohm_voxel_gr
         free(occ);
         return ohm_fail(err, OHM_ERR_INVALID, "shadows=mesh needs a mesh: use shadows=grid for objects without one");
     }
-    if (mesh->ntris > 0xFFFFFFFFu || mesh->nverts > 0xFFFFFFFFu) {
+    int rc = ohm_embree_mesh_scene(&occ->device, &occ->scene, mesh, front_faces_only, occ, "shadows", err);
+    if (rc) {
         free(occ);
-        return ohm_fail(err, OHM_ERR_INVALID, "shadows=mesh: %zu triangles is more than Embree indexes", mesh->ntris);
-    }
-    occ->device = rtcNewDevice("threads=1");
-    if (!occ->device) {
-        ohm_occluder_free(occ);
-        return ohm_fail(err, OHM_ERR_INTERNAL, "shadows: Embree could not start (error %d)", (int)rtcGetDeviceError(NULL));
-    }
-    occ->scene = rtcNewScene(occ->device);
-    RTCGeometry geom = rtcNewGeometry(occ->device, RTC_GEOMETRY_TYPE_TRIANGLE);
-    float *vb = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3, 3 * sizeof(float),
-                                        mesh->nverts);
-    unsigned *ib = rtcSetNewGeometryBuffer(geom, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3, 3 * sizeof(unsigned),
-                                           mesh->ntris);
-    if (!vb || !ib) {
-        rtcReleaseGeometry(geom);
-        ohm_occluder_free(occ);
-        return ohm_fail(err, OHM_ERR_NOMEM, "shadows: out of memory for %zu triangles", mesh->ntris);
-    }
-    for (size_t i = 0; i < 3 * mesh->nverts; ++i) vb[i] = (float)mesh->verts[i];
-    for (size_t i = 0; i < 3 * mesh->ntris; ++i) ib[i] = (unsigned)mesh->tris[i];
-    rtcSetGeometryUserData(geom, occ);
-    rtcSetGeometryOccludedFilterFunction(geom, front_faces_only);
-    rtcCommitGeometry(geom);
-    rtcAttachGeometry(occ->scene, geom);
-    rtcReleaseGeometry(geom);
-    rtcCommitScene(occ->scene);
-    if (rtcGetDeviceError(occ->device) != RTC_ERROR_NONE) {
-        ohm_occluder_free(occ);
-        return ohm_fail(err, OHM_ERR_INTERNAL, "shadows: Embree failed to build the scene");
+        return rc;
     }
     *out = occ;
     return OHM_OK;

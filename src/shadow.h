@@ -18,6 +18,8 @@
 #ifndef OHM_SHADOW_H
 #define OHM_SHADOW_H
 
+#include <embree3/rtcore.h>
+
 #include "mesh.h"
 #include "ohm_error.h"
 #include "voxelize.h"
@@ -42,5 +44,13 @@ void ohm_occluder_free(ohm_occluder *occ);
 double ohm_face_visibility(const ohm_occluder *occ, const int32_t ijk[3], int d, const double l[3], double tmax);
 
 const char *ohm_shadows_name(ohm_shadows s);
+
+/* One Embree device and scene holding a mesh's triangles (single-threaded
+ * device, float copies of the vertices), shared by the shadow rays and the
+ * preview renderer.  occluded_filter may be NULL; user goes to the geometry.
+ * `who` prefixes the messages ("shadows", "-render").  On failure nothing is
+ * left allocated.  Release with rtcReleaseScene and rtcReleaseDevice. */
+int ohm_embree_mesh_scene(RTCDevice *device, RTCScene *scene, const ohm_mesh *mesh, RTCFilterFunctionN occluded_filter,
+                          void *user, const char *who, ohm_error *err);
 
 #endif
