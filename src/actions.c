@@ -503,6 +503,11 @@ static const ohm_opt_spec solve_opts[] = {
      "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
      "there is one",
      "auto|mesh|grid|none", 0, 0, 0},
+    {"solver", OHM_OPT_ENUM, "direct",
+     "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
+     "warm-started frame to frame) | auto (the cheaper by a cost model; cg when the factor does not fit)",
+     "direct|cg|auto", 0, 0, 0},
+    {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg stops when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
     {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
      NULL, 1, 1e7, 0},
     {"max_memory", OHM_OPT_REAL, NULL,
@@ -589,6 +594,11 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                 : OHM_DEPOSIT_EXPONENTIAL;
     p.ordering = ohm_opt_str(inv, "ordering");
+    const char *solver_name = ohm_opt_str(inv, "solver");
+    p.solver = strcmp(solver_name, "cg") == 0     ? OHM_SOLVER_CG
+               : strcmp(solver_name, "auto") == 0 ? OHM_SOLVER_AUTO
+                                                  : OHM_SOLVER_DIRECT;
+    p.cg_tol = ohm_opt_real(inv, "cg_tol");
     const char *sh = ohm_opt_str(inv, "shadows");
     p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
                 : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
@@ -615,8 +625,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
     snprintf(s->solution_desc, sizeof s->solution_desc,
-             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d ordering=%s", bname, dname,
-             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->ordering);
+             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s", bname, dname,
+             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -639,6 +649,10 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "boundary", bname);
     ohm_stats_set_str(st, "deposit", dname);
     ohm_stats_set_str(st, "ordering", sol->ordering);
+    ohm_stats_set_str(st, "solver", sol->solver);
+    ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
+    ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
+    ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
     ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
     ohm_stats_set(st, "flops", sol->flops);

@@ -1,5 +1,6 @@
 #include "solve.h"
 
+#include "cg.h"
 #include "memory.h"
 
 #include <math.h>
@@ -54,6 +55,107 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
     }
     free(sink), free(diag), free(defect), free(vsink);
     return any;
+}
+
+/* solver=auto.  The first two columns are always solved with CG and the
+ * second, warm-started like every later one, is timed (t1 seconds, its1
+ * iterations); the other `rest` columns then go to whichever is predicted
+ * cheaper: CG at t1 each, or the direct path's analysis + one factorization per distinct
+ * medium + a pair of triangular solves per column.  The direct costs are a
+ * model of METIS nested dissection on a 3-D grid of n cells: ~3.5 n^(4/3)
+ * entries in L (1.7 ns each per column solved), analysis 1.4e-6 n^1.155 s,
+ * a factorization 1.02e-7 n^1.4 s (~n^2 flops at a rate that grows with the
+ * supernodes) — power laws fitted to spot at dim 32/64/96/128 on a 2-core
+ * machine (docs/accuracy.md has the measured times and where the choice
+ * flips).  The probe keeps the choice honest where CG converges slowly. */
+static int choose_cg_after_probe(ohm_solution *sol, double t1, int64_t its1, double rest, int factors, int64_t n)
+{
+    double nd = (double)n;
+    double t_analyze = 1.4e-6 * pow(nd, 1.155);
+    double t_factor = factors * 1.02e-7 * pow(nd, 1.4);
+    double t_column = 1.7e-9 * 3.5 * pow(nd, 4.0 / 3.0);
+    double t_direct = t_analyze + t_factor + rest * t_column;
+    double t_cg = rest * t1;
+    snprintf(sol->solver_reason, sizeof sol->solver_reason,
+             "a warm CG column took %.3g s (%lld iterations); for the other %.0f: predicted %.3g s with CG, "
+             "%.3g s direct (analysis %.3g s, %d factorization(s) %.3g s)",
+             t1, (long long)its1, rest, t_cg, t_direct, t_analyze, factors, t_factor);
+    return t_cg <= t_direct;
+}
+
+static int prepare_cg(ohm_solution *sol, ohm_cg *cg, cholmod_sparse *A, const ohm_solve_params *params, int64_t n,
+                      size_t batch, ohm_error *err)
+{
+    double need = ohm_cg_bytes(n) + 2.0 * sizeof(double) * (double)n * (double)batch;
+    double limit = ohm_memory_limit(params->max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: conjugate gradients on %lld cells need about %s, more than the %s %s; use a smaller "
+                        "dim= or a larger voxel=",
+                        (long long)n, ohm_format_bytes(need, nb, 32), ohm_format_bytes(limit, lb, 32),
+                        params->max_memory > 0 ? "max_memory= allows" : "available");
+    }
+    ohm_cg_free(cg);
+    int rc = ohm_cg_setup(cg, A, err);
+    if (rc) return rc;
+    sol->t_cg_setup += cg->t_setup;
+    sol->nnz_A = (double)A->nzmax;
+    return OHM_OK;
+}
+
+/* Analyse (once per grid), check the factor fits, factorize.  With
+ * solver=auto a factor that does not fit sets *too_big instead of failing. */
+static int prepare_direct(ohm_solution *sol, ohm_solver *solver, cholmod_factor **L, cholmod_sparse *A,
+                          const ohm_solve_params *params, const ohm_network *net, size_t batch, int *too_big,
+                          const ohm_log *log, ohm_error *err)
+{
+    int64_t n = net->n;
+    *too_big = 0;
+    if (!solver->symbolic) {
+        ohm_log_info(log, "solve: %lld unknowns, %lld boundary faces, %lld matrix entries; analysing (%s)",
+                     (long long)n, (long long)net->nfaces, (long long)net->nnz, params->ordering);
+        int rc = ohm_solver_analyze(solver, A, params->ordering, err);
+        if (rc) return rc;
+        sol->t_analyze += solver->t_analyze;
+        sol->analyses++;
+        sol->nnz_A = solver->nnz_A;
+        sol->nnz_L = solver->nnz_L;
+        sol->flops = solver->flops;
+        snprintf(sol->ordering, sizeof sol->ordering, "%s", solver->ordering);
+    }
+    /* nnz(L) is known now, before factorizing: the factor stores at least its
+     * values (supernodal: xsize, with amalgamation zeros) and their row
+     * indices, and the symbolic copy is kept beside it */
+    const cholmod_factor *F = solver->symbolic;
+    double values = F->is_super ? fmax((double)F->xsize, solver->nnz_L) : solver->nnz_L;
+    double index = F->is_super ? (double)F->ssize : solver->nnz_L;
+    double need = 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)n * (double)batch;
+    double limit = ohm_memory_limit(params->max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        if (params->solver == OHM_SOLVER_AUTO) {
+            snprintf(sol->solver_reason, sizeof sol->solver_reason,
+                     "the factor would need about %s, more than the %s %s", ohm_format_bytes(need, nb, 32),
+                     ohm_format_bytes(limit, lb, 32), params->max_memory > 0 ? "max_memory= allows" : "available");
+            *too_big = 1;
+            return OHM_OK;
+        }
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: the Cholesky factor of %lld cells needs about %s (nnz(L) = %.3g), more than the %s "
+                        "%s; use solver=cg (memory O(cells)), a smaller dim= or a larger voxel=",
+                        (long long)n, ohm_format_bytes(need, nb, 32), solver->nnz_L, ohm_format_bytes(limit, lb, 32),
+                        params->max_memory > 0 ? "max_memory= allows" : "available");
+    }
+    /* the next channel refactorizes into the same L: same pattern, and its
+     * memory is already mapped */
+    double tf = 0;
+    int rc = ohm_solver_factorize(L, solver, A, &tf, err);
+    if (rc) return rc;
+    sol->t_factor += tf;
+    sol->factors++;
+    ohm_log_info(log, "solve: factorized (nnz(L) %.3g, %.3g flops) in %.2f s", sol->nnz_L, sol->flops, tf);
+    return OHM_OK;
 }
 
 void ohm_solution_free(ohm_solution *sol)
@@ -151,6 +253,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     int *face_count = calloc((size_t)n, sizeof *face_count);
     cholmod_sparse *A = NULL;
     cholmod_factor *L = NULL;
+    ohm_cg cg;
+    memset(&cg, 0, sizeof cg);
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
     double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
@@ -226,6 +330,14 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 break;
             }
     }
+    /* auto starts with CG on the first column and decides after it */
+    int use_cg = params->solver != OHM_SOLVER_DIRECT;
+    int decided = params->solver != OHM_SOLVER_AUTO, probed = 0;
+    snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
+    int nclasses = 0;
+    for (int c = 0; c < channels; ++c) nclasses += cls[c] == c;
+    int solved[OHM_MAX_CHANNELS] = {0};
+    const double cg_tol = params->cg_tol > 0 ? params->cg_tol : 1e-10;
     for (int k = 0; k < channels && !rc; ++k) {
         if (cls[k] != k) continue; /* not the first channel of its class */
         ohm_channel_medium med;
@@ -235,46 +347,19 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         rc = ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &solver.cc, err);
         sol->t_assemble += ohm_now() - t0;
         if (rc) break;
-        if (!solver.symbolic) {
-            ohm_log_info(log, "solve: %lld unknowns, %lld boundary faces, %lld matrix entries; analysing (%s)",
-                         (long long)n, (long long)net->nfaces, (long long)net->nnz, params->ordering);
-            rc = ohm_solver_analyze(&solver, A, params->ordering, err);
-            if (rc) break;
-            sol->t_analyze += solver.t_analyze;
-            sol->analyses++;
-            /* nnz(L) is known now, before factorizing: the factor stores at
-             * least its values (supernodal: xsize, with amalgamation zeros)
-             * and their row indices, and the symbolic copy is kept beside it */
-            {
-                const cholmod_factor *F = solver.symbolic;
-                double values = F->is_super ? fmax((double)F->xsize, solver.nnz_L) : solver.nnz_L;
-                double index = F->is_super ? (double)F->ssize : solver.nnz_L;
-                double need = 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)n * (double)batch;
-                double limit = ohm_memory_limit(params->max_memory);
-                if (need > limit) {
-                    char nb[32], lb[32];
-                    rc = ohm_fail(err, OHM_ERR_NOMEM,
-                                  "solve: the Cholesky factor of %lld cells needs about %s (nnz(L) = %.3g), more than "
-                                  "the %s %s; use a smaller dim= or a larger voxel=",
-                                  (long long)n, ohm_format_bytes(need, nb, 32), solver.nnz_L,
-                                  ohm_format_bytes(limit, lb, 32),
-                                  params->max_memory > 0 ? "max_memory= allows" : "available");
-                    break;
-                }
+        if (use_cg) {
+            rc = prepare_cg(sol, &cg, A, params, n, batch, err);
+        } else {
+            int too_big = 0;
+            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
+            if (!rc && too_big) { /* auto: the factor does not fit, CG does */
+                use_cg = 1;
+                decided = 1;
+                ohm_log_info(log, "solve: solver=auto uses cg: %s", sol->solver_reason);
+                rc = prepare_cg(sol, &cg, A, params, n, batch, err);
             }
-            sol->nnz_A = solver.nnz_A;
-            sol->nnz_L = solver.nnz_L;
-            sol->flops = solver.flops;
-            snprintf(sol->ordering, sizeof sol->ordering, "%s", solver.ordering);
         }
-        double tf = 0;
-        /* the next channel refactorizes into the same L: same pattern, and
-         * its memory is already mapped */
-        rc = ohm_solver_factorize(&L, &solver, A, &tf, err);
         if (rc) break;
-        sol->t_factor += tf;
-        sol->factors++;
-        ohm_log_info(log, "solve: factorized (nnz(L) %.3g, %.3g flops) in %.2f s", sol->nnz_L, sol->flops, tf);
 
         for (int c = k; c < channels && !rc; ++c) {
             if (cls[c] != k) continue;
@@ -309,13 +394,63 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 t0 = ohm_now();
                 double berr = 0;
                 int refined = 0;
-                rc = ohm_solver_solve(X, &solver, L, A, B, nb, &berr, &refined, err);
+                if (use_cg) {
+                    /* warm start: the previous frame of this channel, else this
+                     * frame of a channel solved before (same light, another
+                     * colour or medium), else zero */
+                    int e = -1;
+                    for (int q = 0; q < channels; ++q)
+                        if (solved[q]) e = q;
+                    for (size_t j = 0; j < nb && !rc; ++j) {
+                        double *x = X + j * (size_t)n;
+                        size_t fr = f0 + j;
+                        if (j > 0) memcpy(x, X + (j - 1) * (size_t)n, (size_t)n * sizeof *x);
+                        else if (fr > 0) memcpy(x, sol->fluence[c] + (fr - 1) * (size_t)n, (size_t)n * sizeof *x);
+                        else if (e >= 0) memcpy(x, sol->fluence[e] + fr * (size_t)n, (size_t)n * sizeof *x);
+                        else memset(x, 0, (size_t)n * sizeof *x);
+                        int64_t its = 0;
+                        double relres = 0;
+                        double tc = ohm_now();
+                        rc = ohm_cg_solve(&cg, x, B + j * (size_t)n, cg_tol, 20000, &its, &relres, err);
+                        sol->cg_iterations += its;
+                        if (relres > sol->cg_relres) sol->cg_relres = relres;
+                        if (rc || decided) continue;
+                        /* solver=auto: the first two columns are solved with
+                         * CG; the second (warm-started, like every later one)
+                         * is timed, and the rest go where the prediction is
+                         * cheaper */
+                        double total = (double)frames * (double)channels;
+                        if (++probed < 2 && total > 2) continue;
+                        decided = 1;
+                        double rest = total - (double)probed;
+                        if (!choose_cg_after_probe(sol, ohm_now() - tc, its, rest, nclasses, n)) {
+                            use_cg = 0;
+                            ohm_log_info(log, "solve: solver=auto switches to direct: %s", sol->solver_reason);
+                            int too_big = 0;
+                            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
+                            if (!rc && too_big) {
+                                use_cg = 1; /* the factor does not fit after all: stay */
+                                ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
+                            } else if (!rc && j + 1 < nb) {
+                                double e2 = 0;
+                                rc = ohm_solver_solve(x + (size_t)n, &solver, L, A, B + (j + 1) * (size_t)n,
+                                                      nb - j - 1, &e2, &refined, err);
+                                break;
+                            }
+                        } else {
+                            ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
+                        }
+                    }
+                    if (!rc) rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nb, err);
+                } else {
+                    rc = ohm_solver_solve(X, &solver, L, A, B, nb, &berr, &refined, err);
+                }
                 if (!rc) {
                     int corrected = correct_constant_modes(sol, X, B, nb, ga, gb, A);
                     if (corrected < 0) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
                     else if (corrected > 0) {
                         rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nb, err);
-                        if (!rc && !(berr <= 1e-10))
+                        if (!rc && !use_cg && !(berr <= 1e-10))
                             rc = ohm_fail(err, OHM_ERR_NUMERIC,
                                           "solve: backward error %.3g after the constant-mode correction", berr);
                     }
@@ -353,8 +488,10 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 sol->power_in_channel[c] += in;
                 sol->power_out_channel[c] += out;
             }
+            solved[c] = 1;
         }
     }
+    snprintf(sol->solver, sizeof sol->solver, "%s", use_cg ? "cg" : "direct");
 
 done:
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -362,6 +499,7 @@ done:
         free(fp_arrive[c]);
     }
     ohm_occluder_free(occ);
+    ohm_cg_free(&cg);
     free(face_count);
     ohm_factor_free(&L, &solver);
     cholmod_l_free_sparse(&A, &solver.cc);

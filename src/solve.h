@@ -17,8 +17,16 @@
 #include "material.h"
 #include "network.h"
 
+/* How A x = b is solved: the Cholesky factor (reused by every light), MIC(0)
+ * conjugate gradients (cg.h: O(n) memory, warm-started frame to frame), or
+ * auto: the cheaper by the cost model of solve.c, CG whenever the factor
+ * would not fit in memory. */
+typedef enum ohm_solver_kind { OHM_SOLVER_DIRECT = 0, OHM_SOLVER_CG = 1, OHM_SOLVER_AUTO = 2 } ohm_solver_kind;
+
 typedef struct ohm_solve_params {
     ohm_boundary boundary;
+    ohm_solver_kind solver;
+    double cg_tol;             /* relative residual CG stops at; 0: 1e-10 */
     const char *ordering;      /* metis | amd | nesdis | best            */
     ohm_deposit deposit;
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
@@ -60,6 +68,11 @@ typedef struct ohm_solution {
     int64_t solves;                     /* columns solved, summed over channels       */
     double nnz_A, nnz_L, flops;
     char ordering[16];
+    char solver[8];                     /* direct | cg: what ran                      */
+    char solver_reason[192];            /* why (auto's estimate, or "asked for")      */
+    int64_t cg_iterations;              /* summed over columns                        */
+    double cg_relres;                   /* largest final relative residual            */
+    double t_cg_setup;                  /* building the MIC(0) preconditioners        */
     double t_assemble, t_analyze, t_factor, t_source, t_solve;
     double t_shadow_setup;              /* building the occluder (Embree BVH)         */
     double residual;                    /* largest scaled backward error              */

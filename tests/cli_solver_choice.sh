@@ -1,0 +1,76 @@
+#!/usr/bin/env bash
+# solver=direct | cg | auto: same physics, different cost (issue 7).
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+run() { # run NAME SOLVER EXTRA...: spot at dim 24, marble, an orbit of frames
+  local name=$1 solver=$2; shift 2
+  expect_exit 0 "$name" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 -material preset=marble \
+    -light type=directional dir=0,-1,0 intensity=1 "$@" -solve solver="$solver" \
+    -write file="$T/$name.vdb" -stats file="$T/$name.json"
+}
+run direct direct orbit=4 axis=x
+run cg cg orbit=4 axis=x
+expect_exit 0 "cg_tol loose" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 -material preset=marble \
+  -light type=directional dir=0,-1,0 intensity=1 -solve solver=cg cg_tol=1e-4 -stats file="$T/loose.json"
+
+# CG agrees with the factor voxel by voxel, conserves power, and reports its work
+check "cg = direct" $PY - "$T" <<'PY'
+import json, sys, pyopenvdb as vdb
+T = sys.argv[1]
+d, c = (json.load(open(f"{T}/{n}.json")) for n in ("direct", "cg"))
+assert d["solver"] == "direct" and d["factors"] == 3 and d["cg_iterations"] == 0, d
+assert c["solver"] == "cg" and c["factors"] == 0 and c["t_factor"] == 0 and c["cg_iterations"] > 0, c
+assert c["frames"] == 4 and c["solves"] == 12, c
+for s in (d, c):
+    assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-9 * s["power_in"], s
+assert abs(c["power_out"] - d["power_out"]) < 1e-8 * d["power_out"], (c["power_out"], d["power_out"])
+assert c["residual"] < 1e-9, c["residual"]
+worst = 0
+for fr in range(1, 5):
+    gd = {g.name: g for g in vdb.readAll(f"{T}/direct_{fr:04d}.vdb")[0]}
+    gc = {g.name: g for g in vdb.readAll(f"{T}/cg_{fr:04d}.vdb")[0]}
+    for name in ("fluence_r", "fluence_g", "fluence_b"):
+        a, b = gd[name], gc[name].getConstAccessor()
+        top = a.evalMinMax()[1]
+        for it in a.citerOnValues():
+            worst = max(worst, abs(it.value - b.getValue(it.min)) / top)
+assert worst < 1e-6, worst  # float32 grids: 1e-10 relative residual, kappa ~ 1e3
+PY
+check "cg_tol trades accuracy" $PY - "$T" <<'PY'
+import json, sys
+T = sys.argv[1]
+d, l = json.load(open(f"{T}/cg.json")), json.load(open(f"{T}/loose.json"))
+assert l["cg_iterations"] < d["cg_iterations"] / 4, (l["cg_iterations"], d["cg_iterations"])
+err = abs(l["power_in"] - l["power_absorbed"] - l["power_out"]) / l["power_in"]
+assert 1e-12 < err < 1e-3, err   # a looser solve conserves only to about its tolerance
+PY
+
+# auto: CG for a few lights; the factor for many lights on a small grid
+run auto_few auto
+run auto_many auto orbit=400 axis=x
+check "auto picks by cost" $PY - "$T" <<'PY'
+import json, sys
+T = sys.argv[1]
+few, many = json.load(open(f"{T}/auto_few.json")), json.load(open(f"{T}/auto_many.json"))
+assert few["solver"] == "cg" and few["factors"] == 0, few
+assert many["solver"] == "direct" and many["factors"] == 3, many
+assert "predicted" in many["solver_reason"] and "direct" in many["solver_reason"], many["solver_reason"]
+for s in (few, many):
+    assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-9 * s["power_in"], s
+PY
+
+# a factor that does not fit: direct refuses and suggests cg; auto and cg solve
+args=(-read file=samples/spot.obj size=50 -voxelize dim=40 -material preset=marble
+      -light type=directional dir=0,-1,0 intensity=1)
+expect_exit 1 "direct, small max_memory" -- "$OHM" "${args[@]}" -solve solver=direct max_memory=2
+expect_error_line "direct, small max_memory" "Cholesky factor .* needs about .* max_memory= allows; use solver=cg"
+# (enough frames that the cost model would pick the factor, were there room)
+expect_exit 0 "auto, small max_memory" -- "$OHM" "${args[@]}" orbit=100 axis=x -solve solver=auto max_memory=2 batch_mb=1 \
+  -stats file="$T/fit.json"
+check "auto falls back to cg" $PY -c "
+import json; s = json.load(open('$T/fit.json'))
+assert s['solver'] == 'cg' and s['factors'] == 0 and 'factor would need' in s['solver_reason'], s"
+expect_exit 1 "cg, tiny max_memory" -- "$OHM" "${args[@]}" -solve solver=cg max_memory=0.01
+expect_error_line "cg, tiny max_memory" "conjugate gradients on [0-9]+ cells need about"
+finish
