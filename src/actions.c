@@ -507,6 +507,14 @@ static const ohm_opt_spec solve_opts[] = {
      "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | auto (the cheaper by a cost model; cg when the factor does not fit)",
      "direct|cg|auto", 0, 0, 0},
+    {"band", OHM_OPT_REAL, "0",
+     "depth band: solve only the cells within band / sigma_tr of the surface (light there has decayed by e^-band), "
+     "the core closed as an absorbing half-space; 0 = every cell",
+     NULL, 0, 1e6, 0},
+    {"band_error", OHM_OPT_REAL, NULL,
+     "choose the depth band from an error target: band = ln(1/band_error) / 2, the round trip e^(-2 band) of light "
+     "to the band's floor and back bounds the exitance error (measured: docs/accuracy.md)",
+     NULL, 1e-12, 0.5, 0},
     {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg stops when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
     {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
      NULL, 1, 1e7, 0},
@@ -599,6 +607,12 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                : strcmp(solver_name, "auto") == 0 ? OHM_SOLVER_AUTO
                                                   : OHM_SOLVER_DIRECT;
     p.cg_tol = ohm_opt_real(inv, "cg_tol");
+    p.band_k = ohm_opt_real(inv, "band");
+    if (ohm_opt_given(inv, "band_error")) {
+        if (ohm_opt_given(inv, "band"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give band= or band_error=, not both", inv->where);
+        p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "band_error"));
+    }
     const char *sh = ohm_opt_str(inv, "shadows");
     p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
                 : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
@@ -625,8 +639,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
     snprintf(s->solution_desc, sizeof s->solution_desc,
-             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s", bname, dname,
-             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering);
+             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s band=%g", bname, dname,
+             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -635,6 +649,27 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                  sol->power_in, sol->power_absorbed, sol->power_out, cons);
     if (p.boundary == OHM_BOUNDARY_NEUMANN)
         ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
+    if (sol->mode_corrections)
+        ohm_log_info(&s->log,
+                     "solve: %lld nearly singular piece(s) (almost no absorption or leak): their constant mode was "
+                     "shifted by %.2g of the fluence to conserve power exactly",
+                     (long long)sol->mode_corrections, sol->mode_shift);
+    if (sol->band_depth > 0)
+        ohm_log_info(&s->log, "solve: depth band %.4g mm: %lld interior cells below it not solved", sol->band_depth,
+                     (long long)sol->band_dropped);
+    /* a grid coarser than the diffusion length cannot resolve the spread of
+     * light (the error grows like (h sigma_tr)^p: docs/accuracy.md) */
+    if (s->material.kind != OHM_MATERIAL_RESISTANCE && !s->have_transfer)
+        for (int c = 0; c < s->material.channels; ++c) {
+            double sa = s->material.sigma_a[c], st = sa + s->material.sigma_s[c], str = sqrt(3.0 * sa * st);
+            if (str * s->grid.h > 1.0)
+                ohm_log_warn(&s->log,
+                             "voxel %.4g mm is larger than the diffusion length 1/sigma_tr = %.4g mm%s%s: the grid "
+                             "cannot resolve how light spreads, expect large errors (use a smaller voxel, or "
+                             "-voxelize error=)",
+                             s->grid.h, 1.0 / str, s->material.channels > 1 ? " of channel " : "",
+                             s->material.channels > 1 ? (const char *[]){"R", "G", "B"}[c] : "");
+        }
     ohm_stats *st = &s->stats;
     ohm_stats_set_int(st, "cells", (long long)sol->n);
     ohm_stats_set_int(st, "channels", sol->channels);
@@ -653,6 +688,11 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
+    ohm_stats_set(st, "band", p.band_k);
+    ohm_stats_set(st, "band_depth", sol->band_depth);
+    ohm_stats_set_int(st, "band_dropped", (long long)sol->band_dropped);
+    ohm_stats_set_int(st, "mode_corrections", (long long)sol->mode_corrections);
+    ohm_stats_set(st, "mode_shift", sol->mode_shift);
     ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
     ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
     ohm_stats_set(st, "flops", sol->flops);

@@ -4,6 +4,7 @@
 #include <string.h>
 
 #include "ohm_version.h"
+#include "accuracy.h"
 #include "bench.h"
 #include "output.h"
 #include "pipeline.h"
@@ -57,6 +58,7 @@ int ohm_cli_main(int argc, char **argv)
         return 0;
     }
     if (strcmp(cmd, "bench") == 0) return ohm_bench_main(argc - first - 1, argv + first + 1);
+    if (strcmp(cmd, "accuracy") == 0) return ohm_accuracy_main(argc - first - 1, argv + first + 1);
     if (strcmp(cmd, "validate") == 0) {
         /* the solver against exact references; the table goes to stdout.
          * `ohm validate figure1 FILE.csv`: the paper's Figure 1 profiles. */
@@ -95,7 +97,7 @@ int ohm_cli_main(int argc, char **argv)
         }
         rc = ohm_chain_parse_file(&chain, argv[first + 1], &err);
     } else if (cmd[0] != '-') {
-        const char *cmds[] = {"help", "run", "version", "validate", "bench"};
+        const char *cmds[] = {"help", "run", "version", "validate", "bench", "accuracy"};
         const char *s = ohm_suggest(cmd, cmds, 5);
         if (!s && ohm_action_find(cmd)) {
             fprintf(stderr, "ohm: error: unknown command '%s'; actions start with '-': did you mean '-%s'?\n", cmd, cmd);

@@ -40,7 +40,8 @@ static int64_t find_root(int64_t *parent, int64_t x)
 }
 
 /* Neighbour of cell (i,j,k) across face d: its unknown, -1 if outside the
- * object, -2 if the face is a mirror plane. */
+ * object, -2 if the face is a mirror plane, -3 if it is interior but below
+ * the depth band (a closure face). */
 static int64_t across(const ohm_network *net, int32_t i, int32_t j, int32_t k, int d)
 {
     const ohm_voxel_grid *g = net->grid;
@@ -49,16 +50,32 @@ static int64_t across(const ohm_network *net, int32_t i, int32_t j, int32_t k, i
     if ((d % 2) == 0 && net->mirror_low[axis] >= 0 && c[axis] == net->mirror_low[axis]) return -2;
     int32_t a = i + ohm_face_offset[d][0], b = j + ohm_face_offset[d][1], e = k + ohm_face_offset[d][2];
     if (a < 0 || b < 0 || e < 0 || a >= g->dims[0] || b >= g->dims[1] || e >= g->dims[2]) return -1;
-    return net->unknown[ohm_voxel_index(g, a, b, e)];
+    size_t cell = ohm_voxel_index(g, a, b, e);
+    int64_t u = net->unknown[cell];
+    if (u < 0 && net->active && g->inside[cell]) return -3;
+    return u;
 }
 
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err)
 {
+    return ohm_network_build_band(net, grid, mirror_low, NULL, err);
+}
+
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3],
+                           const uint8_t *active, ohm_error *err)
+{
     memset(net, 0, sizeof *net);
     net->grid = grid;
+    net->active = active;
     for (int a = 0; a < 3; ++a) net->mirror_low[a] = mirror_low ? mirror_low[a] : -1;
     size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
-    int64_t n = (int64_t)grid->interior_cells;
+    const uint8_t *unknowns = active ? active : grid->inside;
+    int64_t n = 0;
+    if (active) {
+        for (size_t c = 0; c < ncells; ++c) n += active[c] && grid->inside[c];
+    } else {
+        n = (int64_t)grid->interior_cells;
+    }
     if (n == 0) return ohm_fail(err, OHM_ERR_INVALID, "network: the voxel object has no interior cells");
     net->unknown = malloc(ncells * sizeof *net->unknown);
     net->cell = malloc((size_t)n * sizeof *net->cell);
@@ -66,7 +83,7 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
     if (!net->unknown || !net->cell || !net->piece) goto nomem;
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
-        if (grid->inside[c]) {
+        if (unknowns[c] && grid->inside[c]) {
             if (u == n) return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
             net->cell[u] = (int64_t)c;
             net->unknown[c] = u++;
@@ -86,6 +103,7 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
         for (int d = 0; d < 6; ++d) {
             int64_t w = across(net, i, j, k, d);
             if (w == -1) ++nfaces;
+            else if (w == -3) ++net->nclosure;
             else if (w >= 0 && w < v) {
                 ++offdiag;
                 int64_t ra = find_root(net->piece, v), rb = find_root(net->piece, w);
@@ -168,6 +186,16 @@ static inline double boundary_conductance(const ohm_channel_medium *m, double h,
     return 0.0;
 }
 
+/* The depth band's closure face (network.h): half a cell of diffusion in
+ * series with the absorbing half-space's impedance 1 / (D sigma_tr). */
+static inline double closure_conductance(const ohm_channel_medium *m, double h, int64_t v)
+{
+    double D = med_D(m, v), sa = med_sa(m, v), st = sa + med_ss(m, v);
+    double sigma_tr = sqrt(3.0 * sa * st);
+    if (!(sigma_tr > 0)) return 0.0; /* no absorption: the core reflects (zero flux) */
+    return h * h / (h / (2.0 * D) + 1.0 / (D * sigma_tr));
+}
+
 int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const ohm_network *net,
                          const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err)
 {
@@ -208,11 +236,12 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
             Ax[pos] = -gcd;
             ++pos;
         }
+        double gav = ground_conductance(med, h, v);
         for (int d = 0; d < 6; ++d) {
             int64_t w = across(net, i, j, k, d);
             if (w >= 0) diag += edge_conductance(med, h, v, w);
+            else if (w == -3) gav += closure_conductance(med, h, v);
         }
-        double gav = ground_conductance(med, h, v);
         diag += gav;
         if (ga) ga[v] = gav;
         double sinkv = gav;

@@ -46,12 +46,24 @@ typedef struct ohm_network {
     int64_t *piece;               /* n: piece of unknown u                    */
     int64_t nnz;                  /* entries of the upper triangle of A       */
     int32_t mirror_low[3];        /* symmetry planes (see ohm_network_build)  */
+    const uint8_t *active;        /* depth band: the cells that are unknowns
+                                     (not owned), or NULL: every interior cell */
+    int64_t nclosure;             /* faces between the band and the dropped core */
 } ohm_network;
 
 /* Mirror (symmetry) planes for the built-in validation scenes: a face on the
  * low side of axis a of a cell whose index on that axis is mirror_low[a] has
  * zero flux and is not a boundary face.  -1: no mirror on that axis. */
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err);
+
+/* The same over a depth band (band.h): unknowns are the cells with active[c]
+ * set (a subset of the interior, in cell order); a face between an unknown and
+ * an interior cell outside the band is a closure face, not a boundary face:
+ * the assembly gives it the absorbing-half-space conductance
+ * h^2 / (h / (2 D) + 1 / (D sigma_tr)) — the flux J = D sigma_tr phi of light
+ * decaying as e^(-sigma_tr z) — booked as absorbed. */
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3],
+                           const uint8_t *active, ohm_error *err);
 void ohm_network_free(ohm_network *net);
 
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the

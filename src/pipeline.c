@@ -516,6 +516,7 @@ void ohm_help_overview(FILE *f)
           "  ohm help [ACTION]            this overview, or one action's options\n"
           "  ohm validate                 the solver against exact references: a table, exit 1 on failure\n"
           "  ohm bench [key=value ...]    the paper's Table 2 for a mesh, with this machine's limits (bench help)\n"
+          "  ohm accuracy [key=value ...] error against resolution and solver, measured (accuracy help)\n"
           "  ohm --version\n\n"
           "Actions run left to right on one shared state (mesh, voxel grid, ...).\n\n"
           "actions:\n",

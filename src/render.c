@@ -116,7 +116,7 @@ static int boundary_cell(const ohm_voxel_grid *g, const ohm_network *net, int32_
     for (int d = 0; d < 6; ++d) {
         int32_t a = i + ohm_face_offset[d][0], b = j + ohm_face_offset[d][1], c = k + ohm_face_offset[d][2];
         if (a < 0 || b < 0 || c < 0 || a >= g->dims[0] || b >= g->dims[1] || c >= g->dims[2]) return 1;
-        if (net->unknown[ohm_voxel_index(g, a, b, c)] < 0) return 1;
+        if (!g->inside[ohm_voxel_index(g, a, b, c)]) return 1; /* not: below a depth band */
     }
     return 0;
 }

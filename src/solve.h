@@ -27,6 +27,8 @@ typedef struct ohm_solve_params {
     ohm_boundary boundary;
     ohm_solver_kind solver;
     double cg_tol;             /* relative residual CG stops at; 0: 1e-10 */
+    double band_k;             /* depth band (band.h): keep cells within
+                                  band_k / sigma_tr of the surface; 0: all */
     const char *ordering;      /* metis | amd | nesdis | best            */
     ohm_deposit deposit;
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
@@ -73,6 +75,9 @@ typedef struct ohm_solution {
     int64_t cg_iterations;              /* summed over columns                        */
     double cg_relres;                   /* largest final relative residual            */
     double t_cg_setup;                  /* building the MIC(0) preconditioners        */
+    double band_depth;                  /* mm kept below the surface; 0: no band      */
+    int64_t band_dropped;               /* interior cells below the band              */
+    uint8_t *band_active;               /* the band's cells (net.active points here)  */
     double t_assemble, t_analyze, t_factor, t_source, t_solve;
     double t_shadow_setup;              /* building the occluder (Embree BVH)         */
     double residual;                    /* largest scaled backward error              */

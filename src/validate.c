@@ -301,6 +301,54 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
     return OHM_OK;
 }
 
+int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, const ohm_log *log, ohm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    const double z0 = 1.0 / (HS_SA + HS_SS);
+    const double rmin = 1.0 / (HS_SA + HS_SS), rmax = 3.0 / sqrt(3.0 * HS_SA * (HS_SA + HS_SS));
+    beam_source bs = {1.0, z0, 4};
+    ohm_voxel_grid g;
+    ohm_solution sol;
+    int nl = (int)lround(16.0 / h), nd = (int)lround(12.0 / h);
+    int rc = make_box(&g, nl, nl, nd, h, err);
+    if (rc) return rc;
+    ohm_material m = grey(HS_SA, HS_SS);
+    int32_t mirror[3] = {1, 1, -1};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_ROBIN;
+    p.ordering = "metis";
+    p.solver = use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT;
+    p.mirror_low = mirror;
+    p.custom_source = src_beam;
+    p.custom_user = &bs;
+    double t0 = ohm_now();
+    rc = ohm_solve(&sol, &g, &m, NULL, 1, &p, log, err);
+    out->seconds = ohm_now() - t0;
+    if (rc) {
+        ohm_voxel_grid_free(&g);
+        return rc;
+    }
+    double sum_e = 0, sum_ref = 0;
+    for (int64_t f = 0; f < sol.net.nfaces; ++f) {
+        if (sol.net.face_dir[f] != 4) continue;
+        int32_t c[3];
+        ohm_voxel_coords(&g, sol.net.cell[sol.net.face_unknown[f]], c);
+        double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
+        if (r < rmin || r > rmax) continue;
+        double J = sol.face_exitance[0][f], Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, 1.3);
+        out->worst = fmax(out->worst, rel(J, Jref));
+        sum_e += fabs(J - Jref);
+        sum_ref += fabs(Jref);
+    }
+    out->mean = sum_ref > 0 ? sum_e / sum_ref : 0;
+    out->cells = sol.n;
+    out->nnz_L = sol.nnz_L;
+    ohm_solution_free(&sol);
+    ohm_voxel_grid_free(&g);
+    return OHM_OK;
+}
+
 /* ---- Neumann (the paper's) against Robin ------------------------------------ */
 
 int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *err)

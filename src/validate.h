@@ -5,6 +5,7 @@
 #ifndef OHM_VALIDATE_H
 #define OHM_VALIDATE_H
 
+#include <stdint.h>
 #include <stdio.h>
 
 #include "log.h"
@@ -33,6 +34,17 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
 int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *err);
 int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err);
 int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err);
+
+/* The half-space scene of ohm_validate_halfspace (sigma_a 0.05, sigma_s'
+ * 0.95 /mm, a pencil beam's source at depth 1/sigma_t', Robin, eta 1.3) at
+ * voxel size h, against the exact Robin half-space exitance J(r) over
+ * 1/sigma_t' <= r <= 3/sigma_tr: worst relative error and the relative L1
+ * error (sum |J - Jref| / sum Jref) over the surface faces there. */
+typedef struct ohm_halfspace_result {
+    double worst, mean, seconds, nnz_L;
+    int64_t cells;
+} ohm_halfspace_result;
+int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, const ohm_log *log, ohm_error *err);
 
 /* All of the above, in order. */
 int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);

@@ -1,0 +1,13 @@
+/* accuracy.h — `ohm accuracy`: the speed/accuracy trade of a scene, measured
+ * (issue 7): a resolution series per material against a finer reference and
+ * its Richardson extrapolation, both solvers timed, depth bands against the
+ * full solve, and the half-space scene against its exact solution.  Prints
+ * figures; asserts nothing (tests/cli_accuracy.sh does, on a small run). */
+#ifndef OHM_ACCURACY_H
+#define OHM_ACCURACY_H
+
+/* argc/argv: the words after `accuracy`.  Returns the exit code: 0 done, 1 a
+ * step failed, 2 bad usage. */
+int ohm_accuracy_main(int argc, char **argv);
+
+#endif

@@ -1,0 +1,64 @@
+#!/usr/bin/env bash
+# `ohm accuracy` on a small series (the full study is scripts/accuracy.sh):
+# error falls as resolution rises, the half-space converges to its exact
+# solution, and a depth band's error stays within the round trip e^(-2k).
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+
+expect_exit 0 "accuracy, small series" -- "$OHM" accuracy dims=12,16,24,32 ref=48 materials=marble,skin1 \
+  bands=1,2.3026,3 slab=1,0.5 solvers=cg csv="$T/acc.csv"
+check "markdown tables on stdout" grep -q "| marble | 32 |" "$T/stdout"
+check "accuracy CSV" $PY - "$T/acc.csv" <<'PY'
+import csv, math, sys
+rows = list(csv.DictReader(open(sys.argv[1])))
+for m in ("marble", "skin1"):
+    s = sorted((r for r in rows if r["scene"] == "series" and r["material"] == m), key=lambda r: int(r["dim"]))
+    assert [int(r["dim"]) for r in s] == [12, 16, 24, 32], s
+    e = [float(r["err_ref"]) for r in s]
+    # error falls as resolution rises, at a rate between first and third order in h
+    assert all(b < a for a, b in zip(e, e[1:])), (m, e)
+    h = [float(r["h_mm"]) for r in s]
+    order = math.log(e[0] / e[-1]) / math.log(h[0] / h[-1])
+    assert 0.8 < order < 3.5, (m, order, e)
+    ref = [r for r in rows if r["scene"] == "reference" and r["material"] == m]
+    assert len(ref) == 1 and float(ref[0]["err_ref"]) == 0 and int(ref[0]["dim"]) == 48, ref
+    # each row's figures are there and sane
+    for r in s:
+        assert int(r["cells"]) > 0 and float(r["t_total"]) > 0 and int(r["cg_iterations"]) > 0, r
+        assert float(r["peak_rss_mb"]) > 0, r
+    # depth bands: fewer cells, error within the round trip e^(-2k), falling with k
+    b = sorted((r for r in rows if r["scene"] == "band" and r["material"] == m), key=lambda r: float(r["band"]))
+    assert len(b) == 3, b
+    full = next(int(r["cells"]) for r in s if int(r["dim"]) == 32)
+    for r in b:
+        k, err = float(r["band"]), float(r["err_full"])
+        assert err <= math.exp(-2 * k), (m, k, err)
+        assert int(r["cells"]) + int(r["band_dropped"]) == full, (r, full)
+    errs = [float(r["err_full"]) for r in b]
+    assert errs[0] >= errs[1] >= errs[2], errs
+# skin1 (1/sigma_tr 3.7 mm on spot at 50 mm): k=1 really drops cells
+k1 = next(r for r in rows if r["scene"] == "band" and r["material"] == "skin1" and float(r["band"]) == 1)
+assert int(k1["band_dropped"]) > 0.1 * int(k1["cells"]), k1
+# half-space against the exact Robin solution: converges, about first order or better
+hs = sorted((r for r in rows if r["scene"] == "halfspace"), key=lambda r: -float(r["h_mm"]))
+assert len(hs) == 2 and float(hs[1]["err_ref"]) < float(hs[0]["err_ref"]) / 1.8, hs
+PY
+
+# the depth band through -solve: band_error picks k = ln(1/e)/2, conservation holds
+expect_exit 0 "band_error" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 -material preset=skin1 \
+  -light type=directional dir=0,-1,0 intensity=1 -solve band_error=0.01 -stats file="$T/band.json"
+check "band stats" $PY - "$T/band.json" <<'PY'
+import json, math, sys
+s = json.load(open(sys.argv[1]))
+assert abs(s["band"] - math.log(100) / 2) < 1e-12, s["band"]
+assert s["band_depth"] > 0 and s["band_dropped"] >= 0, s
+assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-10 * s["power_in"], s
+PY
+expect_exit 2 "band and band_error" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -material preset=skin1 \
+  -light type=directional dir=0,-1,0 -solve band=2 band_error=0.01
+expect_error_line "band and band_error" "band= or band_error=, not both"
+expect_exit 2 "accuracy: bad option" -- "$OHM" accuracy dimz=3
+expect_error_line "accuracy: bad option" "unknown option 'dimz'"
+expect_exit 2 "accuracy: ref too coarse" -- "$OHM" accuracy dims=16,32 ref=24
+expect_error_line "accuracy: ref too coarse" "ref=24: expected a grid finer"
+finish
