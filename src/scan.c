@@ -25,6 +25,7 @@
 
 #include "ohm_oiio.h"
 #include "ohm_vdb.h"
+#include "scan_check.h"
 
 /* Largest volume we allocate (voxels). */
 #define SCAN_MAX_VOXELS ((uint64_t)1 << 31)
@@ -119,8 +120,12 @@ static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm
     const char *want = p && p->grid && *p->grid ? p->grid : "density";
     ohm_vdb_grid **grids = NULL;
     size_t n = 0;
-    int rc = ohm_vdb_read(&grids, &n, path, err);
+    /* OpenVDB trusts every size in the file: check them all first. */
+    int rc = ohm_vdb_check(path, err);
     if (rc) return rc;
+    rc = ohm_vdb_read(&grids, &n, path, err);
+    if (rc) return rc;
+    if (n == 0) return ohm_fail(err, OHM_ERR_PARSE, "%s: the file holds no grids, expected a float grid named '%s'", path, want);
     ohm_vdb_grid *g = NULL;
     ohm_vdb_grid_info info;
     char names[512] = "";
@@ -229,9 +234,133 @@ static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void
     return 0;
 }
 
+/* The bytes of a NIfTI header field, printable: "n+1", "\x00\r\n"... */
+static void show_bytes(char *out, size_t outlen, const unsigned char *b, size_t n)
+{
+    size_t used = 0;
+    out[0] = 0;
+    while (n > 0 && b[n - 1] == 0) n--; /* trailing NULs are padding */
+    for (size_t i = 0; i < n && used + 5 < outlen; ++i) {
+        int w = b[i] >= 0x20 && b[i] < 0x7f && b[i] != '\'' && b[i] != '\\'
+                    ? snprintf(out + used, outlen - used, "%c", b[i])
+                    : snprintf(out + used, outlen - used, "\\x%02x", b[i]);
+        if (w > 0) used += (size_t)w;
+    }
+}
+
+static uint64_t nii_u(const unsigned char *b, int nbytes, int swap)
+{
+    uint64_t v = 0;
+    for (int i = 0; i < nbytes; ++i) v |= (uint64_t)b[swap ? nbytes - 1 - i : i] << (8 * i);
+    return v;
+}
+static int64_t nii_i16(const unsigned char *b, int swap) { return (int16_t)nii_u(b, 2, swap); }
+static int64_t nii_i32(const unsigned char *b, int swap) { return (int32_t)nii_u(b, 4, swap); }
+static int64_t nii_i64(const unsigned char *b, int swap) { return (int64_t)nii_u(b, 8, swap); }
+static double nii_f32(const unsigned char *b, int swap)
+{
+    uint32_t u = (uint32_t)nii_u(b, 4, swap);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+/* Check a NIfTI-1/2 header ourselves before libnifti2 sees it: libnifti2 3.0.1
+ * smashes its stack on a NIfTI-2 header with a bad datatype, reads a wrong
+ * magic as Analyze 7.5 and a negative dimension as 1 (docs/fuzzing.md).  The
+ * first 348 or 540 bytes are read through zlib (plain or gzip alike). */
+static int nifti_precheck(const char *path, ohm_error *err)
+{
+    unsigned char h[540];
+    errno = 0;
+    gzFile f = gzopen(path, "rb");
+    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, errno ? strerror(errno) : "zlib");
+    size_t got = 0;
+    int zerr = Z_OK;
+    while (got < sizeof h) {
+        int r = gzread(f, h + got, (unsigned)(sizeof h - got));
+        if (r <= 0) {
+            if (r < 0) gzerror(f, &zerr);
+            break;
+        }
+        got += (size_t)r;
+    }
+    if (zerr == Z_OK && got < sizeof h) gzerror(f, &zerr);
+    gzclose(f);
+    if (got < 4) {
+        if (zerr != Z_OK && zerr != Z_BUF_ERROR)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream before the NIfTI header", path);
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated NIfTI header: %zu bytes, expected 348 (NIfTI-1) or 540 (NIfTI-2)",
+                        path, got);
+    }
+    int swap = 0, v2 = 0;
+    int64_t sz = nii_i32(h, 0);
+    if (sz == 348 || sz == 540) v2 = sz == 540;
+    else if (nii_i32(h, 1) == 348 || nii_i32(h, 1) == 540) {
+        swap = 1;
+        v2 = nii_i32(h, 1) == 540;
+    } else
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: NIfTI sizeof_hdr is %" PRId64 ", expected 348 (NIfTI-1) or 540 (NIfTI-2) in either byte order",
+                        path, sz);
+    const size_t hsize = v2 ? 540 : 348;
+    const char *ver = v2 ? "NIfTI-2" : "NIfTI-1";
+    if (got < hsize)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated %s header: %zu bytes, expected %zu", path, ver, got,
+                        hsize);
+    char shown[64];
+    if (v2 ? memcmp(h + 4, "n+2\0\r\n\032\n", 8) != 0 : memcmp(h + 344, "n+1\0", 4) != 0) {
+        show_bytes(shown, sizeof shown, v2 ? h + 4 : h + 344, v2 ? 8 : 4);
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s magic is '%s', expected '%s' (a single-file .nii)", path, ver,
+                        shown, v2 ? "n+2\\x00\\x0d\\x0a\\x1a\\x0a" : "n+1");
+    }
+    int64_t datatype = nii_i16(h + (v2 ? 12 : 70), swap);
+    switch (datatype) {
+    case NIFTI_TYPE_UINT8:
+    case NIFTI_TYPE_INT16:
+    case NIFTI_TYPE_UINT16:
+    case NIFTI_TYPE_INT32:
+    case NIFTI_TYPE_FLOAT32:
+    case NIFTI_TYPE_FLOAT64:
+        break;
+    default:
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: %s datatype %" PRId64 " (%s) is unsupported, expected uint8 (2), int16 (4), int32 (8), "
+                        "float32 (16), float64 (64) or uint16 (512)",
+                        path, ver, datatype, nifti_datatype_string((int)datatype));
+    }
+    int64_t dim[8];
+    for (int k = 0; k < 8; ++k) dim[k] = v2 ? nii_i64(h + 16 + 8 * k, swap) : nii_i16(h + 40 + 2 * k, swap);
+    if (dim[0] < 1 || dim[0] > 7)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s dim[0] (the number of dimensions) is %" PRId64 ", expected 1 to 7",
+                        path, ver, dim[0]);
+    for (int k = 1; k <= dim[0]; ++k) {
+        if (dim[k] < 1)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: %s dim[%d] is %" PRId64 ", expected at least 1", path, ver, k,
+                            dim[k]);
+        if (k > 3 && dim[k] != 1)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: %s dim[%d] is %" PRId64 ", expected 1 (a single 3-D volume)", path, ver, k, dim[k]);
+    }
+    int64_t d3[3] = {1, 1, 1};
+    for (int k = 1; k <= 3 && k <= dim[0]; ++k) d3[k - 1] = dim[k];
+    size_t nvox;
+    int rc = voxel_count(path, d3, &nvox, err);
+    if (rc) return rc;
+    /* vox_offset: float32 in NIfTI-1, int64 in NIfTI-2; at most 2^40 so that
+     * libnifti's conversion to int64 is defined and seeks stay sane. */
+    double off = v2 ? (double)nii_i64(h + 168, swap) : nii_f32(h + 108, swap);
+    if (!isfinite(off) || off < (double)hsize || off > 1099511627776.0)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s vox_offset is %g, expected a finite byte offset of at least %zu",
+                        path, ver, off, hsize);
+    return 0;
+}
+
 static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
 {
     nifti_set_debug_level(0);
+    int prc = nifti_precheck(path, err);
+    if (prc) return prc;
     nifti_image *nim = nifti_image_read(path, 0);
     void *data = NULL;
     if (!nim)

@@ -9,6 +9,7 @@
 #include "ohm_error.h"
 #include "ohm_vdb.h"
 #include "scan.h"
+#include "scan_check.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -282,8 +283,8 @@ static void test_nifti_errors(void)
     for (int n = 0; n < 16; ++n) cplx[n] = (float)n;
     const char *cp = write_nifti("complex.nii", NIFTI_TYPE_COMPLEX64, cplx, 2, 2, 2, 0, 0);
     int rc = ohm_scan_read(&z, cp, NULL, &e);
-    CHECK(rc == OHM_ERR_PARSE && one_line_naming(&e, cp) && strstr(e.msg, "unsupported datatype 32") &&
-          strstr(e.msg, "COMPLEX64"));
+    CHECK(rc == OHM_ERR_PARSE && one_line_naming(&e, cp) && strstr(e.msg, "datatype 32") &&
+          strstr(e.msg, "COMPLEX64") && strstr(e.msg, "unsupported"));
     print_err("complex64", &e);
 
     float f[NX * NY * NZ];
@@ -357,6 +358,240 @@ static void test_vdb(void)
     CHECK(rc == OHM_ERR_USAGE && one_line_naming(&e, p) && strstr(e.msg, "temperature") &&
           strstr(e.msg, "'density'"));
     print_err("missing grid", &e);
+}
+
+/* ---- NIfTI headers checked before libnifti2 sees them ---------------------- */
+
+/* A 4 x 3 x 2 int16 NIfTI-1 (.nii) built by hand in either byte order, values
+ * 0..23; `patch` may change the header before the data is appended. */
+typedef void (*hdr_patch)(unsigned char *h, int big);
+
+static void put_n(unsigned char *b, uint64_t v, int n, int big)
+{
+    for (int i = 0; i < n; ++i) b[big ? n - 1 - i : i] = (unsigned char)(v >> (8 * i));
+}
+static void put_f32(unsigned char *b, float f, int big)
+{
+    uint32_t u;
+    memcpy(&u, &f, 4);
+    put_n(b, u, 4, big);
+}
+static void put_f64(unsigned char *b, double d, int big)
+{
+    uint64_t u;
+    memcpy(&u, &d, 8);
+    put_n(b, u, 8, big);
+}
+
+static size_t make_nifti1(unsigned char *out, int big, hdr_patch patch)
+{
+    memset(out, 0, 352);
+    put_n(out, 348, 4, big);
+    const int dims[8] = {3, 4, 3, 2, 1, 1, 1, 1};
+    for (int k = 0; k < 8; ++k) put_n(out + 40 + 2 * k, (uint64_t)(uint16_t)dims[k], 2, big);
+    put_n(out + 70, NIFTI_TYPE_INT16, 2, big);
+    put_n(out + 72, 16, 2, big);
+    for (int k = 0; k < 8; ++k) put_f32(out + 76 + 4 * k, 1.0f, big);
+    put_f32(out + 108, 352.0f, big);
+    memcpy(out + 344, "n+1\0", 4);
+    if (patch) patch(out, big);
+    for (int i = 0; i < 24; ++i) put_n(out + 352 + 2 * i, (uint64_t)i, 2, big);
+    return 352 + 48;
+}
+
+static size_t make_nifti2(unsigned char *out, int big, hdr_patch patch)
+{
+    memset(out, 0, 544);
+    put_n(out, 540, 4, big);
+    memcpy(out + 4, "n+2\0\r\n\032\n", 8);
+    put_n(out + 12, NIFTI_TYPE_INT16, 2, big);
+    put_n(out + 14, 16, 2, big);
+    const int dims[8] = {3, 4, 3, 2, 1, 1, 1, 1};
+    for (int k = 0; k < 8; ++k) put_n(out + 16 + 8 * k, (uint64_t)dims[k], 8, big);
+    for (int k = 0; k < 8; ++k) put_f64(out + 104 + 8 * k, 1.0, big);
+    put_n(out + 168, 544, 8, big);
+    if (patch) patch(out, big);
+    for (int i = 0; i < 24; ++i) put_n(out + 544 + 2 * i, (uint64_t)i, 2, big);
+    return 544 + 48;
+}
+
+static void p_magic(unsigned char *h, int big) { (void)big; memcpy(h + 344, "abc\0", 4); }
+static void p_negdim(unsigned char *h, int big) { put_n(h + 40 + 2 * 2, (uint64_t)(uint16_t)-3, 2, big); }
+static void p_zerodim(unsigned char *h, int big) { put_n(h + 40 + 2 * 3, 0, 2, big); }
+static void p_ndim0(unsigned char *h, int big) { put_n(h + 40, 0, 2, big); }
+static void p_ndim8(unsigned char *h, int big) { put_n(h + 40, 8, 2, big); }
+static void p_dim4(unsigned char *h, int big)
+{
+    put_n(h + 40, 4, 2, big);
+    put_n(h + 40 + 2 * 4, 2, 2, big);
+}
+static void p_voxoff0(unsigned char *h, int big) { put_f32(h + 108, 0.0f, big); }
+static void p_voxoffnan(unsigned char *h, int big) { put_f32(h + 108, NAN, big); }
+static void p_voxoffhuge(unsigned char *h, int big) { put_f32(h + 108, 1e30f, big); }
+static void p_dtype(unsigned char *h, int big) { put_n(h + 70, 1234, 2, big); }
+static void p_sizeof(unsigned char *h, int big) { put_n(h, 349, 4, big); }
+static void p2_magic(unsigned char *h, int big) { (void)big; h[8] = 1; }
+static void p2_dtype(unsigned char *h, int big) { put_n(h + 12, 40000, 2, big); }
+static void p2_negdim(unsigned char *h, int big) { put_n(h + 16 + 8 * 1, (uint64_t)-5, 8, big); }
+static void p2_voxoff(unsigned char *h, int big) { put_n(h + 168, 100, 8, big); }
+
+static void test_nifti_headers(void)
+{
+    unsigned char buf[1024];
+    ohm_scan s;
+    ohm_error e = {0, ""};
+    const char *p = tmp_path("h.nii"), *pgz = tmp_path("h.nii.gz");
+    /* valid files in both byte orders and both versions, plain and gzip */
+    for (int v2 = 0; v2 < 2; ++v2)
+        for (int big = 0; big < 2; ++big)
+            for (int gz = 0; gz < 2; ++gz) {
+                size_t n = v2 ? make_nifti2(buf, big, NULL) : make_nifti1(buf, big, NULL);
+                const char *f = gz ? pgz : p;
+                if (gz) {
+                    gzFile g = gzopen(f, "wb");
+                    gzwrite(g, buf, (unsigned)n);
+                    gzclose(g);
+                } else {
+                    FILE *fp = fopen(f, "wb");
+                    fwrite(buf, 1, n, fp);
+                    fclose(fp);
+                }
+                int rc = ohm_scan_read(&s, f, NULL, &e);
+                CHECK_MSG(rc == 0, "NIfTI-%d %s-endian%s: %s", v2 + 1, big ? "big" : "little", gz ? " gz" : "",
+                          e.msg);
+                if (rc == 0) {
+                    CHECK(s.dims[0] == 4 && s.dims[1] == 3 && s.dims[2] == 2);
+                    CHECK(s.values[0] == 0.0f && s.values[1] == 1.0f && s.values[23] == 23.0f);
+                }
+                ohm_scan_free(&s);
+            }
+    /* each header field the check covers, with the message it gives */
+    static const struct {
+        int v2;
+        hdr_patch patch;
+        const char *want;
+    } bad[] = {
+        {0, p_magic, "NIfTI-1 magic is 'abc', expected 'n+1'"},
+        {0, p_negdim, "NIfTI-1 dim[2] is -3, expected at least 1"},
+        {0, p_zerodim, "NIfTI-1 dim[3] is 0, expected at least 1"},
+        {0, p_ndim0, "dim[0] (the number of dimensions) is 0"},
+        {0, p_ndim8, "dim[0] (the number of dimensions) is 8"},
+        {0, p_dim4, "NIfTI-1 dim[4] is 2, expected 1"},
+        {0, p_voxoff0, "vox_offset is 0"},
+        {0, p_voxoffnan, "vox_offset is nan"},
+        {0, p_voxoffhuge, "vox_offset is 1e+30"},
+        {0, p_dtype, "datatype 1234"},
+        {0, p_sizeof, "NIfTI sizeof_hdr is "},
+        {1, p2_magic, "NIfTI-2 magic is 'n+2\\x00\\x01"},
+        {1, p2_dtype, "NIfTI-2 datatype -25536"},
+        {1, p2_negdim, "NIfTI-2 dim[1] is -5"},
+        {1, p2_voxoff, "NIfTI-2 vox_offset is 100, expected a finite byte offset of at least 540"},
+    };
+    for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
+        for (int big = 0; big < 2; ++big) {
+            size_t n = bad[i].v2 ? make_nifti2(buf, big, bad[i].patch) : make_nifti1(buf, big, bad[i].patch);
+            FILE *fp = fopen(p, "wb");
+            fwrite(buf, 1, n, fp);
+            fclose(fp);
+            int rc = ohm_scan_read(&s, p, NULL, &e);
+            CHECK_MSG(rc == OHM_ERR_PARSE && one_line_naming(&e, p) && strstr(e.msg, bad[i].want),
+                      "case %zu (%s-endian): rc %d, '%s', expected '%s'", i, big ? "big" : "little", rc, e.msg,
+                      bad[i].want);
+            CHECK(s.values == NULL);
+        }
+    /* every truncation of a valid header is refused, never read */
+    size_t n = make_nifti2(buf, 0, NULL);
+    for (size_t cut = 0; cut < 540; cut += 7) {
+        (void)n;
+        FILE *fp = fopen(p, "wb");
+        fwrite(buf, 1, cut, fp);
+        fclose(fp);
+        int rc = ohm_scan_read(&s, p, NULL, &e);
+        CHECK_MSG(rc == OHM_ERR_PARSE && one_line_naming(&e, p), "cut at %zu: rc %d %s", cut, rc, e.msg);
+    }
+    print_err("bad NIfTI-1 magic", &e);
+}
+
+/* ---- the .vdb checker ------------------------------------------------------ */
+
+static unsigned char *slurp(const char *path, size_t *n)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return NULL;
+    fseek(f, 0, SEEK_END);
+    long len = ftell(f);
+    fseek(f, 0, SEEK_SET);
+    unsigned char *b = malloc(len > 0 ? (size_t)len : 1);
+    *n = b ? fread(b, 1, (size_t)len, f) : 0;
+    fclose(f);
+    return b;
+}
+
+static void test_vdb_check(void)
+{
+    ohm_error e = {0, ""};
+    const double origin[3] = {0, 0, 0};
+    ohm_vdb_grid *g[2] = {NULL, NULL};
+    /* two grids, values spread over several leaves and internal nodes */
+    CHECK(ohm_vdb_grid_create(&g[0], "density", OHM_VDB_CLASS_FOG_VOLUME, 0.0f, 1.0, origin, &e) == 0);
+    CHECK(ohm_vdb_grid_create(&g[1], "other", OHM_VDB_CLASS_FOG_VOLUME, 0.0f, 1.0, origin, &e) == 0);
+    if (!g[0] || !g[1]) return;
+    int32_t ijk[3 * 6] = {0, 0, 0, 9, 1, 2, 130, 5, 5, 4100, 3, 3, -20, -1, -7, 17, 33, 65};
+    float vals[6] = {1, 2, 3, 4, 5, 6};
+    CHECK(ohm_vdb_grid_set_values(g[0], ijk, vals, 6, &e) == 0);
+    CHECK(ohm_vdb_grid_set_values(g[1], ijk, vals, 3, &e) == 0);
+    ohm_vdb_grid_set_meta_string(g[0], "note", "hello", &e);
+    ohm_vdb_grid_set_meta_double(g[0], "scale", 2.5, &e);
+    ohm_vdb_grid_set_meta_int(g[0], "count", 7, &e);
+    const char *p = tmp_path("c.vdb"), *q = tmp_path("m.vdb"), *nog = tmp_path("none.vdb");
+    CHECK(ohm_vdb_write(p, g, 2, &e) == 0);
+    ohm_vdb_grid_free(g[0]);
+    ohm_vdb_grid_free(g[1]);
+    CHECK_MSG(ohm_vdb_check(p, &e) == 0, "%s", e.msg);
+    ohm_scan s;
+    int rc = ohm_scan_read(&s, p, NULL, &e);
+    CHECK_MSG(rc == 0, "%s", e.msg);
+    CHECK(rc != 0 || (s.dims[0] == 4121 && s.dims[1] == 35 && s.dims[2] == 73));
+    ohm_scan_free(&s);
+
+    /* no grids: a data error (exit 1), not a usage error */
+    CHECK(ohm_vdb_write(nog, NULL, 0, &e) == 0);
+    rc = ohm_scan_read(&s, nog, NULL, &e);
+    CHECK_MSG(rc == OHM_ERR_PARSE && one_line_naming(&e, nog) && strstr(e.msg, "no grids"), "rc %d %s", rc, e.msg);
+    print_err("no grids", &e);
+
+    /* every truncation and every single-byte change is either refused with one
+     * line or passes the check; a sample of them also goes through OpenVDB */
+    size_t n = 0;
+    unsigned char *orig = slurp(p, &n);
+    CHECK(orig != NULL && n > 1000);
+    if (!orig) return;
+    unsigned char *m = malloc(n);
+    size_t refused = 0, total = 0;
+    for (size_t k = 0; k < 2 * n; k += 3) {
+        size_t len = n;
+        memcpy(m, orig, n);
+        if (k < n) len = k;           /* truncated at k */
+        else m[k - n] ^= 0xA5;        /* byte k - n changed */
+        FILE *f = fopen(q, "wb");
+        fwrite(m, 1, len, f);
+        fclose(f);
+        rc = ohm_vdb_check(q, &e);
+        total++;
+        if (rc) {
+            refused++;
+            CHECK_MSG(rc == OHM_ERR_PARSE && one_line_naming(&e, q), "k=%zu rc %d %s", k, rc, e.msg);
+        }
+        if (k % 97 == 0) { /* through OpenVDB too: must not crash, leak or hang */
+            rc = ohm_scan_read(&s, q, NULL, &e);
+            CHECK(rc != 0 || s.values != NULL);
+            ohm_scan_free(&s);
+        }
+    }
+    CHECK_MSG(refused * 2 > total, "only %zu of %zu damaged files refused", refused, total);
+    printf("  vdb check: %zu of %zu truncated or changed files refused\n", refused, total);
+    free(m);
+    free(orig);
 }
 
 /* A minimal 8-bit greyscale PNG (colour type 0), written with zlib. */
@@ -523,6 +758,8 @@ int main(void)
     test_nifti_vs_raw();
     test_nifti_errors();
     test_vdb();
+    test_nifti_headers();
+    test_vdb_check();
     test_stack();
     test_samples();
     cleanup_tmp();

@@ -151,8 +151,8 @@ add("face-size-huge.off", off_text().replace("3 1 7 3\n", "2000000000 1 7 3\n"),
 # ---- NaN / Inf / 1e308 -------------------------------------------------------
 add("nan.obj", obj_text().replace("v 1 1 1", "v 1 nan 1"), "mesh", 1, ":8:")
 add("inf.obj", obj_text().replace("v 0 1 0", "v 0 inf 0"), "mesh", 1, ":3:")
-add("big-1e308.obj", obj_text().replace("v 1 0 0", "v 1e308 0 0"), "mesh", 0, "",
-    "KNOWN GAP: accepted (exit 0); voxel 1.25e307 mm, 0 interior cells, '-nan mm^3' in the log; should be refused")
+add("big-1e308.obj", obj_text().replace("v 1 0 0", "v 1e308 0 0"), "mesh", 1, r"big-1e308\.obj|no finite volume",
+    "coordinates near 1e308: the voxel has no finite volume, refused", whole=True)
 add("big-1e309.off", off_text().replace("1 1 1\n", "1 1e309 1\n"), "mesh", 1, ":10:")
 add("neg-inf.ply", ply_ascii().replace("0 0 1\n", "0 0 -inf\n", 1), "mesh", 1, LINE)
 add("nan-bin.stl", stl_bin([CUBE_TRIS[0], [(0, 0, 0), (float("nan"), 0, 0), (0, 1, 0)]] + CUBE_TRIS[2:]),
@@ -253,8 +253,8 @@ good = nifti()
 add("empty.nii", b"", "nifti", 1, ": ")
 add("trunc-header.nii", good[:200], "nifti", 1, ": ")
 add("trunc-data.nii", good[:352 + 30], "nifti", 1, ": ")
-add("magic.nii", nifti(magic=b"xyz\0"), "nifti", 0, "",
-    "KNOWN GAP: magic 'xyz' with sizeof_hdr 348 is read as NIfTI-1 (as an Analyze 7.5 header would be), exit 0")
+add("magic.nii", nifti(magic=b"xyz\0"), "nifti", 1, ": NIfTI-1 magic is 'xyz', expected 'n\\+1'",
+    "magic 'xyz' with sizeof_hdr 348: refused before libnifti2 (which would read it as Analyze 7.5)")
 add("sizeof.nii", nifti(sizeof=1234), "nifti", 1, ": ")
 add("huge-dims.nii", nifti(dims=(32767, 32767, 32767), data=b"\0" * 64), "nifti", 1, ": ",
     "NIfTI-1 declaring 32767^3 voxels (its dims are int16)")
@@ -262,17 +262,121 @@ add("huge-dims-2.nii", nifti2((65535, 65535, 65535), b"\0" * 64), "nifti", 1, ":
     "NIfTI-2 declaring 65535^3 voxels")
 add("huge-dims-2-int64.nii", nifti2((2**40, 2**40, 2**40), b"\0" * 64), "nifti", 1, ": ",
     "NIfTI-2 dims whose product overflows 64 bits")
-add("negative-dim.nii", nifti(dims=(4, -4, 4), data=b"\0" * 64), "nifti", 0, "",
-    "KNOWN GAP: dim[2] = -4 is read as 1 (a 4 x 1 x 4 volume), exit 0; should be refused")
+add("negative-dim.nii", nifti(dims=(4, -4, 4), data=b"\0" * 64), "nifti", 1, ": NIfTI-1 dim\\[2\\] is -4",
+    "dim[2] = -4: refused before libnifti2 (which reads it as 1)")
 add("zero-dim.nii", nifti(dims=(4, 0, 4), data=b""), "nifti", 1, ": ")
 add("datatype.nii", nifti(datatype=1234, bitpix=8), "nifti", 1, ": ", "unknown datatype code")
 add("trunc.nii.gz", gzip.compress(good, mtime=0)[:60], "nifti", 1, ": ")
 
 # ---- .vdb (the error names the file as '/path/x.vdb' or path/x.vdb: ) ---------
 add("empty.vdb", b"", "vdb", 1, r"empty\.vdb", whole=True)
-add("junk.vdb", b"\x20\x42\x44\x56" + bytes(200), "vdb", 2, r"junk\.vdb", whole=True,
-    note="VDB magic then zeros: opens as a .vdb with no grids; 'no float grid named density' is exit 2")
+add("junk.vdb", b"\x20\x42\x44\x56" + bytes(200), "vdb", 1, r"junk\.vdb: file format version 0", whole=True,
+    note="VDB magic then zeros: refused by the .vdb checker (file format version 0)")
 add("text.vdb", "this is not a vdb\n", "vdb", 1, r"text\.vdb", whole=True)
+
+# ---- .vdb files that lie about sizes: the checker (src/scan_check.c) refuses
+# them before OpenVDB 10 would trust them.  Each is the fuzz seed
+# tests/fuzz/seeds/vdb/density-fog-4x4x4.vdb (one 4^3 float grid, blosc) with
+# one field changed; vdb_fields() finds the fields the way OpenVDB reads them.
+R = os.path.normpath(os.path.join(D, "..", "..", ".."))
+SEED = open(os.path.join(R, "tests/fuzz/seeds/vdb/density-fog-4x4x4.vdb"), "rb").read()
+
+def vdb_fields(b):
+    u32 = lambda o: struct.unpack_from("<I", b, o)[0]
+    f, p = {}, 8 + 4 + 8 + 1 + 36
+    def string(p):
+        return p + 4 + u32(p)
+    def metamap(p, key):
+        f[key + "count"] = p
+        n, p = u32(p), p + 4
+        for _ in range(n):
+            name = b[p + 4:p + 4 + u32(p)].decode()
+            p = string(p)
+            typ = b[p + 4:p + 4 + u32(p)].decode()
+            p = string(p)
+            f[key + name] = (p, typ)          # the value's size field
+            p += 4 + u32(p)
+        return p
+    p = metamap(p, "file:")
+    p += 4                                       # grid count
+    f["name"] = p
+    p = string(string(string(p)))                # name, type, instance parent
+    f["offsets"] = p
+    p = struct.unpack_from("<q", b, p)[0]       # the grid offset
+    f["compression"] = p
+    p = metamap(p + 4, "grid:")
+    p = string(p) + 144                          # a ScaleTranslateMap
+    f["root"] = p                                # int32 buffers, float bg, uint32 tiles, children
+    p += 16 + 12 + 2 * 4096
+    flag = b[p]
+    p += 1 + (8 if flag == 5 else 4 if flag in (2, 4) else 0) + (4096 if flag in (3, 4, 5) else 0)
+    f["chunk"] = p                               # the first int64 blosc chunk size
+    return f
+
+VF = vdb_fields(SEED)
+
+def vdb_patch(fmt, off, *vals):
+    b = bytearray(SEED)
+    struct.pack_into(fmt, b, off, *vals)
+    return bytes(b)
+
+def addv(name, data, pat, note):
+    add(name, data, "vdb", 1, ": .*" + pat, note)
+
+addv("vdb-version.vdb", vdb_patch("<I", 8, 300), "file format version 300", "file format version newer than OpenVDB 10's 224")
+addv("vdb-uuid.vdb", SEED[:21] + b"Z" + SEED[22:], "UUID", "a non-hex character in the 36-character UUID")
+addv("vdb-name-length.vdb", vdb_patch("<I", VF["name"], 0xFFFFFFFF),
+     "grid descriptor 0 name length 4294967295 at byte [0-9]+ exceeds", "grid name length 2^32-1 (OpenVDB: a 4 GB string)")
+addv("vdb-end-offset.vdb", vdb_patch("<q", VF["offsets"] + 16, 1 << 40), "grid 'density' offsets .* outside the 10199-byte file",
+     "grid end offset 2^40")
+addv("vdb-file-meta-count.vdb", vdb_patch("<I", VF["file:count"], 0xFFFFFFF0), "the file declares 4294967280 metadata entries",
+     "file metadata count near 2^32")
+addv("vdb-meta-value.vdb", vdb_patch("<I", VF["grid:class"][0], 0xFFFFFFF0),
+     "metadata 'class' value length 4294967280 .* exceeds", "a string metadata value of 4 GB")
+addv("vdb-meta-fixed.vdb", vdb_patch("<I", VF["grid:file_mem_bytes"][0], 0),
+     "metadata 'file_mem_bytes' value of type int64 is 0 bytes, expected 8",
+     "an int64 metadata value stored as 0 bytes (OpenVDB reads 8 whatever the size says, and would drift)")
+addv("vdb-delayed-count.vdb", vdb_patch("<I", VF["grid:file_delayed_load"][0] + 4, 0x40000000),
+     "file_delayed_load' value declares 1073741824 leaves", "delayed-load metadata declaring 2^30 leaves (OpenVDB: a 1 GB+8 GB vector)")
+addv("vdb-compression.vdb", vdb_patch("<I", VF["compression"], 0x80), "compression flags are 0x80", "unknown compression flags")
+addv("vdb-tile-count.vdb", vdb_patch("<I", VF["root"] + 8, 0xFFFFFFFF), "root node declares 4294967295 tiles",
+     "root node with 2^32-1 tiles (OpenVDB: minutes of reading past the end)")
+addv("vdb-child-count.vdb", vdb_patch("<I", VF["root"] + 12, 1000), "root node declares 0 tiles and 1000 children",
+     "root node with 1000 children in a 10 KB file")
+addv("vdb-blosc-size.vdb", vdb_patch("<q", VF["chunk"], 0x7FFFFFFFFFFFFFF0), "blosc chunk size 9223372036854775792",
+     "a blosc chunk of 2^63 bytes (OpenVDB: allocates it)")
+addv("vdb-blosc-raw.vdb", vdb_patch("<q", VF["chunk"], -100000), "a raw blosc chunk of 100000 bytes",
+     "a raw chunk bigger than the values it holds")
+addv("vdb-truncated.vdb", SEED[:6000], "offsets .* outside the 6000-byte file", "the seed cut at 6000 bytes")
+add("vdb-no-grids.vdb", SEED[:VF["name"] - 4] + struct.pack("<i", 0), "vdb", 1, ": the file holds no grids",
+    "a valid header and file metadata, grid count 0 (a data error: exit 1)")
+
+# ---- fuzz findings (regressions): tests/fuzz/crashes/HARNESS/; docs/fuzzing.md
+def crash(harness, name):
+    return open(os.path.join(R, "tests/fuzz/crashes", harness, name), "rb").read()
+
+add("fuzz-oom-header.nii", crash("nifti", "oom-2f3e7c5d7be373ec0ce0340280df16b67c4b73eb")[1:], "nifti", 1,
+    ": truncated: .*more than the 608-byte file can hold",
+    "fuzz finding (regression): NIfTI-2 header declaring 2.7 GB of float64 in a 608-byte file; refused before allocating")
+add("fuzz-nifti2-magic-1.nii", crash("nifti", "crash-b4fd2bb5e1a537ee15d41cde93accd0f0c5da843")[1:], "nifti", 1,
+    ": NIfTI-2 magic is", "fuzz finding (regression): NIfTI-2 header with a corrupt magic and datatype; libnifti2 3.0.1 smashed its stack")
+add("fuzz-nifti2-magic-2.nii", crash("nifti", "crash-7ce77c730ff2be0d8350e4db5cf147c65ced0ce5")[1:], "nifti", 1,
+    ": NIfTI-2 magic is", "fuzz finding (regression): as fuzz-nifti2-magic-1.nii")
+add("fuzz-blosc-alloc.vdb", crash("vdb", "crash-6cd7215baa6af398ab3820441eee739392353649"), "vdb", 1,
+    ": grid 0 \\('density'\\) internal node \\(level 2\\) at byte [0-9]+ has 2 children",
+    "fuzz finding (regression): OpenVDB allocated 0x7fff83b1dfd8 bytes in bloscFromStream")
+add("fuzz-topology-leak.vdb", crash("vdb", "leak-713c7d4457e872b634cd40eb22e591d8f32520c4"), "vdb", 1,
+    ": grid 0 \\('density'\\) internal node \\(level 2\\) values: blosc header",
+    "fuzz finding (regression): OpenVDB leaked a node in RootNode::readTopology")
+add("fuzz-string-4gb.vdb", crash("vdb", "oom-605fb319761edcef2cabd8c832b6e2599a95cded"), "vdb", 1,
+    ": grid descriptor 0 instance parent length 4294967276",
+    "fuzz finding (regression): OpenVDB allocated a 4 GB string in GridDescriptor::read")
+add("fuzz-delayed-load.vdb", crash("vdb", "oom-cd679bc90624b8562fbe3dd7839fdd4890eb935b"), "vdb", 1,
+    ": grid 'density' offsets .* outside the 1295-byte file",
+    "fuzz finding (regression): OpenVDB allocated 1.1 GB in DelayedLoadMetadata::readValue")
+add("fuzz-tile-loop.vdb", crash("vdb", "timeout-68bebc77545db8999dce46f1f3728cc0f1525b5f"), "vdb", 1,
+    ": grid 'density' offsets .* outside the 8088-byte file",
+    "fuzz finding (regression): OpenVDB spent >10 s in RootNode::readTopology")
 
 with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
     f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
