@@ -38,7 +38,7 @@
 #include "validate.h"
 #include "voxelize.h"
 
-enum { ACC_MAX_DIMS = 16, ACC_MAX_MATERIALS = 12, ACC_MAX_BANDS = 8, ACC_NBINS = 12 };
+enum { ACC_MAX_DIMS = 16, ACC_MAX_MATERIALS = 12, ACC_MAX_BANDS = 8 };
 
 typedef struct acc_options {
     const char *mesh;
@@ -66,11 +66,6 @@ typedef struct acc_row {
     double *P; /* binned exitance power (owned), NULL for slab rows */
 } acc_row;
 
-typedef struct acc_lattice {
-    double lo[3], step;
-    int n[3];
-    size_t nodes;
-} acc_lattice;
 
 static double peak_rss_mb(void)
 {
@@ -111,13 +106,13 @@ static void usage(FILE *f)
             "  size=MM           longest side in mm (default 50)\n"
             "  materials=LIST    presets, comma-separated (default marble,skin1,ketchup): %s\n"
             "  dims=LIST         grid sizes along the longest side (default 16,24,32,48,64,96,128)\n"
-            "  ref=DIM           the reference grid, solved with CG (default 192)\n"
+            "  ref=DIM           the reference grid, solved with CG (default 192; 0: none, no errors)\n"
             "  solvers=LIST      direct,cg (default both)\n"
             "  bands=LIST        depth bands k (cells within k / sigma_tr), 0 = none (default 1,2,3,4)\n"
             "  band_dim=DIM      grid for the band study (default the largest of dims)\n"
             "  slab=LIST         half-space voxel sizes in mm, 0 = none (default 1,0.5,0.35,0.25)\n"
             "  csv=FILE          every figure, one row per solve\n",
-            ACC_NBINS, ohm_preset_names);
+            OHM_EXITANCE_NBINS, ohm_preset_names);
 }
 
 /* "a,b,c" -> numbers in [lo, hi] */
@@ -164,7 +159,8 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
         else if (KEY("ref")) {
             char *end;
             long r = strtol(v, &end, 10);
-            if (*end || r < 4 || r > 2048) return usage_error(err, "ref=%s: expected a grid size 4..2048", v);
+            if (*end || (r != 0 && r < 4) || r > 2048)
+                return usage_error(err, "ref=%s: expected a grid size 4..2048, or 0 for none", v);
             o->ref = (int)r;
         } else if (KEY("solvers")) {
             o->direct = strstr(v, "direct") != NULL;
@@ -188,7 +184,7 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
         o->dims[i] = (int)d[i];
         if (i > 0 && o->dims[i] <= o->dims[i - 1]) return usage_error(err, "dims=%s: expected increasing sizes", dims);
     }
-    if (o->ref <= o->dims[o->ndims - 1])
+    if (o->ref && o->ref <= o->dims[o->ndims - 1])
         return usage_error(err, "ref=%d: expected a grid finer than the largest of dims= (%d)", o->ref,
                            o->dims[o->ndims - 1]);
     if (!o->band_dim) o->band_dim = o->dims[o->ndims - 1];
@@ -220,12 +216,12 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
 
 /* ---- binning ----------------------------------------------------------------- */
 
-static void lattice_for(acc_lattice *L, const ohm_mesh *mesh)
+void ohm_exitance_lattice_for(ohm_exitance_lattice *L, const ohm_mesh *mesh)
 {
     double lo[3], hi[3];
     ohm_mesh_bounds(mesh, lo, hi);
     double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
-    L->step = ext / ACC_NBINS;
+    L->step = ext / OHM_EXITANCE_NBINS;
     L->nodes = 1;
     for (int a = 0; a < 3; ++a) {
         L->lo[a] = lo[a] - L->step; /* one node of margin: faces lie half a cell outside */
@@ -235,7 +231,7 @@ static void lattice_for(acc_lattice *L, const ohm_mesh *mesh)
 }
 
 /* P[c * nodes + node] += face powers of frame 0, trilinear. */
-static double *bin_exitance(const acc_lattice *L, const ohm_solution *sol, const ohm_voxel_grid *g)
+double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *sol, const ohm_voxel_grid *g)
 {
     size_t len = L->nodes * 3;
     double *P = calloc(len, sizeof *P);
@@ -314,7 +310,7 @@ static double observed_order(double d12, double d23, double h1, double h2, doubl
 
 /* ---- one solve ---------------------------------------------------------------- */
 
-static int solve_one(acc_row *row, const acc_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat, int dim,
+static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat, int dim,
                      int use_cg, double band, const ohm_log *log, ohm_error *err)
 {
     static const ohm_log quiet = {NULL, 0};
@@ -368,7 +364,7 @@ static int solve_one(acc_row *row, const acc_lattice *Lat, const ohm_mesh *mesh,
     row->t_solve = sol.t_solve;
     row->t_total = row->t_voxelize + sol.t_assemble + sol.t_analyze + sol.t_factor + sol.t_cg_setup +
                    row->t_source + sol.t_solve;
-    row->P = bin_exitance(Lat, &sol, &g);
+    row->P = ohm_exitance_binned(Lat, &sol, &g);
     row->rss_mb = peak_rss_mb();
     ohm_solution_free(&sol);
     ohm_voxel_grid_free(&g);
@@ -463,8 +459,46 @@ static int push(acc_row **rows, size_t *n, size_t *cap, acc_row **out, ohm_error
     return OHM_OK;
 }
 
+/* Errors of rows[first..iref] against the reference rows[iref] and its
+ * Richardson extrapolation from the two finest series grids (cg rows when
+ * there are any). */
+static int compare_to_reference(acc_row *rows, size_t first, size_t iref, const acc_options *o, size_t len,
+                                const char *name, const ohm_log *log, ohm_error *err)
+{
+    const double *Pref = rows[iref].P;
+    size_t i1 = SIZE_MAX, i2 = SIZE_MAX;
+    for (size_t i = first; i < iref; ++i) {
+        const acc_row *q = &rows[i];
+        if (o->cg && strcmp(q->solver, "cg") != 0) continue;
+        if (q->dim == o->dims[o->ndims - 1]) i2 = i;
+        if (o->ndims > 1 && q->dim == o->dims[o->ndims - 2]) i1 = i;
+    }
+    double *Pinf = NULL, order = 0;
+    if (i1 != SIZE_MAX && i2 != SIZE_MAX) {
+        const acc_row *a = &rows[i1], *b = &rows[i2];
+        order = observed_order(l1_diff(a->P, b->P, len), l1_diff(b->P, Pref, len), a->h, b->h, rows[iref].h);
+        if (order >= 0.5 && order <= 4) {
+            Pinf = malloc(len * sizeof *Pinf);
+            if (!Pinf) return ohm_fail(err, OHM_ERR_NOMEM, "accuracy: out of memory");
+            double h2p = pow(b->h, order), h3p = pow(rows[iref].h, order);
+            for (size_t k = 0; k < len; ++k) Pinf[k] = Pref[k] - (Pref[k] - b->P[k]) * h3p / (h2p - h3p);
+        }
+    }
+    for (size_t i = first; i <= iref; ++i) {
+        acc_row *q = &rows[i];
+        errors(q->P, Pref, len, &q->err_ref, &q->err_max);
+        double dummy;
+        if (Pinf) errors(q->P, Pinf, len, &q->err_rich, &dummy);
+        q->order = order;
+    }
+    free(Pinf);
+    ohm_log_info(log, "accuracy: %s: observed order %.2f%s", name, order,
+                 order >= 0.5 && order <= 4 ? " (Richardson used)" : " (no Richardson extrapolation)");
+    return OHM_OK;
+}
+
 static int run_material(acc_row **rows, size_t *n, size_t *cap, const acc_options *o, const ohm_mesh *mesh,
-                        const acc_lattice *Lat, const char *name, const ohm_log *log, ohm_error *err)
+                        const ohm_exitance_lattice *Lat, const char *name, const ohm_log *log, ohm_error *err)
 {
     ohm_material mat;
     int rc = ohm_material_preset(&mat, name, err);
@@ -479,42 +513,15 @@ static int run_material(acc_row **rows, size_t *n, size_t *cap, const acc_option
             snprintf(r->material, sizeof r->material, "%s", name);
             if ((rc = solve_one(r, Lat, mesh, &mat, o->dims[i], s == 1, 0, log, err))) return rc;
         }
-    if ((rc = push(rows, n, cap, &r, err))) return rc;
-    snprintf(r->scene, sizeof r->scene, "reference");
-    snprintf(r->material, sizeof r->material, "%s", name);
-    if ((rc = solve_one(r, Lat, mesh, &mat, o->ref, 1, 0, log, err))) return rc;
-    size_t iref = *n - 1;
     size_t len = Lat->nodes * 3;
-    const double *Pref = (*rows)[iref].P;
-    /* Richardson from the two finest series grids (cg rows if any) + ref */
-    size_t i1 = SIZE_MAX, i2 = SIZE_MAX;
-    for (size_t i = first; i < iref; ++i) {
-        const acc_row *q = &(*rows)[i];
-        if (o->cg && strcmp(q->solver, "cg") != 0) continue;
-        if (q->dim == o->dims[o->ndims - 1]) i2 = i;
-        if (o->ndims > 1 && q->dim == o->dims[o->ndims - 2]) i1 = i;
+    if (o->ref) {
+        if ((rc = push(rows, n, cap, &r, err))) return rc;
+        snprintf(r->scene, sizeof r->scene, "reference");
+        snprintf(r->material, sizeof r->material, "%s", name);
+        if ((rc = solve_one(r, Lat, mesh, &mat, o->ref, 1, 0, log, err))) return rc;
+        if ((rc = compare_to_reference(*rows, first, *n - 1, o, len, name, log, err))) return rc;
     }
-    double *Pinf = NULL, order = 0;
-    if (i1 != SIZE_MAX && i2 != SIZE_MAX) {
-        const acc_row *a = &(*rows)[i1], *b = &(*rows)[i2];
-        order = observed_order(l1_diff(a->P, b->P, len), l1_diff(b->P, Pref, len), a->h, b->h, (*rows)[iref].h);
-        if (order >= 0.5 && order <= 4) {
-            Pinf = malloc(len * sizeof *Pinf);
-            if (!Pinf) return ohm_fail(err, OHM_ERR_NOMEM, "accuracy: out of memory");
-            double h2p = pow(b->h, order), h3p = pow((*rows)[iref].h, order);
-            for (size_t k = 0; k < len; ++k) Pinf[k] = Pref[k] - (Pref[k] - b->P[k]) * h3p / (h2p - h3p);
-        }
-    }
-    for (size_t i = first; i <= iref; ++i) {
-        acc_row *q = &(*rows)[i];
-        errors(q->P, Pref, len, &q->err_ref, &q->err_max);
-        double dummy;
-        if (Pinf) errors(q->P, Pinf, len, &q->err_rich, &dummy);
-        q->order = order;
-    }
-    free(Pinf);
-    ohm_log_info(log, "accuracy: %s: observed order %.2f%s", name, order,
-                 order >= 0.5 && order <= 4 ? " (Richardson used)" : " (no Richardson extrapolation)");
+
     /* depth bands at band_dim, against the full cg solve there (rows may
      * move when the array grows: look the full solve up after each push) */
     for (int b = 0; b < o->nbands; ++b) {
@@ -549,8 +556,8 @@ static int run(const acc_options *o, const ohm_log *log, ohm_error *err)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: all vertices coincide, cannot scale to size=", o->mesh);
     }
     ohm_mesh_scale(&mesh, o->size / ext);
-    acc_lattice Lat;
-    lattice_for(&Lat, &mesh);
+    ohm_exitance_lattice Lat;
+    ohm_exitance_lattice_for(&Lat, &mesh);
     acc_row *rows = NULL;
     size_t n = 0, cap = 0;
     for (int m = 0; m < o->nmaterials && !rc; ++m)
@@ -605,4 +612,89 @@ int ohm_accuracy_main(int argc, char **argv)
     if (!rc) rc = run(&o, &log, &err);
     if (rc) fprintf(stderr, "ohm: error: %s\n", err.msg[0] ? err.msg : "accuracy failed");
     return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1;
+}
+
+/* ---- -voxelize error=: the coarsest grid predicted to meet an error target ---- */
+
+/* Orders of the binned-exitance error in h measured on spot at 12.5..200 mm
+ * with marble, skin1 and ketchup (docs/accuracy.md): 1.3..1.6 between dim 16
+ * and 32 (not yet asymptotic), 1.5..1.75 from 32 to 64.  The probe pair's
+ * difference is turned into the error at 32 with the lower order (which
+ * over-estimates it) and extrapolated with 1.5: both choices err on the side
+ * of a finer grid. */
+static const double PICK_PROBE_ORDER = 1.3;
+static const double PICK_ORDER = 1.5;
+static const int PICK_PROBE = 16;
+
+static int probe_solve(double **P, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
+                       const ohm_light *lights, size_t nlights, int dim, ohm_error *err)
+{
+    static const ohm_log quiet = {NULL, 0};
+    ohm_voxelize_params vp;
+    memset(&vp, 0, sizeof vp);
+    vp.dim = dim;
+    ohm_voxel_grid g;
+    ohm_voxelize_report vr;
+    int rc = ohm_voxelize(&g, &vr, mesh, &vp, &quiet, err);
+    if (rc) return rc;
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_ROBIN;
+    p.ordering = "metis";
+    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
+    p.shadows = OHM_SHADOWS_MESH;
+    p.mesh = mesh;
+    p.orientation = vr.flipped ? -1 : 1;
+    p.solver = OHM_SOLVER_CG;
+    ohm_solution sol;
+    rc = ohm_solve(&sol, &g, mat, lights, nlights, &p, &quiet, err);
+    if (!rc) {
+        *P = ohm_exitance_binned(Lat, &sol, &g);
+        if (!*P) rc = ohm_fail(err, OHM_ERR_NOMEM, "voxelize error=: out of memory");
+        ohm_solution_free(&sol);
+    }
+    ohm_voxel_grid_free(&g);
+    return rc;
+}
+
+int ohm_pick_resolution(ohm_resolution_pick *out, const ohm_mesh *mesh, const ohm_material *mat,
+                        const ohm_light *lights, size_t nlights, double target, const ohm_log *log, ohm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    ohm_exitance_lattice Lat;
+    ohm_exitance_lattice_for(&Lat, mesh);
+    double *P0 = NULL, *P1 = NULL;
+    double t0 = ohm_now();
+    int rc = probe_solve(&P0, &Lat, mesh, mat, lights, nlights, PICK_PROBE, err);
+    if (!rc) rc = probe_solve(&P1, &Lat, mesh, mat, lights, nlights, 2 * PICK_PROBE, err);
+    if (rc) {
+        free(P0);
+        free(P1);
+        return rc;
+    }
+    size_t len = Lat.nodes * 3;
+    double sum = 0;
+    for (size_t i = 0; i < len; ++i) sum += fabs(P1[i]);
+    double change = sum > 0 ? l1_diff(P0, P1, len) / sum : 0;
+    free(P0);
+    free(P1);
+    /* Richardson: e(h) = C h^p, so P(h) - P(h/2) = C h^p (1 - 2^-p) and the
+     * error left at h/2 is that difference / (2^p - 1) */
+    double e1 = change / (pow(2.0, PICK_PROBE_ORDER) - 1.0);
+    out->probe_dims[0] = PICK_PROBE;
+    out->probe_dims[1] = 2 * PICK_PROBE;
+    out->probe_error = e1;
+    out->t_probe = ohm_now() - t0;
+    double d = 2.0 * PICK_PROBE * pow(e1 / target, 1.0 / PICK_ORDER);
+    int dim = (int)ceil(d);
+    if (dim < 8) dim = 8;
+    if (dim > 4096) dim = 4096;
+    out->dim = dim;
+    out->predicted = e1 * pow(2.0 * PICK_PROBE / dim, PICK_ORDER);
+    ohm_log_info(log,
+                 "voxelize error=%g: probes at dim %d and %d (%.2f s) differ by %.3g, so dim %d has about %.3g; "
+                 "order %.1f predicts %.3g at dim %d",
+                 target, PICK_PROBE, 2 * PICK_PROBE, out->t_probe, change, 2 * PICK_PROBE, e1, PICK_ORDER,
+                 out->predicted, dim);
+    return OHM_OK;
 }

@@ -10,6 +10,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+#include "accuracy.h"
 #include "export_action.h"
 #include "export_vdb.h"
 #include "ohm_vdb.h"
@@ -190,6 +191,10 @@ static const ohm_opt_spec voxelize_opts[] = {
     {"voxel", OHM_OPT_REAL, NULL, "voxel size, in units= (overrides dim=)", NULL, 1e-12, 1e12, 0},
     {"units", OHM_OPT_ENUM, "mm", "unit of voxel=", "mm|cm|m|in", 0, 0, 0},
     {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
+    {"error", OHM_OPT_REAL, NULL,
+     "pick dim= from an accuracy target: the relative error of the surface exitance (e.g. 0.02); probes the scene "
+     "at dim 16 and 32 and extrapolates (needs -material and -light before -voxelize)",
+     NULL, 1e-4, 0.9, 0},
     {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
      1e12, 0},
     {"threshold", OHM_OPT_REAL, NULL,
@@ -211,6 +216,29 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_voxelize_params p = {0};
     if (ohm_opt_given(inv, "voxel")) p.voxel = ohm_opt_real(inv, "voxel") * unit_mm(ohm_opt_str(inv, "units"));
     else p.dim = (int)ohm_opt_int(inv, "dim");
+    if (ohm_opt_given(inv, "error")) {
+        if (ohm_opt_given(inv, "voxel") || ohm_opt_given(inv, "dim"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -voxelize: give error= or dim=/voxel=, not both", inv->where);
+        if (!s->have_mesh)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -voxelize error= needs a mesh (a volume has no exitance to probe)",
+                            inv->where);
+        if (!s->have_material || s->nlights == 0 || s->have_transfer ||
+            s->material.kind == OHM_MATERIAL_RESISTANCE)
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -voxelize error= probes the scene: put -material (optical coefficients) and -light "
+                            "before -voxelize",
+                            inv->where);
+        ohm_resolution_pick pick;
+        double target = ohm_opt_real(inv, "error");
+        int rc = ohm_pick_resolution(&pick, &s->mesh, &s->material, s->lights, s->nlights, target, &s->log, err);
+        if (rc) return rc;
+        p.dim = pick.dim;
+        ohm_stats_set(&s->stats, "error_target", target);
+        ohm_stats_set(&s->stats, "error_predicted", pick.predicted);
+        ohm_stats_set(&s->stats, "error_probe", pick.probe_error);
+        ohm_stats_set_int(&s->stats, "dim_chosen", pick.dim);
+        ohm_stats_add(&s->stats, "t_error_probe", pick.t_probe);
+    }
     p.band_voxels = (int)ohm_opt_int(inv, "band");
     if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
 

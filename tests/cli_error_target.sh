@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# -voxelize error=E picks a grid whose measured exitance error meets E:
+# three materials on two meshes, each checked against a solve 3x finer.
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+target=0.15
+for mesh in spot.obj bunny00.off.gz; do
+  for m in marble skin1 ketchup; do
+    name="$mesh $m"
+    expect_exit 0 "$name: error=$target" -- "$OHM" -read file=samples/$mesh size=50 -material preset=$m \
+      -light type=directional dir=0,-1,0 intensity=1 -voxelize error=$target -stats file="$T/pick.json"
+    dim=$($PY -c "import json; print(json.load(open('$T/pick.json'))['dim_chosen'])")
+    check "$name: predicted within target" $PY -c "
+import json; s = json.load(open('$T/pick.json'))
+assert 0 < s['error_predicted'] <= $target and s['voxel_mm'] > 0, s"
+    expect_exit 0 "$name: measure at dim $dim" -- "$OHM" accuracy mesh=samples/$mesh materials=$m dims=$dim \
+      ref=$((3 * dim)) bands=0 slab=0 solvers=cg csv="$T/acc.csv"
+    # the reference has an error of its own, about (1/3)^1.5 of the grid's:
+    # count it against the target
+    check "$name: achieved error within target" $PY - "$T/acc.csv" $target <<'PY'
+import csv, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["scene"] == "series"]
+err, target = float(rows[0]["err_ref"]), float(sys.argv[2])
+assert 0 < err * (1 + 3 ** -1.5) <= target, (err, target)
+print("  %s dim %s: error %.4f (target %.2f)" % (rows[0]["material"], rows[0]["dim"], err, target))
+PY
+  done
+done
+expect_exit 2 "error= without a light" -- "$OHM" -read file=samples/spot.obj -material preset=marble -voxelize error=0.1
+expect_error_line "error= without a light" "error= probes the scene: put -material .* and -light before -voxelize"
+expect_exit 2 "error= and dim=" -- "$OHM" -read file=samples/spot.obj -material preset=marble \
+  -light type=directional dir=0,-1,0 -voxelize error=0.1 dim=32
+expect_error_line "error= and dim=" "give error= or dim=/voxel=, not both"
+finish
