@@ -706,6 +706,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_int(st, "lights", (long long)s->nlights);
     ohm_stats_set_int(st, "frames", sol->frames);
     ohm_stats_set_int(st, "solves", (long long)sol->solves);
+    ohm_stats_set_int(st, "solves_skipped", (long long)sol->solves_skipped);
     ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.shadows));
     ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
     ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);

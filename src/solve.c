@@ -5,6 +5,7 @@
 #include "memory.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -345,6 +346,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     double *ga = malloc((size_t)n * sizeof *ga);
     double *gb = malloc(nf * sizeof *gb);
     int *face_count = calloc((size_t)n, sizeof *face_count);
+    size_t *col_of = malloc(batch * sizeof *col_of);       /* batch column -> distinct column */
+    double *prev_b = malloc((size_t)n * sizeof *prev_b);   /* the last frame's right-hand side */
     cholmod_sparse *A = NULL;
     cholmod_factor *L = NULL;
     ohm_cg cg;
@@ -352,7 +355,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
     double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
-    if (!B || !X || !ga || !gb || !face_count) {
+    if (!B || !X || !ga || !gb || !face_count || !col_of || !prev_b) {
         rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
                       (long long)n);
         goto done;
@@ -485,6 +488,26 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 }
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
+                /* frames whose light did not change (the same right-hand
+                 * side as the frame before) are not solved again: the batch
+                 * is compacted to its distinct columns, solved, expanded */
+                size_t nu = 0;
+                for (size_t j = 0; j < nb; ++j) {
+                    const double *bj = B + j * (size_t)n;
+                    /* the previous frame's right-hand side: in this batch, or
+                     * the last one of the previous batch */
+                    const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * (size_t)n
+                                       : f0 > 0                           ? prev_b
+                                                                          : NULL;
+                    int dup = bp && !memcmp(bj, bp, (size_t)n * sizeof *B);
+                    if (dup) {
+                        col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
+                        sol->solves_skipped++;
+                        continue;
+                    }
+                    if (nu != j) memcpy(B + nu * (size_t)n, bj, (size_t)n * sizeof *B);
+                    col_of[j] = nu++;
+                }
                 t0 = ohm_now();
                 double berr = 0;
                 int refined = 0;
@@ -495,7 +518,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                     int e = -1;
                     for (int q = 0; q < channels; ++q)
                         if (solved[q]) e = q;
-                    for (size_t j = 0; j < nb && !rc; ++j) {
+                    for (size_t j = 0; j < nu && !rc; ++j) {
                         double *x = X + j * (size_t)n;
                         size_t fr = f0 + j;
                         if (j > 0) memcpy(x, X + (j - 1) * (size_t)n, (size_t)n * sizeof *x);
@@ -525,25 +548,25 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                             if (!rc && too_big) {
                                 use_cg = 1; /* the factor does not fit after all: stay */
                                 ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
-                            } else if (!rc && j + 1 < nb) {
+                            } else if (!rc && j + 1 < nu) {
                                 double e2 = 0;
                                 rc = ohm_solver_solve(x + (size_t)n, &solver, L, A, B + (j + 1) * (size_t)n,
-                                                      nb - j - 1, &e2, &refined, err);
+                                                      nu - j - 1, &e2, &refined, err);
                                 break;
                             }
                         } else {
                             ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
                         }
                     }
-                    if (!rc) rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nb, err);
-                } else {
-                    rc = ohm_solver_solve(X, &solver, L, A, B, nb, &berr, &refined, err);
+                    if (!rc && nu > 0) rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nu, err);
+                } else if (nu > 0) {
+                    rc = ohm_solver_solve(X, &solver, L, A, B, nu, &berr, &refined, err);
                 }
-                if (!rc) {
-                    int corrected = correct_constant_modes(sol, X, B, nb, ga, gb, A);
+                if (!rc && nu > 0) {
+                    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A);
                     if (corrected < 0) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
                     else if (corrected > 0) {
-                        rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nb, err);
+                        rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nu, err);
                         if (!rc && !use_cg && !(berr <= 1e-10))
                             rc = ohm_fail(err, OHM_ERR_NUMERIC,
                                           "solve: backward error %.3g after the constant-mode correction", berr);
@@ -553,7 +576,20 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 if (rc) break;
                 if (berr > sol->residual) sol->residual = berr;
                 sol->refined += refined;
-                sol->solves += (int64_t)nb;
+                sol->solves += (int64_t)nu;
+                /* expand: column j is distinct column col_of[j] (<= j), or the
+                 * previous batch's last frame */
+                for (size_t j = nb; j-- > 0;) {
+                    double *xj = X + j * (size_t)n, *bj = B + j * (size_t)n;
+                    if (col_of[j] == SIZE_MAX) {
+                        memcpy(xj, sol->fluence[c] + (f0 - 1) * (size_t)n, (size_t)n * sizeof *X);
+                        memcpy(bj, prev_b, (size_t)n * sizeof *B);
+                    } else if (col_of[j] != j) {
+                        memcpy(xj, X + col_of[j] * (size_t)n, (size_t)n * sizeof *X);
+                        memcpy(bj, B + col_of[j] * (size_t)n, (size_t)n * sizeof *B);
+                    }
+                }
+                memcpy(prev_b, B + (nb - 1) * (size_t)n, (size_t)n * sizeof *B);
 
                 /* book the power per frame */
                 const double area = grid->h * grid->h;
@@ -596,6 +632,8 @@ done:
     ohm_occluder_free(occ);
     ohm_cg_free(&cg);
     free(face_count);
+    free(col_of);
+    free(prev_b);
     ohm_factor_free(&L, &solver);
     cholmod_l_free_sparse(&A, &solver.cc);
     ohm_solver_finish(&solver);

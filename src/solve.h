@@ -68,6 +68,7 @@ typedef struct ohm_solution {
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */
     int64_t solves;                     /* columns solved, summed over channels       */
+    int64_t solves_skipped;             /* frames whose light did not change: reused  */
     double nnz_A, nnz_L, flops;
     char ordering[16];
     char solver[8];                     /* direct | cg: what ran                      */

@@ -46,6 +46,28 @@ err = abs(l["power_in"] - l["power_absorbed"] - l["power_out"]) / l["power_in"]
 assert 1e-12 < err < 1e-3, err   # a looser solve conserves only to about its tolerance
 PY
 
+# frames whose light does not change are not solved again: a directional light
+# along the orbit's own axis is the same light in every frame (batch_mb=1: the
+# 1947 cells' 40 frames come in batches of 33 and 7, so the reuse crosses a
+# batch boundary)
+for sv in direct cg; do
+  run same_$sv $sv orbit=40 axis=y
+  expect_exit 0 "same light, batches, $sv" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 \
+    -material preset=marble -light type=directional dir=0,-1,0 intensity=1 orbit=40 axis=y \
+    -solve solver=$sv batch_mb=1 -stats file="$T/same_batched_$sv.json"
+done
+check "unchanged frames reuse the solve" $PY - "$T" <<'PY'
+import json, sys
+T = sys.argv[1]
+for sv in ("direct", "cg"):
+    for name in ("same_" + sv, "same_batched_" + sv):
+        s = json.load(open(f"{T}/{name}.json"))
+        assert s["frames"] == 40 and s["solves"] == 3 and s["solves_skipped"] == 117, (name, s["solves"], s["solves_skipped"])
+        assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-9 * s["power_in"], s
+d = json.load(open(f"{T}/direct.json"))
+assert d["solves_skipped"] == 0, d
+PY
+
 # auto: CG for a few lights; the factor for many lights on a small grid
 run auto_few auto
 run auto_many auto orbit=400 axis=x
