@@ -879,12 +879,14 @@ const ohm_action ohm_actions[] = {
     {"light", "add a light (directional, point, or a pencil beam)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
-     "No shadows yet: every face turned to the light is lit.",
+     "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
      light_opts, run_light},
     {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
-     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.",
+     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
+     "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
+     "solver=auto picks (docs/accuracy.md).  band= / band_error= solve only the cells light reaches.",
      solve_opts, run_solve},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"

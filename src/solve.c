@@ -544,7 +544,9 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                             use_cg = 0;
                             ohm_log_info(log, "solve: solver=auto switches to direct: %s", sol->solver_reason);
                             int too_big = 0;
+                            double tp = ohm_now();
                             rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
+                            t0 += ohm_now() - tp; /* booked as t_analyze / t_factor, not t_solve */
                             if (!rc && too_big) {
                                 use_cg = 1; /* the factor does not fit after all: stay */
                                 ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
