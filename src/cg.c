@@ -101,6 +101,19 @@ int ohm_cg_setup(ohm_cg *cg, const cholmod_sparse *A, ohm_error *err)
         cg->d[j] = dj;
     }
     free(upper_sum);
+    /* ||A||_inf: row sums of |a|, the upper triangle counted for both halves */
+    double *rowsum = calloc((size_t)(n ? n : 1), sizeof *rowsum);
+    if (!rowsum) {
+        ohm_cg_free(cg);
+        return ohm_fail(err, OHM_ERR_NOMEM, "cg: out of memory for %lld unknowns", (long long)n);
+    }
+    for (int64_t j = 0; j < n; ++j)
+        for (int64_t q = Ap[j]; q < Ap[j + 1]; ++q) {
+            rowsum[j] += fabs(Ax[q]);
+            if (Ai[q] != j) rowsum[Ai[q]] += fabs(Ax[q]);
+        }
+    for (int64_t j = 0; j < n; ++j) cg->norm_A = fmax(cg->norm_A, rowsum[j]);
+    free(rowsum);
     cg->t_setup = ohm_now() - t0;
     return OHM_OK;
 }
@@ -137,6 +150,18 @@ static double dot(const double *a, const double *b, int64_t n)
     return s;
 }
 
+static double scaled_backward_error(const ohm_cg *cg, const double *x, const double *b, const double *r)
+{
+    double nx = 0, nb = 0, nr = 0;
+    for (int64_t i = 0; i < cg->n; ++i) {
+        nx = fmax(nx, fabs(x[i]));
+        nb = fmax(nb, fabs(b[i]));
+        nr = fmax(nr, fabs(r[i]));
+    }
+    double denom = cg->norm_A * nx + nb;
+    return denom > 0 ? nr / denom : 0.0;
+}
+
 int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max_iter, int64_t *iters,
                  double *relres, ohm_error *err)
 {
@@ -164,6 +189,7 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
         }
         *relres = nr / nb;
         if (nr <= tol * nb) break;
+        if (restarts > 0 && scaled_backward_error(cg, x, b, r) <= 0.01 * tol) break; /* stagnated at the floor */
         if (it >= max_iter || restarts > 5) {
             *iters = it;
             return ohm_fail(err, OHM_ERR_NUMERIC,

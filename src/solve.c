@@ -435,6 +435,11 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     for (int c = 0; c < channels; ++c) nclasses += cls[c] == c;
     int solved[OHM_MAX_CHANNELS] = {0};
     const double cg_tol = params->cg_tol > 0 ? params->cg_tol : 1e-10;
+    /* test hook (tests/cli_solver_choice.sh): cap CG's iterations so that the
+     * non-convergence paths (the error; auto falling back to the factor) run */
+    int64_t cg_max_iter = 20000;
+    const char *iter_cap = getenv("OHM_TEST_CG_MAX_ITER");
+    if (iter_cap && atoll(iter_cap) > 0) cg_max_iter = atoll(iter_cap);
     for (int k = 0; k < channels && !rc; ++k) {
         if (cls[k] != k) continue; /* not the first channel of its class */
         ohm_channel_medium med;
@@ -528,9 +533,31 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                         int64_t its = 0;
                         double relres = 0;
                         double tc = ohm_now();
-                        rc = ohm_cg_solve(&cg, x, B + j * (size_t)n, cg_tol, 20000, &its, &relres, err);
+                        rc = ohm_cg_solve(&cg, x, B + j * (size_t)n, cg_tol, cg_max_iter, &its, &relres, err);
                         sol->cg_iterations += its;
                         if (relres > sol->cg_relres) sol->cg_relres = relres;
+                        if (rc && !decided && rc == OHM_ERR_NUMERIC) {
+                            /* solver=auto: CG cannot solve this one: the factor can */
+                            decided = 1;
+                            use_cg = 0;
+                            snprintf(sol->solver_reason, sizeof sol->solver_reason, "cg failed: %.170s", err->msg);
+                            ohm_error_clear(err);
+                            ohm_log_info(log, "solve: solver=auto switches to direct: %s", sol->solver_reason);
+                            int too_big = 0;
+                            double tp = ohm_now();
+                            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
+                            t0 += ohm_now() - tp;
+                            if (!rc && too_big)
+                                rc = ohm_fail(err, OHM_ERR_NUMERIC,
+                                              "solve: conjugate gradients did not converge and the factor does not "
+                                              "fit (%s)",
+                                              sol->solver_reason);
+                            if (!rc) {
+                                double e2 = 0;
+                                rc = ohm_solver_solve(X, &solver, L, A, B, nu, &e2, &refined, err);
+                            }
+                            break;
+                        }
                         if (rc || decided) continue;
                         /* solver=auto: the first two columns are solved with
                          * CG; the second (warm-started, like every later one)

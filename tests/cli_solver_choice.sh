@@ -82,6 +82,32 @@ for s in (few, many):
     assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-9 * s["power_in"], s
 PY
 
+# CG that does not converge (forced by a test hook capping its iterations):
+# solver=cg says so and fails; solver=auto falls back to the factor
+OHM_TEST_CG_MAX_ITER=3 expect_exit 1 "cg does not converge" -- "$OHM" -read file=samples/spot.obj size=50 \
+  -voxelize dim=24 -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve solver=cg
+expect_error_line "cg does not converge" "cg: did not converge: relative residual .* after 3 iterations"
+export OHM_TEST_CG_MAX_ITER=3
+run auto_fallback auto
+unset OHM_TEST_CG_MAX_ITER
+check "auto falls back to the factor when cg fails" $PY - "$T/auto_fallback.json" "$T/auto_few.json" <<'PY'
+import json, sys
+s, d = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
+assert s["solver"] == "direct" and s["factors"] == 3 and s["solver_reason"].startswith("cg failed"), s
+assert abs(s["power_out"] - d["power_out"]) < 1e-9 * d["power_out"], (s["power_out"], d["power_out"])
+PY
+
+# nearly singular (sigma_a = 1e-9, no leak): CG stalls at its residual floor
+# (~kappa eps) and is accepted there by the scaled backward error, as the
+# factor is; the constant-mode correction then conserves power exactly
+expect_exit 0 "cg, nearly singular" -- "$OHM" -read file=samples/spot.obj size=10 -voxelize dim=16 \
+  -material sigma_a=1e-9 sigma_s=1 -light type=directional dir=0,-1,0 intensity=1 \
+  -solve solver=cg boundary=neumann -stats file="$T/singular.json"
+check "cg near singular" $PY -c "
+import json; s = json.load(open('$T/singular.json'))
+assert s['solver'] == 'cg' and s['residual'] < 1e-12 and s['mode_corrections'] >= 1, s
+assert s['conservation_error'] < 1e-10 and s['power_out'] == 0, s"
+
 # a factor that does not fit: direct refuses and suggests cg; auto and cg solve
 args=(-read file=samples/spot.obj size=50 -voxelize dim=40 -material preset=marble
       -light type=directional dir=0,-1,0 intensity=1)
