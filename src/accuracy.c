@@ -310,25 +310,23 @@ static double observed_order(double d12, double d23, double h1, double h2, doubl
 
 /* ---- one solve ---------------------------------------------------------------- */
 
-static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat, int dim,
-                     int use_cg, double band, const ohm_log *log, ohm_error *err)
+/* Voxelize the mesh at dim and solve it (Robin, METIS, exponential deposit,
+ * mesh shadows): the scene every accuracy figure and error= probe uses.
+ * *t_voxelize gets the voxelization's seconds.  On success the caller frees
+ * *g and *sol. */
+static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_voxelize, const ohm_mesh *mesh,
+                              const ohm_material *mat, const ohm_light *lights, size_t nlights, int dim, int use_cg,
+                              double band, ohm_error *err)
 {
     static const ohm_log quiet = {NULL, 0};
     ohm_voxelize_params vp;
     memset(&vp, 0, sizeof vp);
     vp.dim = dim;
-    ohm_voxel_grid g;
     ohm_voxelize_report vr;
     double t0 = ohm_now();
-    int rc = ohm_voxelize(&g, &vr, mesh, &vp, &quiet, err);
-    row->t_voxelize = ohm_now() - t0;
+    int rc = ohm_voxelize(g, &vr, mesh, &vp, &quiet, err);
+    *t_voxelize = ohm_now() - t0;
     if (rc) return rc;
-    ohm_light light;
-    memset(&light, 0, sizeof light);
-    light.type = OHM_LIGHT_DIRECTIONAL;
-    light.dir[1] = -1;
-    light.intensity[0] = 1;
-    light.channels = 1;
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.boundary = OHM_BOUNDARY_ROBIN;
@@ -339,14 +337,26 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
     p.orientation = vr.flipped ? -1 : 1;
     p.solver = use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT;
     p.band_k = band;
+    rc = ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
+    if (rc) ohm_voxel_grid_free(g);
+    return rc;
+}
+
+static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
+                     int dim, int use_cg, double band, const ohm_log *log, ohm_error *err)
+{
+    ohm_light light;
+    memset(&light, 0, sizeof light);
+    light.type = OHM_LIGHT_DIRECTIONAL;
+    light.dir[1] = -1;
+    light.intensity[0] = 1;
+    light.channels = 1;
+    ohm_log_info(log, "accuracy: %s dim %d %s%s", row->material, dim, use_cg ? "cg" : "direct",
+                 band > 0 ? " with a depth band" : "");
+    ohm_voxel_grid g;
     ohm_solution sol;
-    ohm_log_info(log, "accuracy: %s dim %d (%zu cells) %s%s", row->material, dim, g.interior_cells,
-                 use_cg ? "cg" : "direct", band > 0 ? " with a depth band" : "");
-    rc = ohm_solve(&sol, &g, mat, &light, 1, &p, &quiet, err);
-    if (rc) {
-        ohm_voxel_grid_free(&g);
-        return rc;
-    }
+    int rc = voxelize_and_solve(&g, &sol, &row->t_voxelize, mesh, mat, &light, 1, dim, use_cg, band, err);
+    if (rc) return rc;
     row->dim = dim;
     row->h = g.h;
     row->band = band;
@@ -629,30 +639,14 @@ static const int PICK_PROBE = 16;
 static int probe_solve(double **P, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
                        const ohm_light *lights, size_t nlights, int dim, ohm_error *err)
 {
-    static const ohm_log quiet = {NULL, 0};
-    ohm_voxelize_params vp;
-    memset(&vp, 0, sizeof vp);
-    vp.dim = dim;
     ohm_voxel_grid g;
-    ohm_voxelize_report vr;
-    int rc = ohm_voxelize(&g, &vr, mesh, &vp, &quiet, err);
-    if (rc) return rc;
-    ohm_solve_params p;
-    memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = "metis";
-    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
-    p.shadows = OHM_SHADOWS_MESH;
-    p.mesh = mesh;
-    p.orientation = vr.flipped ? -1 : 1;
-    p.solver = OHM_SOLVER_CG;
     ohm_solution sol;
-    rc = ohm_solve(&sol, &g, mat, lights, nlights, &p, &quiet, err);
-    if (!rc) {
-        *P = ohm_exitance_binned(Lat, &sol, &g);
-        if (!*P) rc = ohm_fail(err, OHM_ERR_NOMEM, "voxelize error=: out of memory");
-        ohm_solution_free(&sol);
-    }
+    double t;
+    int rc = voxelize_and_solve(&g, &sol, &t, mesh, mat, lights, nlights, dim, 1, 0, err);
+    if (rc) return rc;
+    *P = ohm_exitance_binned(Lat, &sol, &g);
+    if (!*P) rc = ohm_fail(err, OHM_ERR_NOMEM, "voxelize error=: out of memory");
+    ohm_solution_free(&sol);
     ohm_voxel_grid_free(&g);
     return rc;
 }
