@@ -35,6 +35,7 @@
 #include "ohm_error.h"
 #include "output.h"
 #include "solve.h"
+#include "subcommand.h"
 #include "validate.h"
 #include "voxelize.h"
 
@@ -81,12 +82,11 @@ static int usage_error(ohm_error *err, const char *fmt, ...)
     ;
 static int usage_error(ohm_error *err, const char *fmt, ...)
 {
-    char line[OHM_ERROR_MSG_MAX - 64];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(line, sizeof line, fmt, ap);
+    int rc = ohm_subcommand_usage_error(err, "accuracy", fmt, ap);
     va_end(ap);
-    return ohm_fail(err, OHM_ERR_USAGE, "accuracy: %s (see 'ohm accuracy help')", line);
+    return rc;
 }
 
 static void usage(FILE *f)
@@ -610,7 +610,7 @@ static int run(const acc_options *o, const ohm_log *log, ohm_error *err)
 
 int ohm_accuracy_main(int argc, char **argv)
 {
-    if (argc == 1 && (strcmp(argv[0], "help") == 0 || strcmp(argv[0], "--help") == 0 || strcmp(argv[0], "-h") == 0)) {
+    if (ohm_subcommand_wants_help(argc, argv)) {
         usage(stdout);
         return 0;
     }
@@ -620,8 +620,7 @@ int ohm_accuracy_main(int argc, char **argv)
     const ohm_log log = {NULL, 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
-    if (rc) fprintf(stderr, "ohm: error: %s\n", err.msg[0] ? err.msg : "accuracy failed");
-    return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1;
+    return ohm_subcommand_exit(rc, &err, "accuracy failed");
 }
 
 /* ---- -voxelize error=: the coarsest grid predicted to meet an error target ---- */

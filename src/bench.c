@@ -30,6 +30,7 @@
 #include "output.h"
 #include "pipeline.h"
 #include "solve.h"
+#include "subcommand.h"
 #include "voxelize.h"
 
 /* The BLAS that CHOLMOD links (OpenBLAS on Debian): dense dgemm is the
@@ -160,12 +161,11 @@ static int usage_error(ohm_error *err, const char *fmt, ...)
     ;
 static int usage_error(ohm_error *err, const char *fmt, ...)
 {
-    char line[OHM_ERROR_MSG_MAX - 64];
     va_list ap;
     va_start(ap, fmt);
-    vsnprintf(line, sizeof line, fmt, ap);
+    int rc = ohm_subcommand_usage_error(err, "bench", fmt, ap);
     va_end(ap);
-    return ohm_fail(err, OHM_ERR_USAGE, "bench: %s (see 'ohm bench help')", line);
+    return rc;
 }
 
 static int parse_long(const char *s, long lo, long hi, long *out)
@@ -928,7 +928,7 @@ static int run(const bench_options *o, const ohm_log *log, ohm_error *err)
 
 int ohm_bench_main(int argc, char **argv)
 {
-    if (argc == 1 && (strcmp(argv[0], "help") == 0 || strcmp(argv[0], "--help") == 0 || strcmp(argv[0], "-h") == 0)) {
+    if (ohm_subcommand_wants_help(argc, argv)) {
         usage(stdout);
         return 0;
     }
@@ -938,6 +938,5 @@ int ohm_bench_main(int argc, char **argv)
     const ohm_log log = {NULL, 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
-    if (rc) fprintf(stderr, "ohm: error: %s\n", err.msg[0] ? err.msg : "bench failed");
-    return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1;
+    return ohm_subcommand_exit(rc, &err, "bench failed");
 }
