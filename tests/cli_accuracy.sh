@@ -54,6 +54,23 @@ assert abs(s["band"] - math.log(100) / 2) < 1e-12, s["band"]
 assert s["band_depth"] > 0 and s["band_dropped"] >= 0, s
 assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-10 * s["power_in"], s
 PY
+# on a large object the band pays: a 200 mm spot in skin1 (1/sigma_tr 3.7 mm)
+# keeps about half its cells, and the factor shrinks with them
+for b in 0 0.01; do
+  expect_exit 0 "200 mm, band_error=$b" -- "$OHM" -read file=samples/spot.obj size=200 -voxelize dim=40 \
+    -material preset=skin1 -light type=directional dir=0,-1,0 intensity=1 \
+    -solve solver=direct $([ $b = 0 ] || echo band_error=$b) -stats file="$T/big$b.json"
+done
+check "band shrinks the factor" $PY - "$T/big0.json" "$T/big0.01.json" <<'PY'
+import json, sys
+full, band = (json.load(open(f)) for f in sys.argv[1:])
+assert full["band_dropped"] == 0 and band["band_dropped"] > 0.3 * full["cells"], (full["cells"], band["band_dropped"])
+assert band["cells"] + band["band_dropped"] == full["cells"], (band, full["cells"])
+assert band["nnz_L"] < 0.7 * full["nnz_L"], (band["nnz_L"], full["nnz_L"])
+assert abs(band["power_in"] - band["power_absorbed"] - band["power_out"]) < 1e-10 * band["power_in"], band
+# what leaves the surface barely changes (the deep core sends almost nothing back)
+assert abs(band["power_out"] - full["power_out"]) < 0.01 * full["power_out"], (band["power_out"], full["power_out"])
+PY
 expect_exit 2 "band and band_error" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -material preset=skin1 \
   -light type=directional dir=0,-1,0 -solve band=2 band_error=0.01
 expect_error_line "band and band_error" "band= or band_error=, not both"
