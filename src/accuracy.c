@@ -17,8 +17,9 @@
  * h3^p / (h2^p - h3^p) node by node is a better reference than P3 (and gives
  * P3's own error).  The half-space scene (validate.c) is compared with its
  * exact solution instead.  Depth bands are compared with the full solve on the
- * same grid.  CSV on csv=, Markdown on stdout, progress on stderr; nothing is
- * asserted here (tests/cli_accuracy.sh does that on a small run). */
+ * same grid.  Peak memory is per row (VmHWM, reset before each row).  CSV on
+ * csv=, Markdown on stdout, progress on stderr; nothing is asserted here
+ * (tests/cli_accuracy.sh does that on a small run). */
 #include "accuracy.h"
 
 #include <math.h>
@@ -68,8 +69,30 @@ typedef struct acc_row {
 } acc_row;
 
 
+/* Peak resident memory of this row alone: Linux (>= 4.0) resets the
+ * high-water mark VmHWM when "5" is written to /proc/self/clear_refs, so
+ * each row starts from what the process holds then.  Where that is not
+ * possible the figure is the process's peak so far (getrusage). */
+static void reset_peak_rss(void)
+{
+    FILE *f = fopen("/proc/self/clear_refs", "w");
+    if (!f) return;
+    fputs("5", f);
+    fclose(f);
+}
+
 static double peak_rss_mb(void)
 {
+    FILE *f = fopen("/proc/self/status", "r");
+    if (f) {
+        char line[256];
+        while (fgets(line, sizeof line, f))
+            if (strncmp(line, "VmHWM:", 6) == 0) {
+                fclose(f);
+                return strtod(line + 6, NULL) / 1024.0; /* kB */
+            }
+        fclose(f);
+    }
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) != 0) return 0;
     return (double)ru.ru_maxrss / 1024.0; /* KiB on Linux */
@@ -355,6 +378,7 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
                  band > 0 ? " with a depth band" : "");
     ohm_voxel_grid g;
     ohm_solution sol;
+    reset_peak_rss();
     int rc = voxelize_and_solve(&g, &sol, &row->t_voxelize, mesh, mat, &light, 1, dim, use_cg, band, err);
     if (rc) return rc;
     row->dim = dim;
@@ -404,7 +428,7 @@ static void write_markdown(FILE *f, const acc_row *rows, size_t n, const acc_opt
 {
     fprintf(f, "### %s at %g mm, directional light from above; error of the binned surface exitance\n\n", o->mesh,
             o->size);
-    fprintf(f, "| material | dim | h (mm) | cells | direct (s) | cg (s) | cg iterations | peak RSS (MB) | factor (MB) "
+    fprintf(f, "| material | dim | h (mm) | cells | direct (s) | cg (s) | cg iterations | peak RSS direct / cg (MB) | factor (MB) "
                "| error vs ref | vs Richardson | worst node |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n");
     for (size_t i = 0; i < n; ++i) {
         const acc_row *r = &rows[i];
@@ -414,20 +438,22 @@ static void write_markdown(FILE *f, const acc_row *rows, size_t n, const acc_opt
         if (series && i > 0 && strcmp(rows[i - 1].scene, "series") == 0 && rows[i - 1].dim == r->dim &&
             strcmp(rows[i - 1].material, r->material) == 0)
             continue;
-        double td = -1, tc = -1, fm = 0;
+        double td = -1, tc = -1, fm = 0, md = -1, mc = -1;
         int64_t it = 0;
         for (size_t j = i; j < n && rows[j].dim == r->dim && strcmp(rows[j].material, r->material) == 0 &&
                            strcmp(rows[j].scene, r->scene) == 0;
              ++j) {
-            if (strcmp(rows[j].solver, "direct") == 0) td = rows[j].t_total, fm = rows[j].factor_mb;
-            else tc = rows[j].t_total, it = rows[j].iters;
+            if (strcmp(rows[j].solver, "direct") == 0) td = rows[j].t_total, fm = rows[j].factor_mb, md = rows[j].rss_mb;
+            else tc = rows[j].t_total, it = rows[j].iters, mc = rows[j].rss_mb;
         }
-        char tds[32] = "-", tcs[32] = "-", rich[32] = "-";
+        char tds[32] = "-", tcs[32] = "-", rich[32] = "-", mem[48];
+        if (md >= 0 && mc >= 0) snprintf(mem, sizeof mem, "%.0f / %.0f", md, mc);
+        else snprintf(mem, sizeof mem, "%.0f", md >= 0 ? md : mc);
         if (td >= 0) snprintf(tds, sizeof tds, "%.3g", td);
         if (tc >= 0) snprintf(tcs, sizeof tcs, "%.3g", tc);
         if (r->err_rich > 0) snprintf(rich, sizeof rich, "%.2f%%", 100 * r->err_rich);
-        fprintf(f, "| %s | %d%s | %.3g | %lld | %s | %s | %lld | %.0f | %.1f | %.2f%% | %s | %.2f%% |\n",
-                r->material, r->dim, ref ? " (ref)" : "", r->h, (long long)r->cells, tds, tcs, (long long)it, r->rss_mb, fm, 100 * r->err_ref, rich,
+        fprintf(f, "| %s | %d%s | %.3g | %lld | %s | %s | %lld | %s | %.1f | %.2f%% | %s | %.2f%% |\n",
+                r->material, r->dim, ref ? " (ref)" : "", r->h, (long long)r->cells, tds, tcs, (long long)it, mem, fm, 100 * r->err_ref, rich,
                 100 * r->err_max);
     }
     fprintf(f, "\n### Depth band: error against the full solve on the same grid (cg)\n\n"
