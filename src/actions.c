@@ -535,12 +535,13 @@ static const ohm_opt_spec solve_opts[] = {
      "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | auto (the cheaper by a cost model; cg when the factor does not fit)",
      "direct|cg|auto", 0, 0, 0},
-    {"band", OHM_OPT_REAL, "0",
-     "depth band: solve only the cells within band / sigma_tr of the surface (light there has decayed by e^-band), "
+    {"depth_band", OHM_OPT_REAL, "0",
+     "solve only the cells within depth_band / sigma_tr of the surface (light there has decayed by e^-depth_band), "
      "the core closed as an absorbing half-space; 0 = every cell",
      NULL, 0, 1e6, 0},
-    {"band_error", OHM_OPT_REAL, NULL,
-     "choose the depth band from an error target: band = ln(1/band_error) / 2, the round trip e^(-2 band) of light "
+    {"depth_band_error", OHM_OPT_REAL, NULL,
+     "choose the depth band from an error target: depth_band = ln(1/depth_band_error) / 2, the round trip "
+     "e^(-2 depth_band) of light "
      "to the band's floor and back bounds the exitance error (measured: docs/accuracy.md)",
      NULL, 1e-12, 0.5, 0},
     {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg stops when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
@@ -635,11 +636,12 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                : strcmp(solver_name, "auto") == 0 ? OHM_SOLVER_AUTO
                                                   : OHM_SOLVER_DIRECT;
     p.cg_tol = ohm_opt_real(inv, "cg_tol");
-    p.band_k = ohm_opt_real(inv, "band");
-    if (ohm_opt_given(inv, "band_error")) {
-        if (ohm_opt_given(inv, "band"))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give band= or band_error=, not both", inv->where);
-        p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "band_error"));
+    p.band_k = ohm_opt_real(inv, "depth_band");
+    if (ohm_opt_given(inv, "depth_band_error")) {
+        if (ohm_opt_given(inv, "depth_band"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give depth_band= or depth_band_error=, not both",
+                            inv->where);
+        p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
     }
     const char *sh = ohm_opt_str(inv, "shadows");
     p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
@@ -717,9 +719,9 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
-    ohm_stats_set(st, "band", p.band_k);
-    ohm_stats_set(st, "band_depth", sol->band_depth);
-    ohm_stats_set_int(st, "band_dropped", (long long)sol->band_dropped);
+    ohm_stats_set(st, "depth_band", p.band_k);
+    ohm_stats_set(st, "depth_band_mm", sol->band_depth);
+    ohm_stats_set_int(st, "depth_band_dropped", (long long)sol->band_dropped);
     ohm_stats_set_int(st, "mode_corrections", (long long)sol->mode_corrections);
     ohm_stats_set(st, "mode_shift", sol->mode_shift);
     ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
@@ -886,7 +888,8 @@ const ohm_action ohm_actions[] = {
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
      "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
      "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
-     "solver=auto picks (docs/accuracy.md).  band= / band_error= solve only the cells light reaches.",
+     "solver=auto picks (docs/accuracy.md).  depth_band= / depth_band_error= solve only the cells\n"
+     "light reaches.",
      solve_opts, run_solve},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"

@@ -174,8 +174,8 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
     if (!(params->band_k > 0)) return OHM_OK;
     if (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
         return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: band= needs optical coefficients (its depth is k / sigma_tr); with resistance= "
-                        "leave band=0");
+                        "solve: depth_band= needs optical coefficients (its depth is k / sigma_tr); with "
+                        "resistance= leave depth_band=0");
     size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
     int64_t ni = (int64_t)grid->interior_cells;
     double sigma_tr = INFINITY;
@@ -190,7 +190,7 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
         }
     }
     if (!(sigma_tr > 0) || !isfinite(sigma_tr)) {
-        ohm_log_warn(log, "solve: band=%g ignored: with sigma_a = 0 light reaches every depth", params->band_k);
+        ohm_log_warn(log, "solve: depth_band=%g ignored: with sigma_a = 0 light reaches every depth", params->band_k);
         return OHM_OK;
     }
     double depth = params->band_k / sigma_tr;
@@ -200,13 +200,13 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
     if (kept == ni) { /* nothing is deeper: no band */
         free(sol->band_active);
         sol->band_active = NULL;
-        ohm_log_info(log, "solve: band=%g: every cell lies within %.3g mm of the surface; nothing to drop",
+        ohm_log_info(log, "solve: depth_band=%g: every cell lies within %.3g mm of the surface; nothing to drop",
                      params->band_k, depth);
         return OHM_OK;
     }
     sol->band_depth = depth;
     sol->band_dropped = ni - kept;
-    ohm_log_info(log, "solve: depth band %.3g mm (band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
+    ohm_log_info(log, "solve: depth band %.3g mm (depth_band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
                  depth, params->band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
     /* compact the per-cell arrays: interior order -> band order */
     const double *const *src[2] = {params->sigma_a, params->sigma_s};

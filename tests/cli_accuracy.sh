@@ -44,36 +44,36 @@ hs = sorted((r for r in rows if r["scene"] == "halfspace"), key=lambda r: -float
 assert len(hs) == 2 and float(hs[1]["err_ref"]) < float(hs[0]["err_ref"]) / 1.8, hs
 PY
 
-# the depth band through -solve: band_error picks k = ln(1/e)/2, conservation holds
-expect_exit 0 "band_error" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 -material preset=skin1 \
-  -light type=directional dir=0,-1,0 intensity=1 -solve band_error=0.01 -stats file="$T/band.json"
+# the depth band through -solve: depth_band_error picks k = ln(1/e)/2, conservation holds
+expect_exit 0 "depth_band_error" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 -material preset=skin1 \
+  -light type=directional dir=0,-1,0 intensity=1 -solve depth_band_error=0.01 -stats file="$T/band.json"
 check "band stats" $PY - "$T/band.json" <<'PY'
 import json, math, sys
 s = json.load(open(sys.argv[1]))
-assert abs(s["band"] - math.log(100) / 2) < 1e-12, s["band"]
-assert s["band_depth"] > 0 and s["band_dropped"] >= 0, s
+assert abs(s["depth_band"] - math.log(100) / 2) < 1e-12, s["depth_band"]
+assert s["depth_band_mm"] > 0 and s["depth_band_dropped"] >= 0, s
 assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-10 * s["power_in"], s
 PY
 # on a large object the band pays: a 200 mm spot in skin1 (1/sigma_tr 3.7 mm)
 # keeps about half its cells, and the factor shrinks with them
 for b in 0 0.01; do
-  expect_exit 0 "200 mm, band_error=$b" -- "$OHM" -read file=samples/spot.obj size=200 -voxelize dim=40 \
+  expect_exit 0 "200 mm, depth_band_error=$b" -- "$OHM" -read file=samples/spot.obj size=200 -voxelize dim=40 \
     -material preset=skin1 -light type=directional dir=0,-1,0 intensity=1 \
-    -solve solver=direct $([ $b = 0 ] || echo band_error=$b) -stats file="$T/big$b.json"
+    -solve solver=direct $([ $b = 0 ] || echo depth_band_error=$b) -stats file="$T/big$b.json"
 done
 check "band shrinks the factor" $PY - "$T/big0.json" "$T/big0.01.json" <<'PY'
 import json, sys
 full, band = (json.load(open(f)) for f in sys.argv[1:])
-assert full["band_dropped"] == 0 and band["band_dropped"] > 0.3 * full["cells"], (full["cells"], band["band_dropped"])
-assert band["cells"] + band["band_dropped"] == full["cells"], (band, full["cells"])
+assert full["depth_band_dropped"] == 0 and band["depth_band_dropped"] > 0.3 * full["cells"], (full, band)
+assert band["cells"] + band["depth_band_dropped"] == full["cells"], (band, full["cells"])
 assert band["nnz_L"] < 0.7 * full["nnz_L"], (band["nnz_L"], full["nnz_L"])
 assert abs(band["power_in"] - band["power_absorbed"] - band["power_out"]) < 1e-10 * band["power_in"], band
 # what leaves the surface barely changes (the deep core sends almost nothing back)
 assert abs(band["power_out"] - full["power_out"]) < 0.01 * full["power_out"], (band["power_out"], full["power_out"])
 PY
-expect_exit 2 "band and band_error" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -material preset=skin1 \
-  -light type=directional dir=0,-1,0 -solve band=2 band_error=0.01
-expect_error_line "band and band_error" "band= or band_error=, not both"
+expect_exit 2 "depth_band and depth_band_error" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 \
+  -material preset=skin1 -light type=directional dir=0,-1,0 -solve depth_band=2 depth_band_error=0.01
+expect_error_line "depth_band and depth_band_error" "depth_band= or depth_band_error=, not both"
 expect_exit 2 "accuracy: bad option" -- "$OHM" accuracy dimz=3
 expect_error_line "accuracy: bad option" "unknown option 'dimz'"
 expect_exit 2 "accuracy: ref too coarse" -- "$OHM" accuracy dims=16,32 ref=24
