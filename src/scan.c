@@ -6,7 +6,10 @@
  * exactly dims x bytes-per-voxel long, checked before any voxel is converted);
  * every size product is overflow-checked.  NIfTI goes through Debian's
  * libnifti2 (which reads both versions, plain or gzip), headers first so a bad
- * datatype or shape is refused before the data is loaded.  Content errors are
+ * datatype or shape is refused before the data is loaded; and before that,
+ * nifti_precheck reads the header itself, because libnifti2 does not survive
+ * every bad one.  A .vdb passes ohm_vdb_check (scan_check.c) before OpenVDB,
+ * which trusts every size in the file, reads it.  Content errors are
  * OHM_ERR_PARSE, unopenable files OHM_ERR_IO, bad parameters OHM_ERR_USAGE. */
 #include "scan.h"
 
@@ -95,6 +98,31 @@ static int finish_values(ohm_scan *s, const char *path, ohm_error *err)
     }
     s->min = lo;
     s->max = hi;
+    return 0;
+}
+
+static void scan_bounds_of(const ohm_scan *s, double lo[3], double hi[3]);
+
+/* The voxel-to-world map must be invertible and put every voxel at a finite
+ * place (a fuzz finding: a NIfTI sform of 1e296 gave infinite bounds). */
+static int check_placement(const ohm_scan *s, const char *path, ohm_error *err)
+{
+    const double(*m)[4] = s->index_to_world;
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!isfinite(det) || det == 0)
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: the voxel-to-world transform is singular or overflows (determinant %g), expected "
+                        "an invertible map",
+                        path, det);
+    double lo[3], hi[3];
+    scan_bounds_of(s, lo, hi);
+    for (int a = 0; a < 3; ++a)
+        if (!isfinite(lo[a]) || !isfinite(hi[a]))
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: the voxel-to-world transform puts the volume at non-finite coordinates "
+                            "(axis %d: %g .. %g mm)",
+                            path, a, lo[a], hi[a]);
     return 0;
 }
 
@@ -686,6 +714,7 @@ int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm
                         ".tif/.png slices",
                         path);
     if (!rc) rc = finish_values(out, path, err);
+    if (!rc) rc = check_placement(out, path, err);
     if (rc) ohm_scan_free(out);
     return rc;
 }
@@ -808,7 +837,9 @@ double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[
     return ohm_scan_sample(s, centre);
 }
 
-void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3])
+void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3]) { scan_bounds_of(s, lo, hi); }
+
+static void scan_bounds_of(const ohm_scan *s, double lo[3], double hi[3])
 {
     for (int a = 0; a < 3; ++a) {
         lo[a] = INFINITY;

@@ -493,7 +493,7 @@ static int root_node(vr *v, grid_walk *g, const char *owner)
     }
     /* RootNode keeps a std::map by origin: duplicates would be dropped (and
      * leaked), and the buffers are read back in sorted order. */
-    qsort(g->root, g->nroot, sizeof *g->root, cmp_root);
+    if (g->nroot > 1) qsort(g->root, g->nroot, sizeof *g->root, cmp_root);
     for (size_t i = 1; i < g->nroot; ++i)
         if (cmp_coord(g->root[i - 1].c, g->root[i].c) == 0)
             return vfail(v, "%s root node has two entries at (%" PRId32 ", %" PRId32 ", %" PRId32 ")", owner,

@@ -434,6 +434,12 @@ static void p2_magic(unsigned char *h, int big) { (void)big; h[8] = 1; }
 static void p2_dtype(unsigned char *h, int big) { put_n(h + 12, 40000, 2, big); }
 static void p2_negdim(unsigned char *h, int big) { put_n(h + 16 + 8 * 1, (uint64_t)-5, 8, big); }
 static void p2_voxoff(unsigned char *h, int big) { put_n(h + 168, 100, 8, big); }
+static void p_sform_zero(unsigned char *h, int big) { put_n(h + 254, 1, 2, big); } /* sform_code 1, srows 0 */
+static void p2_sform_huge(unsigned char *h, int big)
+{
+    put_n(h + 348, 1, 4, big); /* sform_code */
+    for (int r = 0; r < 3; ++r) put_f64(h + 400 + 32 * r + 8 * r, 1e300, big);
+}
 
 static void test_nifti_headers(void)
 {
@@ -486,6 +492,8 @@ static void test_nifti_headers(void)
         {1, p2_dtype, "NIfTI-2 datatype -25536"},
         {1, p2_negdim, "NIfTI-2 dim[1] is -5"},
         {1, p2_voxoff, "NIfTI-2 vox_offset is 100, expected a finite byte offset of at least 540"},
+        {0, p_sform_zero, "transform is singular or overflows (determinant 0)"},
+        {1, p2_sform_huge, "transform is singular or overflows (determinant inf)"},
     };
     for (size_t i = 0; i < sizeof bad / sizeof bad[0]; ++i)
         for (int big = 0; big < 2; ++big) {

@@ -378,6 +378,13 @@ add("fuzz-tile-loop.vdb", crash("vdb", "timeout-68bebc77545db8999dce46f1f3728cc0
     ": grid 'density' offsets .* outside the 8088-byte file",
     "fuzz finding (regression): OpenVDB spent >10 s in RootNode::readTopology")
 
+add("fuzz-nifti-inf-bounds.nii", crash("nifti", "crash-38d49ba9b605211527b38be21df670f3469db0fd")[1:], "nifti", 1,
+    ": the voxel-to-world transform is singular or overflows",
+    "fuzz finding (regression, 2026-11-22): sform entries ~1e296 put the voxels at infinite coordinates; was accepted by the reader")
+add("fuzz-vdb-empty-root.vdb", crash("vdb", "crash-cfd0cd52a74ee83cfe5bcab828acb1d9c0b2a3ae"), "vdb", 1,
+    ": .*topology ends at byte 664",
+    "fuzz finding (regression, 2026-11-22): an empty root node made the checker qsort a NULL array (UB)")
+
 with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
     f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
     for r in rows:
