@@ -5,7 +5,8 @@
 # Harnesses live in tests/fuzz/ (docs/fuzzing.md says what each checks).  Seeds
 # come from samples/, pipelines/, tests/data/ and tests/fuzz/seeds/; the corpus
 # grows in out/fuzz/NAME/corpus, crashes land in out/fuzz/NAME/artifacts/.
-# Each run ends with one line: "fuzz NAME: N execs in Ss, cov C ft F, corpus K, crashes X".
+# Each run ends with one line: "fuzz NAME: N execs in Ts of Ss, cov C ft F, corpus K, crashes X"
+# (T: how long it ran; less than S when it stopped at a finding).
 # Exit status: 0 clean, 1 if any harness found a crash (or failed to build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -117,9 +118,11 @@ export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp${LSAN_OPTIONS:+:$LSA
 # longer stop on the libraries' known crashes (docs/fuzzing.md).
 keep=""; [ "${FUZZ_KEEP_GOING:-0}" = 1 ] && keep="-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1"
 set +e
+t0=$SECONDS
 "$work/fuzz_$name" $keep -max_total_time="$secs" -max_len=$max_len -rss_limit_mb=2048 -malloc_limit_mb=512 \
   -timeout=10 -print_final_stats=1 $dict -artifact_prefix="$work/artifacts/" "$work/corpus" "$seeds" 2>&1 | tee "$log"
 rc=${PIPESTATUS[0]}
+ran=$((SECONDS - t0))
 set -e
 last=$(grep -E '^#[0-9]+' "$log" | grep ' cov: ' | tail -n 1 || true)
 execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
@@ -127,5 +130,5 @@ execs=$(sed -n 's/^stat::number_of_executed_units: *//p' "$log" | tail -n 1)
 cov=$(echo "$last" | sed -n 's/.* cov: \([0-9]*\).*/\1/p'); ft=$(echo "$last" | sed -n 's/.* ft: \([0-9]*\).*/\1/p')
 corp=$(echo "$last" | sed -n 's/.* corp: \([0-9]*\).*/\1/p')
 crashes=$(( $(count_crashes) - before ))
-echo "fuzz $name: ${execs:-?} execs in ${secs}s, cov ${cov:-?} ft ${ft:-?}, corpus ${corp:-?}, crashes $crashes (exit $rc)"
+echo "fuzz $name: ${execs:-?} execs in ${ran}s of ${secs}s, cov ${cov:-?} ft ${ft:-?}, corpus ${corp:-?}, crashes $crashes (exit $rc)"
 [ "$rc" -eq 0 ] && [ "$crashes" -eq 0 ]
