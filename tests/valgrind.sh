@@ -27,6 +27,10 @@ vg() { # NAME WANT_EXIT -- ohm args...
 
 vg "mesh read+voxelize+solve, dim 12" 0 -- -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
   -light type=directional dir=0,-1,-1 -solve -write file="$T/cow.vdb" -stats file="$T/cow.json"
+vg "cg + depth band + auto, dim 16" 0 -- -read file=samples/spot.obj size=200 -voxelize dim=16 -material preset=skin1 \
+  -light type=directional dir=0,-1,0 orbit=3 axis=x -solve solver=auto depth_band_error=0.01 -stats file="$T/cg.json"
+vg "ohm accuracy, tiny" 0 -- accuracy dims=8,12 ref=16 materials=skin1 bands=1 slab=1 csv="$T/acc.csv"
+vg "bad .vdb (4 GB string)" 1 -- -read file=tests/data/corpus/fuzz-string-4gb.vdb
 vg "pipeline error (unknown action)" 2 -- run tests/data/corpus/unknown-action.ohm
 vg "pipeline that fails while running (missing mesh)" 1 -- run tests/data/corpus/missing-file.ohm
 vg "bad PLY (negative index, binary)" 1 -- -read file=tests/data/corpus/index-neg-bin.ply -voxelize dim=8
