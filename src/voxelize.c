@@ -473,6 +473,13 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         if (hi[d] - lo[d] > extent) extent = hi[d] - lo[d];
     }
     if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
+    /* a sheet in a coordinate plane encloses nothing: every cell near it has
+     * a winding number of about 1/2, and rounding would pick a few at random */
+    for (int d = 0; d < 3; ++d)
+        if (!(hi[d] - lo[d] > 1e-9 * extent))
+            return ohm_fail(err, OHM_ERR_INVALID,
+                            "voxelize: the mesh is flat (zero thickness along %c, at %g): it encloses no volume",
+                            "xyz"[d], lo[d]);
 
     int lrc = layout_grid(out, lo, hi, extent, params, err);
     if (lrc) return lrc;

@@ -161,14 +161,15 @@ add("inf-bin.ply", ply_bin(v=V[:-1] + [(1, float("inf"), 1)]), "mesh", 1, ": ")
 add("nan-ascii.stl", stl_ascii().replace("vertex 0 0 1", "vertex 0 NaN 1", 1), "mesh", 1, LINE)
 
 # ---- degenerate / zero-area / tiny --------------------------------------------
-add("degenerate-all.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 1\nf 2 3 2\n", "mesh", 0, "",
-    "VALID-RUNS: only zero-area faces: read warns '3 degenerate triangles', voxelize warns 0 interior cells, exit 0 (-solve would then fail: no interior cells)")
+add("degenerate-all.obj", "v 0 0 0\nv 1 0 0\nv 2 0 0\nf 1 2 3\nf 1 1 1\nf 2 3 2\n", "mesh", 1,
+    ": voxelize: the mesh is flat", "only zero-area faces on a line: read warns '3 degenerate triangles', voxelize refuses a mesh with no thickness")
 add("point.obj", "v 1 1 1\nv 1 1 1\nv 1 1 1\nf 1 2 3\n", "mesh", 1, "voxelize: mesh has zero extent",
     "[no-name] three identical vertices: voxelize refuses it, but its error does not name the file", whole=True)
-add("flat.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n", "mesh", 0, "",
-    "KNOWN GAP: a flat square (zero volume) runs, exit 0, and voxelize reports 1 interior cell")
-add("single-triangle.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "mesh", 0, "",
-    "VALID-RUNS: one triangle reads and voxelizes (0 interior cells, a warning), exit 0; adding -solve fails with exit 1 'network: the voxel object has no interior cells'")
+add("flat.off", "OFF\n4 2 0\n0 0 0\n1 0 0\n1 1 0\n0 1 0\n3 0 1 2\n3 0 2 3\n", "mesh", 1,
+    ": voxelize: the mesh is flat \\(zero thickness along z",
+    "a flat square (zero volume): refused (was a known gap: 1 interior cell by rounding)")
+add("single-triangle.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n", "mesh", 1, ": voxelize: the mesh is flat",
+    "one triangle encloses nothing: refused")
 add("no-faces.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\n", "mesh", 1, ": ", "vertices only")
 add("one-vertex-face.obj", "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1\n", "mesh", 1, ":4:")
 
