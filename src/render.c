@@ -89,21 +89,7 @@ static int scene_build(render_ctx *r, const ohm_mesh *mesh, ohm_error *err)
 
 static int occluded(const render_ctx *r, const double p[3], const double l[3], double tmax)
 {
-    struct RTCRay ray;
-    memset(&ray, 0, sizeof ray);
-    ray.org_x = (float)p[0];
-    ray.org_y = (float)p[1];
-    ray.org_z = (float)p[2];
-    ray.dir_x = (float)l[0];
-    ray.dir_y = (float)l[1];
-    ray.dir_z = (float)l[2];
-    ray.tnear = 0.0f;
-    ray.tfar = isfinite(tmax) ? (float)tmax : INFINITY;
-    ray.mask = 0xFFFFFFFFu;
-    struct RTCIntersectContext ctx;
-    rtcInitIntersectContext(&ctx);
-    rtcOccluded1(r->scene, &ctx, &ray);
-    return ray.tfar < 0.0f;
+    return ohm_embree_occluded(r->scene, p, l, tmax);
 }
 
 /* ---- shading ------------------------------------------------------------------- */

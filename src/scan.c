@@ -297,6 +297,14 @@ static double nii_f32(const unsigned char *b, int swap)
  * smashes its stack on a NIfTI-2 header with a bad datatype, reads a wrong
  * magic as Analyze 7.5 and a negative dimension as 1 (docs/fuzzing.md).  The
  * first 348 or 540 bytes are read through zlib (plain or gzip alike). */
+/* The voxel types ohm converts (checked on the raw header, then again on
+ * what libnifti2 parsed). */
+static int nifti_type_supported(int64_t t)
+{
+    return t == NIFTI_TYPE_UINT8 || t == NIFTI_TYPE_INT16 || t == NIFTI_TYPE_UINT16 || t == NIFTI_TYPE_INT32 ||
+           t == NIFTI_TYPE_FLOAT32 || t == NIFTI_TYPE_FLOAT64;
+}
+
 static int nifti_precheck(const char *path, ohm_error *err)
 {
     unsigned char h[540];
@@ -343,20 +351,11 @@ static int nifti_precheck(const char *path, ohm_error *err)
                         shown, v2 ? "n+2\\x00\\x0d\\x0a\\x1a\\x0a" : "n+1");
     }
     int64_t datatype = nii_i16(h + (v2 ? 12 : 70), swap);
-    switch (datatype) {
-    case NIFTI_TYPE_UINT8:
-    case NIFTI_TYPE_INT16:
-    case NIFTI_TYPE_UINT16:
-    case NIFTI_TYPE_INT32:
-    case NIFTI_TYPE_FLOAT32:
-    case NIFTI_TYPE_FLOAT64:
-        break;
-    default:
+    if (!nifti_type_supported(datatype))
         return ohm_fail(err, OHM_ERR_PARSE,
                         "%s: %s datatype %" PRId64 " (%s) is unsupported, expected uint8 (2), int16 (4), int32 (8), "
                         "float32 (16), float64 (64) or uint16 (512)",
                         path, ver, datatype, nifti_datatype_string((int)datatype));
-    }
     int64_t dim[8];
     for (int k = 0; k < 8; ++k) dim[k] = v2 ? nii_i64(h + 16 + 8 * k, swap) : nii_i16(h + 40 + 2 * k, swap);
     if (dim[0] < 1 || dim[0] > 7)
@@ -394,15 +393,7 @@ static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
     if (!nim)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: not a readable NIfTI-1/2 file (bad or truncated header)", path);
     int rc = 0;
-    switch (nim->datatype) {
-    case NIFTI_TYPE_UINT8:
-    case NIFTI_TYPE_INT16:
-    case NIFTI_TYPE_UINT16:
-    case NIFTI_TYPE_INT32:
-    case NIFTI_TYPE_FLOAT32:
-    case NIFTI_TYPE_FLOAT64:
-        break;
-    default:
+    if (!nifti_type_supported(nim->datatype)) {
         rc = ohm_fail(err, OHM_ERR_PARSE,
                       "%s: unsupported datatype %d (%s), expected uint8, int16, uint16, int32, float32 or float64",
                       path, nim->datatype, nifti_datatype_string(nim->datatype));

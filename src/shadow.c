@@ -160,24 +160,32 @@ static int grid_occluded(const ohm_voxel_grid *g, const int32_t ijk[3], int d, c
     }
 }
 
-static int mesh_occluded(const ohm_occluder *occ, const double p[3], const double l[3], double tmax)
+int ohm_embree_occluded(RTCScene scene, const double org[3], const double dir[3], double tmax)
 {
-    const ohm_voxel_grid *g = occ->grid;
     struct RTCRay ray;
     memset(&ray, 0, sizeof ray);
-    ray.org_x = (float)(g->origin[0] + g->h * p[0]);
-    ray.org_y = (float)(g->origin[1] + g->h * p[1]);
-    ray.org_z = (float)(g->origin[2] + g->h * p[2]);
-    ray.dir_x = (float)l[0];
-    ray.dir_y = (float)l[1];
-    ray.dir_z = (float)l[2];
+    ray.org_x = (float)org[0];
+    ray.org_y = (float)org[1];
+    ray.org_z = (float)org[2];
+    ray.dir_x = (float)dir[0];
+    ray.dir_y = (float)dir[1];
+    ray.dir_z = (float)dir[2];
     ray.tnear = 0.0f;
     ray.tfar = isfinite(tmax) ? (float)tmax : INFINITY;
     ray.mask = 0xFFFFFFFFu;
     struct RTCIntersectContext ctx;
     rtcInitIntersectContext(&ctx);
-    rtcOccluded1(occ->scene, &ctx, &ray);
+    rtcOccluded1(scene, &ctx, &ray);
     return ray.tfar < 0.0f; /* Embree sets tfar = -inf on a hit */
+}
+
+/* p in grid-index units, as the voxel DDA uses */
+static int mesh_occluded(const ohm_occluder *occ, const double p[3], const double l[3], double tmax)
+{
+    const ohm_voxel_grid *g = occ->grid;
+    double org[3];
+    for (int a = 0; a < 3; ++a) org[a] = g->origin[a] + g->h * p[a];
+    return ohm_embree_occluded(occ->scene, org, l, tmax);
 }
 
 double ohm_face_visibility(const ohm_occluder *occ, const int32_t ijk[3], int d, const double l[3], double tmax)

@@ -53,4 +53,8 @@ const char *ohm_shadows_name(ohm_shadows s);
 int ohm_embree_mesh_scene(RTCDevice *device, RTCScene *scene, const ohm_mesh *mesh, RTCFilterFunctionN occluded_filter,
                           void *user, const char *who, ohm_error *err);
 
+/* Does anything in the scene block the ray from org (world mm) along the unit
+ * direction dir before distance tmax (INFINITY: none)? */
+int ohm_embree_occluded(RTCScene scene, const double org[3], const double dir[3], double tmax);
+
 #endif
