@@ -10,6 +10,7 @@ packages=(
   zlib1g-dev libnifti2-dev
   libcgal-dev libgmp-dev libmpfr-dev
   libsuitesparse-dev libmetis-dev libopenblas-dev
+  libpetsc-real-dev libhypre-dev openmpi-bin libopenmpi-dev
   libopenimageio-dev
   python3 python3-openvdb python3-numpy
   gnuplot-nox

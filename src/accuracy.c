@@ -358,7 +358,7 @@ static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_vo
     p.shadows = OHM_SHADOWS_MESH;
     p.mesh = mesh;
     p.orientation = vr.flipped ? -1 : 1;
-    p.solver = use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT;
+    p.solver = use_cg ? "cg" : "direct";
     p.band_k = band;
     rc = ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
     if (rc) ohm_voxel_grid_free(g);

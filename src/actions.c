@@ -533,8 +533,13 @@ static const ohm_opt_spec solve_opts[] = {
      "auto|mesh|grid|none", 0, 0, 0},
     {"solver", OHM_OPT_ENUM, "direct",
      "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
-     "warm-started frame to frame) | auto (the cheaper by a cost model; cg when the factor does not fit)",
-     "direct|cg|auto", 0, 0, 0},
+     "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
+     "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model)",
+     "direct|cg|amg|auto", 0, 0, 0},
+    {"petsc_options", OHM_OPT_STRING, NULL,
+     "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
+     "-pc_factor_mat_solver_type mumps\"; an option PETSc does not use is an error",
+     NULL, 0, 0, 0},
     {"depth_band", OHM_OPT_REAL, "0",
      "solve only the cells within depth_band / sigma_tr of the surface (light there has decayed by e^-depth_band), "
      "the core closed as an absorbing half-space; 0 = every cell",
@@ -544,7 +549,7 @@ static const ohm_opt_spec solve_opts[] = {
      "e^(-2 depth_band) of light "
      "to the band's floor and back bounds the exitance error (measured: docs/accuracy.md)",
      NULL, 1e-12, 0.5, 0},
-    {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg stops when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
+    {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg and amg stop when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
     {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
      NULL, 1, 1e7, 0},
     {"max_memory", OHM_OPT_REAL, NULL,
@@ -631,10 +636,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                 : OHM_DEPOSIT_EXPONENTIAL;
     p.ordering = ohm_opt_str(inv, "ordering");
-    const char *solver_name = ohm_opt_str(inv, "solver");
-    p.solver = strcmp(solver_name, "cg") == 0     ? OHM_SOLVER_CG
-               : strcmp(solver_name, "auto") == 0 ? OHM_SOLVER_AUTO
-                                                  : OHM_SOLVER_DIRECT;
+    p.solver = ohm_opt_str(inv, "solver");
+    if (ohm_opt_given(inv, "petsc_options")) p.petsc_options = ohm_opt_str(inv, "petsc_options");
     p.cg_tol = ohm_opt_real(inv, "cg_tol");
     p.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
@@ -719,6 +722,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
+    ohm_stats_set_int(st, "ranks", sol->ranks);
+    ohm_stats_set(st, "solver_bytes", sol->solver_bytes);
     ohm_stats_set(st, "depth_band", p.band_k);
     ohm_stats_set(st, "depth_band_mm", sol->band_depth);
     ohm_stats_set_int(st, "depth_band_dropped", (long long)sol->band_dropped);

@@ -20,7 +20,7 @@
 #include <string.h>
 #include <unistd.h>
 
-#include "factor.h"
+#include "solvers/direct.h"
 #include "light.h"
 #include "log.h"
 #include "material.h"

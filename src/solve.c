@@ -1,7 +1,8 @@
 #include "solve.h"
 
 #include "band.h"
-#include "cg.h"
+#include "solvers/backend.h"
+#include "solvers/cg.h"
 #include "memory.h"
 
 #include <math.h>
@@ -58,107 +59,6 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
     }
     free(sink), free(diag), free(defect), free(vsink);
     return any;
-}
-
-/* solver=auto.  The first two columns are always solved with CG and the
- * second, warm-started like every later one, is timed (t1 seconds, its1
- * iterations); the other `rest` columns then go to whichever is predicted
- * cheaper: CG at t1 each, or the direct path's analysis + one factorization per distinct
- * medium + a pair of triangular solves per column.  The direct costs are a
- * model of METIS nested dissection on a 3-D grid of n cells: ~3.5 n^(4/3)
- * entries in L (1.7 ns each per column solved), analysis 1.4e-6 n^1.155 s,
- * a factorization 1.02e-7 n^1.4 s (~n^2 flops at a rate that grows with the
- * supernodes) — power laws fitted to spot at dim 32/64/96/128 on a 2-core
- * machine (docs/accuracy.md has the measured times and where the choice
- * flips).  The probe keeps the choice honest where CG converges slowly. */
-static int choose_cg_after_probe(ohm_solution *sol, double t1, int64_t its1, double rest, int factors, int64_t n)
-{
-    double nd = (double)n;
-    double t_analyze = 1.4e-6 * pow(nd, 1.155);
-    double t_factor = factors * 1.02e-7 * pow(nd, 1.4);
-    double t_column = 1.7e-9 * 3.5 * pow(nd, 4.0 / 3.0);
-    double t_direct = t_analyze + t_factor + rest * t_column;
-    double t_cg = rest * t1;
-    snprintf(sol->solver_reason, sizeof sol->solver_reason,
-             "a warm CG column took %.3g s (%lld iterations); for the other %.0f: predicted %.3g s with CG, "
-             "%.3g s direct (analysis %.3g s, %d factorization(s) %.3g s)",
-             t1, (long long)its1, rest, t_cg, t_direct, t_analyze, factors, t_factor);
-    return t_cg <= t_direct;
-}
-
-static int prepare_cg(ohm_solution *sol, ohm_cg *cg, cholmod_sparse *A, const ohm_solve_params *params, int64_t n,
-                      size_t batch, ohm_error *err)
-{
-    double need = ohm_cg_bytes(n) + 2.0 * sizeof(double) * (double)n * (double)batch;
-    double limit = ohm_memory_limit(params->max_memory);
-    if (need > limit) {
-        char nb[32], lb[32];
-        return ohm_fail(err, OHM_ERR_NOMEM,
-                        "solve: conjugate gradients on %lld cells need about %s, more than the %s %s; use a smaller "
-                        "dim= or a larger voxel=",
-                        (long long)n, ohm_format_bytes(need, nb, 32), ohm_format_bytes(limit, lb, 32),
-                        params->max_memory > 0 ? "max_memory= allows" : "available");
-    }
-    ohm_cg_free(cg);
-    int rc = ohm_cg_setup(cg, A, err);
-    if (rc) return rc;
-    sol->t_cg_setup += cg->t_setup;
-    sol->nnz_A = (double)A->nzmax;
-    return OHM_OK;
-}
-
-/* Analyse (once per grid), check the factor fits, factorize.  With
- * solver=auto a factor that does not fit sets *too_big instead of failing. */
-static int prepare_direct(ohm_solution *sol, ohm_solver *solver, cholmod_factor **L, cholmod_sparse *A,
-                          const ohm_solve_params *params, const ohm_network *net, size_t batch, int *too_big,
-                          const ohm_log *log, ohm_error *err)
-{
-    int64_t n = net->n;
-    *too_big = 0;
-    if (!solver->symbolic) {
-        ohm_log_info(log, "solve: %lld unknowns, %lld boundary faces, %lld matrix entries; analysing (%s)",
-                     (long long)n, (long long)net->nfaces, (long long)net->nnz, params->ordering);
-        int rc = ohm_solver_analyze(solver, A, params->ordering, err);
-        if (rc) return rc;
-        sol->t_analyze += solver->t_analyze;
-        sol->analyses++;
-        sol->nnz_A = solver->nnz_A;
-        sol->nnz_L = solver->nnz_L;
-        sol->flops = solver->flops;
-        snprintf(sol->ordering, sizeof sol->ordering, "%s", solver->ordering);
-    }
-    /* nnz(L) is known now, before factorizing: the factor stores at least its
-     * values (supernodal: xsize, with amalgamation zeros) and their row
-     * indices, and the symbolic copy is kept beside it */
-    const cholmod_factor *F = solver->symbolic;
-    double values = F->is_super ? fmax((double)F->xsize, solver->nnz_L) : solver->nnz_L;
-    double index = F->is_super ? (double)F->ssize : solver->nnz_L;
-    double need = 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)n * (double)batch;
-    double limit = ohm_memory_limit(params->max_memory);
-    if (need > limit) {
-        char nb[32], lb[32];
-        if (params->solver == OHM_SOLVER_AUTO) {
-            snprintf(sol->solver_reason, sizeof sol->solver_reason,
-                     "the factor would need about %s, more than the %s %s", ohm_format_bytes(need, nb, 32),
-                     ohm_format_bytes(limit, lb, 32), params->max_memory > 0 ? "max_memory= allows" : "available");
-            *too_big = 1;
-            return OHM_OK;
-        }
-        return ohm_fail(err, OHM_ERR_NOMEM,
-                        "solve: the Cholesky factor of %lld cells needs about %s (nnz(L) = %.3g), more than the %s "
-                        "%s; use solver=cg (memory O(cells)), a smaller dim= or a larger voxel=",
-                        (long long)n, ohm_format_bytes(need, nb, 32), solver->nnz_L, ohm_format_bytes(limit, lb, 32),
-                        params->max_memory > 0 ? "max_memory= allows" : "available");
-    }
-    /* the next channel refactorizes into the same L: same pattern, and its
-     * memory is already mapped */
-    double tf = 0;
-    int rc = ohm_solver_factorize(L, solver, A, &tf, err);
-    if (rc) return rc;
-    sol->t_factor += tf;
-    sol->factors++;
-    ohm_log_info(log, "solve: factorized (nnz(L) %.3g, %.3g flops) in %.2f s", sol->nnz_L, sol->flops, tf);
-    return OHM_OK;
 }
 
 /* The depth band (band.h): the depth band_k / sigma_tr, with sigma_tr the
@@ -283,6 +183,162 @@ static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c
     return mat->sigma_a[c] == mat->sigma_a[e] && mat->sigma_s[c] == mat->sigma_s[e];
 }
 
+/* Column j of B (zeroed first) gets frame f0 + j's sources for channel c:
+ * the cached per-face powers (traced once for every channel) or, for pencil
+ * beams and when the cache did not fit, the lights themselves. */
+static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                        double *const *fp_enter, double *const *fp_arrive, const ohm_occluder *occ, ohm_error *err)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    memset(B, 0, n * nb * sizeof *B);
+    if (params->custom_source) {
+        if (params->custom_source(params->custom_user, B, nb, net, c))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
+        return OHM_OK;
+    }
+    for (size_t j = 0; j < nb && fp_enter; ++j) {
+        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
+        ohm_source_deposit_faces(B + j * n, net, en, med, params->deposit);
+        for (int64_t f = 0; f < net->nfaces; ++f) sol->power_incident += ar[f];
+    }
+    for (size_t l = 0; l < nlights; ++l) {
+        int lf = lights[l].frame;
+        if (fp_enter && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced already */
+        for (size_t j = 0; j < nb; ++j) {
+            if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
+            ohm_source_power pw = {0, 0};
+            int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
+            if (rc) return rc;
+            sol->power_incident += pw.incident;
+        }
+    }
+    return OHM_OK;
+}
+
+/* Frames whose light did not change (the same right-hand side as the frame
+ * before) are not solved again: B's nb columns are compacted to the distinct
+ * ones, in order; col_of[j] is the distinct column frame j takes, or SIZE_MAX
+ * for "the previous batch's last frame" (prev_b, NULL in the first batch).
+ * Returns how many are distinct. */
+static size_t distinct_columns(ohm_solution *sol, double *B, size_t *col_of, size_t nb, const double *prev_b,
+                               size_t n)
+{
+    size_t nu = 0;
+    for (size_t j = 0; j < nb; ++j) {
+        const double *bj = B + j * n;
+        const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * n : prev_b;
+        if (bp && !memcmp(bj, bp, n * sizeof *B)) {
+            col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
+            sol->solves_skipped++;
+            continue;
+        }
+        if (nu != j) memcpy(B + nu * n, bj, n * sizeof *B);
+        col_of[j] = nu++;
+    }
+    return nu;
+}
+
+/* The starting guess of the batch's first column (the backends start every
+ * later one from the column before it: consecutive frames): the frame before
+ * (the last batch's last), else this frame of channel warm_from (same light,
+ * another colour or medium), else zero. */
+static void warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n)
+{
+    if (f0 > 0) memcpy(X, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
+    else if (warm_from >= 0) memcpy(X, sol->fluence[warm_from], n * sizeof *X);
+    else memset(X, 0, n * sizeof *X);
+}
+
+/* Undo distinct_columns: column j of X and B becomes distinct column
+ * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
+ * this batch's last right-hand side. */
+static void expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
+                           int c, double *prev_b, size_t n)
+{
+    for (size_t j = nb; j-- > 0;) {
+        double *xj = X + j * n, *bj = B + j * n;
+        if (col_of[j] == SIZE_MAX) {
+            memcpy(xj, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
+            memcpy(bj, prev_b, n * sizeof *B);
+        } else if (col_of[j] != j) {
+            memcpy(xj, X + col_of[j] * n, n * sizeof *X);
+            memcpy(bj, B + col_of[j] * n, n * sizeof *B);
+        }
+    }
+    memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
+}
+
+/* Store frames f0..f0+nb of channel c and book their power: in (deposited)
+ * = absorbed (sum G_a phi) + out (sum G_b phi), DESIGN.md §2. */
+static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
+                       const int *face_count, size_t f0, size_t nb, int c)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    const double area = net->grid->h * net->grid->h;
+    double in = 0, absorbed = 0, out = 0;
+    for (size_t j = 0; j < nb; ++j) {
+        size_t fr = f0 + j;
+        const double *x = X + j * n, *b = B + j * n;
+        double *phi = sol->fluence[c] + fr * n, *ex = sol->exitance[c] + fr * n;
+        double *fx = sol->face_exitance[c] + fr * nf;
+        for (size_t v = 0; v < n; ++v) {
+            phi[v] = x[v];
+            in += b[v];
+            absorbed += ga[v] * x[v];
+        }
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            int64_t v = net->face_unknown[f];
+            double p = gb[f] * x[v];
+            out += p;
+            fx[f] = p / area;
+            ex[v] += p / (area * face_count[v]);
+        }
+    }
+    sol->power_in += in;
+    sol->power_absorbed += absorbed;
+    sol->power_out += out;
+    sol->power_in_channel[c] += in;
+    sol->power_out_channel[c] += out;
+}
+
+/* The constant-mode correction of nearly singular pieces, then the backward
+ * error again (it must stay within the direct solver's limit). */
+static int conserve_exactly(ohm_solution *sol, double *X, const double *B, size_t nu, const double *ga,
+                            const double *gb, const cholmod_sparse *A, double *berr, ohm_error *err)
+{
+    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A);
+    if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+    if (corrected == 0) return OHM_OK;
+    *berr = ohm_backward_error(A, B, X, nu, 0);
+    if (!(*berr <= 1e-10))
+        return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
+    return OHM_OK;
+}
+
+/* The backend's report into the solution's statistics. */
+static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
+{
+    snprintf(sol->solver, sizeof sol->solver, "%s", rep->solver);
+    snprintf(sol->solver_reason, sizeof sol->solver_reason, "%s", rep->reason);
+    snprintf(sol->ordering, sizeof sol->ordering, "%s", rep->ordering);
+    sol->factors = rep->factors;
+    sol->analyses = rep->analyses;
+    sol->t_analyze = rep->t_analyze;
+    sol->t_factor = rep->t_factor;
+    sol->t_cg_setup = rep->t_precond;
+    sol->nnz_A = rep->nnz_A;
+    sol->nnz_L = rep->nnz_L;
+    sol->flops = rep->flops;
+    sol->cg_iterations = rep->iterations;
+    sol->cg_relres = rep->relres;
+    sol->refined = rep->refined;
+    sol->solver_bytes = rep->bytes;
+    sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
+}
+
 int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
 {
@@ -333,13 +389,14 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         ohm_solution_free(sol);
         return rc;
     }
-    ohm_solver solver;
-    rc = ohm_solver_start(&solver, err);
-    if (rc) {
+    cholmod_common cc; /* for assembling A in CHOLMOD's form */
+    if (!cholmod_l_start(&cc)) {
         ohm_occluder_free(occ);
         ohm_solution_free(sol);
-        return rc;
+        return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
     }
+    cc.print = 0;
+    cc.error_handler = NULL;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
     double *B = malloc((size_t)n * batch * sizeof *B);
     double *X = malloc((size_t)n * batch * sizeof *X);
@@ -349,9 +406,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     size_t *col_of = malloc(batch * sizeof *col_of);       /* batch column -> distinct column */
     double *prev_b = malloc((size_t)n * sizeof *prev_b);   /* the last frame's right-hand side */
     cholmod_sparse *A = NULL;
-    cholmod_factor *L = NULL;
-    ohm_cg cg;
-    memset(&cg, 0, sizeof cg);
+    const ohm_backend_ops *backend = NULL;
+    void *bstate = NULL;
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
     double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
@@ -415,9 +471,10 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         if (rc) goto done;
     }
 
-    /* Group channels by medium: each distinct medium is assembled and
-     * factorized once, and all its channels' frames are solved with it.
-     * Grey materials with grey lights have one channel. */
+    /* Group channels by medium: each distinct medium is assembled and set up
+     * once (one factorization, or one preconditioner), and all its channels'
+     * frames are solved with it.  Grey materials with grey lights have one
+     * channel. */
     int cls[OHM_MAX_CHANNELS];
     for (int c = 0; c < channels; ++c) {
         cls[c] = c;
@@ -427,230 +484,70 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 break;
             }
     }
-    /* auto starts with CG on the first column and decides after it */
-    int use_cg = params->solver != OHM_SOLVER_DIRECT;
-    int decided = params->solver != OHM_SOLVER_AUTO, probed = 0;
-    snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
     int nclasses = 0;
     for (int c = 0; c < channels; ++c) nclasses += cls[c] == c;
+    ohm_backend_config bcfg = {.ordering = params->ordering,
+                               .tol = params->cg_tol,
+                               .petsc_options = params->petsc_options,
+                               .max_memory = params->max_memory,
+                               .batch = batch,
+                               .columns = (double)frames * (double)channels,
+                               .materials = nclasses,
+                               .log = log};
+    backend = ohm_backend_find(params->solver ? params->solver : "direct");
+    if (!backend) {
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", params->solver);
+        goto done;
+    }
+    rc = backend->create(&bstate, &bcfg, err);
+    if (rc) goto done;
+    ohm_backend_report rep;
+    memset(&rep, 0, sizeof rep);
+    snprintf(rep.reason, sizeof rep.reason, "asked for");
     int solved[OHM_MAX_CHANNELS] = {0};
-    const double cg_tol = params->cg_tol > 0 ? params->cg_tol : 1e-10;
-    /* test hook (tests/cli_solver_choice.sh): cap CG's iterations so that the
-     * non-convergence paths (the error; auto falling back to the factor) run */
-    int64_t cg_max_iter = 20000;
-    const char *iter_cap = getenv("OHM_TEST_CG_MAX_ITER");
-    if (iter_cap && atoll(iter_cap) > 0) cg_max_iter = atoll(iter_cap);
     for (int k = 0; k < channels && !rc; ++k) {
         if (cls[k] != k) continue; /* not the first channel of its class */
         ohm_channel_medium med;
         medium_for(&med, mat, params, k);
         t0 = ohm_now();
-        cholmod_l_free_sparse(&A, &solver.cc);
-        rc = ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &solver.cc, err);
+        cholmod_l_free_sparse(&A, &cc);
+        rc = ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &cc, err);
         sol->t_assemble += ohm_now() - t0;
-        if (rc) break;
-        if (use_cg) {
-            rc = prepare_cg(sol, &cg, A, params, n, batch, err);
-        } else {
-            int too_big = 0;
-            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
-            if (!rc && too_big) { /* auto: the factor does not fit, CG does */
-                use_cg = 1;
-                decided = 1;
-                ohm_log_info(log, "solve: solver=auto uses cg: %s", sol->solver_reason);
-                rc = prepare_cg(sol, &cg, A, params, n, batch, err);
-            }
-        }
-        if (rc) break;
-
+        if (!rc) rc = backend->setup(bstate, A, &rep, err);
         for (int c = k; c < channels && !rc; ++c) {
             if (cls[c] != k) continue;
+            /* warm start for iterative backends: this frame of a channel
+             * solved before (same light, another colour or medium) */
+            int warm_from = -1;
+            for (int q = 0; q < channels; ++q)
+                if (solved[q]) warm_from = q;
             for (size_t f0 = 0; f0 < (size_t)frames && !rc; f0 += batch) {
                 size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
-                /* sources: column j is frame f0 + j + 1 */
                 t0 = ohm_now();
-                memset(B, 0, (size_t)n * nb * sizeof *B);
-                if (params->custom_source) {
-                    if (params->custom_source(params->custom_user, B, nb, net, c))
-                        rc = ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
-                } else {
-                    for (size_t j = 0; j < nb && cached; ++j) {
-                        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
-                        ohm_source_deposit_faces(B + j * (size_t)n, net, en, &med, params->deposit);
-                        for (int64_t f = 0; f < net->nfaces; ++f) sol->power_incident += ar[f];
-                    }
-                    for (size_t l = 0; l < nlights && !rc; ++l) {
-                        int lf = lights[l].frame;
-                        if (cached && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced above */
-                        for (size_t j = 0; j < nb && !rc; ++j) {
-                            if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
-                            ohm_source_power pw = {0, 0};
-                            rc = ohm_source_add(B + j * (size_t)n, &pw, net, &lights[l], c, &med, params->deposit,
-                                                occ, err);
-                            sol->power_incident += pw.incident;
-                        }
-                    }
-                }
+                rc = fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
+                                  cached ? fp_arrive : NULL, occ, err);
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
-                /* frames whose light did not change (the same right-hand
-                 * side as the frame before) are not solved again: the batch
-                 * is compacted to its distinct columns, solved, expanded */
-                size_t nu = 0;
-                for (size_t j = 0; j < nb; ++j) {
-                    const double *bj = B + j * (size_t)n;
-                    /* the previous frame's right-hand side: in this batch, or
-                     * the last one of the previous batch */
-                    const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * (size_t)n
-                                       : f0 > 0                           ? prev_b
-                                                                          : NULL;
-                    int dup = bp && !memcmp(bj, bp, (size_t)n * sizeof *B);
-                    if (dup) {
-                        col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
-                        sol->solves_skipped++;
-                        continue;
-                    }
-                    if (nu != j) memcpy(B + nu * (size_t)n, bj, (size_t)n * sizeof *B);
-                    col_of[j] = nu++;
-                }
+                size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 ? prev_b : NULL, (size_t)n);
+                warm_start(X, sol, f0, c, warm_from, (size_t)n);
                 t0 = ohm_now();
+                double t_setups = rep.t_analyze + rep.t_factor + rep.t_precond;
                 double berr = 0;
-                int refined = 0;
-                if (use_cg) {
-                    /* warm start: the previous frame of this channel, else this
-                     * frame of a channel solved before (same light, another
-                     * colour or medium), else zero */
-                    int e = -1;
-                    for (int q = 0; q < channels; ++q)
-                        if (solved[q]) e = q;
-                    for (size_t j = 0; j < nu && !rc; ++j) {
-                        double *x = X + j * (size_t)n;
-                        size_t fr = f0 + j;
-                        if (j > 0) memcpy(x, X + (j - 1) * (size_t)n, (size_t)n * sizeof *x);
-                        else if (fr > 0) memcpy(x, sol->fluence[c] + (fr - 1) * (size_t)n, (size_t)n * sizeof *x);
-                        else if (e >= 0) memcpy(x, sol->fluence[e] + fr * (size_t)n, (size_t)n * sizeof *x);
-                        else memset(x, 0, (size_t)n * sizeof *x);
-                        int64_t its = 0;
-                        double relres = 0;
-                        double tc = ohm_now();
-                        rc = ohm_cg_solve(&cg, x, B + j * (size_t)n, cg_tol, cg_max_iter, &its, &relres, err);
-                        sol->cg_iterations += its;
-                        if (relres > sol->cg_relres) sol->cg_relres = relres;
-                        if (rc && !decided && rc == OHM_ERR_NUMERIC) {
-                            /* solver=auto: CG cannot solve this one: the factor can */
-                            decided = 1;
-                            use_cg = 0;
-                            snprintf(sol->solver_reason, sizeof sol->solver_reason, "cg failed: %.170s", err->msg);
-                            ohm_error_clear(err);
-                            ohm_log_info(log, "solve: solver=auto switches to direct: %s", sol->solver_reason);
-                            int too_big = 0;
-                            double tp = ohm_now();
-                            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
-                            t0 += ohm_now() - tp;
-                            if (!rc && too_big)
-                                rc = ohm_fail(err, OHM_ERR_NUMERIC,
-                                              "solve: conjugate gradients did not converge and the factor does not "
-                                              "fit (%s)",
-                                              sol->solver_reason);
-                            if (!rc) {
-                                double e2 = 0;
-                                rc = ohm_solver_solve(X, &solver, L, A, B, nu, &e2, &refined, err);
-                            }
-                            break;
-                        }
-                        if (rc || decided) continue;
-                        /* solver=auto: the first two columns are solved with
-                         * CG; the second (warm-started, like every later one)
-                         * is timed, and the rest go where the prediction is
-                         * cheaper */
-                        double total = (double)frames * (double)channels;
-                        if (++probed < 2 && total > 2) continue;
-                        decided = 1;
-                        double rest = total - (double)probed;
-                        if (!choose_cg_after_probe(sol, ohm_now() - tc, its, rest, nclasses, n)) {
-                            use_cg = 0;
-                            ohm_log_info(log, "solve: solver=auto switches to direct: %s", sol->solver_reason);
-                            int too_big = 0;
-                            double tp = ohm_now();
-                            rc = prepare_direct(sol, &solver, &L, A, params, net, batch, &too_big, log, err);
-                            t0 += ohm_now() - tp; /* booked as t_analyze / t_factor, not t_solve */
-                            if (!rc && too_big) {
-                                use_cg = 1; /* the factor does not fit after all: stay */
-                                ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
-                            } else if (!rc && j + 1 < nu) {
-                                double e2 = 0;
-                                rc = ohm_solver_solve(x + (size_t)n, &solver, L, A, B + (j + 1) * (size_t)n,
-                                                      nu - j - 1, &e2, &refined, err);
-                                break;
-                            }
-                        } else {
-                            ohm_log_info(log, "solve: solver=auto stays with cg: %s", sol->solver_reason);
-                        }
-                    }
-                    if (!rc && nu > 0) rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nu, err);
-                } else if (nu > 0) {
-                    rc = ohm_solver_solve(X, &solver, L, A, B, nu, &berr, &refined, err);
-                }
-                if (!rc && nu > 0) {
-                    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A);
-                    if (corrected < 0) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-                    else if (corrected > 0) {
-                        rc = ohm_solver_backward_error(&berr, &solver, A, B, X, nu, err);
-                        if (!rc && !use_cg && !(berr <= 1e-10))
-                            rc = ohm_fail(err, OHM_ERR_NUMERIC,
-                                          "solve: backward error %.3g after the constant-mode correction", berr);
-                    }
-                }
-                sol->t_solve += ohm_now() - t0;
+                if (nu > 0) rc = backend->solve(bstate, A, B, X, nu, &berr, &rep, err);
+                if (!rc && nu > 0) rc = conserve_exactly(sol, X, B, nu, ga, gb, A, &berr, err);
+                /* a backend that set up inside solve (auto switching) books
+                 * that as analysis / factor / preconditioner, not as solve */
+                sol->t_solve += ohm_now() - t0 - (rep.t_analyze + rep.t_factor + rep.t_precond - t_setups);
                 if (rc) break;
                 if (berr > sol->residual) sol->residual = berr;
-                sol->refined += refined;
                 sol->solves += (int64_t)nu;
-                /* expand: column j is distinct column col_of[j] (<= j), or the
-                 * previous batch's last frame */
-                for (size_t j = nb; j-- > 0;) {
-                    double *xj = X + j * (size_t)n, *bj = B + j * (size_t)n;
-                    if (col_of[j] == SIZE_MAX) {
-                        memcpy(xj, sol->fluence[c] + (f0 - 1) * (size_t)n, (size_t)n * sizeof *X);
-                        memcpy(bj, prev_b, (size_t)n * sizeof *B);
-                    } else if (col_of[j] != j) {
-                        memcpy(xj, X + col_of[j] * (size_t)n, (size_t)n * sizeof *X);
-                        memcpy(bj, B + col_of[j] * (size_t)n, (size_t)n * sizeof *B);
-                    }
-                }
-                memcpy(prev_b, B + (nb - 1) * (size_t)n, (size_t)n * sizeof *B);
-
-                /* book the power per frame */
-                const double area = grid->h * grid->h;
-                double in = 0, absorbed = 0, out = 0;
-                for (size_t j = 0; j < nb; ++j) {
-                    size_t fr = f0 + j;
-                    const double *x = X + j * (size_t)n, *b = B + j * (size_t)n;
-                    double *phi = sol->fluence[c] + fr * (size_t)n, *ex = sol->exitance[c] + fr * (size_t)n;
-                    double *fx = sol->face_exitance[c] + fr * nf;
-                    for (int64_t v = 0; v < n; ++v) {
-                        phi[v] = x[v];
-                        in += b[v];
-                        absorbed += ga[v] * x[v];
-                    }
-                    for (int64_t f = 0; f < net->nfaces; ++f) {
-                        int64_t v = net->face_unknown[f];
-                        double p = gb[f] * x[v];
-                        out += p;
-                        fx[f] = p / area;
-                        ex[v] += p / (area * face_count[v]);
-                    }
-                }
-                sol->power_in += in;
-                sol->power_absorbed += absorbed;
-                sol->power_out += out;
-                sol->power_in_channel[c] += in;
-                sol->power_out_channel[c] += out;
+                expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
+                book_power(sol, X, B, ga, gb, face_count, f0, nb, c);
             }
             solved[c] = 1;
         }
     }
-    snprintf(sol->solver, sizeof sol->solver, "%s", use_cg ? "cg" : "direct");
+    report_backend(sol, &rep);
 
 done:
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
@@ -659,13 +556,12 @@ done:
         free(fp_arrive[c]);
     }
     ohm_occluder_free(occ);
-    ohm_cg_free(&cg);
+    if (backend) backend->destroy(bstate);
     free(face_count);
     free(col_of);
     free(prev_b);
-    ohm_factor_free(&L, &solver);
-    cholmod_l_free_sparse(&A, &solver.cc);
-    ohm_solver_finish(&solver);
+    cholmod_l_free_sparse(&A, &cc);
+    cholmod_l_finish(&cc);
     free(B);
     free(X);
     free(ga);

@@ -11,22 +11,17 @@
 #ifndef OHM_SOLVE_H
 #define OHM_SOLVE_H
 
-#include "factor.h"
 #include "light.h"
 #include "log.h"
 #include "material.h"
 #include "network.h"
 
-/* How A x = b is solved: the Cholesky factor (reused by every light), MIC(0)
- * conjugate gradients (cg.h: O(n) memory, warm-started frame to frame), or
- * auto: the cheaper by the cost model of solve.c, CG whenever the factor
- * would not fit in memory. */
-typedef enum ohm_solver_kind { OHM_SOLVER_DIRECT = 0, OHM_SOLVER_CG = 1, OHM_SOLVER_AUTO = 2 } ohm_solver_kind;
-
 typedef struct ohm_solve_params {
     ohm_boundary boundary;
-    ohm_solver_kind solver;
-    double cg_tol;             /* relative residual CG stops at; 0: 1e-10 */
+    const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
+                                  NULL: direct                               */
+    double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
+    const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
     double band_k;             /* depth band (band.h): keep cells within
                                   band_k / sigma_tr of the surface; 0: all */
     const char *ordering;      /* metis | amd | nesdis | best            */
@@ -71,11 +66,14 @@ typedef struct ohm_solution {
     int64_t solves_skipped;             /* frames whose light did not change: reused  */
     double nnz_A, nnz_L, flops;
     char ordering[16];
-    char solver[8];                     /* direct | cg: what ran                      */
-    char solver_reason[192];            /* why (auto's estimate, or "asked for")      */
-    int64_t cg_iterations;              /* summed over columns                        */
+    char solver[8];                     /* direct | cg | amg: what ran                */
+    char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
+    int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
+                                           summed over columns                        */
     double cg_relres;                   /* largest final relative residual            */
-    double t_cg_setup;                  /* building the MIC(0) preconditioners        */
+    double t_cg_setup;                  /* building the preconditioners (cg, amg)     */
+    double solver_bytes;                /* memory the backend held (its estimate)     */
+    int ranks;                          /* MPI ranks that solved (amg), else 1        */
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */

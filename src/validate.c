@@ -318,7 +318,7 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
     memset(&p, 0, sizeof p);
     p.boundary = OHM_BOUNDARY_ROBIN;
     p.ordering = "metis";
-    p.solver = use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT;
+    p.solver = use_cg ? "cg" : "direct";
     p.mirror_low = mirror;
     p.custom_source = src_beam;
     p.custom_user = &bs;

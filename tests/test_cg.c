@@ -6,9 +6,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "cg.h"
+#include "solvers/cg.h"
 #include "check.h"
-#include "factor.h"
+#include "solvers/direct.h"
 #include "network.h"
 #include "validate.h"
 

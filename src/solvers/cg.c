@@ -1,11 +1,13 @@
 /* cg.c — MIC(0)-preconditioned conjugate gradients (cg.h). */
-#include "cg.h"
+#include "solvers/cg.h"
 
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "log.h"
+#include "memory.h"
+#include "solvers/backend.h"
 
 /* Modification weight: 1 keeps M's row sums equal to A's (full MIC), which
  * is what lowers the condition number to O(h^-1); slightly below 1 guards
@@ -222,3 +224,78 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
     *iters = it;
     return OHM_OK;
 }
+
+/* ---- the cg backend (backend.h) -------------------------------------------------- */
+
+typedef struct cg_state {
+    ohm_cg cg;
+    ohm_backend_config cfg;
+} cg_state;
+
+static void cg_destroy(void *state)
+{
+    cg_state *s = state;
+    if (!s) return;
+    ohm_cg_free(&s->cg);
+    free(s);
+}
+
+static int cg_create(void **state, const ohm_backend_config *cfg, ohm_error *err)
+{
+    cg_state *s = calloc(1, sizeof *s);
+    if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+    s->cfg = *cfg;
+    if (!(s->cfg.tol > 0)) s->cfg.tol = 1e-10;
+    if (s->cfg.max_iter <= 0) s->cfg.max_iter = 20000;
+    /* test hook (tests/cli_solver_choice.sh): cap CG's iterations so that the
+     * non-convergence paths (the error; auto falling back to the factor) run */
+    const char *iter_cap = getenv("OHM_TEST_CG_MAX_ITER");
+    if (iter_cap && atoll(iter_cap) > 0) s->cfg.max_iter = atoll(iter_cap);
+    *state = s;
+    return OHM_OK;
+}
+
+static int cg_backend_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+{
+    cg_state *s = state;
+    int64_t n = (int64_t)A->nrow;
+    double need = ohm_cg_bytes(n) + 2.0 * sizeof(double) * (double)n * (double)(s->cfg.batch ? s->cfg.batch : 1);
+    double limit = ohm_memory_limit(s->cfg.max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: conjugate gradients on %lld cells need about %s, more than the %s %s; use a smaller "
+                        "dim= or a larger voxel=",
+                        (long long)n, ohm_format_bytes(need, nb, 32), ohm_format_bytes(limit, lb, 32),
+                        s->cfg.max_memory > 0 ? "max_memory= allows" : "available");
+    }
+    ohm_cg_free(&s->cg);
+    int rc = ohm_cg_setup(&s->cg, A, err);
+    if (rc) return rc;
+    rep->t_precond += s->cg.t_setup;
+    rep->precond_setups++;
+    snprintf(rep->solver, sizeof rep->solver, "cg");
+    rep->nnz_A = (double)A->nzmax;
+    if (need > rep->bytes) rep->bytes = need;
+    return OHM_OK;
+}
+
+static int cg_backend_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+                            ohm_backend_report *rep, ohm_error *err)
+{
+    cg_state *s = state;
+    size_t n = A->nrow;
+    for (size_t j = 0; j < ncols; ++j) {
+        int64_t its = 0;
+        double relres = 0;
+        if (j > 0) memcpy(X + j * n, X + (j - 1) * n, n * sizeof *X); /* consecutive frames: warm start */
+        int rc = ohm_cg_solve(&s->cg, X + j * n, B + j * n, s->cfg.tol, s->cfg.max_iter, &its, &relres, err);
+        rep->iterations += its;
+        if (relres > rep->relres) rep->relres = relres;
+        if (rc) return rc;
+    }
+    *berr = ohm_backward_error(A, B, X, ncols, s->cg.norm_A);
+    return OHM_OK;
+}
+
+const ohm_backend_ops ohm_backend_cg = {"cg", cg_create, cg_backend_setup, cg_backend_solve, cg_destroy};

@@ -15,6 +15,7 @@
 #include <cholmod.h>
 
 #include "ohm_error.h"
+#include "solvers/backend.h"
 
 typedef struct ohm_solver {
     cholmod_common cc;
@@ -47,9 +48,5 @@ int ohm_solver_solve(double *X, ohm_solver *s, cholmod_factor *L, cholmod_sparse
                      double *berr, int *refined, ohm_error *err);
 
 void ohm_factor_free(cholmod_factor **L, ohm_solver *s);
-
-/* Largest scaled backward error of X (n x ncols) for A X = B. */
-int ohm_solver_backward_error(double *berr, ohm_solver *s, cholmod_sparse *A, const double *B, const double *X,
-                              size_t ncols, ohm_error *err);
 
 #endif

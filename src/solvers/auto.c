@@ -1,0 +1,182 @@
+/* solvers/auto.c — solver=auto: a backend that chooses among the others
+ * (backend.h), memory first, then the time predicted for the columns to come.
+ *
+ * The first columns are always solved with CG (the probe: CG needs no
+ * analysis, so the first answer is cheap whichever way the choice goes), and
+ * the second, warm-started like every later one, is timed (t1 seconds, its1
+ * iterations).  The remaining `rest` columns then go to the cheapest of
+ *   cg      rest * t1;
+ *   direct  analysis + one factorization per distinct material + a pair of
+ *           triangular solves per column;
+ *   amg     one BoomerAMG setup per material + a preconditioned CG solve per
+ *           column;
+ * and a backend whose memory does not fit is skipped (the direct one learns
+ * that from its symbolic analysis, before factorizing; its setup then fails
+ * with OHM_ERR_NOMEM and the next cheapest is taken).  When CG fails to
+ * converge during the probe, the columns go to the factor (or amg when the
+ * factor does not fit).  The probe's columns are kept whichever way it goes.
+ *
+ * The direct costs are a model of METIS nested dissection on a 3-D grid of n
+ * cells: ~3.5 n^(4/3) entries in L (1.7 ns each per column solved), analysis
+ * 1.4e-6 n^1.155 s, a factorization 1.02e-7 n^1.4 s — power laws fitted to
+ * spot at dim 32..128 on this 2-core machine (docs/accuracy.md).  The amg
+ * costs are linear in n, fitted to docs/scale.md's measurements (setup
+ * AMG_SETUP_NS, solve AMG_COLUMN_NS nanoseconds per cell). */
+#include "solvers/backend.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+static const double AMG_SETUP_NS = 2500.0;
+static const double AMG_COLUMN_NS = 1500.0;
+
+typedef struct auto_state {
+    ohm_backend_config cfg;
+    void *probe;                   /* the cg backend's state                */
+    const ohm_backend_ops *chosen; /* NULL until decided                    */
+    void *chosen_state;            /* == probe when cg was chosen           */
+    double columns_done;
+} auto_state;
+
+static void auto_destroy(void *state)
+{
+    auto_state *s = state;
+    if (!s) return;
+    if (s->chosen && s->chosen_state != s->probe) s->chosen->destroy(s->chosen_state);
+    ohm_backend_cg.destroy(s->probe);
+    free(s);
+}
+
+static int auto_create(void **state, const ohm_backend_config *cfg, ohm_error *err)
+{
+    auto_state *s = calloc(1, sizeof *s);
+    if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+    s->cfg = *cfg;
+    int rc = ohm_backend_cg.create(&s->probe, cfg, err);
+    if (rc) {
+        free(s);
+        return rc;
+    }
+    *state = s;
+    return OHM_OK;
+}
+
+static int auto_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+{
+    auto_state *s = state;
+    if (s->chosen) return s->chosen->setup(s->chosen_state, A, rep, err);
+    return ohm_backend_cg.setup(s->probe, A, rep, err);
+}
+
+typedef struct candidate {
+    const ohm_backend_ops *ops;
+    double t;
+} candidate;
+
+static int by_time(const void *a, const void *b)
+{
+    double ta = ((const candidate *)a)->t, tb = ((const candidate *)b)->t;
+    return (ta > tb) - (ta < tb);
+}
+
+/* Switch to the first of cands[0..nc) whose setup succeeds on A; a setup
+ * that fails for memory passes to the next.  rep->reason is extended. */
+static int switch_to(auto_state *s, candidate *cands, int nc, cholmod_sparse *A, ohm_backend_report *rep,
+                     ohm_error *err)
+{
+    for (int i = 0; i < nc; ++i) {
+        const ohm_backend_ops *ops = cands[i].ops;
+        if (ops == &ohm_backend_cg) {
+            s->chosen = ops;
+            s->chosen_state = s->probe;
+            return OHM_OK;
+        }
+        void *st = NULL;
+        int rc = ops->create(&st, &s->cfg, err);
+        if (!rc) rc = ops->setup(st, A, rep, err);
+        if (!rc) {
+            s->chosen = ops;
+            s->chosen_state = st;
+            return OHM_OK;
+        }
+        if (st) ops->destroy(st);
+        if (rc != OHM_ERR_NOMEM) return rc;
+        size_t len = strlen(rep->reason);
+        snprintf(rep->reason + len, sizeof rep->reason - len, "; %s skipped: %.80s", ops->name, err->msg);
+        ohm_error_clear(err);
+    }
+    return ohm_fail(err, OHM_ERR_NOMEM, "solve: solver=auto: no backend fits (%s)", rep->reason);
+}
+
+/* The candidates in order of predicted time for `rest` more columns, CG's
+ * column costing t1 (< 0: CG failed and is no candidate). */
+static int rank_candidates(candidate *c, const auto_state *s, double n, double t1, double rest,
+                           ohm_backend_report *rep)
+{
+    int nc = 0;
+    int materials = s->cfg.materials > 0 ? s->cfg.materials : 1;
+    double t_analyze = 1.4e-6 * pow(n, 1.155), t_factor = materials * 1.02e-7 * pow(n, 1.4);
+    double t_direct = t_analyze + t_factor + rest * 1.7e-9 * 3.5 * pow(n, 4.0 / 3.0);
+    double t_amg = 1e-9 * n * (materials * AMG_SETUP_NS + rest * AMG_COLUMN_NS);
+    c[nc++] = (candidate){&ohm_backend_direct, t_direct};
+    if (ohm_backend_amg_available()) c[nc++] = (candidate){&ohm_backend_amg, t_amg};
+    if (t1 >= 0) c[nc++] = (candidate){&ohm_backend_cg, rest * t1};
+    qsort(c, (size_t)nc, sizeof *c, by_time);
+    size_t len = strlen(rep->reason);
+    snprintf(rep->reason + len, sizeof rep->reason - len, "for the other %.0f column(s), predicted:", rest);
+    for (int i = 0; i < nc; ++i) {
+        len = strlen(rep->reason);
+        snprintf(rep->reason + len, sizeof rep->reason - len, " %s %.3g s%s", c[i].ops->name, c[i].t,
+                 i + 1 < nc ? "," : "");
+    }
+    return nc;
+}
+
+static int auto_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+                      ohm_backend_report *rep, ohm_error *err)
+{
+    auto_state *s = state;
+    if (s->chosen) return s->chosen->solve(s->chosen_state, A, B, X, ncols, berr, rep, err);
+    size_t n = A->nrow;
+    double total = s->cfg.columns > 0 ? s->cfg.columns : 1;
+    *berr = 0;
+    for (size_t j = 0; j < ncols; ++j) {
+        double e = 0, t0 = ohm_now();
+        int64_t its0 = rep->iterations;
+        int rc = ohm_backend_cg.solve(s->probe, A, B + j * n, X + j * n, 1, &e, rep, err);
+        double t1 = ohm_now() - t0;
+        size_t next = j + 1; /* the first column the chosen backend solves */
+        candidate c[3];
+        int nc;
+        if (rc == OHM_ERR_NUMERIC) { /* CG cannot solve this one: it goes too */
+            snprintf(rep->reason, sizeof rep->reason, "cg failed: %.120s; ", err->msg);
+            ohm_error_clear(err);
+            nc = rank_candidates(c, s, (double)n, -1, total - s->columns_done, rep);
+            memset(X + j * n, 0, n * sizeof *X);
+            next = j;
+        } else if (rc) {
+            return rc;
+        } else {
+            if (e > *berr) *berr = e;
+            s->columns_done += 1;
+            if (s->columns_done < 2 && total > 2) continue;
+            snprintf(rep->reason, sizeof rep->reason, "a warm CG column took %.3g s (%lld iterations); ", t1,
+                     (long long)(rep->iterations - its0));
+            nc = rank_candidates(c, s, (double)n, t1, total - s->columns_done, rep);
+        }
+        rc = switch_to(s, c, nc, A, rep, err);
+        if (rc) return rc;
+        ohm_log_info(s->cfg.log, "solve: solver=auto uses %s: %s", s->chosen->name, rep->reason);
+        if (next < ncols) {
+            rc = s->chosen->solve(s->chosen_state, A, B + next * n, X + next * n, ncols - next, &e, rep, err);
+            if (rc) return rc;
+            if (e > *berr) *berr = e;
+        }
+        break;
+    }
+    return OHM_OK;
+}
+
+const ohm_backend_ops ohm_backend_auto = {"auto", auto_create, auto_setup, auto_solve, auto_destroy};

@@ -1,0 +1,103 @@
+/* solvers/backend.h — the seam between the light-transport driver (solve.c:
+ * sources, batching, booking, outputs) and the linear solvers behind it
+ * (DESIGN.md §2 "Solving", §8 "Size").
+ *
+ * A backend solves A X = B for the network's matrix A (symmetric positive
+ * definite, upper triangle stored, CHOLMOD compressed-column form, 64-bit
+ * indices) in the spirit of PETSc's KSP/PC: an object chosen at run time by
+ * name, configured from one parameter block, set up once per distinct channel
+ * material (`setup`), then asked to solve any number of blocks of right-hand
+ * sides (`solve`) — the paper's point: a light change never sets up again.
+ *
+ *   direct  CHOLMOD's supernodal Cholesky factor (solvers/direct.c), the
+ *           paper's factor-once; one symbolic analysis per grid.
+ *   cg      MIC(0)-preconditioned conjugate gradients (solvers/cg.c): O(n)
+ *           memory, warm-started from the caller's X.
+ *   amg     PETSc KSP CG preconditioned by hypre BoomerAMG (solvers/amg.c),
+ *           distributed over MPI ranks when ohm runs under mpirun.
+ *   auto    chooses among the others by memory, then predicted time
+ *           (solvers/auto.c).
+ *
+ * Every backend's solve leaves in *berr the largest scaled backward error
+ * ||b - A x||_inf / (||A||_inf ||x||_inf + ||b||_inf) of its columns,
+ * computed by ohm_backward_error (one definition for all), and fails with
+ * OHM_ERR_NUMERIC rather than return an inaccurate X.  Ownership: a backend
+ * never keeps A beyond the setup/solve calls that pass it, except that
+ * `solve` is always called with the A of the latest `setup`. */
+#ifndef OHM_SOLVERS_BACKEND_H
+#define OHM_SOLVERS_BACKEND_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cholmod.h>
+
+#include "log.h"
+#include "ohm_error.h"
+
+/* What a backend did, summed over its setups and solves (the driver copies it
+ * into the run's statistics). */
+typedef struct ohm_backend_report {
+    char solver[8];             /* direct | cg | amg: what actually ran        */
+    char reason[256];           /* why this backend (auto), or "asked for"     */
+    int analyses;               /* symbolic analyses (direct)                  */
+    int factors;                /* numeric factorizations (direct)             */
+    int precond_setups;         /* preconditioner setups (cg, amg)             */
+    double t_analyze;           /* seconds: ordering + symbolic analysis       */
+    double t_factor;            /* seconds: numeric factorizations             */
+    double t_precond;           /* seconds: preconditioner setups              */
+    double nnz_A, nnz_L, flops; /* direct: the factor's size and cost          */
+    char ordering[16];          /* direct: metis | amd | nesdis                */
+    int64_t iterations;         /* iterative backends: summed over columns     */
+    double relres;              /* iterative backends: largest final ||r||/||b|| */
+    int refined;                /* direct: solves that took a refinement step  */
+    double bytes;               /* memory the backend holds at most (estimate) */
+    int ranks;                  /* MPI ranks that took part (amg), else 1      */
+} ohm_backend_report;
+
+/* Parameters of every backend; zero means the default. */
+typedef struct ohm_backend_config {
+    const char *ordering;      /* direct: metis | amd | nesdis | best            */
+    double tol;                /* iterative: stop at ||b - A x|| <= tol ||b||; 0: 1e-10 */
+    int64_t max_iter;          /* iterative: 0: 20000                            */
+    const char *petsc_options; /* amg: passed to PETSc's options database         */
+    double max_memory;         /* bytes the backend may take; 0: what the machine has */
+    size_t batch;              /* most columns per solve call (for memory estimates) */
+    double columns;            /* columns to be solved in all (auto's cost model) */
+    int materials;             /* distinct channel materials = setups to come   */
+    const ohm_log *log;
+} ohm_backend_config;
+
+typedef struct ohm_backend_ops {
+    const char *name;
+    int (*create)(void **state, const ohm_backend_config *cfg, ohm_error *err);
+    /* Once per distinct channel material; A keeps its pattern from call to
+     * call within one run (same grid), only its values change. */
+    int (*setup)(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err);
+    /* X (n x ncols, column-major): on entry its first column holds a
+     * starting guess (iterative backends use it; zeros are fine), and the
+     * columns are consecutive frames, so an iterative backend starts each
+     * later column from the solution of the one before; on return, the
+     * solutions. */
+    int (*solve)(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+                 ohm_backend_report *rep, ohm_error *err);
+    void (*destroy)(void *state); /* NULL is fine */
+} ohm_backend_ops;
+
+extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_auto;
+
+/* The backend of that name (direct | cg | amg | auto), or NULL. */
+const ohm_backend_ops *ohm_backend_find(const char *name);
+
+/* Whether this build has the amg backend (PETSc); when not, its create fails
+ * with a message saying so. */
+int ohm_backend_amg_available(void);
+
+/* Largest scaled backward error over ncols columns of A X = B (infinity
+ * norms); normA: ||A||_inf, or <= 0 to compute it. */
+double ohm_backward_error(const cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA);
+
+/* ||A||_inf of the upper-stored symmetric A (= ||A||_1). */
+double ohm_sym_upper_norm_inf(const cholmod_sparse *A);
+
+#endif
