@@ -6,6 +6,7 @@
 #include <string.h>
 
 #include "material.h"
+#include "memory.h"
 
 const int32_t ohm_face_offset[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
 
@@ -30,30 +31,88 @@ void ohm_network_free(ohm_network *net)
     memset(net, 0, sizeof *net);
 }
 
-static int64_t find_root(int64_t *parent, int64_t x)
+/* The walk both stages share.  Unknowns are numbered in cell order (x
+ * fastest), so a walk over them visits the grid in k, j, i order: (i,j,k) of
+ * the next unknown comes from the previous one by an addition, and a
+ * division is needed only where the walk leaves a row (about n^(2/3) times,
+ * not twice per unknown and face as before). */
+typedef struct walk {
+    const ohm_network *net;
+    const uint8_t *inside;
+    const int64_t *unknown;
+    int32_t dims[3];
+    int64_t stride[6]; /* dense-index offset of the neighbour across face d */
+    int32_t ijk[3];    /* the current unknown's cell */
+    int64_t cell;
+} walk;
+
+static void walk_begin(walk *w, const ohm_network *net)
+{
+    const ohm_voxel_grid *g = net->grid;
+    w->net = net;
+    w->inside = g->inside;
+    w->unknown = net->unknown;
+    for (int a = 0; a < 3; ++a) w->dims[a] = g->dims[a];
+    int64_t sy = g->dims[0], sz = (int64_t)g->dims[0] * g->dims[1];
+    int64_t s[6] = {-1, 1, -sy, sy, -sz, sz};
+    memcpy(w->stride, s, sizeof s);
+    w->cell = -1;
+}
+
+/* Move to unknown v (visited in increasing order). */
+static inline void walk_to(walk *w, int64_t v)
+{
+    int64_t c = w->net->cell[v], step = c - w->cell;
+    if (w->cell >= 0 && w->ijk[0] + step < w->dims[0]) w->ijk[0] += (int32_t)step;
+    else ohm_voxel_coords(w->net->grid, c, w->ijk);
+    w->cell = c;
+}
+
+/* Neighbour of the current cell across face d: its unknown, -1 if outside
+ * the object, -2 if the face is a mirror plane, -3 if it is interior but
+ * below the depth band (a closure face).  Needs net->unknown complete. */
+static inline int64_t walk_across(const walk *w, int d)
+{
+    int axis = d >> 1;
+    int32_t x = w->ijk[axis];
+    if (d & 1) {
+        if (x + 1 >= w->dims[axis]) return -1;
+    } else {
+        if (x == w->net->mirror_low[axis]) return -2; /* unused planes are negative: never a cell */
+        if (x == 0) return -1;
+    }
+    int64_t nc = w->cell + w->stride[d];
+    int64_t u = w->unknown[nc];
+    if (u < 0 && w->net->active && w->inside[nc]) return -3;
+    return u;
+}
+
+/* Grow the boundary-face arrays to hold at least need faces. */
+static int reserve_faces(ohm_network *net, int64_t *cap, int64_t need)
+{
+    if (need <= *cap) return 0;
+    int64_t c = *cap ? *cap : 1024;
+    while (c < need) c *= 2;
+    int64_t *fu = realloc(net->face_unknown, (size_t)c * sizeof *fu);
+    if (!fu) return -1;
+    net->face_unknown = fu;
+    uint8_t *fd = realloc(net->face_dir, (size_t)c);
+    if (!fd) return -1;
+    net->face_dir = fd;
+    *cap = c;
+    return 0;
+}
+
+/* Union-find that always links the larger root under the smaller, so every
+ * parent[x] <= x and each piece's root is its smallest unknown; path halving
+ * keeps that (a grandparent is never larger than a parent). */
+static inline int64_t find_root(int64_t *parent, int64_t x)
 {
     while (parent[x] != x) {
         parent[x] = parent[parent[x]];
         x = parent[x];
     }
     return x;
-}
-
-/* Neighbour of cell (i,j,k) across face d: its unknown, -1 if outside the
- * object, -2 if the face is a mirror plane, -3 if it is interior but below
- * the depth band (a closure face). */
-static int64_t across(const ohm_network *net, int32_t i, int32_t j, int32_t k, int d)
-{
-    const ohm_voxel_grid *g = net->grid;
-    int32_t c[3] = {i, j, k};
-    int axis = d / 2;
-    if ((d % 2) == 0 && net->mirror_low[axis] >= 0 && c[axis] == net->mirror_low[axis]) return -2;
-    int32_t a = i + ohm_face_offset[d][0], b = j + ohm_face_offset[d][1], e = k + ohm_face_offset[d][2];
-    if (a < 0 || b < 0 || e < 0 || a >= g->dims[0] || b >= g->dims[1] || e >= g->dims[2]) return -1;
-    size_t cell = ohm_voxel_index(g, a, b, e);
-    int64_t u = net->unknown[cell];
-    if (u < 0 && net->active && g->inside[cell]) return -3;
-    return u;
 }
 
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err)
@@ -69,10 +128,10 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
     net->active = active;
     for (int a = 0; a < 3; ++a) net->mirror_low[a] = mirror_low ? mirror_low[a] : -1;
     size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
-    const uint8_t *unknowns = active ? active : grid->inside;
+    const uint8_t *inside = grid->inside;
     int64_t n = 0;
     if (active) {
-        for (size_t c = 0; c < ncells; ++c) n += active[c] && grid->inside[c];
+        for (size_t c = 0; c < ncells; ++c) n += active[c] && inside[c];
     } else {
         n = (int64_t)grid->interior_cells;
     }
@@ -81,67 +140,72 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
     net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
     if (!net->unknown || !net->cell || !net->piece) goto nomem;
+    ohm_memory_advise_huge(net->unknown, ncells * sizeof *net->unknown);
+    ohm_memory_advise_huge(net->cell, (size_t)n * sizeof *net->cell);
+    ohm_memory_advise_huge(net->piece, (size_t)n * sizeof *net->piece);
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
-        if (unknowns[c] && grid->inside[c]) {
-            if (u == n) return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
+        int64_t x = -1;
+        if ((active ? active[c] : 1) && inside[c]) {
+            if (u == n) {
+                ohm_network_free(net);
+                return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
+            }
             net->cell[u] = (int64_t)c;
-            net->unknown[c] = u++;
-        } else {
-            net->unknown[c] = -1;
+            x = u++;
         }
+        net->unknown[c] = x;
+    }
+    if (u != n) {
+        ohm_network_free(net);
+        return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
     }
     net->n = n;
 
-    /* Count boundary faces and matrix entries; join pieces. */
-    int64_t nfaces = 0, offdiag = 0;
-    for (int64_t v = 0; v < n; ++v) net->piece[v] = v;
+    /* One walk: boundary faces in unknown order (then direction), matrix
+     * entries, closure faces, and pieces joined across lower neighbours. */
+    int64_t nfaces = 0, offdiag = 0, nclosure = 0, cap = 0;
+    int64_t *parent = net->piece;
+    walk w;
+    walk_begin(&w, net);
     for (int64_t v = 0; v < n; ++v) {
-        int32_t ijk[3];
-        ohm_voxel_coords(grid, net->cell[v], ijk);
-        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
+        parent[v] = v;
+        walk_to(&w, v);
+        if (reserve_faces(net, &cap, nfaces + 6)) goto nomem;
         for (int d = 0; d < 6; ++d) {
-            int64_t w = across(net, i, j, k, d);
-            if (w == -1) ++nfaces;
-            else if (w == -3) ++net->nclosure;
-            else if (w >= 0 && w < v) {
+            int64_t x = walk_across(&w, d);
+            if (x == -1) {
+                net->face_unknown[nfaces] = v;
+                net->face_dir[nfaces] = (uint8_t)d;
+                ++nfaces;
+            } else if (x == -3) {
+                ++nclosure;
+            } else if (x >= 0 && x < v) {
                 ++offdiag;
-                int64_t ra = find_root(net->piece, v), rb = find_root(net->piece, w);
-                if (ra != rb) net->piece[ra] = rb;
+                int64_t ra = find_root(parent, v), rb = find_root(parent, x);
+                if (ra < rb) parent[rb] = ra;
+                else if (rb < ra) parent[ra] = rb;
             }
         }
     }
-    /* Number the pieces 0..npieces-1. */
-    int64_t *label = malloc((size_t)n * sizeof *label);
-    if (!label) goto nomem;
-    for (int64_t v = 0; v < n; ++v) label[v] = -1;
+    /* Number the pieces 0.. in the order of their smallest unknown, in place:
+     * parent[v] < v is already labelled and lies in v's piece. */
     int64_t npieces = 0;
-    /* resolve every root before relabelling: piece[] holds parents until then */
     for (int64_t v = 0; v < n; ++v) {
-        int64_t r = find_root(net->piece, v);
-        if (label[r] < 0) label[r] = npieces++;
+        int64_t p = parent[v];
+        net->piece[v] = p == v ? npieces++ : net->piece[p];
     }
-    for (int64_t v = 0; v < n; ++v) net->piece[v] = find_root(net->piece, v);
-    for (int64_t v = 0; v < n; ++v) net->piece[v] = label[net->piece[v]];
-    free(label);
     net->npieces = npieces;
-
+    net->nclosure = nclosure;
     net->nfaces = nfaces;
     net->nnz = n + offdiag;
-    net->face_unknown = malloc((size_t)(nfaces ? nfaces : 1) * sizeof *net->face_unknown);
-    net->face_dir = malloc((size_t)(nfaces ? nfaces : 1));
-    if (!net->face_unknown || !net->face_dir) goto nomem;
-    int64_t f = 0;
-    for (int64_t v = 0; v < n; ++v) {
-        int32_t ijk[3];
-        ohm_voxel_coords(grid, net->cell[v], ijk);
-        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
-        for (int d = 0; d < 6; ++d)
-            if (across(net, i, j, k, d) == -1) {
-                net->face_unknown[f] = v;
-                net->face_dir[f] = (uint8_t)d;
-                ++f;
-            }
+    /* give back the doubling's slack (at least one element, as callers may index an empty list's base) */
+    int64_t keep = nfaces ? nfaces : 1;
+    if (keep < cap) {
+        int64_t *fu = realloc(net->face_unknown, (size_t)keep * sizeof *fu);
+        if (fu) net->face_unknown = fu;
+        uint8_t *fd = realloc(net->face_dir, (size_t)keep);
+        if (fd) net->face_dir = fd;
     }
     return OHM_OK;
 
@@ -150,17 +214,26 @@ nomem:
     return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for %lld cells", (long long)n);
 }
 
-/* Per-unknown coefficients of one channel. */
+/* One channel's coefficients, with what does not vary hoisted.  Every value
+ * is computed by the same expression, in the same order, as the per-cell
+ * formulas of DESIGN.md §2 (network.h), so a homogeneous medium's constants
+ * are bit for bit what each cell would compute for itself. */
+typedef struct coeffs {
+    double A;    /* the boundary constant of DESIGN.md §2 (optical media) */
+    int uniform; /* no per-cell array: every conductance is one constant  */
+    double g_edge, g_ground, g_bound, g_closure;
+} coeffs;
+
 static inline double med_sa(const ohm_channel_medium *m, int64_t v) { return m->sigma_a ? m->sigma_a[v] : m->sigma_a0; }
 static inline double med_ss(const ohm_channel_medium *m, int64_t v) { return m->sigma_s ? m->sigma_s[v] : m->sigma_s0; }
 static inline double med_D(const ohm_channel_medium *m, int64_t v) { return 1.0 / (3.0 * (med_sa(m, v) + med_ss(m, v))); }
 
-/* Conductance between neighbouring unknowns v and w. */
-static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w)
+/* Conductance between neighbouring unknowns v and w (Dv = med_D(m, v)). */
+static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w, double dv)
 {
     if (m->resistance_mode)
         return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
-    double dv = med_D(m, v), dw = med_D(m, w);
+    double dw = med_D(m, w);
     return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
 }
 
@@ -170,30 +243,45 @@ static inline double ground_conductance(const ohm_channel_medium *m, double h, i
     return med_sa(m, v) * h * h * h;
 }
 
-static inline double boundary_conductance(const ohm_channel_medium *m, double h, int64_t v, ohm_boundary b, double A)
+static inline double boundary_conductance(const ohm_channel_medium *m, double h, int64_t v, double dv, ohm_boundary b,
+                                          double A)
 {
     switch (b) {
     case OHM_BOUNDARY_NEUMANN: return 0.0;
     case OHM_BOUNDARY_DIRICHLET:
         /* phi = 0 on the face, half a cell away: D h^2 / (h/2) */
         if (m->resistance_mode) return 2.0 / (m->resistance_v ? m->resistance_v[v] : m->resistance);
-        return 2.0 * med_D(m, v) * h;
+        return 2.0 * dv * h;
     case OHM_BOUNDARY_ROBIN:
         /* half a cell of diffusion in series with the partial-current
          * condition phi_face = 2 A J (Jensen et al. 2001, Eq. 5-6) */
-        return h * h / (h / (2.0 * med_D(m, v)) + 2.0 * A);
+        return h * h / (h / (2.0 * dv) + 2.0 * A);
     }
     return 0.0;
 }
 
 /* The depth band's closure face (network.h): half a cell of diffusion in
  * series with the absorbing half-space's impedance 1 / (D sigma_tr). */
-static inline double closure_conductance(const ohm_channel_medium *m, double h, int64_t v)
+static inline double closure_conductance(const ohm_channel_medium *m, double h, int64_t v, double D)
 {
-    double D = med_D(m, v), sa = med_sa(m, v), st = sa + med_ss(m, v);
+    double sa = med_sa(m, v), st = sa + med_ss(m, v);
     double sigma_tr = sqrt(3.0 * sa * st);
     if (!(sigma_tr > 0)) return 0.0; /* no absorption: the core reflects (zero flux) */
     return h * h / (h / (2.0 * D) + 1.0 / (D * sigma_tr));
+}
+
+static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_boundary b)
+{
+    memset(k, 0, sizeof *k);
+    k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta);
+    k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v));
+    if (k->uniform) {
+        double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */
+        k->g_edge = edge_conductance(m, h, 0, 0, D);
+        k->g_ground = ground_conductance(m, h, 0);
+        k->g_bound = boundary_conductance(m, h, 0, D, b, k->A);
+        k->g_closure = closure_conductance(m, h, 0, D);
+    }
 }
 
 int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const ohm_network *net,
@@ -206,7 +294,8 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
                         "use boundary=neumann (the paper's) or dirichlet");
     const ohm_voxel_grid *g = net->grid;
     const double h = g->h;
-    const double A = med->resistance_mode ? 0.0 : ohm_boundary_A(med->eta);
+    coeffs co;
+    coeffs_init(&co, med, h, boundary);
     int64_t n = net->n;
     cholmod_sparse *M = cholmod_l_allocate_sparse((size_t)n, (size_t)n, (size_t)net->nnz, 1, 1, 1, CHOLMOD_REAL, cc);
     double *sink = calloc((size_t)net->npieces, sizeof *sink); /* ground + boundary per piece */
@@ -216,43 +305,58 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
         return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns (%lld entries)",
                         (long long)n, (long long)net->nnz);
     }
+    ohm_memory_advise_huge(M->p, ((size_t)n + 1) * sizeof(int64_t));
+    ohm_memory_advise_huge(M->i, (size_t)net->nnz * sizeof(int64_t));
+    ohm_memory_advise_huge(M->x, (size_t)net->nnz * sizeof(double));
     int64_t *Ap = M->p, *Ai = M->i;
     double *Ax = M->x;
     int64_t pos = 0;
     int64_t f = 0; /* boundary faces come in unknown order, as built */
+    const int64_t *piece = net->piece;
+    walk w;
+    walk_begin(&w, net);
     for (int64_t v = 0; v < n; ++v) {
         Ap[v] = pos;
-        int32_t ijk[3];
-        ohm_voxel_coords(g, net->cell[v], ijk);
-        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
-        double diag = 0.0;
+        walk_to(&w, v);
+        int64_t nb[6];
+        double ge[6];
+        int nfaces_v = 0, nclosure_v = 0;
+        double dv = co.uniform ? 0.0 : med_D(med, v);
+        for (int d = 0; d < 6; ++d) {
+            nb[d] = walk_across(&w, d);
+            if (nb[d] >= 0) ge[d] = co.uniform ? co.g_edge : edge_conductance(med, h, v, nb[d], dv);
+            else if (nb[d] == -1) ++nfaces_v;
+            else if (nb[d] == -3) ++nclosure_v;
+        }
         /* lower neighbours in the order -z, -y, -x give ascending rows */
         static const int lower[3] = {4, 2, 0};
         for (int q = 0; q < 3; ++q) {
-            int64_t w = across(net, i, j, k, lower[q]);
-            if (w < 0) continue;
-            double gcd = edge_conductance(med, h, v, w);
-            Ai[pos] = w;
-            Ax[pos] = -gcd;
+            int d = lower[q];
+            if (nb[d] < 0) continue;
+            Ai[pos] = nb[d];
+            Ax[pos] = -ge[d];
             ++pos;
         }
-        double gav = ground_conductance(med, h, v);
+        /* the sums in face order, as the per-face formulation adds them */
+        double gav = co.uniform ? co.g_ground : ground_conductance(med, h, v);
+        double gcl = !nclosure_v ? 0.0 : co.uniform ? co.g_closure : closure_conductance(med, h, v, dv);
+        double diag = 0.0;
         for (int d = 0; d < 6; ++d) {
-            int64_t w = across(net, i, j, k, d);
-            if (w >= 0) diag += edge_conductance(med, h, v, w);
-            else if (w == -3) gav += closure_conductance(med, h, v);
+            if (nb[d] >= 0) diag += ge[d];
+            else if (nb[d] == -3) gav += gcl;
         }
         diag += gav;
         if (ga) ga[v] = gav;
         double sinkv = gav;
-        while (f < net->nfaces && net->face_unknown[f] == v) {
-            double gbf = boundary_conductance(med, h, v, boundary, A);
-            if (gb) gb[f] = gbf;
-            diag += gbf;
-            sinkv += gbf;
-            ++f;
+        if (nfaces_v) {
+            double gbf = co.uniform ? co.g_bound : boundary_conductance(med, h, v, dv, boundary, co.A);
+            for (int q = 0; q < nfaces_v; ++q, ++f) {
+                if (gb) gb[f] = gbf;
+                diag += gbf;
+                sinkv += gbf;
+            }
         }
-        sink[net->piece[v]] += sinkv;
+        sink[piece[v]] += sinkv;
         Ai[pos] = v;
         Ax[pos] = diag;
         ++pos;
