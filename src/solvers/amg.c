@@ -30,6 +30,8 @@
 
 #include <petscksp.h>
 
+#include "memory.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -50,6 +52,12 @@ static const char *const AMG_DEFAULTS[][2] = {
     {"-pc_hypre_boomeramg_P_max", "4"},            {"-pc_hypre_boomeramg_strong_threshold", "0.5"},
     {"-pc_hypre_boomeramg_agg_nl", "1"},
 };
+
+/* Bytes per cell one rank holds for its share of the cells: A in AIJ form
+ * (7 entries a row, 12 bytes each), the hierarchy (operator complexity
+ * about 2 with these settings, interpolation beside it) and CG's vectors;
+ * measured peak: docs/scale.md. */
+static const double AMG_BYTES_PER_CELL = 450.0;
 
 enum { CMD_SETUP = 1, CMD_SOLVE = 2, CMD_DESTROY = 3, CMD_EXIT = 4 };
 
@@ -283,6 +291,15 @@ static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_o
     PCALL("ksp", KSPSetTolerances(s->ksp, cmd->tol, 0.0, 1e30, (PetscInt)cmd->max_iter));
     PCALL("ksp", KSPSetInitialGuessNonzero(s->ksp, PETSC_TRUE));
     PCALL("petsc_options", KSPSetFromOptions(s->ksp));
+    /* a direct solve through petsc_options (-ksp_type preonly, e.g. MUMPS's
+     * Cholesky) takes no starting guess and has no residual norm of its own:
+     * rank 0's backward-error check is its test */
+    KSPType type;
+    PCALL("ksp", KSPGetType(s->ksp, &type));
+    if (strcmp(type, KSPPREONLY) == 0) {
+        PCALL("ksp", KSPSetInitialGuessNonzero(s->ksp, PETSC_FALSE));
+        PCALL("ksp", KSPSetNormType(s->ksp, KSP_NORM_NONE));
+    }
     PCALL("setup", KSPSetUp(s->ksp));
     return OHM_OK;
 }
@@ -430,6 +447,19 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
         return ohm_fail(err, OHM_ERR_INVALID,
                         "solve: amg: %lld unknowns exceed this PETSc's 32-bit indices (%d); use a larger voxel=",
                         (long long)n, (int)PETSC_MAX_INT);
+    /* memory, before anything is built: each rank holds its rows of A
+     * (PETSc AIJ), the BoomerAMG hierarchy and CG's vectors, about
+     * AMG_BYTES_PER_CELL; rank 0 also one block of rows in transit */
+    double per_rank = AMG_BYTES_PER_CELL * (double)n / proc.size + 12.0 * (double)A->nzmax * 2.0 / proc.size;
+    double limit = ohm_memory_limit(s->cfg.max_memory);
+    if (per_rank > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: amg on %lld cells needs about %s per rank, more than the %s %s; run on more ranks "
+                        "(mpirun -np), or use a smaller dim= or a larger voxel=",
+                        (long long)n, ohm_format_bytes(per_rank, nb, 32), ohm_format_bytes(limit, lb, 32),
+                        s->cfg.max_memory > 0 ? "max_memory= allows" : "available");
+    }
     const char *user = s->cfg.petsc_options ? s->cfg.petsc_options : "";
     amg_cmd cmd = {.op = CMD_SETUP, .n = n, .max_iter = s->cfg.max_iter, .tol = s->cfg.tol,
                    .opt_len = (int64_t)strlen(user) + 1};
@@ -485,14 +515,15 @@ static int check_options_used(amg_state *s, ohm_error *err)
     char **names = NULL, **values = NULL;
     PCALL("options", PetscOptionsLeftGet(s->opts, &nleft, &names, &values));
     char first[128] = "";
-    if (nleft > 0) snprintf(first, sizeof first, "-%s", names[0]);
+    PetscInt unused = nleft; /* LeftRestore zeroes nleft */
+    if (unused > 0) snprintf(first, sizeof first, "-%s", names[0]);
     PetscOptionsLeftRestore(s->opts, &nleft, &names, &values);
     s->checked_options = 1;
-    if (nleft > 0)
+    if (unused > 0)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: petsc_options: '%s' was not used by PETSc (misspelt, or an option of another "
                         "solver)%s",
-                        first, nleft > 1 ? ", and others" : "");
+                        first, unused > 1 ? ", and others" : "");
     return OHM_OK;
 }
 
