@@ -23,7 +23,7 @@ csv=docs/scale.csv
 echo "scene,solver,ranks,cells,t_setup,t_solve_per_light,iterations_per_light,peak_rss_mb,t_assemble,t_total,note" >"$csv"
 
 blocks() {  # N: an N^3 u8 volume of 8^3 blocks, densities 10 and 20 alternating
-  python3 - "$1" "$tmp/blocks$1.raw" <<'PY'
+  /usr/bin/python3 - "$1" "$tmp/blocks$1.raw" <<'PY'
 import sys
 import numpy as np
 n = int(sys.argv[1])
@@ -34,7 +34,8 @@ PY
 }
 printf 'ohm-transfer 1\n10 0.001 1\n20 0.001 1e6\n' >"$tmp/blocks.transfer"
 
-# row SCENE SOLVER RANKS -- ohm arguments (without -solve): one CSV row
+# row SCENE SOLVER RANKS -- ohm arguments (without -solve): one CSV row;
+# SOLVE_OPTS (a word, in the environment) adds -solve options
 row() {
   local scene=$1 solver=$2 ranks=$3; shift 4
   local launch=()
@@ -42,7 +43,7 @@ row() {
   echo "scale: $scene $solver ranks=$ranks" >&2
   set +e
   /usr/bin/time -f "%M" -o "$tmp/rss" timeout $((MAX_SECONDS * 4)) "${launch[@]}" "$OHM" "$@" \
-    -solve solver="$solver" -stats file="$tmp/s.json" >"$tmp/out" 2>"$tmp/err"
+    -solve solver="$solver" ${SOLVE_OPTS:-} -stats file="$tmp/s.json" >"$tmp/out" 2>"$tmp/err"
   local rc=$?
   set -e
   if [ $rc != 0 ]; then
@@ -85,6 +86,15 @@ for d in $SPOT_DIMS; do
       continue
     fi
     row "spot dim $d" "$solver" 0 -- "${scene[@]}"
+  done
+done
+# the Colin27 head through its transfer function, at the scan's 1 mm and at
+# 0.5 mm (trilinear), lit by one spot light; shadows through the grid
+for v in ${HEAD_VOXELS:-1 0.5}; do
+  scene=(-read file=samples/ch2.nii.gz -voxelize voxel="$v" threshold=40 -material transfer=samples/mri-head.transfer
+         -light type=spot pos=-150,60,200 dir=0.6,-0.2,-0.8 angle=25 falloff=5 intensity=5000)
+  for solver in amg cg; do
+    SOLVE_OPTS=shadows=grid row "head ${v} mm" "$solver" 0 -- "${scene[@]}"
   done
 done
 # weak scaling: about 1e6 cells per rank
