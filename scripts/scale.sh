@@ -111,4 +111,71 @@ done
   echo "|---|---|---:|---:|---:|---:|---:|---:|---:|---:|---|"
   tail -n +2 "$csv" | sed 's/^/| /; s/,/ | /g; s/$/ |/'
 } >docs/scale-table.md
-echo "scale: wrote $csv and docs/scale-table.md" >&2
+
+# the plot: time per light and setup time against cells, per solver (blocks)
+for solver in direct cg amg; do
+  awk -F, -v s="$solver" '$1 ~ /^blocks/ && $1 !~ /weak/ && $2 == s && $4 != "" {print $4, $6, $5}' "$csv" \
+    >"$tmp/$solver.dat"
+done
+if command -v gnuplot >/dev/null; then
+  gnuplot <<GP
+set terminal pngcairo size 900,560
+set output "docs/scale.png"
+set logscale xy
+set xlabel "cells"
+set ylabel "seconds"
+set key top left
+set grid
+set title "Block medium, 1e6 contrasts in D: one light, one channel (this 2-core machine)"
+plot "$tmp/direct.dat" using 1:2 with linespoints title "direct: solve / light", \
+     "$tmp/cg.dat" using 1:2 with linespoints title "cg: solve / light", \
+     "$tmp/amg.dat" using 1:2 with linespoints title "amg: solve / light", \
+     "$tmp/direct.dat" using 1:3 with linespoints dashtype 2 title "direct: analysis + factor", \
+     "$tmp/amg.dat" using 1:3 with linespoints dashtype 2 title "amg: setup"
+GP
+fi
+
+# the model: amg's setup, solve and memory per cell fitted (least squares
+# through the origin) to the blocks rows of 1e6 cells and more; ohm's serial
+# memory per cell from the cg rows (cg holds 5 vectors beside A); predictions
+# for 1e8 and 1e9 cells on N machines like this one (2 ranks each), assuming
+# the iteration count stays as measured in the weak-scaling rows
+/usr/bin/python3 - "$csv" >docs/scale-model.md <<'PY'
+import csv, sys
+rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["cells"]]
+def fit(pairs):
+    return sum(x * y for x, y in pairs) / sum(x * x for x, _ in pairs) if pairs else float("nan")
+amg = [r for r in rows if r["solver"] == "amg" and r["scene"].startswith("blocks") and "weak" not in r["scene"]
+       and int(r["cells"]) >= 10**6]
+cg = [r for r in rows if r["solver"] == "cg" and r["scene"].startswith("blocks") and int(r["cells"]) >= 10**6]
+a = fit([(int(r["cells"]), float(r["t_setup"])) for r in amg])
+b = fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in amg])
+m_amg = fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in amg])
+m_cg = fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in cg])
+serial = m_cg - (5 * 8 + 72)    # cg: 5 vectors and A (72 B/cell) beside ohm's own
+solver = m_amg - serial
+weak = sorted((int(r["ranks"]), float(r["iterations_per_light"]), float(r["peak_rss_mb"])) for r in rows
+              if "weak" in r["scene"])
+print("### The model (fitted by scripts/scale.sh)\n")
+print("From the block-medium rows with at least 1e6 cells, one rank:\n")
+print("- amg setup %.0f ns per cell, solve %.0f ns per cell per light per channel;" % (a * 1e9, b * 1e9))
+print("- whole-process peak %.0f B per cell with amg, %.0f B per cell with cg;" % (m_amg, m_cg))
+print("- so ohm's own (serial) share is about %.0f B per cell, and amg's about %.0f B per cell."
+      % (serial, solver))
+if weak:
+    print("- weak scaling (about 1e6 cells per rank): " + "; ".join(
+        "%d rank(s): %.1f iterations, %.0f MB on the largest rank" % w for w in weak) + ".")
+print("\nPredicted for machines like this one (2 cores, 24 GB; 2 ranks each), if the iteration count stays")
+print("flat as in the weak-scaling rows and the network adds nothing (an optimistic bound for the times):\n")
+print("| cells | machines | rank 0's memory (serial + its share) | memory per other rank | setup | per light per channel |")
+print("|---:|---:|---:|---:|---:|---:|")
+for n in (1e8, 1e9):
+    for N in (1, 4, 16, 64):
+        ranks = 2 * N
+        r0 = serial * n + solver * n / ranks
+        other = solver * n / ranks
+        fits = r0 <= 24 * 2**30 and 2 * other <= 24 * 2**30
+        print("| %.0e | %d | %.1f GB%s | %.1f GB | %.0f s | %.0f s |" % (n, N, r0 / 2**30, "" if fits else " (does not fit)",
+              other / 2**30, a * n / ranks, b * n / ranks))
+PY
+echo "scale: wrote $csv, docs/scale-table.md, docs/scale-model.md and docs/scale.png" >&2

@@ -20,7 +20,7 @@ SOLVER=${2:-}
   # their process-lifetime allocations as leaks with one anonymous frame that no
   # suppression can name: runs that start MPI check memory errors and undefined
   # behaviour under the sanitizers, not leaks.
-  if ldd "$OHM" | grep -q libasan; then export ASAN_OPTIONS="${ASAN_OPTIONS:-}:detect_leaks=0"; fi
+  if [ "$SANITIZED" = 1 ]; then export ASAN_OPTIONS="${ASAN_OPTIONS:-}:detect_leaks=0"; fi
 }
 # with_solver ARGS...: the ohm arguments, with solver=$SOLVER after -solve
 with_solver() {

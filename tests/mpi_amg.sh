@@ -11,13 +11,12 @@ source "$(dirname "$0")/lib.sh" "$1"
 export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 MPI=(mpirun --oversubscribe -np 2)
 # a safety limit only (a hang must end the test), scaled under the sanitizers
-LIMIT=120
-if ldd "$OHM" | grep -q libasan; then LIMIT=600; fi
+LIMIT=$(SAFETY 300)
 # Open MPI's plugins are dlclosed at MPI_Finalize, so LeakSanitizer sees
 # their process-lifetime allocations as leaks with one anonymous frame that no
 # suppression can name: runs that start MPI check memory errors and undefined
 # behaviour under the sanitizers, not leaks.
-if ldd "$OHM" | grep -q libasan; then export ASAN_OPTIONS="${ASAN_OPTIONS:-}:detect_leaks=0"; fi
+if [ "$SANITIZED" = 1 ]; then export ASAN_OPTIONS="${ASAN_OPTIONS:-}:detect_leaks=0"; fi
 
 WALNUT=(-read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 spacing=0.625
         -voxelize dim=40 threshold=5000 -material transfer=samples/walnut.transfer)
@@ -130,7 +129,7 @@ if [ -n "$victim" ]; then
   set +e; wait $job; got=$?; set -e
   took=$(( $(date +%s) - t_kill ))
   if [ "$got" != 0 ] && [ "$got" != 124 ]; then ok; else bad "killed rank: mpirun exit $got"; fi
-  check "killed rank: the run ended in ${took}s (< 30 s)" test "$took" -lt 30
+  check "killed rank: the run ended in ${took}s (< $(SAFETY 30) s)" test "$took" -lt "$(SAFETY 30)"
   check "killed rank: mpirun says which process died" grep -Eq "(rank 1|signal 9|Killed)" "$T/err"
   check "killed rank: the earlier output is unchanged" cmp -s "$T/kept.vdb" "$T/kept.orig"
   check "killed rank: no temporary left" bash -c '! ls "$1"/.kept.vdb* "$1"/kept.vdb.* 2>/dev/null | grep -q .' _ "$T"

@@ -26,6 +26,19 @@
 #include "solvers/backend.h"
 #include "solvers/amg.h"
 
+/* Bytes per cell one rank holds for its share of the cells: A in PETSc's
+ * AIJ form and hypre's copy of it (7 entries a row, 12 bytes each), the
+ * hierarchy and interpolation, and CG's vectors; measured: docs/scale.md. */
+static const double AMG_BYTES_PER_CELL = 450.0;
+
+double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks)
+{
+    if (ranks < 1) ranks = 1;
+    /* rank 0 also holds one rank's rows in transit (12 bytes per entry of
+     * both triangles) while it sends them */
+    return (AMG_BYTES_PER_CELL * (double)n + 12.0 * 2.0 * nnz_upper) / ranks;
+}
+
 #ifdef OHM_HAVE_PETSC
 
 #include <petscksp.h>
@@ -52,12 +65,6 @@ static const char *const AMG_DEFAULTS[][2] = {
     {"-pc_hypre_boomeramg_P_max", "4"},            {"-pc_hypre_boomeramg_strong_threshold", "0.5"},
     {"-pc_hypre_boomeramg_agg_nl", "1"},
 };
-
-/* Bytes per cell one rank holds for its share of the cells: A in AIJ form
- * (7 entries a row, 12 bytes each), the hierarchy (operator complexity
- * about 2 with these settings, interpolation beside it) and CG's vectors;
- * measured peak: docs/scale.md. */
-static const double AMG_BYTES_PER_CELL = 450.0;
 
 enum { CMD_SETUP = 1, CMD_SOLVE = 2, CMD_DESTROY = 3, CMD_EXIT = 4 };
 
@@ -89,6 +96,7 @@ typedef struct amg_state {
     int *counts, *displs;     /* rank 0: rows per rank, first row per rank     */
     int checked_options;      /* unused user options looked for (after a solve) */
     double norm_A;
+    double t_rows, t_matrix, t_hierarchy; /* the latest setup's parts, seconds */
 } amg_state;
 
 static PetscErrorCode keep_message(MPI_Comm comm, int line, const char *fun, const char *file, PetscErrorCode n,
@@ -135,6 +143,8 @@ static int start(ohm_error *err)
 }
 
 int ohm_backend_amg_available(void) { return 1; }
+
+int ohm_mpi_ranks(void) { return proc.initialized ? proc.size : 1; }
 
 int ohm_mpi_start(void)
 {
@@ -251,9 +261,9 @@ static int rows_of(PetscInt **ia_out, PetscInt **ja_out, PetscScalar **va_out, c
     return 0;
 }
 
-/* Every rank: the options, the matrix from its rows, the KSP set up. */
-static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_options, PetscInt *ia, PetscInt *ja,
-                            PetscScalar *va, ohm_error *err)
+/* Every rank: the options database and the matrix from its rows. */
+static int build_matrix(amg_state *s, const amg_cmd *cmd, const char *user_options, const PetscInt *ia,
+                        const PetscInt *ja, const PetscScalar *va, ohm_error *err)
 {
     destroy_system(s);
     s->n = cmd->n;
@@ -277,6 +287,12 @@ static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_o
     PCALL("matrix", MatSetOption(s->A, MAT_SPD, PETSC_TRUE));
     PCALL("matrix", MatSetOption(s->A, MAT_SYMMETRIC, PETSC_TRUE));
     PCALL("vectors", MatCreateVecs(s->A, &s->x, &s->b));
+    return OHM_OK;
+}
+
+/* Every rank: CG with BoomerAMG (or what petsc_options chose), set up. */
+static int setup_ksp(amg_state *s, const amg_cmd *cmd, ohm_error *err)
+{
     PCALL("ksp", KSPCreate(PETSC_COMM_WORLD, &s->ksp));
     PCALL("ksp", PetscObjectSetOptions((PetscObject)s->ksp, s->opts));
     PCALL("ksp", KSPSetOperators(s->ksp, s->A, s->A));
@@ -302,6 +318,22 @@ static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_o
     }
     PCALL("setup", KSPSetUp(s->ksp));
     return OHM_OK;
+}
+
+/* Every rank: the options, the matrix from its rows, the KSP set up.  The
+ * rows (ia, ja, va) are freed as soon as PETSc has copied them, before
+ * BoomerAMG builds its hierarchy: the peak is one copy of A lower. */
+static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_options, PetscInt *ia, PetscInt *ja,
+                            PetscScalar *va, ohm_error *err)
+{
+    double t0 = ohm_now();
+    int rc = build_matrix(s, cmd, user_options, ia, ja, va, err);
+    free(ia), free(ja), free(va);
+    if (rc) return rc;
+    s->t_matrix = ohm_now() - t0;
+    rc = setup_ksp(s, cmd, err);
+    s->t_hierarchy = ohm_now() - t0 - s->t_matrix;
+    return rc;
 }
 
 /* Every rank: column after column, scatter b and the starting guess, solve,
@@ -376,8 +408,8 @@ int ohm_mpi_serve(void)
             }
             MPI_Recv(ja, (int)nnz, MPIU_INT, 0, 2, proc.comm, MPI_STATUS_IGNORE);
             MPI_Recv(va, (int)nnz, MPI_DOUBLE, 0, 3, proc.comm, MPI_STATUS_IGNORE);
-            setup_collective(&s, &cmd, opts, ia, ja, va, &err); /* errors abort (petsc_failed) */
-            free(opts), free(ia), free(ja), free(va);
+            setup_collective(&s, &cmd, opts, ia, ja, va, &err); /* frees the rows; errors abort */
+            free(opts);
         } else if (cmd.op == CMD_SOLVE) {
             int64_t its;
             double relres;
@@ -447,10 +479,7 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
         return ohm_fail(err, OHM_ERR_INVALID,
                         "solve: amg: %lld unknowns exceed this PETSc's 32-bit indices (%d); use a larger voxel=",
                         (long long)n, (int)PETSC_MAX_INT);
-    /* memory, before anything is built: each rank holds its rows of A
-     * (PETSc AIJ), the BoomerAMG hierarchy and CG's vectors, about
-     * AMG_BYTES_PER_CELL; rank 0 also one block of rows in transit */
-    double per_rank = AMG_BYTES_PER_CELL * (double)n / proc.size + 12.0 * (double)A->nzmax * 2.0 / proc.size;
+    double per_rank = ohm_amg_bytes_per_rank(n, (double)A->nzmax, proc.size); /* before anything is built */
     double limit = ohm_memory_limit(s->cfg.max_memory);
     if (per_rank > limit) {
         char nb[32], lb[32];
@@ -488,8 +517,8 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
     PetscScalar *va;
     if (rows_of(&ia, &ja, &va, A, 0, s->counts[0], band))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: amg: out of memory for the matrix rows");
-    int rc = setup_collective(s, &cmd, user, ia, ja, va, err);
-    free(ia), free(ja), free(va);
+    s->t_rows = ohm_now() - t0;
+    int rc = setup_collective(s, &cmd, user, ia, ja, va, err); /* frees the rows */
     if (rc) return rc;
     s->norm_A = ohm_sym_upper_norm_inf(A);
     s->checked_options = 0;
@@ -501,8 +530,10 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
     struct rusage ru;
     if (getrusage(RUSAGE_SELF, &ru) == 0 && 1024.0 * (double)ru.ru_maxrss > rep->bytes)
         rep->bytes = 1024.0 * (double)ru.ru_maxrss; /* rank 0's peak so far: PETSc's own memory included */
-    ohm_log_info(s->cfg.log, "solve: amg set up on %d rank(s) in %.2f s (%lld unknowns, %lld entries)", proc.size,
-                 ohm_now() - t0, (long long)n, (long long)A->nzmax);
+    ohm_log_info(s->cfg.log,
+                 "solve: amg set up on %d rank(s) in %.2f s (%lld unknowns, %lld entries): rows %.2f s, PETSc matrix "
+                 "%.2f s, KSP and BoomerAMG hierarchy %.2f s",
+                 proc.size, ohm_now() - t0, (long long)n, (long long)A->nzmax, s->t_rows, s->t_matrix, s->t_hierarchy);
     return OHM_OK;
 }
 
@@ -604,6 +635,8 @@ int ohm_mpi_start(void)
 }
 
 int ohm_mpi_serve(void) { return 1; }
+
+int ohm_mpi_ranks(void) { return 1; }
 
 void ohm_mpi_finish(void) {}
 

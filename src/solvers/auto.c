@@ -24,6 +24,8 @@
  * AMG_SETUP_NS, solve AMG_COLUMN_NS nanoseconds per cell). */
 #include "solvers/backend.h"
 
+#include "memory.h"
+
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -92,6 +94,16 @@ static int switch_to(auto_state *s, candidate *cands, int nc, cholmod_sparse *A,
             s->chosen = ops;
             s->chosen_state = s->probe;
             return OHM_OK;
+        }
+        if (ops == &ohm_backend_amg) { /* known before PETSc (and MPI) start */
+            char nb[32];
+            double need = ohm_amg_bytes_per_rank((int64_t)A->nrow, (double)A->nzmax, ohm_mpi_ranks());
+            if (need > ohm_memory_limit(s->cfg.max_memory)) {
+                size_t len = strlen(rep->reason);
+                snprintf(rep->reason + len, sizeof rep->reason - len, "; amg skipped: it needs about %s per rank",
+                         ohm_format_bytes(need, nb, 32));
+                continue;
+            }
         }
         void *st = NULL;
         int rc = ops->create(&st, &s->cfg, err);

@@ -93,6 +93,12 @@ const ohm_backend_ops *ohm_backend_find(const char *name);
  * with a message saying so. */
 int ohm_backend_amg_available(void);
 
+/* amg's memory per rank for n cells (nnz_upper entries in A's upper
+ * triangle) on that many ranks, estimated before anything is built; and the
+ * ranks this process solves with (1 until MPI has started). */
+double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks);
+int ohm_mpi_ranks(void);
+
 /* Largest scaled backward error over ncols columns of A X = B (infinity
  * norms); normA: ||A||_inf, or <= 0 to compute it. */
 double ohm_backward_error(const cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA);
