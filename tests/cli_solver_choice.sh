@@ -120,5 +120,5 @@ check "auto falls back to cg" $PY -c "
 import json; s = json.load(open('$T/fit.json'))
 assert s['solver'] == 'cg' and s['factors'] == 0 and 'direct skipped' in s['solver_reason'] and 'needs about' in s['solver_reason'], s"
 expect_exit 1 "cg, tiny max_memory" -- "$OHM" "${args[@]}" -solve solver=cg max_memory=0.01
-expect_error_line "cg, tiny max_memory" "conjugate gradients on [0-9]+ cells need about"
+expect_error_line "cg, tiny max_memory" "CG on [0-9]+ cells needs about"
 finish

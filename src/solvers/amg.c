@@ -480,15 +480,11 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
                         "solve: amg: %lld unknowns exceed this PETSc's 32-bit indices (%d); use a larger voxel=",
                         (long long)n, (int)PETSC_MAX_INT);
     double per_rank = ohm_amg_bytes_per_rank(n, (double)A->nzmax, proc.size); /* before anything is built */
-    double limit = ohm_memory_limit(s->cfg.max_memory);
-    if (per_rank > limit) {
-        char nb[32], lb[32];
-        return ohm_fail(err, OHM_ERR_NOMEM,
-                        "solve: amg on %lld cells needs about %s per rank, more than the %s %s; run on more ranks "
-                        "(mpirun -np), or use a smaller dim= or a larger voxel=",
-                        (long long)n, ohm_format_bytes(per_rank, nb, 32), ohm_format_bytes(limit, lb, 32),
-                        s->cfg.max_memory > 0 ? "max_memory= allows" : "available");
-    }
+    char what[64];
+    snprintf(what, sizeof what, "amg on %lld cells", (long long)n);
+    int rc = ohm_backend_check_memory(per_rank, s->cfg.max_memory, what, " per rank",
+                                      "run on more ranks (mpirun -np), or use a smaller dim= or a larger voxel=", err);
+    if (rc) return rc;
     const char *user = s->cfg.petsc_options ? s->cfg.petsc_options : "";
     amg_cmd cmd = {.op = CMD_SETUP, .n = n, .max_iter = s->cfg.max_iter, .tol = s->cfg.tol,
                    .opt_len = (int64_t)strlen(user) + 1};
@@ -518,7 +514,7 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
     if (rows_of(&ia, &ja, &va, A, 0, s->counts[0], band))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: amg: out of memory for the matrix rows");
     s->t_rows = ohm_now() - t0;
-    int rc = setup_collective(s, &cmd, user, ia, ja, va, err); /* frees the rows */
+    rc = setup_collective(s, &cmd, user, ia, ja, va, err); /* frees the rows */
     if (rc) return rc;
     s->norm_A = ohm_sym_upper_norm_inf(A);
     s->checked_options = 0;

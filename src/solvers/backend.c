@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "memory.h"
 #include "solvers/cg.h"
 
 const ohm_backend_ops *ohm_backend_find(const char *name)
@@ -57,4 +58,15 @@ double ohm_backward_error(const cholmod_sparse *A, const double *B, const double
     }
     free(r);
     return worst;
+}
+
+int ohm_backend_check_memory(double need, double max_memory, const char *what, const char *detail,
+                             const char *advice, ohm_error *err)
+{
+    double limit = ohm_memory_limit(max_memory);
+    if (!(need > limit)) return OHM_OK;
+    char nb[32], lb[32];
+    return ohm_fail(err, OHM_ERR_NOMEM, "solve: %s needs about %s%s, more than the %s %s; %s", what,
+                    ohm_format_bytes(need, nb, 32), detail ? detail : "", ohm_format_bytes(limit, lb, 32),
+                    max_memory > 0 ? "max_memory= allows" : "available", advice);
 }

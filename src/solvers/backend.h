@@ -93,6 +93,13 @@ const ohm_backend_ops *ohm_backend_find(const char *name);
  * with a message saying so. */
 int ohm_backend_amg_available(void);
 
+/* OHM_OK when `need` bytes fit the limit (max_memory > 0, else what the
+ * machine has available); else OHM_ERR_NOMEM with one message for every
+ * backend: "solve: WHAT needs about X[DETAIL], more than the Y max_memory=
+ * allows; ADVICE". */
+int ohm_backend_check_memory(double need, double max_memory, const char *what, const char *detail,
+                             const char *advice, ohm_error *err);
+
 /* amg's memory per rank for n cells (nnz_upper entries in A's upper
  * triangle) on that many ranks, estimated before anything is built; and the
  * ranks this process solves with (1 until MPI has started). */

@@ -260,17 +260,12 @@ static int cg_backend_setup(void *state, cholmod_sparse *A, ohm_backend_report *
     cg_state *s = state;
     int64_t n = (int64_t)A->nrow;
     double need = ohm_cg_bytes(n) + 2.0 * sizeof(double) * (double)n * (double)(s->cfg.batch ? s->cfg.batch : 1);
-    double limit = ohm_memory_limit(s->cfg.max_memory);
-    if (need > limit) {
-        char nb[32], lb[32];
-        return ohm_fail(err, OHM_ERR_NOMEM,
-                        "solve: conjugate gradients on %lld cells need about %s, more than the %s %s; use a smaller "
-                        "dim= or a larger voxel=",
-                        (long long)n, ohm_format_bytes(need, nb, 32), ohm_format_bytes(limit, lb, 32),
-                        s->cfg.max_memory > 0 ? "max_memory= allows" : "available");
-    }
+    char what[64];
+    snprintf(what, sizeof what, "CG on %lld cells", (long long)n);
+    int rc = ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
+    if (rc) return rc;
     ohm_cg_free(&s->cg);
-    int rc = ohm_cg_setup(&s->cg, A, err);
+    rc = ohm_cg_setup(&s->cg, A, err);
     if (rc) return rc;
     rep->t_precond += s->cg.t_setup;
     rep->precond_setups++;

@@ -237,20 +237,20 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
         snprintf(rep->ordering, sizeof rep->ordering, "%s", s->ordering);
     }
     double need = factor_bytes(s, d->cfg.batch ? d->cfg.batch : 1);
-    double limit = ohm_memory_limit(d->cfg.max_memory);
-    if (need > limit) {
-        char nb[32], lb[32];
-        return ohm_fail(err, OHM_ERR_NOMEM,
-                        "solve: the Cholesky factor of %lld cells needs about %s (nnz(L) = %.3g), more than the %s "
-                        "%s; use solver=cg%s (memory O(cells)), a smaller dim= or a larger voxel=",
-                        (long long)A->nrow, ohm_format_bytes(need, nb, 32), s->nnz_L,
-                        ohm_format_bytes(limit, lb, 32), d->cfg.max_memory > 0 ? "max_memory= allows" : "available",
-                        ohm_backend_amg_available() ? " or solver=amg" : "");
-    }
+    char what[64], detail[64];
+    snprintf(what, sizeof what, "the Cholesky factor of %lld cells", (long long)A->nrow);
+    snprintf(detail, sizeof detail, " (nnz(L) = %.3g)", s->nnz_L);
+    int rc = ohm_backend_check_memory(need, d->cfg.max_memory, what, detail,
+                                      ohm_backend_amg_available()
+                                          ? "use solver=cg or solver=amg (memory O(cells)), a smaller dim= or a "
+                                            "larger voxel="
+                                          : "use solver=cg (memory O(cells)), a smaller dim= or a larger voxel=",
+                                      err);
+    if (rc) return rc;
     /* the next material refactorizes into the same L: same pattern, and its
      * memory is already mapped */
     double tf = 0;
-    int rc = ohm_solver_factorize(&d->L, s, A, &tf, err);
+    rc = ohm_solver_factorize(&d->L, s, A, &tf, err);
     if (rc) return rc;
     rep->t_factor += tf;
     rep->factors++;
