@@ -6,20 +6,23 @@
 #
 #   scripts/serial-stages.sh [BUILD_DIR] [DIM ...]
 #
-# BUILD_DIR (default build) is a CMake "Unix Makefiles" build of ohm; DIMs
+# BUILD_DIR (default build) is a CMake build of ohm; DIMs
 # (default 190 410: ~1e6 and ~1e7 interior cells) are -voxelize dim= values
 # for the bundled Spot scaled to 100 mm.
 #
-# 1. tests/bench_serial.c, compiled here against BUILD_DIR's libraries with
-#    the link line CMake wrote for ohm (it is not a ctest: no timed tests),
-#    times ohm_network_build and ohm_network_assemble alone on an ellipsoid
-#    (thread CPU time; the first call, into memory the process never wrote,
-#    as in a run, and the best of 5) and counts the network's bytes.
+# 1. tests/bench_serial.c (BUILD_DIR's bench_serial target: built with the
+#    tests, not a ctest — no timed tests) times ohm_network_build and
+#    ohm_network_assemble alone on an ellipsoid (thread CPU time; the first
+#    call, into memory the process never wrote, as in a run, and the best of
+#    5), refills a matrix (ohm_network_assemble_into), and counts the
+#    network's bytes.
 # 2. ohm itself, per DIM: read + voxelize alone, then the whole chain with a
 #    grey absorbing material (one channel; CG converges in few iterations, so
 #    the solve does not dominate) and, at the first DIM, marble (three
-#    channels, three assemblies).  Stage times come from -stats (wall clock,
-#    per stage); peak memory from /usr/bin/time -v (whole process).
+#    channels, three assemblies: the first into a fresh matrix, the others
+#    refilling it).  Stage times come from -stats (wall clock, per stage:
+#    t_network is the topology, t_assemble every channel's matrix); peak
+#    memory from /usr/bin/time -v (whole process).
 #
 # The machine may be shared: the load average is printed with each table,
 # and wall times under load are upper bounds.
@@ -35,24 +38,15 @@ tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 
 # --- 1. the network alone --------------------------------------------------
-flags="$BUILD/CMakeFiles/ohm.dir/flags.make"
-link="$BUILD/CMakeFiles/ohm.dir/link.txt"
-[ -f "$flags" ] && [ -f "$link" ] || { echo "serial-stages: $BUILD is not a Makefile build (no $link)" >&2; exit 1; }
-defs=$(sed -n 's/^C_DEFINES = //p' "$flags")
-incs=$(sed -n 's/^C_INCLUDES = //p' "$flags")
-cflags=$(sed -n 's/^C_FLAGS = //p' "$flags")
-# shellcheck disable=SC2086
-cc $defs $incs $cflags -c tests/bench_serial.c -o "$tmp/bench_serial.o"
-line=$(cat "$link")
-line=${line/CMakeFiles\/ohm.dir\/src\/main.c.o/$tmp/bench_serial.o}
-line=${line/ -o ohm / -o $tmp/bench_serial }
-(cd "$BUILD" && eval "$line")
+cmake --build "$BUILD" --target bench_serial >/dev/null
+BENCH="$BUILD/tests/bench_serial"
+[ -x "$BENCH" ] || { echo "serial-stages: no $BENCH after building its target" >&2; exit 1; }
 
 echo "## network build and assembly alone ($BUILD, $(date -u +%F))"
 echo
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo
-"$tmp/bench_serial" time 1e6 1e7
+"$BENCH" time 1e6 1e7
 echo
 
 # --- 2. ohm's stages ---------------------------------------------------------
@@ -73,7 +67,7 @@ grid = s["grid_x"] * s["grid_y"] * s["grid_z"]
 def ns(k):
     return f"{1e9 * s[k] / n:.0f}" if k in s else "–"
 print(f"| {label} | {n} | {grid / n:.2f} | {s.get('channels', '–')} | {s.get('cg_iterations', '–')} | "
-      f"{ns('t_voxelize')} | {ns('t_assemble')} | {ns('t_shadow_setup')} | {ns('t_source')} | {ns('t_cg_setup')} | "
+      f"{ns('t_voxelize')} | {ns('t_network')} | {ns('t_assemble')} | {ns('t_shadow_setup')} | {ns('t_source')} | {ns('t_cg_setup')} | "
       f"{ns('t_solve')} | {ns('t_write')} | {rss / n:.0f} |")
 PY
 }
@@ -82,8 +76,8 @@ echo "## ohm's stages, Spot at 100 mm (ns per interior cell; peak RSS of the who
 echo
 echo "load average before: $(cut -d' ' -f1-3 /proc/loadavg)"
 echo
-echo "| run | interior cells | grid cells per cell | channels | CG iterations | voxelize | assemble (network + every channel) | shadow setup | source | CG setup | solve | write .vdb | peak RSS (B/cell) |"
-echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|"
+echo "| run | interior cells | grid cells per cell | channels | CG iterations | voxelize | network | assemble (every channel) | shadow setup | source | CG setup | solve | write .vdb | peak RSS (B/cell) |"
+echo "|---|---|---|---|---|---|---|---|---|---|---|---|---|---|"
 mesh=(-read file=samples/spot.obj size=100)
 first=1
 for d in "${DIMS[@]}"; do

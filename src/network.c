@@ -196,6 +196,10 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
         net->piece[v] = p == v ? npieces++ : net->piece[p];
     }
     net->npieces = npieces;
+    if (npieces == 1) { /* every label is 0: keep none (8 B per cell less, network.h) */
+        free(net->piece);
+        net->piece = NULL;
+    }
     net->nclosure = nclosure;
     net->nfaces = nfaces;
     net->nnz = n + offdiag;
@@ -288,6 +292,26 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
                          const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err)
 {
     *Aout = NULL;
+    int64_t n = net->n;
+    cholmod_sparse *M = cholmod_l_allocate_sparse((size_t)n, (size_t)n, (size_t)net->nnz, 1, 1, 1, CHOLMOD_REAL, cc);
+    if (!M)
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns (%lld entries)",
+                        (long long)n, (long long)net->nnz);
+    ohm_memory_advise_huge(M->p, ((size_t)n + 1) * sizeof(int64_t));
+    ohm_memory_advise_huge(M->i, (size_t)net->nnz * sizeof(int64_t));
+    ohm_memory_advise_huge(M->x, (size_t)net->nnz * sizeof(double));
+    int rc = ohm_network_assemble_into(M, ga, gb, net, med, boundary, err);
+    if (rc) {
+        cholmod_l_free_sparse(&M, cc);
+        return rc;
+    }
+    *Aout = M;
+    return OHM_OK;
+}
+
+int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const ohm_network *net,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
     if (med->resistance_mode && boundary == OHM_BOUNDARY_ROBIN)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "boundary=robin needs optical coefficients (sigma_a, sigma_s, eta); with resistance= "
@@ -297,17 +321,12 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
     coeffs co;
     coeffs_init(&co, med, h, boundary);
     int64_t n = net->n;
-    cholmod_sparse *M = cholmod_l_allocate_sparse((size_t)n, (size_t)n, (size_t)net->nnz, 1, 1, 1, CHOLMOD_REAL, cc);
+    if ((int64_t)M->nrow != n || (int64_t)M->ncol != n || (int64_t)M->nzmax < net->nnz || M->stype != 1 ||
+        M->xtype != CHOLMOD_REAL || M->itype != CHOLMOD_LONG || !M->packed)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "network: the matrix to refill is not this network's shape");
     double *sink = calloc((size_t)net->npieces, sizeof *sink); /* ground + boundary per piece */
-    if (!M || !sink) {
-        cholmod_l_free_sparse(&M, cc);
-        free(sink);
-        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns (%lld entries)",
-                        (long long)n, (long long)net->nnz);
-    }
-    ohm_memory_advise_huge(M->p, ((size_t)n + 1) * sizeof(int64_t));
-    ohm_memory_advise_huge(M->i, (size_t)net->nnz * sizeof(int64_t));
-    ohm_memory_advise_huge(M->x, (size_t)net->nnz * sizeof(double));
+    if (!sink)
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
     int64_t *Ap = M->p, *Ai = M->i;
     double *Ax = M->x;
     int64_t pos = 0;
@@ -356,7 +375,7 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
                 sinkv += gbf;
             }
         }
-        sink[piece[v]] += sinkv;
+        sink[piece ? piece[v] : 0] += sinkv;
         Ai[pos] = v;
         Ax[pos] = diag;
         ++pos;
@@ -368,12 +387,11 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
     for (int64_t p = 0; p < net->npieces; ++p) {
         if (sink[p] > 0) continue;
         int64_t v = 0;
-        while (net->piece[v] != p) ++v;
+        while (piece && piece[v] != p) ++v;
         int32_t ijk[3];
         ohm_voxel_coords(g, net->cell[v], ijk);
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         free(sink);
-        cholmod_l_free_sparse(&M, cc);
         if (med->resistance_mode)
             return ohm_fail(err, OHM_ERR_NUMERIC,
                             "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
@@ -385,6 +403,5 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
                         ohm_boundary_name(boundary), i, j, k);
     }
     free(sink);
-    *Aout = M;
     return OHM_OK;
 }

@@ -43,7 +43,9 @@ typedef struct ohm_network {
     int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
     uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
     int64_t npieces;              /* connected pieces (face-adjacent cells)   */
-    int64_t *piece;               /* n: piece of unknown u                    */
+    int64_t *piece;               /* n: piece of unknown u, numbered in the order
+                                     of their smallest unknown; NULL when
+                                     npieces == 1 (all 0: not worth 8 B a cell) */
     int64_t nnz;                  /* entries of the upper triangle of A       */
     int32_t mirror_low[3];        /* symmetry planes (see ohm_network_build)  */
     const uint8_t *active;        /* depth band: the cells that are unknowns
@@ -86,6 +88,15 @@ typedef struct ohm_channel_medium {
  * explanation when a piece can neither absorb nor lose light. */
 int ohm_network_assemble(cholmod_sparse **A, double *ga, double *gb, const ohm_network *net,
                          const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err);
+
+/* The same into a matrix this network's assembly made before (any channel):
+ * the pattern is the network's, the same for every medium, so only the
+ * values are rewritten, in place.  Reusing the memory is the point: a fresh
+ * matrix is 72 bytes per unknown whose first writes page-fault at ~3 ns/B on
+ * this project's machine, 3x the assembly's arithmetic (docs/serial-stages.md).
+ * On failure A's values are undefined (its shape is kept). */
+int ohm_network_assemble_into(cholmod_sparse *A, double *ga, double *gb, const ohm_network *net,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
 
 const char *ohm_boundary_name(ohm_boundary b);
 

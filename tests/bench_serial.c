@@ -2,13 +2,15 @@
  * ohm_network_build_band and ohm_network_assemble timed in ns per interior
  * cell, and the bytes per cell the network and the assembled matrix hold.
  *
- * Not a ctest (no timed assertions in the suite): scripts/serial-stages.sh
- * compiles it against a build's libraries and runs it.
+ * Not a ctest (no timed assertions in the suite): tests/CMakeLists.txt builds
+ * it as the bench_serial target, scripts/serial-stages.sh runs it.
  *
  *   bench_serial time CELLS...   an ellipsoid of about CELLS interior cells in
  *                                its box (margin 4, as the voxelizer's default
  *                                band of 3 + 1): build, then one channel
- *                                assembled homogeneous and per-cell; best of 5, thread CPU time
+ *                                assembled homogeneous and per-cell, and the
+ *                                per-cell one refilled into an existing matrix
+ *                                (ohm_network_assemble_into); best of 5, thread CPU time
  *   bench_serial digest          FNV-1a hashes of every array the network and
  *                                the assembly produce, over scenes that reach
  *                                every branch (mirror planes, a depth band,
@@ -44,7 +46,12 @@ static uint64_t hash_network(const ohm_network *net)
     h = fnv(h, sc, sizeof sc);
     h = fnv(h, net->cell, (size_t)net->n * sizeof *net->cell);
     h = fnv(h, net->unknown, ncells * sizeof *net->unknown);
-    h = fnv(h, net->piece, (size_t)net->n * sizeof *net->piece);
+    if (net->piece) {
+        h = fnv(h, net->piece, (size_t)net->n * sizeof *net->piece);
+    } else { /* one piece: the labels it no longer keeps were all 0 (same digest) */
+        const int64_t zero = 0;
+        for (int64_t v = 0; v < net->n; ++v) h = fnv(h, &zero, sizeof zero);
+    }
     h = fnv(h, net->face_unknown, (size_t)net->nfaces * sizeof *net->face_unknown);
     h = fnv(h, net->face_dir, (size_t)net->nfaces);
     return h;
@@ -311,15 +318,37 @@ static int time_one(double cells)
             A_bytes = (double)(n + 1) * 8.0 + (double)A->nzmax * 16.0;
             cholmod_l_free_sparse(&A, &cc);
         }
+    /* refilling one matrix, as ohm_solve does for every channel material
+     * after the first (the heterogeneous medium into the homogeneous one's) */
+    double t_refill = INFINITY;
+    {
+        ohm_channel_medium hom = {0}, het = {0};
+        hom.sigma_a0 = 0.0041, hom.sigma_s0 = 2.62, hom.eta = 1.3;
+        het = hom, het.sigma_a = sa, het.sigma_s = ss;
+        cholmod_sparse *A = NULL;
+        if (ohm_network_assemble(&A, ga, gb, &net, &hom, OHM_BOUNDARY_ROBIN, &cc, &err)) {
+            fprintf(stderr, "bench_serial: %s\n", err.msg);
+            return -1;
+        }
+        for (int rep = 0; rep < REPS; ++rep) {
+            double t0 = cpu_now();
+            if (ohm_network_assemble_into(A, ga, gb, &net, &het, OHM_BOUNDARY_ROBIN, &err)) {
+                fprintf(stderr, "bench_serial: %s\n", err.msg);
+                return -1;
+            }
+            t_refill = best_of(t_refill, cpu_now() - t0);
+        }
+        cholmod_l_free_sparse(&A, &cc);
+    }
     cholmod_l_finish(&cc);
     /* what the network keeps for the run (network.h's arrays) */
     double net_bytes = (double)ncells * sizeof *net.unknown +
-                       (double)n * (sizeof *net.cell + sizeof *net.piece) +
+                       (double)n * (double)(sizeof *net.cell + (net.piece ? sizeof *net.piece : 0)) +
                        (double)net.nfaces * (sizeof *net.face_unknown + sizeof *net.face_dir);
     double nn = (double)n;
-    printf("| %lld | %d×%d×%d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", (long long)n, g.dims[0],
-           g.dims[1], g.dims[2], (double)ncells / nn, 1e9 * t_build1 / nn, 1e9 * t_build / nn, 1e9 * t_hom1 / nn,
-           1e9 * t_hom / nn, 1e9 * t_het / nn, net_bytes / nn, A_bytes / nn);
+    printf("| %lld | %d×%d×%d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", (long long)n,
+           g.dims[0], g.dims[1], g.dims[2], (double)ncells / nn, 1e9 * t_build1 / nn, 1e9 * t_build / nn,
+           1e9 * t_hom1 / nn, 1e9 * t_hom / nn, 1e9 * t_het / nn, 1e9 * t_refill / nn, net_bytes / nn, A_bytes / nn);
     free(sa), free(ss), free(ga), free(gb);
     ohm_network_free(&net);
     ohm_voxel_grid_free(&g);
@@ -332,8 +361,8 @@ int main(int argc, char **argv)
     if (argc >= 3 && strcmp(argv[1], "time") == 0) {
         printf("| interior cells | grid | grid cells per cell | build, first (ns/cell) | build, best (ns/cell) | "
                "assemble, first (ns/cell) | assemble, best (ns/cell) | assemble per-cell medium, best (ns/cell) | "
-               "network (B/cell) | matrix A (B/cell) |\n");
-        printf("|---|---|---|---|---|---|---|---|---|---|\n");
+               "refill per-cell medium, best (ns/cell) | network (B/cell) | matrix A (B/cell) |\n");
+        printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
         for (int a = 2; a < argc; ++a)
             if (time_one(atof(argv[a]))) return 1;
         return 0;

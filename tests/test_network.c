@@ -106,6 +106,50 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double
     ohm_network_free(&net);
 }
 
+/* A refilled matrix (ohm_network_assemble_into, what ohm_solve does for its
+ * second and later channel materials) is bit for bit a fresh assembly of the
+ * same medium, whatever medium filled it before; a matrix of another shape is
+ * refused. */
+static void refill(const ohm_voxel_grid *g, const double *sa, const double *ss)
+{
+    ohm_error err;
+    ohm_network net;
+    if (ohm_network_build(&net, g, NULL, &err)) {
+        CHECK_MSG(0, "%s", err.msg);
+        return;
+    }
+    cholmod_common cc;
+    cholmod_l_start(&cc);
+    size_t n = (size_t)net.n, nf = (size_t)net.nfaces;
+    double *ga[2] = {malloc(n * sizeof(double)), malloc(n * sizeof(double))};
+    double *gb[2] = {malloc(nf * sizeof(double)), malloc(nf * sizeof(double))};
+    ohm_channel_medium grey = {0}, varying = {0};
+    grey.sigma_a0 = 0.02, grey.sigma_s0 = 1.5, grey.eta = 1.3;
+    varying.sigma_a = sa, varying.sigma_s = ss, varying.eta = 1.3;
+    cholmod_sparse *fresh = NULL, *reused = NULL;
+    int rc = ohm_network_assemble(&fresh, ga[0], gb[0], &net, &varying, OHM_BOUNDARY_ROBIN, &cc, &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) rc = ohm_network_assemble(&reused, NULL, NULL, &net, &grey, OHM_BOUNDARY_DIRICHLET, &cc, &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) rc = ohm_network_assemble_into(reused, ga[1], gb[1], &net, &varying, OHM_BOUNDARY_ROBIN, &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) {
+        size_t nnz = (size_t)net.nnz;
+        CHECK(!memcmp(fresh->p, reused->p, (n + 1) * sizeof(int64_t)));
+        CHECK(!memcmp(fresh->i, reused->i, nnz * sizeof(int64_t)));
+        CHECK(!memcmp(fresh->x, reused->x, nnz * sizeof(double)));
+        CHECK(!memcmp(ga[0], ga[1], n * sizeof(double)) && !memcmp(gb[0], gb[1], nf * sizeof(double)));
+        cholmod_sparse *other = cholmod_l_allocate_sparse(n - 1, n - 1, nnz, 1, 1, 1, CHOLMOD_REAL, &cc);
+        CHECK(other && ohm_network_assemble_into(other, NULL, NULL, &net, &grey, OHM_BOUNDARY_ROBIN, &err) != 0);
+        cholmod_l_free_sparse(&other, &cc);
+    }
+    cholmod_l_free_sparse(&fresh, &cc);
+    cholmod_l_free_sparse(&reused, &cc);
+    cholmod_l_finish(&cc);
+    for (int q = 0; q < 2; ++q) free(ga[q]), free(gb[q]);
+    ohm_network_free(&net);
+}
+
 static void channel_sharing(const ohm_voxel_grid *g)
 {
     ohm_light l = {0};
@@ -173,6 +217,7 @@ int main(void)
     check_matrix(&g, OHM_BOUNDARY_ROBIN, sa, ss, 1.3);
     check_matrix(&g, OHM_BOUNDARY_DIRICHLET, sa, ss, 1.3);
     check_matrix(&g, OHM_BOUNDARY_NEUMANN, sa, ss, 1.0);
+    refill(&g, sa, ss);
     channel_sharing(&g);
     free(sa);
     free(ss);
