@@ -396,7 +396,7 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
     row->t_cg = sol.t_cg_setup;
     row->t_source = sol.t_source + sol.t_shadow_setup;
     row->t_solve = sol.t_solve;
-    row->t_total = row->t_voxelize + sol.t_assemble + sol.t_analyze + sol.t_factor + sol.t_cg_setup +
+    row->t_total = row->t_voxelize + sol.t_network + sol.t_assemble + sol.t_analyze + sol.t_factor + sol.t_cg_setup +
                    row->t_source + sol.t_solve;
     row->P = ohm_exitance_binned(Lat, &sol, &g);
     row->rss_mb = peak_rss_mb();

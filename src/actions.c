@@ -611,6 +611,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
             p->sigma_a[ch] = percell[ch];
             p->sigma_s[ch] = percell[nc + ch];
         }
+        p->give_media = 1; /* the solution keeps them for its sigma_a / sigma_s grids: no copies */
     }
     ohm_log_info(&s->log, "material: %zu cells from %s through %s (%s)", n, s->scan_path, s->transfer_path,
                  average ? "box-averaged: the grid is coarser than the volume" : "trilinear");
@@ -666,7 +667,10 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                             inv->where);
         rc = material_from_scan(s, &p, percell, err);
     }
-    if (!rc) rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+    if (!rc) {
+        rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+        if (p.give_media) memset(percell, 0, sizeof percell); /* ohm_solve took them (solve.h) */
+    }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
     if (rc) return rc;
     s->have_solution = 1;
@@ -732,6 +736,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
     ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
     ohm_stats_set(st, "flops", sol->flops);
+    ohm_stats_add(st, "t_network", sol->t_network);
     ohm_stats_add(st, "t_assemble", sol->t_assemble);
     ohm_stats_add(st, "t_analyze", sol->t_analyze);
     ohm_stats_add(st, "t_factor", sol->t_factor);

@@ -35,9 +35,11 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
     const double *Ax = A->x;
     for (int64_t v = 0; v < n; ++v) vsink[v] = ga[v];
     for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
+    const int64_t *piece = net->piece; /* NULL: one piece, 0 */
     for (int64_t v = 0; v < n; ++v) {
-        sink[net->piece[v]] += vsink[v];
-        diag[net->piece[v]] += Ax[Ap[v + 1] - 1]; /* the diagonal closes each column */
+        int64_t p = piece ? piece[v] : 0;
+        sink[p] += vsink[v];
+        diag[p] += Ax[Ap[v + 1] - 1]; /* the diagonal closes each column */
     }
     int any = 0;
     for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];
@@ -45,14 +47,14 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
         double *x = X + col * (size_t)n;
         const double *b = B + col * (size_t)n;
         for (int64_t p = 0; p < np; ++p) defect[p] = 0;
-        for (int64_t v = 0; v < n; ++v) defect[net->piece[v]] += b[v] - vsink[v] * x[v];
+        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - vsink[v] * x[v];
         double xmax = 0;
         for (int64_t v = 0; v < n; ++v) xmax = fmax(xmax, fabs(x[v]));
         for (int64_t p = 0; p < np; ++p) {
             if (!(sink[p] < NEAR_SINGULAR * diag[p]) || !(sink[p] > 0)) continue;
             double c = defect[p] / sink[p];
             for (int64_t v = 0; v < n; ++v)
-                if (net->piece[v] == p) x[v] += c;
+                if (!piece || piece[v] == p) x[v] += c;
             sol->mode_corrections++;
             if (xmax > 0 && fabs(c) / xmax > sol->mode_shift) sol->mode_shift = fabs(c) / xmax;
         }
@@ -138,6 +140,65 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
     return OHM_OK;
 }
 
+/* Add array a to the solution's owned media once (the same array may serve
+ * several channels). */
+static void own_medium(ohm_solution *sol, double *a)
+{
+    int q = 0;
+    while (q < 2 * OHM_MAX_CHANNELS && sol->medium_owned[q] && sol->medium_owned[q] != a) ++q;
+    if (q < 2 * OHM_MAX_CHANNELS) sol->medium_owned[q] = a; /* 2 per channel at most: always fits */
+}
+
+/* give_media: the caller's arrays are the solution's from the start, so that
+ * every failure path frees them with the solution. */
+static void take_media(ohm_solution *sol, const ohm_solve_params *p)
+{
+    if (!p->give_media) return;
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        /* ours now (solve.h): the const is the params' promise not to write them */
+        if (p->sigma_a[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_a[c]);
+        if (p->sigma_s[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_s[c]);
+    }
+}
+
+/* The medium the solution keeps for its output grids (solve.h), from p (the
+ * params after the band): with a band, p's arrays are compact[] (moved into
+ * the solution; given originals are freed now, no longer needed); given
+ * arrays are kept as they are; others are copied once each. */
+static int keep_media(ohm_solution *sol, const ohm_solve_params *p, double *compact[2 * OHM_MAX_CHANNELS],
+                      ohm_error *err)
+{
+    if (sol->band_active) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) {
+            free(sol->medium_owned[q]);
+            sol->medium_owned[q] = compact[q];
+            compact[q] = NULL;
+        }
+    }
+    const double *const *src[2] = {p->sigma_a, p->sigma_s};
+    const double **dst[2] = {sol->medium_sa, sol->medium_ss};
+    for (int q = 0; q < 2; ++q)
+        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+            const double *in = src[q][c];
+            if (!in) continue;
+            int owned = 0;
+            for (int k = 0; k < 2 * OHM_MAX_CHANNELS && !owned; ++k) owned = sol->medium_owned[k] == in;
+            const double *same = owned ? in : NULL; /* copied already? */
+            for (int q2 = 0; q2 <= q && !same; ++q2)
+                for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
+                    if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
+            if (!same) {
+                double *copy = malloc((size_t)sol->net.n * sizeof *copy);
+                if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the medium");
+                memcpy(copy, in, (size_t)sol->net.n * sizeof *copy);
+                own_medium(sol, copy);
+                same = copy;
+            }
+            dst[q][c] = same;
+        }
+    return OHM_OK;
+}
+
 void ohm_solution_free(ohm_solution *sol)
 {
     if (!sol) return;
@@ -145,9 +206,8 @@ void ohm_solution_free(ohm_solution *sol)
         free(sol->fluence[c]);
         free(sol->exitance[c]);
         free(sol->face_exitance[c]);
-        free(sol->medium_sa[c]);
-        free(sol->medium_ss[c]);
     }
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
     ohm_network_free(&sol->net);
     free(sol->band_active);
     memset(sol, 0, sizeof *sol);
@@ -253,7 +313,7 @@ static void warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int
 
 /* Undo distinct_columns: column j of X and B becomes distinct column
  * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
- * this batch's last right-hand side. */
+ * this batch's last right-hand side (NULL: there is no later batch). */
 static void expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
                            int c, double *prev_b, size_t n)
 {
@@ -267,13 +327,16 @@ static void expand_columns(double *X, double *B, const ohm_solution *sol, const 
             memcpy(bj, B + col_of[j] * n, n * sizeof *B);
         }
     }
-    memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
+    if (prev_b) memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
 }
 
-/* Store frames f0..f0+nb of channel c and book their power: in (deposited)
- * = absorbed (sum G_a phi) + out (sum G_b phi), DESIGN.md §2. */
+/* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
+ * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
+ * (sum G_b phi), DESIGN.md §2; and store the exitance per face and per cell.
+ * Faces come in unknown order (ohm_network_build), so a cell's faces are one
+ * run: its face count is the run's length, no per-cell count array. */
 static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
-                       const int *face_count, size_t f0, size_t nb, int c)
+                       size_t f0, size_t nb, int c)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -282,19 +345,22 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
     for (size_t j = 0; j < nb; ++j) {
         size_t fr = f0 + j;
         const double *x = X + j * n, *b = B + j * n;
-        double *phi = sol->fluence[c] + fr * n, *ex = sol->exitance[c] + fr * n;
+        double *ex = sol->exitance[c] + fr * n;
         double *fx = sol->face_exitance[c] + fr * nf;
         for (size_t v = 0; v < n; ++v) {
-            phi[v] = x[v];
             in += b[v];
             absorbed += ga[v] * x[v];
         }
-        for (int64_t f = 0; f < net->nfaces; ++f) {
-            int64_t v = net->face_unknown[f];
-            double p = gb[f] * x[v];
-            out += p;
-            fx[f] = p / area;
-            ex[v] += p / (area * face_count[v]);
+        for (int64_t f = 0; f < net->nfaces;) {
+            int64_t v = net->face_unknown[f], end = f + 1;
+            while (end < net->nfaces && net->face_unknown[end] == v) ++end;
+            int count = (int)(end - f);
+            for (; f < end; ++f) {
+                double p = gb[f] * x[v];
+                out += p;
+                fx[f] = p / area;
+                ex[v] += p / (area * count);
+            }
         }
     }
     sol->power_in += in;
@@ -343,8 +409,11 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
 {
     memset(sol, 0, sizeof *sol);
-    if (nlights == 0 && !params->custom_source)
+    take_media(sol, params);
+    if (nlights == 0 && !params->custom_source) {
+        ohm_solution_free(sol);
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
+    }
     int channels = mat->channels, frames = 1;
     for (size_t l = 0; l < nlights && lights; ++l) {
         if (lights[l].channels > channels) channels = lights[l].channels;
@@ -373,7 +442,13 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     const ohm_network *net = &sol->net;
     int64_t n = net->n;
     sol->n = n;
-    sol->t_assemble += ohm_now() - t0;
+    sol->t_network = ohm_now() - t0;
+    rc = keep_media(sol, params, compact, err);
+    if (rc) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+        ohm_solution_free(sol);
+        return rc;
+    }
 
     /* Frames per batch: B and X together within the memory cap. */
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
@@ -398,20 +473,21 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     cc.print = 0;
     cc.error_handler = NULL;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    /* X, the solution, is no array of its own: each batch is solved in place
+     * in its frames' columns of sol->fluence (-8 B per cell and column) */
     double *B = malloc((size_t)n * batch * sizeof *B);
-    double *X = malloc((size_t)n * batch * sizeof *X);
     double *ga = malloc((size_t)n * sizeof *ga);
     double *gb = malloc(nf * sizeof *gb);
-    int *face_count = calloc((size_t)n, sizeof *face_count);
-    size_t *col_of = malloc(batch * sizeof *col_of);       /* batch column -> distinct column */
-    double *prev_b = malloc((size_t)n * sizeof *prev_b);   /* the last frame's right-hand side */
+    size_t *col_of = malloc(batch * sizeof *col_of); /* batch column -> distinct column */
+    /* the last frame's right-hand side, for a later batch to compare with */
+    double *prev_b = batch < (size_t)frames ? malloc((size_t)n * sizeof *prev_b) : NULL;
     cholmod_sparse *A = NULL;
     const ohm_backend_ops *backend = NULL;
     void *bstate = NULL;
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
     double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
-    if (!B || !X || !ga || !gb || !face_count || !col_of || !prev_b) {
+    if (!B || !ga || !gb || !col_of || (batch < (size_t)frames && !prev_b)) {
         rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
                       (long long)n);
         goto done;
@@ -423,20 +499,6 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         if (!sol->fluence[c] || !sol->exitance[c] || !sol->face_exitance[c]) {
             rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
             goto done;
-        }
-    }
-    for (int64_t f = 0; f < net->nfaces; ++f) face_count[net->face_unknown[f]]++;
-    for (int c = 0; c < channels; ++c) {
-        const double *src[2] = {params->sigma_a[c], params->sigma_s[c]};
-        double **dst[2] = {&sol->medium_sa[c], &sol->medium_ss[c]};
-        for (int q = 0; q < 2; ++q) {
-            if (!src[q]) continue;
-            *dst[q] = malloc((size_t)n * sizeof(double));
-            if (!*dst[q]) {
-                rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-                goto done;
-            }
-            memcpy(*dst[q], src[q], (size_t)n * sizeof(double));
         }
     }
 
@@ -510,8 +572,10 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         ohm_channel_medium med;
         medium_for(&med, mat, params, k);
         t0 = ohm_now();
-        cholmod_l_free_sparse(&A, &cc);
-        rc = ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &cc, err);
+        /* the first class allocates A, later ones refill it (same pattern):
+         * the backend's setup below sees the new values */
+        rc = A ? ohm_network_assemble_into(A, ga, gb, net, &med, params->boundary, err)
+               : ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &cc, err);
         sol->t_assemble += ohm_now() - t0;
         if (!rc) rc = backend->setup(bstate, A, &rep, err);
         for (int c = k; c < channels && !rc; ++c) {
@@ -528,6 +592,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                                   cached ? fp_arrive : NULL, occ, err);
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
+                double *X = sol->fluence[c] + f0 * (size_t)n;
                 size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 ? prev_b : NULL, (size_t)n);
                 warm_start(X, sol, f0, c, warm_from, (size_t)n);
                 t0 = ohm_now();
@@ -542,7 +607,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 if (berr > sol->residual) sol->residual = berr;
                 sol->solves += (int64_t)nu;
                 expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
-                book_power(sol, X, B, ga, gb, face_count, f0, nb, c);
+                book_power(sol, X, B, ga, gb, f0, nb, c);
             }
             solved[c] = 1;
         }
@@ -557,13 +622,11 @@ done:
     }
     ohm_occluder_free(occ);
     if (backend) backend->destroy(bstate);
-    free(face_count);
     free(col_of);
     free(prev_b);
     cholmod_l_free_sparse(&A, &cc);
     cholmod_l_finish(&cc);
     free(B);
-    free(X);
     free(ga);
     free(gb);
     if (rc) ohm_solution_free(sol);

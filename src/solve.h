@@ -36,6 +36,11 @@ typedef struct ohm_solve_params {
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
     const double *sigma_s[OHM_MAX_CHANNELS];
+    /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
+     * caller and ohm_solve takes them, whether it succeeds or fails (the
+     * caller must not free them): the solution keeps them as medium_sa /
+     * medium_ss instead of copies (16 B per cell and channel less). */
+    int give_media;
     /* paper mode with per-cell resistances (transfer functions): n each */
     const double *resistance_v, *ground_v;
     /* Validation scenes place their own sources: when set, called once per
@@ -56,9 +61,13 @@ typedef struct ohm_solution {
                                            faces per unit area, 0 for cells with none */
     double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
                                            G_b phi / h^2 per face                     */
-    /* The medium when it varies cell by cell (copies of the params' arrays,
-     * NULL when homogeneous), for the sigma_a / sigma_s output grids. */
-    double *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
+    /* The medium when it varies cell by cell, in unknown order (NULL when
+     * homogeneous), for the sigma_a / sigma_s output grids: the params'
+     * arrays themselves when given (give_media), the depth band's compacted
+     * ones, else copies.  Channels with one array share it; medium_owned
+     * lists each distinct array once, for ohm_solution_free. */
+    const double *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
+    double *medium_owned[2 * OHM_MAX_CHANNELS];
     /* statistics (DESIGN.md §7) */
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */
@@ -77,7 +86,11 @@ typedef struct ohm_solution {
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */
-    double t_assemble, t_analyze, t_factor, t_source, t_solve;
+    double t_network;                   /* the network's topology: depth band (if any),
+                                           unknowns, faces, pieces — once per grid    */
+    double t_assemble;                  /* the matrices (and ga, gb), summed over the
+                                           distinct channel materials                 */
+    double t_analyze, t_factor, t_source, t_solve;
     double t_shadow_setup;              /* building the occluder (Embree BVH)         */
     double residual;                    /* largest scaled backward error              */
     int refined;                        /* solves that took a refinement step         */

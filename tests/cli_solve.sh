@@ -10,7 +10,7 @@ expect_exit 0 "solve spot marble" -- "$OHM" -read file=samples/spot.obj size=50 
 check "stats: physics fields" $PY - "$T/spot.json" <<'PY'
 import json, sys
 s = json.load(open(sys.argv[1]))
-for k in ("cells", "channels", "factors", "nnz_A", "nnz_L", "flops", "t_voxelize", "t_assemble", "t_analyze",
+for k in ("cells", "channels", "factors", "nnz_A", "nnz_L", "flops", "t_voxelize", "t_network", "t_assemble", "t_analyze",
           "t_factor", "t_source", "t_solve", "residual", "power_incident", "power_in", "power_absorbed", "power_out"):
     assert k in s, k
 assert s["channels"] == 3 and s["factors"] == 3, s
