@@ -553,8 +553,8 @@ static const ohm_opt_spec solve_opts[] = {
     {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
      NULL, 1, 1e7, 0},
     {"max_memory", OHM_OPT_REAL, NULL,
-     "MB the factor may take, estimated from the symbolic analysis before factorizing (default: what the machine "
-     "has available)",
+     "MB the solver may take, estimated before it starts: the factor from its symbolic analysis, cg and amg "
+     "per cell (amg: per rank) (default: what the machine has available)",
      NULL, 1e-3, 1e12, 0},
     {0}};
 
@@ -898,8 +898,9 @@ const ohm_action ohm_actions[] = {
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
      "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
      "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
-     "solver=auto picks (docs/accuracy.md).  depth_band= / depth_band_error= solve only the cells\n"
-     "light reaches.",
+     "solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells) memory, iterations that do not grow with the\n"
+     "grid; under `mpirun -np N ohm ...` every rank solves a slab: README, docs/scale.md); solver=auto picks\n"
+     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.",
      solve_opts, run_solve},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"

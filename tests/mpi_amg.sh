@@ -68,8 +68,8 @@ solve() {  # NAME LAUNCH... -- SOLVE-OPTIONS... : the walnut, written to $T/NAME
 
 LIGHTS=("${TOP[@]}")
 solve direct -- solver=direct
-solve amg1 -- solver=amg cg_tol=1e-13
-solve amg2 timeout $LIMIT "${MPI[@]}" -- solver=amg cg_tol=1e-13
+solve amg1 -- solver=amg cg_tol=1e-14
+solve amg2 timeout $LIMIT "${MPI[@]}" -- solver=amg cg_tol=1e-14
 solve direct2 timeout $LIMIT "${MPI[@]}" -- solver=direct
 agree "amg, one process = direct" direct amg1 1e-6 "s['solver'] == 'amg' and s['ranks'] == 1 and s['factors'] == 0"
 agree "amg, mpirun -np 2 = direct" direct amg2 1e-6 "s['solver'] == 'amg' and s['ranks'] == 2"
@@ -87,7 +87,7 @@ done
 
 # petsc_options: other PETSc solvers, and a misspelt option
 LIGHTS=("${TOP[@]}")
-solve gamg2 timeout $LIMIT "${MPI[@]}" -- solver=amg cg_tol=1e-13 petsc_options="-pc_type gamg"
+solve gamg2 timeout $LIMIT "${MPI[@]}" -- solver=amg cg_tol=1e-14 petsc_options="-pc_type gamg"
 agree "petsc_options=-pc_type gamg, 2 ranks = direct" direct gamg2 1e-6
 solve mumps2 timeout $LIMIT "${MPI[@]}" -- solver=amg \
   petsc_options="-ksp_type preonly -pc_type cholesky -pc_factor_mat_solver_type mumps"

@@ -75,10 +75,10 @@ typedef struct ohm_backend_ops {
      * call within one run (same grid), only its values change. */
     int (*setup)(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err);
     /* X (n x ncols, column-major): on entry its first column holds a
-     * starting guess (iterative backends use it; zeros are fine), and the
-     * columns are consecutive frames, so an iterative backend starts each
-     * later column from the solution of the one before; on return, the
-     * solutions. */
+     * starting guess (an iterative backend may use it; zeros are fine), and
+     * the columns are consecutive frames, so it may start each later column
+     * from the solution of the one before (cg does, amg measured no gain);
+     * on return, the solutions. */
     int (*solve)(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
                  ohm_backend_report *rep, ohm_error *err);
     void (*destroy)(void *state); /* NULL is fine */
