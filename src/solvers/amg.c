@@ -28,8 +28,9 @@
 
 /* Bytes per cell one rank holds for its share of the cells: A in PETSc's
  * AIJ form and hypre's copy of it (7 entries a row, 12 bytes each), the
- * hierarchy and interpolation, and CG's vectors; measured: docs/scale.md. */
-static const double AMG_BYTES_PER_CELL = 450.0;
+ * hierarchy and interpolation, and CG's vectors: with the rows in transit,
+ * about 390 B per cell measured from 1e6 to 2.7e7 cells (docs/scale.md). */
+static const double AMG_BYTES_PER_CELL = 300.0;
 
 double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks)
 {
@@ -483,12 +484,26 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
         return ohm_fail(err, OHM_ERR_INVALID,
                         "solve: amg: %lld unknowns exceed this PETSc's 32-bit indices (%d); use a larger voxel=",
                         (long long)n, (int)PETSC_MAX_INT);
-    double per_rank = ohm_amg_bytes_per_rank(n, (double)A->nzmax, proc.size); /* before anything is built */
-    char what[64];
-    snprintf(what, sizeof what, "amg on %lld cells", (long long)n);
-    int rc = ohm_backend_check_memory(per_rank, s->cfg.max_memory, what, " per rank",
+    /* the previous material's system goes first: its memory is this one's
+     * (freed, but kept by the allocator, so the machine's free memory does
+     * not show it: a system of the same size that was just set up fits) */
+    int same_size = s->A && s->n == n;
+    if (s->A) {
+        if (proc.size > 1) {
+            amg_cmd destroy = {.op = CMD_DESTROY};
+            send_cmd(&destroy);
+        }
+        destroy_system(s);
+    }
+    int rc = OHM_OK;
+    if (!same_size) {
+        double per_rank = ohm_amg_bytes_per_rank(n, (double)A->nzmax, proc.size); /* before anything is built */
+        char what[64];
+        snprintf(what, sizeof what, "amg on %lld cells", (long long)n);
+        rc = ohm_backend_check_memory(per_rank, s->cfg.max_memory, what, " per rank",
                                       "run on more ranks (mpirun -np), or use a smaller dim= or a larger voxel=", err);
-    if (rc) return rc;
+        if (rc) return rc;
+    }
     const char *user = s->cfg.petsc_options ? s->cfg.petsc_options : "";
     amg_cmd cmd = {.op = CMD_SETUP, .n = n, .max_iter = s->cfg.max_iter, .tol = s->cfg.tol,
                    .opt_len = (int64_t)strlen(user) + 1};
