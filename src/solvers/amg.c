@@ -520,8 +520,10 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
         for (int r = 1; r < proc.size; ++r) { /* one rank's rows at a time: rank 0 holds one block more */
             PetscInt *ia, *ja;
             PetscScalar *va;
-            if (rows_of(&ia, &ja, &va, A, s->displs[r], s->counts[r], band))
-                return ohm_fail(err, OHM_ERR_NOMEM, "solve: amg: out of memory for rank %d's rows", r);
+            if (rows_of(&ia, &ja, &va, A, s->displs[r], s->counts[r], band)) {
+                snprintf(proc.msg, sizeof proc.msg, "out of memory for rank %d's rows", r);
+                return petsc_failed(err, "setup"); /* the workers wait for them: end the run */
+            }
             MPI_Send(ia, s->counts[r] + 1, MPIU_INT, r, 1, proc.comm);
             MPI_Send(ja, (int)ia[s->counts[r]], MPIU_INT, r, 2, proc.comm);
             MPI_Send(va, (int)ia[s->counts[r]], MPI_DOUBLE, r, 3, proc.comm);
@@ -530,8 +532,10 @@ static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, oh
     }
     PetscInt *ia, *ja;
     PetscScalar *va;
-    if (rows_of(&ia, &ja, &va, A, 0, s->counts[0], band))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: amg: out of memory for the matrix rows");
+    if (rows_of(&ia, &ja, &va, A, 0, s->counts[0], band)) {
+        snprintf(proc.msg, sizeof proc.msg, "out of memory for the matrix rows");
+        return petsc_failed(err, "setup"); /* with several ranks the others wait: end the run */
+    }
     s->t_rows = ohm_now() - t0;
     rc = setup_collective(s, &cmd, user, ia, ja, va, err); /* frees the rows */
     if (rc) return rc;
