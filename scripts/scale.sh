@@ -132,7 +132,7 @@ fi
 
 # the plot: time per light and setup time against cells, per solver (blocks)
 for solver in direct cg amg; do
-  awk -F, -v s="$solver" '$1 ~ /^blocks/ && $1 !~ /weak/ && $2 == s && $4 != "" {print $4, $6, $5}' "$csv" \
+  awk -F, -v s="$solver" '$1 ~ /^blocks/ && $1 !~ /\(/ && $2 == s && $4 != "" {print $4, $6, $5}' "$csv" \
     >"$tmp/$solver.dat"
 done
 if command -v gnuplot >/dev/null; then
@@ -163,7 +163,7 @@ import csv, sys
 rows = [r for r in csv.DictReader(open(sys.argv[1])) if r["cells"]]
 def fit(pairs):
     return sum(x * y for x, y in pairs) / sum(x * x for x, _ in pairs) if pairs else float("nan")
-amg = [r for r in rows if r["solver"] == "amg" and r["scene"].startswith("blocks") and "weak" not in r["scene"]
+amg = [r for r in rows if r["solver"] == "amg" and r["scene"].startswith("blocks") and "(" not in r["scene"]
        and int(r["cells"]) >= 10**6]
 cg = [r for r in rows if r["solver"] == "cg" and r["scene"].startswith("blocks") and int(r["cells"]) >= 10**6]
 a = fit([(int(r["cells"]), float(r["t_setup"])) for r in amg])
