@@ -1,4 +1,5 @@
-/* cg.c — MIC(0)-preconditioned conjugate gradients (cg.h). */
+/* solvers/cg.c — MIC(0)-preconditioned conjugate gradients (cg.h) and the
+ * `cg` backend over them (backend.h). */
 #include "solvers/cg.h"
 
 #include <math.h>

@@ -1,4 +1,4 @@
-/* cg.h — the iterative alternative to the Cholesky factor: conjugate
+/* solvers/cg.h — the iterative alternative to the Cholesky factor: conjugate
  * gradients preconditioned with a modified incomplete Cholesky factor
  * (MIC(0)), for grids too big to factor or scenes with one light.
  *
@@ -43,7 +43,7 @@ void ohm_cg_free(ohm_cg *cg);
  * floor of about kappa eps ||b|| that CG cannot pass; when CG stagnates there,
  * the solve is accepted if its scaled backward error ||b - A x||_inf /
  * (||A|| ||x|| + ||b||)_inf is below tol / 100 — as small as a converged
- * solve's (the same test the direct solver passes; factor.h).
+ * solve's (the same test the direct solver passes; solvers/direct.h).
  * *iters gets the iterations taken and *relres the final relative residual.
  * Fails (OHM_ERR_NUMERIC) otherwise. */
 int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max_iter, int64_t *iters,

@@ -1,3 +1,5 @@
+/* solvers/direct.c — CHOLMOD's analysis, factor and solves (direct.h) and
+ * the `direct` backend over them (backend.h). */
 #include "solvers/direct.h"
 
 #include <math.h>

@@ -1,5 +1,5 @@
-/* factor.h — sparse Cholesky with CHOLMOD (64-bit cholmod_l_*), the paper's
- * precomputed quantity.  One analysis (fill-reducing ordering + symbolic
+/* solvers/direct.h — sparse Cholesky with CHOLMOD (64-bit cholmod_l_*), the
+ * paper's precomputed quantity, and the `direct` backend over it (backend.h).  One analysis (fill-reducing ordering + symbolic
  * factor) per grid, shared by every channel's numeric factorization; many
  * right-hand sides per solve; every solve checks its scaled backward error
  * ||Ax - b|| / (||A|| ||x|| + ||b||) (infinity norms), refines once when it is
@@ -7,8 +7,8 @@
  * CHOLMOD itself may return TRUE on an indefinite or singular matrix
  * (DESIGN.md §3, numerical traps).  The solver owns its cholmod_common: no
  * global state. */
-#ifndef OHM_FACTOR_H
-#define OHM_FACTOR_H
+#ifndef OHM_SOLVERS_DIRECT_H
+#define OHM_SOLVERS_DIRECT_H
 
 #include <stddef.h>
 
