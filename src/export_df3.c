@@ -31,7 +31,7 @@ static int write_df3(const char *path, const ohm_voxel_grid *g, const ohm_soluti
             memset(row, 0, (size_t)nx * 2);
             if (k > 0 && k < nz - 1 && j > 0 && j < ny - 1)
                 for (int32_t i = 1; i < nx - 1; ++i) {
-                    int64_t u = sol->net.unknown[ohm_voxel_index(g, i - 1, j - 1, k - 1)];
+                    int64_t u = ohm_network_unknown(&sol->net, ohm_voxel_index(g, i - 1, j - 1, k - 1));
                     if (u < 0) continue;
                     double v = vals[u] * scale;
                     long q = (v > 0) ? lround(fmin(v, 65535.0)) : 0;

@@ -33,7 +33,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
         for (int32_t k = lo[2]; k <= hi[2]; ++k)
             for (int32_t j = lo[1]; j <= hi[1]; ++j)
                 for (int32_t i = lo[0]; i <= hi[0]; ++i) {
-                    int64_t u = sol->net.unknown[ohm_voxel_index(g, i, j, k)];
+                    int64_t u = ohm_network_unknown(&sol->net, ohm_voxel_index(g, i, j, k));
                     if (u < 0 || !bnd[u]) continue;
                     double dx = i - q[0], dy = j - q[1], dz = k - q[2];
                     double d = sqrt(dx * dx + dy * dy + dz * dz);
@@ -64,7 +64,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
         for (int32_t k = lo[2]; k <= hi[2]; ++k)
             for (int32_t j = lo[1]; j <= hi[1]; ++j)
                 for (int32_t i = lo[0]; i <= hi[0]; ++i) {
-                    int64_t u = sol->net.unknown[ohm_voxel_index(g, i, j, k)];
+                    int64_t u = ohm_network_unknown(&sol->net, ohm_voxel_index(g, i, j, k));
                     if (u < 0 || !bnd[u]) continue;
                     double dx = i - q[0], dy = j - q[1], dz = k - q[2];
                     double d = dx * dx + dy * dy + dz * dz;
@@ -86,7 +86,7 @@ int ohm_vertex_exitance(float **out, const ohm_mesh *mesh, const ohm_voxel_grid 
     if (frame < 0 || frame >= sol->frames)
         return ohm_fail(err, OHM_ERR_INVALID, "frame %d out of range: the solution has %d frame(s)", frame + 1,
                         sol->frames);
-    if (!sol->net.unknown || sol->n <= 0)
+    if (!sol->net.unknown_bits || sol->n <= 0)
         return ohm_fail(err, OHM_ERR_INVALID, "the solution has no interior cells");
     int channels = sol->channels;
     uint8_t *bnd = calloc((size_t)sol->n, 1);

@@ -81,7 +81,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
             int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
             if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2])
                 break;
-            int64_t u = net->unknown[ohm_voxel_index(g, p[0], p[1], p[2])];
+            int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
             if (u < 0) break;
             if (q <= m) upper = u;
             else lower = u;
@@ -97,7 +97,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     for (int64_t q = 0;; ++q) {
         int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
         if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
-        int64_t u = net->unknown[ohm_voxel_index(g, p[0], p[1], p[2])];
+        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
         if (u < 0) break; /* the rest passes through a thin part unscattered */
         double t1 = tau + med_sigma_t(med, u) * h;
         double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
@@ -156,7 +156,7 @@ static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], co
     }
     int last_axis = -1;
     for (;;) {
-        int64_t u = net->unknown[ohm_voxel_index(g, c[0], c[1], c[2])];
+        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, c[0], c[1], c[2]));
         if (u >= 0) {
             if (last_axis < 0)
                 return ohm_fail(err, OHM_ERR_INVALID, "pencil beam starts inside the object: put pos= outside it");

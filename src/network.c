@@ -24,7 +24,8 @@ void ohm_network_free(ohm_network *net)
 {
     if (!net) return;
     free(net->cell);
-    free(net->unknown);
+    free(net->unknown_bits);
+    free(net->unknown_rank);
     free(net->face_unknown);
     free(net->face_dir);
     free(net->piece);
@@ -39,7 +40,6 @@ void ohm_network_free(ohm_network *net)
 typedef struct walk {
     const ohm_network *net;
     const uint8_t *inside;
-    const int64_t *unknown;
     int32_t dims[3];
     int64_t stride[6]; /* dense-index offset of the neighbour across face d */
     int32_t ijk[3];    /* the current unknown's cell */
@@ -51,7 +51,6 @@ static void walk_begin(walk *w, const ohm_network *net)
     const ohm_voxel_grid *g = net->grid;
     w->net = net;
     w->inside = g->inside;
-    w->unknown = net->unknown;
     for (int a = 0; a < 3; ++a) w->dims[a] = g->dims[a];
     int64_t sy = g->dims[0], sz = (int64_t)g->dims[0] * g->dims[1];
     int64_t s[6] = {-1, 1, -sy, sy, -sz, sz};
@@ -70,7 +69,7 @@ static inline void walk_to(walk *w, int64_t v)
 
 /* Neighbour of the current cell across face d: its unknown, -1 if outside
  * the object, -2 if the face is a mirror plane, -3 if it is interior but
- * below the depth band (a closure face).  Needs net->unknown complete. */
+ * below the depth band (a closure face).  Needs the unknown index complete. */
 static inline int64_t walk_across(const walk *w, int d)
 {
     int axis = d >> 1;
@@ -82,7 +81,7 @@ static inline int64_t walk_across(const walk *w, int d)
         if (x == 0) return -1;
     }
     int64_t nc = w->cell + w->stride[d];
-    int64_t u = w->unknown[nc];
+    int64_t u = ohm_network_unknown(w->net, (size_t)nc);
     if (u < 0 && w->net->active && w->inside[nc]) return -3;
     return u;
 }
@@ -136,25 +135,25 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
         n = (int64_t)grid->interior_cells;
     }
     if (n == 0) return ohm_fail(err, OHM_ERR_INVALID, "network: the voxel object has no interior cells");
-    net->unknown = malloc(ncells * sizeof *net->unknown);
+    size_t nwords = (ncells + 63) / 64;
+    net->unknown_bits = calloc(nwords, sizeof *net->unknown_bits);
+    net->unknown_rank = malloc(nwords * sizeof *net->unknown_rank);
     net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
-    if (!net->unknown || !net->cell || !net->piece) goto nomem;
-    ohm_memory_advise_huge(net->unknown, ncells * sizeof *net->unknown);
+    if (!net->unknown_bits || !net->unknown_rank || !net->cell || !net->piece) goto nomem;
     ohm_memory_advise_huge(net->cell, (size_t)n * sizeof *net->cell);
     ohm_memory_advise_huge(net->piece, (size_t)n * sizeof *net->piece);
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
-        int64_t x = -1;
+        if ((c & 63) == 0) net->unknown_rank[c >> 6] = u;
         if ((active ? active[c] : 1) && inside[c]) {
             if (u == n) {
                 ohm_network_free(net);
                 return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
             }
-            net->cell[u] = (int64_t)c;
-            x = u++;
+            net->cell[u++] = (int64_t)c;
+            net->unknown_bits[c >> 6] |= (uint64_t)1 << (c & 63);
         }
-        net->unknown[c] = x;
     }
     if (u != n) {
         ohm_network_free(net);

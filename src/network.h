@@ -38,7 +38,8 @@ typedef struct ohm_network {
     const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
     int64_t n;                    /* unknowns = interior cells                */
     int64_t *cell;                /* n: dense grid index of unknown u         */
-    int64_t *unknown;             /* grid size: unknown of a cell, or -1      */
+    uint64_t *unknown_bits;       /* a bit per grid cell: the cell is an unknown */
+    int64_t *unknown_rank;        /* per 64-cell word: unknowns before it     */
     int64_t nfaces;               /* boundary faces (mirror faces excluded)   */
     int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
     uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
@@ -67,6 +68,19 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
 int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3],
                            const uint8_t *active, ohm_error *err);
 void ohm_network_free(ohm_network *net);
+
+/* The unknown of dense grid cell c, or -1 when c is not one.  Unknowns are
+ * numbered in cell order, so cell c's unknown is the number of unknown cells
+ * before it: a bit per grid cell and a running count per 64 of them (0.25 B
+ * per grid cell) answer that with one popcount, where a table of the
+ * unknowns would cost 8 B per grid cell — 34–45 B per interior cell on the
+ * samples, more than the matrix (docs/serial-stages.md). */
+static inline int64_t ohm_network_unknown(const ohm_network *net, size_t c)
+{
+    uint64_t word = net->unknown_bits[c >> 6], bit = (uint64_t)1 << (c & 63);
+    if (!(word & bit)) return -1;
+    return net->unknown_rank[c >> 6] + (int64_t)__builtin_popcountll(word & (bit - 1));
+}
 
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
  * constant beside them. */

@@ -98,7 +98,7 @@ static int occluded(const render_ctx *r, const double p[3], const double l[3], d
 static int boundary_cell(const ohm_voxel_grid *g, const ohm_network *net, int32_t i, int32_t j, int32_t k)
 {
     if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2]) return 0;
-    if (net->unknown[ohm_voxel_index(g, i, j, k)] < 0) return 0;
+    if (ohm_network_unknown(net, ohm_voxel_index(g, i, j, k)) < 0) return 0;
     for (int d = 0; d < 6; ++d) {
         int32_t a = i + ohm_face_offset[d][0], b = j + ohm_face_offset[d][1], c = k + ohm_face_offset[d][2];
         if (a < 0 || b < 0 || c < 0 || a >= g->dims[0] || b >= g->dims[1] || c >= g->dims[2]) return 1;
@@ -110,7 +110,7 @@ static int boundary_cell(const ohm_voxel_grid *g, const ohm_network *net, int32_
 static void cell_exitance(const render_ctx *r, int32_t i, int32_t j, int32_t k, double w, double out[3])
 {
     const ohm_solution *sol = &r->s->solution;
-    int64_t v = r->net->unknown[ohm_voxel_index(&r->s->grid, i, j, k)];
+    int64_t v = ohm_network_unknown(r->net, ohm_voxel_index(&r->s->grid, i, j, k));
     for (int c = 0; c < 3; ++c) {
         int cc = r->channels == 1 ? 0 : c;
         out[c] += w * sol->exitance[cc][(int64_t)r->frame * sol->n + v];

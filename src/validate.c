@@ -85,7 +85,7 @@ static ohm_material grey(double sigma_a, double sigma_s)
 
 static int64_t unknown_at(const ohm_solution *s, int i, int j, int k)
 {
-    return s->net.unknown[ohm_voxel_index(s->net.grid, i, j, k)];
+    return ohm_network_unknown(&s->net, ohm_voxel_index(s->net.grid, i, j, k));
 }
 
 /* Trilinear interpolation of the fluence between cell centres. */
@@ -210,7 +210,7 @@ static int deposit_at_depth(double *b, const ohm_network *net, int i, int j, dou
     double s = z0 / g->h - 0.5;
     int m = s <= 0 ? 0 : (int)floor(s);
     double frac = s <= 0 ? 0 : s - m;
-    int64_t u0 = net->unknown[ohm_voxel_index(g, i, j, 1 + m)], u1 = net->unknown[ohm_voxel_index(g, i, j, 2 + m)];
+    int64_t u0 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 1 + m)), u1 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 2 + m));
     if (u0 < 0 || u1 < 0) return -1;
     b[u0] += P * (1 - frac);
     b[u1] += P * frac;
@@ -521,7 +521,7 @@ static int src_step(void *user, double *b, size_t ncols, const ohm_network *net,
     const ohm_voxel_grid *g = net->grid;
     int lo = (FIG1_N - FIG1_STEP) / 2 + 1;
     for (int j = lo; j < lo + FIG1_STEP; ++j)
-        for (int i = lo; i < lo + FIG1_STEP; ++i) b[net->unknown[ohm_voxel_index(g, i, j, 1)]] = amps;
+        for (int i = lo; i < lo + FIG1_STEP; ++i) b[ohm_network_unknown(net, ohm_voxel_index(g, i, j, 1))] = amps;
     return 0;
 }
 

@@ -45,7 +45,10 @@ static uint64_t hash_network(const ohm_network *net)
     int64_t sc[5] = {net->n, net->nfaces, net->npieces, net->nnz, net->nclosure};
     h = fnv(h, sc, sizeof sc);
     h = fnv(h, net->cell, (size_t)net->n * sizeof *net->cell);
-    h = fnv(h, net->unknown, ncells * sizeof *net->unknown);
+    for (size_t c = 0; c < ncells; ++c) { /* the index as the table it replaced (same digest) */
+        int64_t u = ohm_network_unknown(net, c);
+        h = fnv(h, &u, sizeof u);
+    }
     if (net->piece) {
         h = fnv(h, net->piece, (size_t)net->n * sizeof *net->piece);
     } else { /* one piece: the labels it no longer keeps were all 0 (same digest) */
@@ -342,7 +345,7 @@ static int time_one(double cells)
     }
     cholmod_l_finish(&cc);
     /* what the network keeps for the run (network.h's arrays) */
-    double net_bytes = (double)ncells * sizeof *net.unknown +
+    double net_bytes = (double)((ncells + 63) / 64) * (sizeof *net.unknown_bits + sizeof *net.unknown_rank) +
                        (double)n * (double)(sizeof *net.cell + (net.piece ? sizeof *net.piece : 0)) +
                        (double)net.nfaces * (sizeof *net.face_unknown + sizeof *net.face_dir);
     double nn = (double)n;
