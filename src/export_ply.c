@@ -86,7 +86,7 @@ int ohm_vertex_exitance(float **out, const ohm_mesh *mesh, const ohm_voxel_grid 
     if (frame < 0 || frame >= sol->frames)
         return ohm_fail(err, OHM_ERR_INVALID, "frame %d out of range: the solution has %d frame(s)", frame + 1,
                         sol->frames);
-    if (!sol->net.unknown_bits || sol->n <= 0)
+    if (!sol->net.unknowns.bits || sol->n <= 0)
         return ohm_fail(err, OHM_ERR_INVALID, "the solution has no interior cells");
     int channels = sol->channels;
     uint8_t *bnd = calloc((size_t)sol->n, 1);

@@ -66,7 +66,7 @@ static int collect(const ohm_voxel_grid *g, voxel_list *surface, voxel_list *den
             for (int32_t i = 0; i < g->dims[0]; ++i) {
                 size_t idx = ohm_voxel_index(g, i, j, k);
                 int in = g->inside[idx];
-                float d = g->dist[idx];
+                float d = (float)ohm_voxel_dist(g, idx);
                 if (on_interface(g, i, j, k) && !(d <= (float)g->h)) d = half;
                 if (d <= band) {
                     if (list_push(surface, i, j, k, in ? -d : d)) return -1;

@@ -11,9 +11,10 @@
 /* Signed distance at a cell (negative inside); NaN when unknown. */
 static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
 {
-    if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2] || !g->dist) return NAN;
+    if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2]) return NAN;
     size_t idx = ohm_voxel_index(g, i, j, k);
-    double d = g->dist[idx];
+    double d = ohm_voxel_dist(g, idx);
+    if (isnan(d)) return NAN;
     if (!isfinite(d)) d = g->band;
     return g->inside[idx] ? -d : d;
 }

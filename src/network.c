@@ -24,8 +24,7 @@ void ohm_network_free(ohm_network *net)
 {
     if (!net) return;
     free(net->cell);
-    free(net->unknown_bits);
-    free(net->unknown_rank);
+    ohm_cell_index_free(&net->unknowns);
     free(net->face_unknown);
     free(net->face_dir);
     free(net->piece);
@@ -135,26 +134,24 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
         n = (int64_t)grid->interior_cells;
     }
     if (n == 0) return ohm_fail(err, OHM_ERR_INVALID, "network: the voxel object has no interior cells");
-    size_t nwords = (ncells + 63) / 64;
-    net->unknown_bits = calloc(nwords, sizeof *net->unknown_bits);
-    net->unknown_rank = malloc(nwords * sizeof *net->unknown_rank);
+    int index_failed = ohm_cell_index_alloc(&net->unknowns, ncells);
     net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
-    if (!net->unknown_bits || !net->unknown_rank || !net->cell || !net->piece) goto nomem;
+    if (index_failed || !net->cell || !net->piece) goto nomem;
     ohm_memory_advise_huge(net->cell, (size_t)n * sizeof *net->cell);
     ohm_memory_advise_huge(net->piece, (size_t)n * sizeof *net->piece);
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
-        if ((c & 63) == 0) net->unknown_rank[c >> 6] = u;
         if ((active ? active[c] : 1) && inside[c]) {
             if (u == n) {
                 ohm_network_free(net);
                 return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
             }
             net->cell[u++] = (int64_t)c;
-            net->unknown_bits[c >> 6] |= (uint64_t)1 << (c & 63);
+            ohm_cell_index_add(&net->unknowns, c);
         }
     }
+    ohm_cell_index_finish(&net->unknowns, ncells);
     if (u != n) {
         ohm_network_free(net);
         return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");

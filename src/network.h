@@ -22,6 +22,7 @@
 
 #include <cholmod.h>
 
+#include "cell_index.h"
 #include "ohm_error.h"
 #include "voxelize.h"
 
@@ -38,8 +39,7 @@ typedef struct ohm_network {
     const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
     int64_t n;                    /* unknowns = interior cells                */
     int64_t *cell;                /* n: dense grid index of unknown u         */
-    uint64_t *unknown_bits;       /* a bit per grid cell: the cell is an unknown */
-    int64_t *unknown_rank;        /* per 64-cell word: unknowns before it     */
+    ohm_cell_index unknowns;      /* which grid cells are unknowns; their numbers */
     int64_t nfaces;               /* boundary faces (mirror faces excluded)   */
     int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
     uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
@@ -69,17 +69,11 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const i
                            const uint8_t *active, ohm_error *err);
 void ohm_network_free(ohm_network *net);
 
-/* The unknown of dense grid cell c, or -1 when c is not one.  Unknowns are
- * numbered in cell order, so cell c's unknown is the number of unknown cells
- * before it: a bit per grid cell and a running count per 64 of them (0.25 B
- * per grid cell) answer that with one popcount, where a table of the
- * unknowns would cost 8 B per grid cell — 34–45 B per interior cell on the
- * samples, more than the matrix (docs/serial-stages.md). */
+/* The unknown of dense grid cell c, or -1 when c is not one (unknowns are
+ * numbered in cell order: cell_index.h). */
 static inline int64_t ohm_network_unknown(const ohm_network *net, size_t c)
 {
-    uint64_t word = net->unknown_bits[c >> 6], bit = (uint64_t)1 << (c & 63);
-    if (!(word & bit)) return -1;
-    return net->unknown_rank[c >> 6] + (int64_t)__builtin_popcountll(word & (bit - 1));
+    return ohm_cell_index_of(&net->unknowns, c);
 }
 
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the

@@ -305,8 +305,42 @@ void ohm_voxel_grid_free(ohm_voxel_grid *g)
 {
     if (!g) return;
     free(g->inside);
-    free(g->dist);
+    ohm_cell_index_free(&g->near);
+    free(g->near_dist);
     memset(g, 0, sizeof *g);
+}
+
+/* The dense distance field a voxelizer fills, +INFINITY everywhere; NULL when
+ * out of memory. */
+static float *dense_distance(size_t ncells)
+{
+    float *dist = malloc((ncells ? ncells : 1) * sizeof *dist);
+    if (dist)
+        for (size_t c = 0; c < ncells; ++c) dist[c] = INFINITY;
+    return dist;
+}
+
+/* Keep the band of the dense field (its finite values) and free the field:
+ * the grid outlives the voxelizer, and only the exporters' level set and the
+ * surface normals read distances, all within the band. */
+static int keep_band(ohm_voxel_grid *g, float *dist, ohm_error *err)
+{
+    size_t n = (size_t)g->dims[0] * (size_t)g->dims[1] * (size_t)g->dims[2];
+    if (ohm_cell_index_alloc(&g->near, n)) goto nomem;
+    for (size_t c = 0; c < n; ++c)
+        if (isfinite(dist[c])) ohm_cell_index_add(&g->near, c);
+    ohm_cell_index_finish(&g->near, n);
+    g->near_dist = malloc((size_t)(g->near.count ? g->near.count : 1) * sizeof *g->near_dist);
+    if (!g->near_dist) goto nomem;
+    int64_t b = 0;
+    for (size_t c = 0; c < n; ++c)
+        if (isfinite(dist[c])) g->near_dist[b++] = dist[c];
+    free(dist);
+    return OHM_OK;
+nomem:
+    free(dist);
+    ohm_voxel_grid_free(g);
+    return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the distance band");
 }
 
 static inline void cell_centre(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k, double p[3])
@@ -316,9 +350,9 @@ static inline void cell_centre(const ohm_voxel_grid *g, int32_t i, int32_t j, in
     p[2] = g->origin[2] + g->h * k;
 }
 
-/* Fill g->dist with the exact distance to the mesh for every cell within the
- * band of some triangle. */
-static void distance_band(ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *log)
+/* Fill dist (dense, grid g's cells) with the exact distance to the mesh for
+ * every cell within the band of some triangle. */
+static void distance_band(float *dist, const ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *log)
 {
     ohm_progress prog;
     ohm_progress_begin(&prog, log, "voxelize: distance band");
@@ -340,7 +374,7 @@ static void distance_band(ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *l
                     size_t idx = ohm_voxel_index(g, i, j, k);
                     double d2 = point_triangle_dist2(p, a, b, c);
                     double dd = sqrt(d2);
-                    if (dd <= g->band && dd < g->dist[idx]) g->dist[idx] = (float)dd;
+                    if (dd <= g->band && dd < dist[idx]) dist[idx] = (float)dd;
                 }
     }
     ohm_progress_end(&prog);
@@ -446,12 +480,10 @@ static int layout_grid(ohm_voxel_grid *out, const double lo[3], const double hi[
     }
     size_t n = (size_t)out->dims[0] * (size_t)out->dims[1] * (size_t)out->dims[2];
     out->inside = calloc(n, 1);
-    out->dist = malloc(n * sizeof *out->dist);
-    if (!out->inside || !out->dist) {
+    if (!out->inside) {
         ohm_voxel_grid_free(out);
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
     }
-    for (size_t c = 0; c < n; ++c) out->dist[c] = INFINITY;
 
     return OHM_OK;
 }
@@ -492,11 +524,17 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         orient = -1.0;
     }
 
-    distance_band(out, mesh, log);
+    float *dist = dense_distance(n);
+    if (!dist) {
+        ohm_voxel_grid_free(out);
+        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
+    }
+    distance_band(dist, out, mesh, log);
 
     bvh tree;
     int rc = bvh_build(&tree, mesh, err);
     if (rc) {
+        free(dist);
         ohm_voxel_grid_free(out);
         return rc;
     }
@@ -516,6 +554,7 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         free(lattice_w);
         free(decided);
         bvh_free(&tree);
+        free(dist);
         ohm_voxel_grid_free(out);
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the coarse pass");
     }
@@ -524,7 +563,7 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     for (int32_t k = 0; k < dims[2]; ++k)
         for (int32_t j = 0; j < dims[1]; ++j)
             for (int32_t i = 0; i < dims[0]; ++i) {
-                if (!(out->dist[ohm_voxel_index(out, i, j, k)] <= near_dist)) continue;
+                if (!(dist[ohm_voxel_index(out, i, j, k)] <= near_dist)) continue;
                 /* mark every block whose closed cell range holds (i,j,k) */
                 int32_t c[3] = {i, j, k}, b0[3], b1[3];
                 for (int d = 0; d < 3; ++d) {
@@ -606,7 +645,7 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     free(decided);
     bvh_free(&tree);
     if (report) *report = rep;
-    return OHM_OK;
+    return keep_band(out, dist, err);
 }
 
 int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, const double lo[3], const double hi[3],
@@ -623,7 +662,10 @@ int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, cons
     if (rc) return rc;
     size_t n = (size_t)out->dims[0] * (size_t)out->dims[1] * (size_t)out->dims[2];
     double *f = malloc(n * sizeof *f);
-    if (!f) {
+    float *dist = dense_distance(n);
+    if (!f || !dist) {
+        free(f);
+        free(dist);
         ohm_voxel_grid_free(out);
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
     }
@@ -654,9 +696,9 @@ int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, cons
                 double grad = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / (2.0 * out->h);
                 if (!(grad > 0)) continue;
                 double d = fabs(f[idx] - threshold) / grad;
-                if (d <= out->band) out->dist[idx] = (float)d;
+                if (d <= out->band) dist[idx] = (float)d;
             }
     free(f);
     out->interior_cells = interior;
-    return OHM_OK;
+    return keep_band(out, dist, err);
 }

@@ -17,8 +17,10 @@
 #define OHM_VOXELIZE_H
 
 #include <stddef.h>
+#include <math.h>
 #include <stdint.h>
 
+#include "cell_index.h"
 #include "log.h"
 #include "mesh.h"
 #include "ohm_error.h"
@@ -28,8 +30,12 @@ typedef struct ohm_voxel_grid {
     double h;               /* voxel size (mm)                                */
     double origin[3];       /* world centre of cell (0,0,0) (mm)              */
     uint8_t *inside;        /* dims[0]*dims[1]*dims[2]: 1 = interior cell     */
-    float *dist;            /* same size: unsigned distance to the mesh (mm),
-                               exact within the band, +INFINITY beyond it     */
+    ohm_cell_index near;    /* the narrow band: the cells within band of the
+                               surface (cell_index.h); empty for a grid made
+                               cell by cell, which has no surface            */
+    float *near_dist;       /* near.count: their unsigned distance to the
+                               surface (mm), in cell order: a dense field was
+                               4 B per grid cell, 17-23 B per interior cell  */
     double band;            /* narrow-band half width (mm)                    */
     size_t interior_cells;  /* how many inside[] are 1                        */
 } ohm_voxel_grid;
@@ -76,6 +82,15 @@ int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, cons
 static inline size_t ohm_voxel_index(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
 {
     return (size_t)i + (size_t)g->dims[0] * ((size_t)j + (size_t)g->dims[1] * (size_t)k);
+}
+
+/* Unsigned distance from dense cell c's centre to the surface (mm): exact
+ * within the band, +INFINITY beyond it; NaN when the grid has no band. */
+static inline double ohm_voxel_dist(const ohm_voxel_grid *g, size_t c)
+{
+    if (!g->near.bits) return NAN;
+    int64_t b = ohm_cell_index_of(&g->near, c);
+    return b < 0 ? INFINITY : g->near_dist[b];
 }
 
 /* The inverse: (i,j,k) of a dense cell index. */

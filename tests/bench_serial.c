@@ -345,7 +345,7 @@ static int time_one(double cells)
     }
     cholmod_l_finish(&cc);
     /* what the network keeps for the run (network.h's arrays) */
-    double net_bytes = (double)((ncells + 63) / 64) * (sizeof *net.unknown_bits + sizeof *net.unknown_rank) +
+    double net_bytes = (double)((ncells + 63) / 64) * (sizeof *net.unknowns.bits + sizeof *net.unknowns.rank) +
                        (double)n * (double)(sizeof *net.cell + (net.piece ? sizeof *net.piece : 0)) +
                        (double)net.nfaces * (sizeof *net.face_unknown + sizeof *net.face_dir);
     double nn = (double)n;

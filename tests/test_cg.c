@@ -21,8 +21,7 @@ static int make_box(ohm_voxel_grid *g, int nx, double h)
     g->h = h;
     size_t cells = (size_t)d * d * d;
     g->inside = calloc(cells, 1);
-    g->dist = calloc(cells, sizeof *g->dist);
-    if (!g->inside || !g->dist) return -1;
+    if (!g->inside) return -1;
     for (int k = 1; k <= nx; ++k)
         for (int j = 1; j <= nx; ++j)
             for (int i = 1; i <= nx; ++i) g->inside[ohm_voxel_index(g, i, j, k)] = 1;

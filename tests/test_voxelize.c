@@ -213,7 +213,7 @@ static void cube_exact(void)
         int32_t i = (int32_t)(first % (size_t)g.dims[0]);
         CHECK_REL(g.origin[0] + i * g.h, 10.25, 1e-12);
         /* distance band: a cell just outside a face is h/2 from it */
-        CHECK(fabs(g.dist[first] - 0.25) < 1e-6);
+        CHECK(fabs(ohm_voxel_dist(&g, first) - 0.25) < 1e-6);
         ohm_voxel_grid_free(&g);
     }
     /* wound inside-out: same cells, reported flipped */

@@ -1,0 +1,44 @@
+/* cell_index.h — a subset of a dense grid's cells, numbered in cell order.
+ *
+ * A bit per grid cell says whether cell c belongs; a running count per 64
+ * cells gives its number among the members with one popcount.  That is 0.25
+ * B per grid cell where a table of numbers costs 8: on the samples a grid
+ * has 4–6 cells per interior cell, so a table was 34–45 B per interior cell,
+ * more than the matrix (docs/serial-stages.md).  The network numbers its
+ * unknowns with one; the voxel grid keeps its narrow band's distances by one. */
+#ifndef OHM_CELL_INDEX_H
+#define OHM_CELL_INDEX_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+typedef struct ohm_cell_index {
+    uint64_t *bits;  /* (ncells + 63) / 64 words: bit c set when c is a member */
+    int64_t *rank;   /* same count: members in the words before this one      */
+    int64_t count;   /* members                                               */
+} ohm_cell_index;
+
+/* An empty set over ncells cells; 0 or -1 (out of memory, ix left empty). */
+int ohm_cell_index_alloc(ohm_cell_index *ix, size_t ncells);
+
+/* Add cell c (before ohm_cell_index_finish). */
+static inline void ohm_cell_index_add(ohm_cell_index *ix, size_t c)
+{
+    ix->bits[c >> 6] |= (uint64_t)1 << (c & 63);
+}
+
+/* The running counts, once every member is added. */
+void ohm_cell_index_finish(ohm_cell_index *ix, size_t ncells);
+
+/* The number of cell c among the members (0-based, in cell order), or -1. */
+static inline int64_t ohm_cell_index_of(const ohm_cell_index *ix, size_t c)
+{
+    uint64_t word = ix->bits[c >> 6], bit = (uint64_t)1 << (c & 63);
+    if (!(word & bit)) return -1;
+    return ix->rank[c >> 6] + (int64_t)__builtin_popcountll(word & (bit - 1));
+}
+
+/* Accepts NULL and an empty set. */
+void ohm_cell_index_free(ohm_cell_index *ix);
+
+#endif
