@@ -136,6 +136,37 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     return ohm_output_commit(&out, err);
 }
 
+/* The .df3 files and the .pov scene of one value per unknown and channel. */
+static int write_scene(const char *base, const ohm_voxel_grid *g, const ohm_solution *sol, const ohm_df3_params *p,
+                       const double *const vals[], ohm_df3_report *rep, ohm_error *err)
+{
+    double max = 0;
+    for (int c = 0; c < sol->channels; ++c) {
+        for (int64_t u = 0; u < sol->n; ++u)
+            if (vals[c][u] > max) max = vals[c][u];
+    }
+    double scale = max > 0 ? 65535.0 / max : 0;
+    rep->max = max;
+    rep->scale = scale;
+
+    const char *slash = strrchr(base, '/');
+    const char *stem = slash ? slash + 1 : base;
+    char names[3][OHM_PATH_MAX];
+    const char *namep[3];
+    for (int c = 0; c < sol->channels; ++c) {
+        char path[OHM_PATH_MAX];
+        const char *suf = sol->channels == 1 ? "" : channel_suffix[c];
+        snprintf(path, sizeof path, "%s%s.df3", base, suf);
+        snprintf(names[c], sizeof names[c], "%s%s.df3", stem, suf);
+        namep[c] = names[c];
+        int rc = write_df3(path, g, sol, vals[c], scale, err);
+        if (rc) return rc;
+        if (c == 0) snprintf(rep->first, sizeof rep->first, "%s", path);
+    }
+    snprintf(rep->pov, sizeof rep->pov, "%s.pov", base);
+    return write_pov(rep->pov, namep, g, sol, p, max, scale, err);
+}
+
 int ohm_export_df3(const char *base_in, const ohm_voxel_grid *g, const ohm_solution *sol, const ohm_df3_params *p,
                    ohm_df3_report *rep, ohm_error *err)
 {
@@ -153,34 +184,25 @@ int ohm_export_df3(const char *base_in, const ohm_voxel_grid *g, const ohm_solut
         if (g->dims[a] + 2 > 65535)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: grid of %d cells along an axis is too large for df3", base,
                             g->dims[a]);
-    const double *vals[OHM_MAX_CHANNELS];
-    double max = 0;
-    for (int c = 0; c < sol->channels; ++c) {
-        vals[c] = (p->exitance ? sol->exitance[c] : sol->fluence[c]) + (size_t)p->frame * (size_t)sol->n;
-        for (int64_t u = 0; u < sol->n; ++u)
-            if (vals[c][u] > max) max = vals[c][u];
-    }
-    double scale = max > 0 ? 65535.0 / max : 0;
-    rep->max = max;
-    rep->scale = scale;
-
     const char *slash = strrchr(base, '/');
-    const char *stem = slash ? slash + 1 : base;
-    if (strpbrk(stem, "\"\\"))
+    if (strpbrk(slash ? slash + 1 : base, "\"\\"))
         return ohm_fail(err, OHM_ERR_INVALID, "%s: a df3 name with a quote or backslash cannot go in a .pov string",
                         base_in);
-    char names[3][OHM_PATH_MAX];
-    const char *namep[3];
-    for (int c = 0; c < sol->channels; ++c) {
-        char path[OHM_PATH_MAX];
-        const char *suf = sol->channels == 1 ? "" : channel_suffix[c];
-        snprintf(path, sizeof path, "%s%s.df3", base, suf);
-        snprintf(names[c], sizeof names[c], "%s%s.df3", stem, suf);
-        namep[c] = names[c];
-        int rc = write_df3(path, g, sol, vals[c], scale, err);
-        if (rc) return rc;
-        if (c == 0) snprintf(rep->first, sizeof rep->first, "%s", path);
+    const double *vals[OHM_MAX_CHANNELS];
+    double *cell_exitance[OHM_MAX_CHANNELS] = {NULL};
+    int rc = OHM_OK;
+    for (int c = 0; c < sol->channels && !rc; ++c) {
+        vals[c] = sol->fluence[c] + (size_t)p->frame * (size_t)sol->n;
+        if (!p->exitance) continue;
+        cell_exitance[c] = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *cell_exitance[c]);
+        if (!cell_exitance[c]) {
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory", base_in);
+            break;
+        }
+        ohm_solution_exitance_frame(cell_exitance[c], sol, c, p->frame);
+        vals[c] = cell_exitance[c];
     }
-    snprintf(rep->pov, sizeof rep->pov, "%s.pov", base);
-    return write_pov(rep->pov, namep, g, sol, p, max, scale, err);
+    if (!rc) rc = write_scene(base, g, sol, p, vals, rep, err);
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) free(cell_exitance[c]);
+    return rc;
 }

@@ -40,7 +40,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
                     if (d > radius) continue;
                     double w = 1.0 / fmax(d, 1e-3);
                     for (int c = 0; c < channels; ++c)
-                        acc[c] += w * sol->exitance[c][(size_t)frame * (size_t)sol->n + (size_t)u];
+                        acc[c] += w * ohm_solution_cell_exitance(sol, c, frame, u);
                     wsum += w;
                     ++used;
                 }
@@ -72,7 +72,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
                 }
         if (bu >= 0 && (sqrt(best) <= R - 1 || R > 2 * maxdim)) {
             for (int c = 0; c < channels; ++c)
-                acc[c] = sol->exitance[c][(size_t)frame * (size_t)sol->n + (size_t)bu];
+                acc[c] = ohm_solution_cell_exitance(sol, c, frame, bu);
             return 1;
         }
         if (R > 2 * maxdim) return 0;

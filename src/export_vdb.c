@@ -140,6 +140,7 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
     ohm_vdb_grid *grids[MAX_GRIDS] = {NULL};
     size_t ngrids = 2;
     int *boundary_cell = NULL;
+    double *cell_exitance = NULL; /* one channel's, in turn */
     ohm_output out;
     int out_open = 0;
     int rc = OHM_OK;
@@ -160,7 +161,8 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
         rc = ohm_fail(err, OHM_ERR_INTERNAL, "write: frame %d of %d", frame, sol->frames);
     if (!rc && sol) {
         boundary_cell = calloc((size_t)(sol->n ? sol->n : 1), sizeof *boundary_cell);
-        if (!boundary_cell) rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
+        cell_exitance = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *cell_exitance);
+        if (!boundary_cell || !cell_exitance) rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
         for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) boundary_cell[sol->net.face_unknown[f]] = 1;
         static const char *suffix[3] = {"_r", "_g", "_b"};
         for (int c = 0; c < sol->channels && !rc; ++c) {
@@ -172,9 +174,10 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
                                NULL, prov, err);
             if (rc) break;
             snprintf(name, sizeof name, "exitance%s", sfx);
+            ohm_solution_exitance_frame(cell_exitance, sol, c, frame);
             rc = solution_grid(&grids[ngrids++], name,
                                "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
-                               sol, sol->exitance[c] + off, boundary_cell, prov, err);
+                               sol, cell_exitance, boundary_cell, prov, err);
             /* the material, when it varies cell by cell (scans) */
             if (!rc && sol->medium_sa[c]) {
                 snprintf(name, sizeof name, "sigma_a%s", sfx);
@@ -208,6 +211,7 @@ done:
     if (out_open) ohm_output_abort(&out);
     for (size_t i = 0; i < MAX_GRIDS; ++i) ohm_vdb_grid_free(grids[i]);
     free(boundary_cell);
+    free(cell_exitance);
     list_free(&surface);
     list_free(&density);
     return rc;

@@ -113,7 +113,7 @@ static void cell_exitance(const render_ctx *r, int32_t i, int32_t j, int32_t k, 
     int64_t v = ohm_network_unknown(r->net, ohm_voxel_index(&r->s->grid, i, j, k));
     for (int c = 0; c < 3; ++c) {
         int cc = r->channels == 1 ? 0 : c;
-        out[c] += w * sol->exitance[cc][(int64_t)r->frame * sol->n + v];
+        out[c] += w * ohm_solution_cell_exitance(sol, cc, r->frame, v);
     }
 }
 

@@ -199,12 +199,50 @@ static int keep_media(ohm_solution *sol, const ohm_solve_params *p, double *comp
     return OHM_OK;
 }
 
+/* The mean of face_exitance over faces [f, end) (one cell's run). */
+static double run_mean(const double *fx, int64_t f, int64_t end)
+{
+    double sum = 0;
+    for (int64_t q = f; q < end; ++q) sum += fx[q];
+    return end > f ? sum / (double)(end - f) : 0.0;
+}
+
+double ohm_solution_cell_exitance(const ohm_solution *sol, int channel, int frame, int64_t unknown)
+{
+    const ohm_network *net = &sol->net;
+    const int64_t *fu = net->face_unknown;
+    /* faces come in unknown order (ohm_network_build): the cell's are one run */
+    int64_t lo = 0, hi = net->nfaces;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (fu[mid] < unknown) lo = mid + 1;
+        else hi = mid;
+    }
+    int64_t end = lo;
+    while (end < net->nfaces && fu[end] == unknown) ++end;
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    return run_mean(sol->face_exitance[channel] + (size_t)frame * nf, lo, end);
+}
+
+void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
+{
+    const ohm_network *net = &sol->net;
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    const double *fx = sol->face_exitance[channel] + (size_t)frame * nf;
+    memset(out, 0, (size_t)sol->n * sizeof *out);
+    for (int64_t f = 0; f < net->nfaces;) {
+        int64_t v = net->face_unknown[f], end = f + 1;
+        while (end < net->nfaces && net->face_unknown[end] == v) ++end;
+        out[v] = run_mean(fx, f, end);
+        f = end;
+    }
+}
+
 void ohm_solution_free(ohm_solution *sol)
 {
     if (!sol) return;
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
         free(sol->fluence[c]);
-        free(sol->exitance[c]);
         free(sol->face_exitance[c]);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
@@ -345,22 +383,15 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
     for (size_t j = 0; j < nb; ++j) {
         size_t fr = f0 + j;
         const double *x = X + j * n, *b = B + j * n;
-        double *ex = sol->exitance[c] + fr * n;
         double *fx = sol->face_exitance[c] + fr * nf;
         for (size_t v = 0; v < n; ++v) {
             in += b[v];
             absorbed += ga[v] * x[v];
         }
-        for (int64_t f = 0; f < net->nfaces;) {
-            int64_t v = net->face_unknown[f], end = f + 1;
-            while (end < net->nfaces && net->face_unknown[end] == v) ++end;
-            int count = (int)(end - f);
-            for (; f < end; ++f) {
-                double p = gb[f] * x[v];
-                out += p;
-                fx[f] = p / area;
-                ex[v] += p / (area * count);
-            }
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            double p = gb[f] * x[net->face_unknown[f]];
+            out += p;
+            fx[f] = p / area;
         }
     }
     sol->power_in += in;
@@ -494,9 +525,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     }
     for (int c = 0; c < channels; ++c) {
         sol->fluence[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
-        sol->exitance[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
         sol->face_exitance[c] = calloc(nf * (size_t)frames, sizeof(double));
-        if (!sol->fluence[c] || !sol->exitance[c] || !sol->face_exitance[c]) {
+        if (!sol->fluence[c] || !sol->face_exitance[c]) {
             rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
             goto done;
         }

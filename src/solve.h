@@ -57,10 +57,9 @@ typedef struct ohm_solution {
     ohm_network net;                    /* topology (cell of each unknown, faces)     */
     /* Per channel, frame-major: value of unknown v in frame f at [f * n + v]. */
     double *fluence[OHM_MAX_CHANNELS];  /* fluence rate phi (W/mm^2)                  */
-    double *exitance[OHM_MAX_CHANNELS]; /* power leaving through the cell's boundary
-                                           faces per unit area, 0 for cells with none */
     double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
-                                           G_b phi / h^2 per face                     */
+                                           G_b phi / h^2 per face; a cell's exitance
+                                           is the mean of its faces' (below)          */
     /* The medium when it varies cell by cell, in unknown order (NULL when
      * homogeneous), for the sigma_a / sigma_s output grids: the params'
      * arrays themselves when given (give_media), the depth band's compacted
@@ -105,6 +104,15 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err);
 
 void ohm_solution_free(ohm_solution *sol);
+
+/* A cell's exitance: the power leaving through its boundary faces per unit
+ * area, the mean of their face_exitance; 0 for a cell with none.  It is
+ * derived when asked, not stored: a stored copy was 8 B per cell per channel
+ * and frame, for values that are nonzero only on the surface. */
+double ohm_solution_cell_exitance(const ohm_solution *sol, int channel, int frame, int64_t unknown);
+
+/* The same for every unknown of one channel and frame, into out[n]. */
+void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
 
 /* |in - absorbed - out| / in */
 double ohm_solution_conservation_error(const ohm_solution *sol);
