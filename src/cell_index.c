@@ -21,7 +21,7 @@ void ohm_cell_index_finish(ohm_cell_index *ix, size_t ncells)
     int64_t before = 0;
     for (size_t w = 0; w < (ncells + 63) / 64; ++w) {
         ix->rank[w] = before;
-        before += __builtin_popcountll(ix->bits[w]);
+        before += ohm_popcount64(ix->bits[w]);
     }
     ix->count = before;
 }
