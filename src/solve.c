@@ -370,9 +370,8 @@ static void expand_columns(double *X, double *B, const ohm_solution *sol, const 
 
 /* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
- * (sum G_b phi), DESIGN.md §2; and store the exitance per face and per cell.
- * Faces come in unknown order (ohm_network_build), so a cell's faces are one
- * run: its face count is the run's length, no per-cell count array. */
+ * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
+ * derived from its faces' when read: ohm_solution_cell_exitance). */
 static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
                        size_t f0, size_t nb, int c)
 {
