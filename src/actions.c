@@ -523,6 +523,11 @@ static const ohm_opt_spec solve_opts[] = {
      "robin|neumann|dirichlet", 0, 0, 0},
     {"ordering", OHM_OPT_ENUM, "metis", "fill-reducing ordering of the Cholesky factor; best tries metis and amd",
      "metis|amd|nesdis|best", 0, 0, 0},
+    {"fresnel", OHM_OPT_ENUM, "exact",
+     "robin: the boundary constant A from eta by the exact Fresnel moments, A = (1 + 3 C2)/(1 - 2 C1) "
+     "(Haskell et al. 1994) | polynomial: (1 + F_dr)/(1 - F_dr) with Egan & Hilgeman's fit (3.05 against 2.76 "
+     "at eta 1.37)",
+     "exact|polynomial", 0, 0, 0},
     {"deposit", OHM_OPT_ENUM, "exponential",
      "where entering light starts to diffuse: exponential (reduced-intensity profile) | point (at depth "
      "1/sigma_t', the dipole's) | surface (first cell, the paper's)",
@@ -628,11 +633,13 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (s->nlights == 0)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no lights: add -light first", inv->where);
     const char *bname = ohm_opt_str(inv, "boundary"), *dname = ohm_opt_str(inv, "deposit");
+    const char *fname = ohm_opt_str(inv, "fresnel");
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
                  : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
                                                    : OHM_BOUNDARY_ROBIN;
+    p.fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
     p.deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                 : OHM_DEPOSIT_EXPONENTIAL;
@@ -676,8 +683,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
     snprintf(s->solution_desc, sizeof s->solution_desc,
-             "boundary=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s band=%g", bname, dname,
-             ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k);
+             "boundary=%s fresnel=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s band=%g", bname,
+             fname, dname, ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -721,6 +728,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
     ohm_stats_set_str(st, "boundary", bname);
     ohm_stats_set_str(st, "deposit", dname);
+    ohm_stats_set_str(st, "fresnel", fname);
     ohm_stats_set_str(st, "ordering", sol->ordering);
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);

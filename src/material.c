@@ -72,30 +72,6 @@ int ohm_material_check(const ohm_material *m, ohm_error *err)
     return OHM_OK;
 }
 
-/* Diffuse Fresnel reflectance, the polynomial fit of Egan & Hilgeman (1979)
- * used by Jensen et al. 2001, Eq. 16. */
-double ohm_fresnel_dr(double eta) { return -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta; }
-
-double ohm_boundary_A(double eta)
-{
-    double f = ohm_fresnel_dr(eta);
-    return (1.0 + f) / (1.0 - f);
-}
-
-/* Unpolarised Fresnel reflectance for light arriving from outside (index 1)
- * into a medium of relative index eta, at incidence cosine cos_i. */
-double ohm_fresnel_reflectance(double eta, double cos_i)
-{
-    if (cos_i > 1.0) cos_i = 1.0;
-    if (cos_i <= 0.0) return 1.0;
-    double sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
-    if (sin_t2 >= 1.0) return 1.0; /* cannot happen entering a denser medium */
-    double cos_t = sqrt(1.0 - sin_t2);
-    double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
-    double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
 double ohm_material_D(const ohm_material *m, int c) { return 1.0 / (3.0 * (m->sigma_a[c] + m->sigma_s[c])); }
 
 double ohm_material_sigma_tr(const ohm_material *m, int c)

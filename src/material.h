@@ -8,6 +8,7 @@
 #ifndef OHM_MATERIAL_H
 #define OHM_MATERIAL_H
 
+#include "fresnel.h"
 #include "ohm_error.h"
 
 enum { OHM_MAX_CHANNELS = 3 };
@@ -44,9 +45,7 @@ int ohm_material_preset(ohm_material *out, const char *name, ohm_error *err);
 int ohm_material_check(const ohm_material *m, ohm_error *err);
 
 /* Derived quantities (DESIGN.md §2). */
-double ohm_fresnel_dr(double eta);             /* F_dr, Egan & Hilgeman fit     */
-double ohm_boundary_A(double eta);             /* A = (1 + F_dr)/(1 - F_dr)      */
-double ohm_fresnel_reflectance(double eta, double cos_i); /* unpolarised F_r(theta) */
+/* The boundary's Fresnel optics and A: fresnel.h. */
 
 /* For channel c: sigma_t' = sigma_a + sigma_s', D = 1/(3 sigma_t'),
  * sigma_tr = sqrt(3 sigma_a sigma_t'), albedo alpha' = sigma_s'/sigma_t'. */

@@ -280,7 +280,7 @@ static inline double closure_conductance(const ohm_channel_medium *m, double h, 
 static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_boundary b)
 {
     memset(k, 0, sizeof *k);
-    k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta);
+    k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta, m->fresnel);
     k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v));
     if (k->uniform) {
         double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */

@@ -23,6 +23,7 @@
 #include <cholmod.h>
 
 #include "cell_index.h"
+#include "fresnel.h"
 #include "ohm_error.h"
 #include "voxelize.h"
 
@@ -88,6 +89,7 @@ typedef struct ohm_channel_medium {
     const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
     double sigma_a0, sigma_s0;
     double eta;
+    ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
 } ohm_channel_medium;
 
 /* Assemble A (caller frees with cholmod_l_free_sparse) and, optionally, the

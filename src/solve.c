@@ -271,6 +271,7 @@ static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const o
     med->resistance_v = p->resistance_v;
     med->ground_v = p->ground_v;
     med->eta = mat->eta;
+    med->fresnel = p->fresnel;
 }
 
 /* Channels c and e share a factor when their coefficients are identical. */

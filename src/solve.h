@@ -18,6 +18,7 @@
 
 typedef struct ohm_solve_params {
     ohm_boundary boundary;
+    ohm_fresnel fresnel;       /* robin: how A comes from eta (fresnel.h); 0: exact */
     const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
                                   NULL: direct                               */
     double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */

@@ -70,6 +70,11 @@ static int make_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_err
     return OHM_OK;
 }
 
+/* The validation media's index, and the A their Robin solves use (the
+ * default, exact Fresnel moments): the references take it. */
+#define VALIDATION_ETA 1.3
+static double validation_A(void) { return ohm_boundary_A(VALIDATION_ETA, OHM_FRESNEL_EXACT); }
+
 static ohm_material grey(double sigma_a, double sigma_s)
 {
     ohm_material m;
@@ -78,7 +83,7 @@ static ohm_material grey(double sigma_a, double sigma_s)
     m.channels = 1;
     m.sigma_a[0] = sigma_a;
     m.sigma_s[0] = sigma_s;
-    m.eta = 1.3;
+    m.eta = VALIDATION_ETA;
     snprintf(m.name, sizeof m.name, "validation");
     return m;
 }
@@ -210,7 +215,8 @@ static int deposit_at_depth(double *b, const ohm_network *net, int i, int j, dou
     double s = z0 / g->h - 0.5;
     int m = s <= 0 ? 0 : (int)floor(s);
     double frac = s <= 0 ? 0 : s - m;
-    int64_t u0 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 1 + m)), u1 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 2 + m));
+    int64_t u0 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 1 + m));
+    int64_t u1 = ohm_network_unknown(net, ohm_voxel_index(g, i, j, 2 + m));
     if (u0 < 0 || u1 < 0) return -1;
     b[u0] += P * (1 - frac);
     b[u1] += P * frac;
@@ -265,12 +271,12 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
         double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < rmin || r > rmax) continue;
         double J = sol.face_exitance[0][f];
-        double Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, 1.3);
+        double Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, validation_A());
         double e = rel(J, Jref);
         if (e > worst) worst = e, worst_r = r;
         /* the dipole's R_d is per unit incident power; our source is the
          * scattered power, albedo times that */
-        double Jdip = ohm_ref_dipole_Rd(r, HS_SA, HS_SS, 1.3) * (HS_SA + HS_SS) / HS_SS;
+        double Jdip = ohm_ref_dipole_Rd(r, HS_SA, HS_SS, validation_A()) * (HS_SA + HS_SS) / HS_SS;
         double ed = rel(J, Jdip);
         if (ed > worst_dip) worst_dip = ed, worst_dip_r = r;
     }
@@ -285,10 +291,10 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
     for (int64_t f = 0; f < sol.net.nfaces; ++f)
         if (sol.net.face_dir[f] == 4) surface_out += sol.face_exitance[0][f] * h * h;
     double escape = surface_out / sol.power_in;
-    double escape_ref = ohm_ref_halfspace_escape(z0, HS_SA, HS_SS, 1.3);
+    double escape_ref = ohm_ref_halfspace_escape(z0, HS_SA, HS_SS, validation_A());
     add_row(v, "half-space escaped fraction of the source", "1-D closed form", escape, escape_ref,
             rel(escape, escape_ref), 0.02);
-    double dip_total = ohm_ref_dipole_Rd_total(HS_SA, HS_SS, 1.3) * (HS_SA + HS_SS) / HS_SS;
+    double dip_total = ohm_ref_dipole_Rd_total(HS_SA, HS_SS, validation_A()) * (HS_SA + HS_SS) / HS_SS;
     add_row(v, "half-space escaped fraction vs dipole Rd", "Jensen 2001 total Rd (loose)", escape, dip_total,
             rel(escape, dip_total), -1);
     add_row(v, "half-space: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
@@ -336,7 +342,7 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
         ohm_voxel_coords(&g, sol.net.cell[sol.net.face_unknown[f]], c);
         double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < rmin || r > rmax) continue;
-        double J = sol.face_exitance[0][f], Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, 1.3);
+        double J = sol.face_exitance[0][f], Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, validation_A());
         out->worst = fmax(out->worst, rel(J, Jref));
         sum_e += fabs(J - Jref);
         sum_ref += fabs(Jref);
@@ -620,7 +626,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
             for (int si = 0; si < FIG1_STEP * q; ++si) {
                 double sx = lo * h + (si + 0.5) * h / q, sy = lo * h + (sj + 0.5) * h / q;
                 double r = sqrt((x - sx) * (x - sx) + (y - sy) * (y - sy));
-                sum += ohm_ref_dipole_Rd(r, FIG1_SA, FIG1_SS, 1.3) * (h / q) * (h / q);
+                sum += ohm_ref_dipole_Rd(r, FIG1_SA, FIG1_SS, validation_A()) * (h / q) * (h / q);
             }
         prof_c[i - 1] = sum;
     }

@@ -129,6 +129,26 @@ expect_exit 2 "two orbits" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 
 expect_error_line "two orbits" "only one orbiting light"
 expect_exit 2 "falloff wider than the cone" -- "$OHM" -light type=spot pos=0,1,0 dir=0,-1,0 angle=10 falloff=20
 
+# the boundary constant: the exact Fresnel moments by default (A = 2.34 at
+# eta 1.3), Egan & Hilgeman's fit on request (2.60).  A larger A reflects
+# more of the light arriving at the surface back in, so less leaves and more
+# is absorbed; both conserve exactly.
+for f in exact polynomial; do
+  expect_exit 0 "fresnel=$f" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=20 \
+    -material sigma_a=0.05 sigma_s=1 eta=1.3 -light dir=0,-1,0 -solve fresnel=$f -stats file="$T/fr_$f.json"
+done
+check "fresnel: polynomial A keeps more light in" $PY - "$T/fr_exact.json" "$T/fr_polynomial.json" <<'PY'
+import json, sys
+e, p = (json.load(open(f)) for f in sys.argv[1:3])
+assert e["fresnel"] == "exact" and p["fresnel"] == "polynomial", (e["fresnel"], p["fresnel"])
+assert e["power_in"] == p["power_in"], (e["power_in"], p["power_in"])  # the source does not depend on A
+for s in (e, p):
+    assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-10 * s["power_in"], s
+assert p["power_absorbed"] > e["power_absorbed"] * 1.01 and p["power_out"] < e["power_out"], (e, p)
+PY
+expect_exit 2 "fresnel: unknown formula" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=8 \
+  -material preset=marble -light dir=0,-1,0 -solve fresnel=fit
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'

@@ -33,7 +33,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double
     if (rc == 0) {
         const int64_t *Ap = A->p, *Ai = A->i;
         const double *Ax = A->x;
-        double h = g->h, Aeta = ohm_boundary_A(eta);
+        double h = g->h, Aeta = ohm_boundary_A(eta, OHM_FRESNEL_EXACT);
         CHECK(A->stype == 1 && A->nrow == (size_t)net.n);
         size_t bad_pair = 0, bad_value = 0, bad_sign = 0, bad_diag = 0, pairs = 0;
         double *rowsum = calloc((size_t)net.n, sizeof *rowsum);

@@ -1,0 +1,100 @@
+/* fresnel.c — Fresnel reflectance and the boundary constant A (fresnel.h). */
+#include "fresnel.h"
+
+#include <math.h>
+
+double ohm_fresnel_reflectance(double eta, double cos_i)
+{
+    if (cos_i > 1.0) cos_i = 1.0;
+    if (cos_i <= 0.0) return 1.0;
+    double sin_t2 = (1.0 - cos_i * cos_i) / (eta * eta);
+    if (sin_t2 >= 1.0) return 1.0; /* cannot happen entering a denser medium */
+    double cos_t = sqrt(1.0 - sin_t2);
+    double rs = (cos_i - eta * cos_t) / (cos_i + eta * cos_t);
+    double rp = (eta * cos_i - cos_t) / (eta * cos_i + cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+/* The same from inside, with the transmitted cosine given (cos_t > 0). */
+static double inside_given_cos_t(double eta, double mu, double cos_t)
+{
+    double rs = (eta * mu - cos_t) / (eta * mu + cos_t);
+    double rp = (mu - eta * cos_t) / (mu + eta * cos_t);
+    return 0.5 * (rs * rs + rp * rp);
+}
+
+double ohm_fresnel_reflectance_inside(double eta, double mu)
+{
+    if (mu > 1.0) mu = 1.0;
+    if (mu <= 0.0) return 1.0;
+    double sin_t2 = eta * eta * (1.0 - mu * mu); /* Snell: sin_t = eta sin_i */
+    if (sin_t2 >= 1.0) return 1.0;               /* total internal reflection */
+    return inside_given_cos_t(eta, mu, sqrt(1.0 - sin_t2));
+}
+
+/* 8-point Gauss-Legendre on [-1, 1] (Abramowitz & Stegun, Table 25.4). */
+static const double GL_X[4] = {0.1834346424956498, 0.5255324099163290, 0.7966664774136267, 0.9602898564975363};
+static const double GL_W[4] = {0.3626837833783620, 0.3137066458778873, 0.2223810344533745, 0.1012285362903763};
+enum { PANELS = 64 };
+
+/* int_0^1 f(s) ds, composite over PANELS panels, for a smooth f. */
+static void integrate(double eta, int tir, double *c1, double *c2)
+{
+    double s1 = 0.0, s2 = 0.0;
+    for (int p = 0; p < PANELS; ++p) {
+        double a = (double)p / PANELS, half = 0.5 / PANELS, mid = a + half;
+        for (int q = 0; q < 8; ++q) {
+            double s = mid + (q < 4 ? -1.0 : 1.0) * half * GL_X[q & 3], w = half * GL_W[q & 3];
+            double mu, weight, R;
+            if (tir) {
+                /* Beyond the critical cosine mu_c the transmitted cosine t
+                 * rises from 0 like sqrt(mu - mu_c); in t the integrand is
+                 * smooth: mu^2 = 1 - (1 - t^2)/eta^2, mu dmu = t dt / eta^2. */
+                double t = s;
+                mu = sqrt(1.0 - (1.0 - t * t) / (eta * eta));
+                weight = t / (eta * eta * mu); /* dmu/dt */
+                R = t > 0.0 ? inside_given_cos_t(eta, mu, t) : 1.0;
+            } else {
+                mu = s;
+                weight = 1.0;
+                R = ohm_fresnel_reflectance_inside(eta, mu);
+            }
+            s1 += w * weight * R * mu;
+            s2 += w * weight * R * mu * mu;
+        }
+    }
+    *c1 = s1;
+    *c2 = s2;
+}
+
+void ohm_fresnel_moments(double eta, double *c1, double *c2)
+{
+    if (eta == 1.0) { /* no interface: nothing reflects */
+        *c1 = *c2 = 0.0;
+        return;
+    }
+    if (eta < 1.0) { /* no critical angle from inside: smooth over mu in [0, 1] */
+        integrate(eta, 0, c1, c2);
+        return;
+    }
+    /* R = 1 below the critical cosine mu_c: int_0^mu_c mu^n dmu exactly */
+    double mu_c = sqrt(1.0 - 1.0 / (eta * eta)), t1, t2;
+    integrate(eta, 1, &t1, &t2);
+    *c1 = 0.5 * mu_c * mu_c + t1;
+    *c2 = mu_c * mu_c * mu_c / 3.0 + t2;
+}
+
+double ohm_fresnel_dr(double eta) { return -1.440 / (eta * eta) + 0.710 / eta + 0.668 + 0.0636 * eta; }
+
+double ohm_boundary_A(double eta, ohm_fresnel how)
+{
+    if (how == OHM_FRESNEL_POLYNOMIAL) {
+        double f = ohm_fresnel_dr(eta);
+        return (1.0 + f) / (1.0 - f);
+    }
+    double c1, c2;
+    ohm_fresnel_moments(eta, &c1, &c2);
+    return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
+}
+
+const char *ohm_fresnel_name(ohm_fresnel how) { return how == OHM_FRESNEL_POLYNOMIAL ? "polynomial" : "exact"; }
