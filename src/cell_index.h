@@ -30,15 +30,10 @@ static inline void ohm_cell_index_add(ohm_cell_index *ix, size_t c)
 /* The running counts, once every member is added. */
 void ohm_cell_index_finish(ohm_cell_index *ix, size_t ncells);
 
-/* Is cell c a member? */
-static inline int ohm_cell_index_has(const ohm_cell_index *ix, size_t c)
-{
-    return (int)((ix->bits[c >> 6] >> (c & 63)) & 1);
-}
-
 /* Set bits of x.  Written out (Hacker's Delight, 2nd ed., fig. 5-2) because
  * the compiler's builtin becomes a libgcc call on the x86-64 baseline, which
- * has no popcnt instruction: 3x slower in the network's walk (measured). */
+ * has no popcnt instruction: the network's build and assembly ran 10-15%
+ * slower with it (tests/bench_serial, warm memory, 10^6 cells). */
 static inline int64_t ohm_popcount64(uint64_t x)
 {
     x = x - ((x >> 1) & 0x5555555555555555u);

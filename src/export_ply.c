@@ -14,7 +14,7 @@ static const char *const channel_suffix[3] = {"_r", "_g", "_b"};
 /* Weighted exitance around point p: cells within `radius` voxels (radius <= 0:
  * the nearest boundary cell).  Returns the number of cells used. */
 static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const ohm_solution *sol,
-                  const uint8_t *bnd, int frame, double radius)
+                  const uint8_t *bnd, double *const exitance[], double radius)
 {
     const double h = g->h;
     double q[3];
@@ -40,7 +40,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
                     if (d > radius) continue;
                     double w = 1.0 / fmax(d, 1e-3);
                     for (int c = 0; c < channels; ++c)
-                        acc[c] += w * ohm_solution_cell_exitance(sol, c, frame, u);
+                        acc[c] += w * exitance[c][u];
                     wsum += w;
                     ++used;
                 }
@@ -72,7 +72,7 @@ static int gather(double *acc, const double p[3], const ohm_voxel_grid *g, const
                 }
         if (bu >= 0 && (sqrt(best) <= R - 1 || R > 2 * maxdim)) {
             for (int c = 0; c < channels; ++c)
-                acc[c] = ohm_solution_cell_exitance(sol, c, frame, bu);
+                acc[c] = exitance[c][bu];
             return 1;
         }
         if (R > 2 * maxdim) return 0;
@@ -91,22 +91,31 @@ int ohm_vertex_exitance(float **out, const ohm_mesh *mesh, const ohm_voxel_grid 
     int channels = sol->channels;
     uint8_t *bnd = calloc((size_t)sol->n, 1);
     float *v = malloc((mesh->nverts ? mesh->nverts : 1) * (size_t)channels * sizeof *v);
-    if (!bnd || !v) {
+    double *exitance[OHM_MAX_CHANNELS] = {NULL}; /* per unknown, this frame */
+    int no_exitance = 0;
+    for (int c = 0; c < channels; ++c) {
+        exitance[c] = malloc((size_t)sol->n * sizeof *exitance[c]);
+        if (exitance[c]) ohm_solution_exitance_frame(exitance[c], sol, c, frame);
+        else no_exitance = 1;
+    }
+    if (!bnd || !v || no_exitance) {
         free(bnd);
         free(v);
+        for (int c = 0; c < channels; ++c) free(exitance[c]);
         return ohm_fail(err, OHM_ERR_NOMEM, "out of memory for %zu vertices", mesh->nverts);
     }
     for (int64_t f = 0; f < sol->net.nfaces; ++f) bnd[sol->net.face_unknown[f]] = 1;
     for (size_t i = 0; i < mesh->nverts; ++i) {
         double acc[OHM_MAX_CHANNELS];
         const double *p = mesh->verts + 3 * i;
-        if (!gather(acc, p, grid, sol, bnd, frame, 1.5)) {
-            if (!gather(acc, p, grid, sol, bnd, frame, 0))
+        if (!gather(acc, p, grid, sol, bnd, exitance, 1.5)) {
+            if (!gather(acc, p, grid, sol, bnd, exitance, 0))
                 for (int c = 0; c < channels; ++c) acc[c] = 0;
         }
         for (int c = 0; c < channels; ++c) v[i * (size_t)channels + (size_t)c] = (float)acc[c];
     }
     free(bnd);
+    for (int c = 0; c < channels; ++c) free(exitance[c]);
     *out = v;
     return OHM_OK;
 }

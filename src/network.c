@@ -43,7 +43,6 @@ typedef struct walk {
     int64_t stride[6]; /* dense-index offset of the neighbour across face d */
     int32_t ijk[3];    /* the current unknown's cell */
     int64_t cell;
-    int64_t v;         /* the current unknown */
 } walk;
 
 static void walk_begin(walk *w, const ohm_network *net)
@@ -65,7 +64,6 @@ static inline void walk_to(walk *w, int64_t v)
     if (w->cell >= 0 && w->ijk[0] + step < w->dims[0]) w->ijk[0] += (int32_t)step;
     else ohm_voxel_coords(w->net->grid, c, w->ijk);
     w->cell = c;
-    w->v = v;
 }
 
 /* Neighbour of the current cell across face d: its unknown, -1 if outside
@@ -82,12 +80,7 @@ static inline int64_t walk_across(const walk *w, int d)
         if (x == 0) return -1;
     }
     int64_t nc = w->cell + w->stride[d];
-    /* across x the neighbour, when an unknown, is the next or previous one
-     * (numbered in cell order): no count needed */
-    int64_t u = axis ? ohm_network_unknown(w->net, (size_t)nc)
-                : !ohm_cell_index_has(&w->net->unknowns, (size_t)nc) ? -1
-                : (d & 1)                                           ? w->v + 1
-                                                                    : w->v - 1;
+    int64_t u = ohm_network_unknown(w->net, (size_t)nc);
     if (u < 0 && w->net->active && w->inside[nc]) return -3;
     return u;
 }

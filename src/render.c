@@ -39,6 +39,7 @@ typedef struct render_ctx {
     RTCScene scene;
     double eps;                /* offset for shadow rays (mm) */
     double *vnormal;           /* 3 per vertex: area-weighted, for smooth shading */
+    double *exitance[3];       /* per unknown, this frame, per channel (solve.h) */
 } render_ctx;
 
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -109,11 +110,10 @@ static int boundary_cell(const ohm_voxel_grid *g, const ohm_network *net, int32_
 
 static void cell_exitance(const render_ctx *r, int32_t i, int32_t j, int32_t k, double w, double out[3])
 {
-    const ohm_solution *sol = &r->s->solution;
     int64_t v = ohm_network_unknown(r->net, ohm_voxel_index(&r->s->grid, i, j, k));
     for (int c = 0; c < 3; ++c) {
         int cc = r->channels == 1 ? 0 : c;
-        out[c] += w * ohm_solution_cell_exitance(sol, cc, r->frame, v);
+        out[c] += w * r->exitance[cc][v];
     }
 }
 
@@ -360,8 +360,15 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     double *scat = calloc(npx * 3, sizeof *scat), *lamb = calloc(npx * 3, sizeof *lamb);
     unsigned char *hits = calloc(npx, 1);
     float *img = malloc((size_t)W * (size_t)H * 3 * sizeof *img);
-    if (!scat || !lamb || !hits || !img) {
+    int no_exitance = 0;
+    for (int c = 0; c < r.channels; ++c) {
+        r.exitance[c] = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *r.exitance[c]);
+        if (r.exitance[c]) ohm_solution_exitance_frame(r.exitance[c], sol, c, r.frame);
+        else no_exitance = 1;
+    }
+    if (!scat || !lamb || !hits || !img || no_exitance) {
         free(scat), free(lamb), free(hits), free(img), free(r.vnormal);
+        for (int c = 0; c < 3; ++c) free(r.exitance[c]);
         scene_free(&r);
         return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for a %d x %d image", W, H);
     }
@@ -420,6 +427,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         }
     scene_free(&r);
     free(r.vnormal);
+    for (int c = 0; c < 3; ++c) free(r.exitance[c]);
 
     /* exposure */
     double exposure = 1.0, p99 = 0;

@@ -207,23 +207,6 @@ static double run_mean(const double *fx, int64_t f, int64_t end)
     return end > f ? sum / (double)(end - f) : 0.0;
 }
 
-double ohm_solution_cell_exitance(const ohm_solution *sol, int channel, int frame, int64_t unknown)
-{
-    const ohm_network *net = &sol->net;
-    const int64_t *fu = net->face_unknown;
-    /* faces come in unknown order (ohm_network_build): the cell's are one run */
-    int64_t lo = 0, hi = net->nfaces;
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (fu[mid] < unknown) lo = mid + 1;
-        else hi = mid;
-    }
-    int64_t end = lo;
-    while (end < net->nfaces && fu[end] == unknown) ++end;
-    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    return run_mean(sol->face_exitance[channel] + (size_t)frame * nf, lo, end);
-}
-
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
 {
     const ohm_network *net = &sol->net;
@@ -372,7 +355,7 @@ static void expand_columns(double *X, double *B, const ohm_solution *sol, const 
 /* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
  * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
- * derived from its faces' when read: ohm_solution_cell_exitance). */
+ * derived from its faces' when read: ohm_solution_exitance_frame). */
 static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
                        size_t f0, size_t nb, int c)
 {

@@ -106,13 +106,11 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
 
 void ohm_solution_free(ohm_solution *sol);
 
-/* A cell's exitance: the power leaving through its boundary faces per unit
- * area, the mean of their face_exitance; 0 for a cell with none.  It is
- * derived when asked, not stored: a stored copy was 8 B per cell per channel
- * and frame, for values that are nonzero only on the surface. */
-double ohm_solution_cell_exitance(const ohm_solution *sol, int channel, int frame, int64_t unknown);
-
-/* The same for every unknown of one channel and frame, into out[n]. */
+/* Every cell's exitance in one channel and frame, into out[n]: the power
+ * leaving through its boundary faces per unit area, the mean of their
+ * face_exitance; 0 for a cell with none.  It is derived when an output asks,
+ * not stored: a stored copy was 8 B per cell per channel and frame, held
+ * through the solve, for values that are nonzero only on the surface. */
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
 
 /* |in - absorbed - out| / in */

@@ -16,8 +16,8 @@
 #ifndef OHM_VOXELIZE_H
 #define OHM_VOXELIZE_H
 
-#include <stddef.h>
 #include <math.h>
+#include <stddef.h>
 #include <stdint.h>
 
 #include "cell_index.h"

@@ -1,5 +1,6 @@
 /* solvers/direct.h — sparse Cholesky with CHOLMOD (64-bit cholmod_l_*), the
- * paper's precomputed quantity, and the `direct` backend over it (backend.h).  One analysis (fill-reducing ordering + symbolic
+ * paper's precomputed quantity, and the `direct` backend over it
+ * (backend.h).  One analysis (fill-reducing ordering + symbolic
  * factor) per grid, shared by every channel's numeric factorization; many
  * right-hand sides per solve; every solve checks its scaled backward error
  * ||Ax - b|| / (||A|| ||x|| + ||b||) (infinity norms), refines once when it is
