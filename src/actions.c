@@ -539,8 +539,18 @@ static const ohm_opt_spec solve_opts[] = {
     {"solver", OHM_OPT_ENUM, "direct",
      "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
-     "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model)",
-     "direct|cg|amg|auto", 0, 0, 0},
+     "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
+     "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
+     "model's error, with standard errors; photons= seed= g= threads=)",
+     "direct|cg|amg|auto|mc", 0, 0, 0},
+    {"photons", OHM_OPT_REAL, "1e6", "solver=mc: photons per frame and channel (the noise falls as 1/sqrt(photons))",
+     NULL, 16, 1e12, 0},
+    {"seed", OHM_OPT_INT, "1", "solver=mc: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
+     9.007199254740992e15, 0},
+    {"g", OHM_OPT_REAL, "0",
+     "solver=mc: Henyey-Greenstein anisotropy; materials give sigma_s', traced as sigma_s = sigma_s' / (1 - g)",
+     NULL, -0.99, 0.99, 0},
+    {"threads", OHM_OPT_INT, "0", "solver=mc: threads (0: every core)", NULL, 0, 1024, 0},
     {"petsc_options", OHM_OPT_STRING, NULL,
      "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
      "-pc_factor_mat_solver_type mumps\"; an option PETSc does not use is an error",
@@ -647,6 +657,11 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     p.solver = ohm_opt_str(inv, "solver");
     if (ohm_opt_given(inv, "petsc_options")) p.petsc_options = ohm_opt_str(inv, "petsc_options");
     p.cg_tol = ohm_opt_real(inv, "cg_tol");
+    p.mc.photons = (int64_t)ohm_opt_real(inv, "photons");
+    p.mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
+    p.mc.g = ohm_opt_real(inv, "g");
+    p.mc.threads = (int)ohm_opt_int(inv, "threads");
+    p.mc.log = &s->log;
     p.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
         if (ohm_opt_given(inv, "depth_band"))
@@ -691,6 +706,14 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                  "%.2g, power in %.6g W = absorbed %.6g + out %.6g (conservation error %.2g)",
                  (long long)sol->n, sol->channels, sol->factors, s->nlights, ohm_now() - t0, sol->residual,
                  sol->power_in, sol->power_absorbed, sol->power_out, cons);
+    if (strcmp(sol->solver, "mc") == 0)
+        ohm_log_info(&s->log,
+                     "monte carlo: %lld photons (g=%g, seed=%llu, %d threads) at %.4g photons/ms, %.4g path "
+                     "segments each%s",
+                     (long long)sol->mc_photons, p.mc.g, (unsigned long long)p.mc.seed, sol->mc_threads,
+                     sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0.0,
+                     sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0.0,
+                     sol->mc_truncated ? "; some photons hit the event cap (a medium that keeps light in)" : "");
     if (p.boundary == OHM_BOUNDARY_NEUMANN)
         ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
     if (sol->mode_corrections)
@@ -756,6 +779,16 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
     ohm_stats_set(st, "power_out", sol->power_out);
     ohm_stats_set(st, "conservation_error", cons);
+    if (strcmp(sol->solver, "mc") == 0) {
+        ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
+        ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
+        ohm_stats_set(st, "mc_g", p.mc.g);
+        ohm_stats_set_int(st, "mc_threads", sol->mc_threads);
+        ohm_stats_set_int(st, "mc_truncated", (long long)sol->mc_truncated);
+        ohm_stats_set(st, "mc_photons_per_ms", sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0);
+        ohm_stats_set(st, "mc_events_per_photon",
+                      sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
+    }
     return OHM_OK;
 }
 
@@ -836,11 +869,16 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     if (rc) return rc;
     double t = ohm_now() - t0;
-    const char *grids = !sol                 ? ""
-                        : sol->channels == 1 ? (sol->medium_sa[0] ? ", fluence, exitance, sigma_a, sigma_s"
-                                                                  : ", fluence, exitance")
-                        : sol->medium_sa[0]  ? ", fluence_r/g/b, exitance_r/g/b, sigma_a_r/g/b, sigma_s_r/g/b"
-                                             : ", fluence_r/g/b, exitance_r/g/b";
+    /* the grids ohm_export_vdb wrote, for the log */
+    char grids[160] = "";
+    if (sol) {
+        const char *rgb = sol->channels == 1 ? "" : "_r/g/b";
+        snprintf(grids, sizeof grids, ", fluence%s, exitance%s%s%s%s%s%s%s%s%s", rgb, rgb,
+                 sol->fluence_se[0] ? ", fluence_se" : "", sol->fluence_se[0] ? rgb : "",
+                 sol->fluence_se[0] ? ", exitance_se" : "", sol->fluence_se[0] ? rgb : "",
+                 sol->medium_sa[0] ? ", sigma_a" : "", sol->medium_sa[0] ? rgb : "",
+                 sol->medium_sa[0] ? ", sigma_s" : "", sol->medium_sa[0] ? rgb : "");
+    }
     if (frames == 1) ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path, grids, t);
     else
         ohm_log_info(&s->log, "wrote %.*s_0001.vdb .. _%04d.vdb (%d frames; grids: surface, density%s), %.2f s",

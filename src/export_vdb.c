@@ -130,7 +130,7 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
     return rc;
 }
 
-enum { MAX_GRIDS = 2 + 4 * OHM_MAX_CHANNELS };
+enum { MAX_GRIDS = 2 + 6 * OHM_MAX_CHANNELS };
 
 int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
                    const ohm_vdb_provenance *prov, ohm_error *err)
@@ -178,6 +178,17 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
             rc = solution_grid(&grids[ngrids++], name,
                                "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
                                sol, cell_exitance, boundary_cell, prov, err);
+            /* solver=mc: the standard errors beside the values */
+            if (!rc && sol->fluence_se[c]) {
+                snprintf(name, sizeof name, "fluence_se%s", sfx);
+                rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the fluence, W/mm^2", g, sol,
+                                   sol->fluence_se[c] + off, NULL, prov, err);
+            }
+            if (!rc && sol->exitance_se[c]) {
+                snprintf(name, sizeof name, "exitance_se%s", sfx);
+                rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the exitance, W/mm^2", g,
+                                   sol, sol->exitance_se[c] + off, boundary_cell, prov, err);
+            }
             /* the material, when it varies cell by cell (scans) */
             if (!rc && sol->medium_sa[c]) {
                 snprintf(name, sizeof name, "sigma_a%s", sfx);

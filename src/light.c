@@ -239,78 +239,218 @@ static double spot_factor(const ohm_light *light, const double to_face[3])
 
 enum { AREA_MAX_SAMPLES = 4096 };
 
+/* A light's emitters: one point for directional / point / spot / pencil,
+ * stratified samples for an area light (each carrying scale_each of it). */
+typedef struct emitters {
+    double one_point[1][3];
+    double (*pts)[3];
+    int npts;
+    double scale_each;
+} emitters;
+
+static int emitters_init(emitters *em, const ohm_light *light, ohm_error *err)
+{
+    em->pts = em->one_point;
+    em->npts = 1;
+    em->scale_each = 1.0;
+    if (light->type == OHM_LIGHT_AREA) {
+        em->pts = malloc(AREA_MAX_SAMPLES * sizeof *em->pts);
+        if (!em->pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
+        em->npts = area_samples(light, em->pts, AREA_MAX_SAMPLES);
+        /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
+        em->scale_each = 1.0 / (M_PI * em->npts);
+    } else {
+        memcpy(em->pts[0], light->pos, sizeof em->pts[0]);
+    }
+    return OHM_OK;
+}
+
+static void emitters_free(emitters *em)
+{
+    if (em->pts != em->one_point) free(em->pts);
+}
+
+/* The irradiance per unit intensity the light puts on boundary face f
+ * (shadow rays included), and l_mean, the irradiance-weighted direction
+ * towards the light (not normalised); 0 when the face is unlit. */
+static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light *light, const emitters *em,
+                              const ohm_occluder *occ, double l_mean[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int d = net->face_dir[f];
+    double p[3];
+    face_centre(net, f, p);
+    int32_t cell[3];
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
+    double E = 0.0;
+    l_mean[0] = l_mean[1] = l_mean[2] = 0.0;
+    for (int k = 0; k < em->npts; ++k) {
+        double l[3], scale = 1.0, dist = INFINITY;
+        if (light->type == OHM_LIGHT_DIRECTIONAL) {
+            for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
+        } else {
+            double dist2 = 0;
+            for (int a = 0; a < 3; ++a) {
+                l[a] = em->pts[k][a] - p[a];
+                dist2 += l[a] * l[a];
+            }
+            if (!(dist2 > 0)) continue;
+            dist = sqrt(dist2);
+            for (int a = 0; a < 3; ++a) l[a] /= dist;
+            scale = 1.0 / dist2;
+        }
+        double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
+        if (cos_face <= 0) continue; /* faces turned away: skipped, no ray */
+        double emit = 1.0;
+        if (light->type == OHM_LIGHT_SPOT) {
+            double to_face[3] = {-l[0], -l[1], -l[2]};
+            emit = spot_factor(light, to_face);
+        } else if (light->type == OHM_LIGHT_AREA) {
+            emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]) * em->scale_each;
+        }
+        if (emit <= 0) continue;
+        double vis = ohm_face_visibility(occ, cell, d, l, dist);
+        if (vis <= 0) continue;
+        double e = emit * cos_face * scale * vis;
+        E += e;
+        for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
+    }
+    return E;
+}
+
+/* 1 - Fresnel reflectance for light travelling along unit direction `travel`
+ * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
+ * normal would make a sphere's shading a staircase). */
+static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta)
+{
+    double ns[3];
+    ohm_surface_normal(net, f, ns);
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+}
+
+static void unit_travel(const double l_mean[3], double travel[3])
+{
+    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
+    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
+}
+
 int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
                           const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err)
 {
-    const ohm_voxel_grid *g = net->grid;
-    /* emitters: one for directional / point / spot, many for an area light */
-    double one_point[1][3];
-    double (*pts)[3] = one_point;
-    int npts = 1;
-    double scale_each = 1.0;
-    if (light->type == OHM_LIGHT_AREA) {
-        pts = malloc(AREA_MAX_SAMPLES * sizeof *pts);
-        if (!pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
-        npts = area_samples(light, pts, AREA_MAX_SAMPLES);
-        /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
-        scale_each = 1.0 / (M_PI * npts);
-    } else {
-        memcpy(pts[0], light->pos, sizeof pts[0]);
-    }
-    const double area = g->h * g->h;
+    emitters em;
+    int rc = emitters_init(&em, light, err);
+    if (rc) return rc;
+    const double area = net->grid->h * net->grid->h;
     for (int64_t f = 0; f < net->nfaces; ++f) {
-        int d = net->face_dir[f];
-        double p[3];
-        face_centre(net, f, p);
-        int32_t cell[3];
-        ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
-        double E = 0.0, l_mean[3] = {0, 0, 0}; /* irradiance per unit intensity */
-        for (int k = 0; k < npts; ++k) {
-            double l[3], scale = 1.0, dist = INFINITY;
-            if (light->type == OHM_LIGHT_DIRECTIONAL) {
-                for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
-            } else {
-                double dist2 = 0;
-                for (int a = 0; a < 3; ++a) {
-                    l[a] = pts[k][a] - p[a];
-                    dist2 += l[a] * l[a];
-                }
-                if (!(dist2 > 0)) continue;
-                dist = sqrt(dist2);
-                for (int a = 0; a < 3; ++a) l[a] /= dist;
-                scale = 1.0 / dist2;
-            }
-            double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
-            if (cos_face <= 0) continue; /* faces turned away: skipped, no ray */
-            double emit = 1.0;
-            if (light->type == OHM_LIGHT_SPOT) {
-                double to_face[3] = {-l[0], -l[1], -l[2]};
-                emit = spot_factor(light, to_face);
-            } else if (light->type == OHM_LIGHT_AREA) {
-                emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]) * scale_each;
-            }
-            if (emit <= 0) continue;
-            double vis = ohm_face_visibility(occ, cell, d, l, dist);
-            if (vis <= 0) continue;
-            double e = emit * cos_face * scale * vis;
-            E += e;
-            for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
-        }
+        double l_mean[3], travel[3];
+        double E = face_irradiance(net, f, light, &em, occ, l_mean);
         if (!(E > 0)) continue;
-        /* Fresnel at the smooth normal, for the irradiance-weighted direction */
-        double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
-        double ns[3];
-        ohm_surface_normal(net, f, ns);
-        double cos_i = (ns[0] * l_mean[0] + ns[1] * l_mean[1] + ns[2] * l_mean[2]) / len;
-        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+        /* Fresnel for the irradiance-weighted direction */
+        unit_travel(l_mean, travel);
+        double T = face_transmittance(net, f, travel, eta);
         for (int c = 0; c < channels; ++c) {
             double I = light->intensity[light->channels == 1 ? 0 : c];
             arrive[c][f] += I * E * area;
             enter[c][f] += I * T * E * area;
         }
     }
-    if (pts != one_point) free(pts);
+    emitters_free(&em);
     return OHM_OK;
+}
+
+/* Snell's law at the smooth normal of face f: the direction inside of light
+ * travelling along unit `travel` from outside (index 1) into index eta; a
+ * direction the staircase face would send back out is mirrored in the face's
+ * plane, so every photon starts into its cell. */
+static void refract_in(const ohm_network *net, int64_t f, const double travel[3], double eta, double out[3])
+{
+    double ns[3];
+    ohm_surface_normal(net, f, ns);
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    double k = 1.0 / eta, sin2_t = k * k * (1.0 - cos_i * cos_i);
+    double cos_t = sqrt(fmax(0.0, 1.0 - sin2_t)), len2 = 0;
+    for (int a = 0; a < 3; ++a) {
+        out[a] = k * travel[a] + (k * cos_i - cos_t) * ns[a];
+        len2 += out[a] * out[a];
+    }
+    double inv = 1.0 / sqrt(len2);
+    for (int a = 0; a < 3; ++a) out[a] *= inv;
+    int d = net->face_dir[f], axis = d / 2;
+    double outward = out[axis] * ohm_face_offset[d][axis];
+    if (outward >= 0) out[axis] = -ohm_face_offset[d][axis] * fmax(outward, 1e-6);
+}
+
+static int push_entry(ohm_light_entries *list, const ohm_light_entry *e, ohm_error *err)
+{
+    if (list->count == list->capacity) {
+        size_t cap = list->capacity ? 2 * list->capacity : 256;
+        ohm_light_entry *grown = realloc(list->entry, cap * sizeof *grown);
+        if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %zu entry points", cap);
+        list->entry = grown;
+        list->capacity = cap;
+    }
+    list->entry[list->count++] = *e;
+    return OHM_OK;
+}
+
+/* Where a pencil beam crosses entry face f (world mm). */
+static void pencil_entry_point(const ohm_network *net, int64_t f, const ohm_light *light, double point[3])
+{
+    double c[3];
+    face_centre(net, f, c);
+    int axis = net->face_dir[f] / 2;
+    double t = fabs(light->dir[axis]) > 0 ? (c[axis] - light->pos[axis]) / light->dir[axis] : 0.0;
+    for (int a = 0; a < 3; ++a) point[a] = light->pos[a] + t * light->dir[a];
+    point[axis] = c[axis];
+}
+
+int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const ohm_light *light, int channels,
+                          double eta, const ohm_occluder *occ, ohm_error *err)
+{
+    const double area = net->grid->h * net->grid->h;
+    ohm_light_entry e;
+    memset(&e, 0, sizeof e);
+    if (light->type == OHM_LIGHT_PENCIL) {
+        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
+        if (f < 0) return (int)f;
+        double T = face_transmittance(net, f, light->dir, eta);
+        e.face = f;
+        e.at_point = 1;
+        pencil_entry_point(net, f, light, e.point);
+        refract_in(net, f, light->dir, eta, e.dir);
+        for (int c = 0; c < channels; ++c) {
+            e.incident[c] = light->intensity[light->channels == 1 ? 0 : c];
+            e.power[c] = T * e.incident[c];
+        }
+        return push_entry(list, &e, err);
+    }
+    emitters em;
+    int rc = emitters_init(&em, light, err);
+    for (int64_t f = 0; f < net->nfaces && !rc; ++f) {
+        double l_mean[3], travel[3];
+        double E = face_irradiance(net, f, light, &em, occ, l_mean);
+        if (!(E > 0)) continue;
+        unit_travel(l_mean, travel);
+        double T = face_transmittance(net, f, travel, eta);
+        e.face = f;
+        refract_in(net, f, travel, eta, e.dir);
+        for (int c = 0; c < channels; ++c) {
+            e.incident[c] = light->intensity[light->channels == 1 ? 0 : c] * E * area;
+            e.power[c] = T * e.incident[c];
+        }
+        rc = push_entry(list, &e, err);
+    }
+    emitters_free(&em);
+    return rc;
+}
+
+void ohm_light_entries_free(ohm_light_entries *list)
+{
+    if (!list) return;
+    free(list->entry);
+    memset(list, 0, sizeof *list);
 }
 
 double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
@@ -330,10 +470,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     if (light->type == OHM_LIGHT_PENCIL) {
         int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
         if (f < 0) return (int)f;
-        double ns[3];
-        ohm_surface_normal(net, f, ns);
-        double cos_i = -(ns[0] * light->dir[0] + ns[1] * light->dir[1] + ns[2] * light->dir[2]);
-        double T = 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+        double T = face_transmittance(net, f, light->dir, eta);
         pw->incident += I;
         pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
         return OHM_OK;

@@ -65,6 +65,30 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
 int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
                           const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err);
 
+/* Where light enters the object, for Monte Carlo transport (mc.h): per lit
+ * boundary face (per pencil beam, its entry point), the power arriving and
+ * the power entering after Fresnel per channel, and the direction inside by
+ * Snell's law at the smooth normal.  A face lit by an area light gets its
+ * irradiance-weighted direction: one direction per face, not per sample. */
+typedef struct ohm_light_entry {
+    int64_t face;                       /* the boundary face                      */
+    double incident[OHM_MAX_CHANNELS];  /* W arriving, before Fresnel             */
+    double power[OHM_MAX_CHANNELS];     /* W entering                             */
+    double dir[3];                      /* unit direction inside                  */
+    double point[3];                    /* pencil beams: where it enters (mm)     */
+    int at_point;                       /* 1: at point; 0: spread over the face   */
+} ohm_light_entry;
+
+typedef struct ohm_light_entries {
+    ohm_light_entry *entry;
+    size_t count, capacity;
+} ohm_light_entries;
+
+/* Append light's entries (channels < OHM_MAX_CHANNELS) to list. */
+int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const ohm_light *light, int channels,
+                          double eta, const ohm_occluder *occ, ohm_error *err);
+void ohm_light_entries_free(ohm_light_entries *list);
+
 /* Deposit per-face entering powers (nfaces) into b; returns the total deposited. */
 double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
                                 ohm_deposit deposit);

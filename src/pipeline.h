@@ -39,7 +39,7 @@ typedef struct ohm_opt_spec {
     int required;
 } ohm_opt_spec;
 
-enum { OHM_MAX_OPTS = 16 };
+enum { OHM_MAX_OPTS = 24 };
 
 typedef struct ohm_action ohm_action;
 

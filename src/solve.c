@@ -227,6 +227,8 @@ void ohm_solution_free(ohm_solution *sol)
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
         free(sol->fluence[c]);
         free(sol->face_exitance[c]);
+        free(sol->fluence_se[c]);
+        free(sol->exitance_se[c]);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
     ohm_network_free(&sol->net);
@@ -419,6 +421,100 @@ static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
     sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
 }
 
+/* solver=mc refuses what only diffusion has: resistances, the boundary
+ * models other than the physical one, a depth band, scenes' own sources. */
+static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
+{
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || p->resistance_v)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces light through sigma_a and sigma_s', not resistances");
+    if (p->boundary != OHM_BOUNDARY_ROBIN)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: solver=mc traces the Fresnel boundary itself: boundary=%s is a diffusion model, leave "
+                        "it out",
+                        ohm_boundary_name(p->boundary));
+    if (sol->band_active)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces every cell: leave depth_band= out");
+    if (p->custom_source)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mc needs lights, not a scene's own source vector");
+    return OHM_OK;
+}
+
+/* Channel c of a frame may take channel e's transport when both media and
+ * every entry's power are the same (grey lights on a grey material). */
+static int same_transport(const ohm_material *mat, const ohm_solve_params *p, const ohm_light_entries *in, int c, int e)
+{
+    if (!same_medium(mat, p, c, e)) return 0;
+    for (size_t k = 0; k < in->count; ++k)
+        if (in->entry[k].power[c] != in->entry[k].power[e]) return 0;
+    return 1;
+}
+
+/* Monte Carlo transport instead of diffusion (mc.h): every frame's light
+ * entries traced per channel; the same solution arrays, plus standard errors. */
+static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
+                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+{
+    int rc = mc_applies(sol, mat, params, err);
+    if (rc) return rc;
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1), frames = (size_t)sol->frames;
+    for (int c = 0; c < sol->channels; ++c) {
+        sol->fluence_se[c] = calloc(n * frames, sizeof(double));
+        sol->exitance_se[c] = calloc(n * frames, sizeof(double));
+        if (!sol->fluence_se[c] || !sol->exitance_se[c])
+            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the standard errors");
+    }
+    snprintf(sol->solver, sizeof sol->solver, "mc");
+    snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
+    ohm_light_entries in = {0};
+    for (size_t fr = 0; fr < frames && !rc; ++fr) {
+        in.count = 0;
+        double t0 = ohm_now();
+        for (size_t l = 0; l < nlights && !rc; ++l)
+            if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
+                rc = ohm_light_entries_add(&in, net, &lights[l], sol->channels, mat->eta, occ, err);
+        sol->t_source += ohm_now() - t0;
+        ohm_mc_result res[OHM_MAX_CHANNELS];
+        for (int c = 0; c < sol->channels && !rc; ++c) {
+            ohm_mc_result *r = &res[c];
+            *r = (ohm_mc_result){.fluence = sol->fluence[c] + fr * n,
+                                 .fluence_se = sol->fluence_se[c] + fr * n,
+                                 .face_exitance = sol->face_exitance[c] + fr * nf,
+                                 .exitance_se = sol->exitance_se[c] + fr * n};
+            for (size_t k = 0; k < in.count; ++k) sol->power_incident += in.entry[k].incident[c];
+            int e = 0;
+            while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
+            if (e < c) { /* the same photons would be traced again: take channel e's */
+                memcpy(r->fluence, res[e].fluence, n * sizeof(double));
+                memcpy(r->fluence_se, res[e].fluence_se, n * sizeof(double));
+                memcpy(r->exitance_se, res[e].exitance_se, n * sizeof(double));
+                memcpy(r->face_exitance, res[e].face_exitance, nf * sizeof(double));
+                r->power_in = res[e].power_in;
+                r->power_absorbed = res[e].power_absorbed;
+                r->power_out = res[e].power_out;
+            } else {
+                ohm_channel_medium med;
+                medium_for(&med, mat, params, c);
+                rc = ohm_mc_trace(r, net, &med, in.entry, in.count, c, &params->mc, err);
+                if (rc) break;
+                sol->mc_photons += r->photons;
+                sol->mc_events += r->events;
+                sol->mc_truncated += r->truncated;
+                if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
+                sol->t_solve += r->seconds;
+                sol->solves += r->photons > 0;
+            }
+            sol->power_in += r->power_in;
+            sol->power_absorbed += r->power_absorbed;
+            sol->power_out += r->power_out;
+            sol->power_in_channel[c] += r->power_in;
+            sol->power_out_channel[c] += r->power_out;
+        }
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
 int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
 {
@@ -476,6 +572,19 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     sol->t_shadow_setup = ohm_now() - t0;
     if (rc) {
         ohm_solution_free(sol);
+        return rc;
+    }
+    if (params->solver && strcmp(params->solver, "mc") == 0) {
+        size_t nfm = (size_t)(net->nfaces ? net->nfaces : 1);
+        for (int c = 0; c < channels && !rc; ++c) {
+            sol->fluence[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
+            sol->face_exitance[c] = calloc(nfm * (size_t)frames, sizeof(double));
+            if (!sol->fluence[c] || !sol->face_exitance[c])
+                rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
+        }
+        if (!rc) rc = solve_mc(sol, mat, lights, nlights, params, occ, err);
+        ohm_occluder_free(occ);
+        if (rc) ohm_solution_free(sol);
         return rc;
     }
     cholmod_common cc; /* for assembling A in CHOLMOD's form */

@@ -14,13 +14,16 @@
 #include "light.h"
 #include "log.h"
 #include "material.h"
+#include "mc.h"
 #include "network.h"
 
 typedef struct ohm_solve_params {
     ohm_boundary boundary;
     ohm_fresnel fresnel;       /* robin: how A comes from eta (fresnel.h); 0: exact */
     const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
-                                  NULL: direct                               */
+                                  or mc, Monte Carlo transport instead of
+                                  diffusion (mc.h); NULL: direct             */
+    ohm_mc_params mc;          /* solver=mc: photons, seed, g, threads     */
     double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
     const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
     double band_k;             /* depth band (band.h): keep cells within
@@ -58,6 +61,9 @@ typedef struct ohm_solution {
     ohm_network net;                    /* topology (cell of each unknown, faces)     */
     /* Per channel, frame-major: value of unknown v in frame f at [f * n + v]. */
     double *fluence[OHM_MAX_CHANNELS];  /* fluence rate phi (W/mm^2)                  */
+    /* solver=mc: standard errors of fluence and of each cell's exitance,
+     * frame-major like fluence; NULL for the diffusion solvers */
+    double *fluence_se[OHM_MAX_CHANNELS], *exitance_se[OHM_MAX_CHANNELS];
     double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
                                            G_b phi / h^2 per face; a cell's exitance
                                            is the mean of its faces' (below)          */
@@ -75,7 +81,11 @@ typedef struct ohm_solution {
     int64_t solves_skipped;             /* frames whose light did not change: reused  */
     double nnz_A, nnz_L, flops;
     char ordering[16];
-    char solver[8];                     /* direct | cg | amg: what ran                */
+    char solver[8];                     /* direct | cg | amg | mc: what ran           */
+    int64_t mc_photons;                 /* mc: photons traced, over channels and frames */
+    int64_t mc_events;                  /* mc: path segments traced                   */
+    int64_t mc_truncated;               /* mc: photons stopped by the event cap       */
+    int mc_threads;                     /* mc: threads that traced                    */
     char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
     int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
                                            summed over columns                        */

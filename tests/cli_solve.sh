@@ -149,6 +149,44 @@ PY
 expect_exit 2 "fresnel: unknown formula" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=8 \
   -material preset=marble -light dir=0,-1,0 -solve fresnel=fit
 
+# solver=mc: Monte Carlo transport through the same cells and lights (its
+# physics is tested against published values in test_mc); here the command:
+# the same light arriving as the diffusion solve's, exact bookkeeping, a seed
+# that repeats, and the standard-error grids.
+MC=(-read file=samples/spot.obj size=50 -voxelize dim=16 -material sigma_a=0.05 sigma_s=1 eta=1.3
+    -light dir=0,-1,0)
+expect_exit 0 "mc: seed 3" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 g=0.5 \
+  -write file="$T/mc.vdb" -stats file="$T/mc3.json"
+expect_exit 0 "mc: seed 3 again" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 g=0.5 -stats file="$T/mc3b.json"
+expect_exit 0 "mc: seed 4" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=4 g=0.5 -stats file="$T/mc4.json"
+expect_exit 0 "mc: diffusion beside it" -- "$OHM" "${MC[@]}" -solve -stats file="$T/mcd.json"
+check "mc: stats" $PY - "$T/mc3.json" "$T/mc3b.json" "$T/mc4.json" "$T/mcd.json" <<'PY'
+import json, sys
+a, b, c, d = (json.load(open(f)) for f in sys.argv[1:5])
+assert a["solver"] == "mc" and a["mc_photons"] == 32000 and a["mc_seed"] == 3 and a["mc_g"] == 0.5, a
+assert a["mc_photons_per_ms"] > 0 and a["mc_truncated"] == 0, a
+assert a["power_incident"] == d["power_incident"], (a["power_incident"], d["power_incident"])
+assert abs(a["power_in"] - a["power_absorbed"] - a["power_out"]) < 1e-12 * a["power_in"], a
+assert a["power_out"] == b["power_out"] and a["power_absorbed"] == b["power_absorbed"], (a, b)
+assert a["power_out"] != c["power_out"] and abs(a["power_out"] - c["power_out"]) < 0.02 * a["power_out"], (a, c)
+PY
+check "mc: vdb with standard errors" $PY - "$T/mc.vdb" <<'PY'
+import sys, pyopenvdb as vdb
+g = {x.name: x for x in vdb.readAll(sys.argv[1])[0]}
+assert {"fluence", "exitance", "fluence_se", "exitance_se"} <= set(g), sorted(g)
+f, se = g["fluence"], g["fluence_se"]
+assert f.activeVoxelCount() == se.activeVoxelCount()
+acc = se.getConstAccessor()
+lit = [(it.value, acc.getValue(it.min)) for it in f.citerOnValues() if it.value > 0]
+assert lit and all(s >= 0 for v, s in lit), lit[:5]
+# where most light is, the noise of 32000 photons is a small part of it
+lit.sort(reverse=True)
+top = lit[: max(1, len(lit) // 10)]
+assert all(s < 0.2 * v for v, s in top), top[:5]
+PY
+expect_exit 2 "mc: boundary= is diffusion's" -- "$OHM" "${MC[@]}" -solve solver=mc boundary=dirichlet
+expect_exit 2 "mc: depth band" -- "$OHM" "${MC[@]}" -solve solver=mc depth_band=3
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'

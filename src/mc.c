@@ -1,0 +1,484 @@
+#include "mc.h"
+
+#include "fresnel.h"
+#include "log.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* Below this weight (of a photon's 1 at entry) a photon ends, depositing the
+ * rest where it is (mc.h). */
+static const double W_MIN = 1e-6;
+/* A photon still alive after this many path segments (a medium that neither
+ * absorbs nor lets light out, in practice) ends the same way, and is counted. */
+static const int64_t MAX_EVENTS = 100000000;
+
+/* ---- random numbers: xoshiro256+ (Blackman & Vigna 2018), seeded by splitmix64 */
+
+typedef struct rng {
+    uint64_t s[4];
+} rng;
+
+static inline uint64_t rotl(uint64_t x, int k)
+{
+    return (x << k) | (x >> (64 - k));
+}
+
+/* Uniform on [0, 1): the top 53 bits. */
+static inline double rng_uniform(rng *r)
+{
+    uint64_t *s = r->s, result = s[0] + s[3], t = s[1] << 17;
+    s[2] ^= s[0];
+    s[3] ^= s[1];
+    s[1] ^= s[2];
+    s[0] ^= s[3];
+    s[2] ^= t;
+    s[3] = rotl(s[3], 45);
+    return (double)(result >> 11) * 0x1.0p-53;
+}
+
+static uint64_t splitmix64(uint64_t *x)
+{
+    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+/* One stream per batch: the state from (seed, batch) through splitmix64, as
+ * the xoshiro authors recommend for seeding. */
+static void rng_seed(rng *r, uint64_t seed, uint64_t batch)
+{
+    uint64_t x = seed ^ (0xd1342543de82ef95ULL * (batch + 1));
+    for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
+}
+
+/* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
+static inline double rng_depth(rng *r)
+{
+    return -log(1.0 - rng_uniform(r));
+}
+
+/* ---- the scene, read by every thread ----------------------------------------- */
+
+typedef struct mc_scene {
+    const ohm_network *net;
+    const ohm_channel_medium *med;
+    const ohm_light_entry *entries;
+    double *cdf;           /* nentries: cumulative entering power, last = 1 */
+    size_t nentries;
+    double g, ss_scale;    /* sigma_s = sigma_s' * ss_scale = sigma_s' / (1 - g) */
+    double eta;
+    int64_t per_batch;     /* photons per batch                              */
+    uint64_t seed;
+    double max_path;       /* voxels; INFINITY: no gate                      */
+    int total_fluence;     /* tally the unscattered beam's fluence too       */
+    int nthreads;
+    const ohm_log *log;
+    char what[64];         /* for the progress line                          */
+} mc_scene;
+
+/* Coefficients of unknown v in 1/voxel (lengths below are in voxels). */
+static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, double *ss)
+{
+    const ohm_channel_medium *m = sc->med;
+    double h = sc->net->grid->h;
+    *sa = (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) * h;
+    *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * sc->ss_scale * h;
+}
+
+/* The boundary face of unknown v in direction d (faces are stored in unknown
+ * order, a cell's faces together), or -1. */
+static int64_t face_of(const ohm_network *net, int64_t v, int d)
+{
+    int64_t lo = 0, hi = net->nfaces;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (net->face_unknown[mid] < v) lo = mid + 1;
+        else hi = mid;
+    }
+    for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == v; ++f)
+        if (net->face_dir[f] == d) return f;
+    return -1;
+}
+
+/* ---- one thread's tallies ------------------------------------------------------ */
+
+typedef struct mc_tally {
+    const mc_scene *sc;
+    int thread;
+    /* this batch's, in voxel units of weight x length and weight */
+    double *phi, *face;
+    /* over this thread's batches: sums, and sums of squares of batch values */
+    double *phi_sum, *phi_sq, *face_sum, *exit_sq;
+    double absorbed, out, gated; /* weight, over every batch */
+    double batch_absorbed, batch_out; /* at the last batch's start, for: */
+    double absorbed_sq, out_sq;       /* sums of squares of batch totals */
+    int64_t truncated, events;
+} mc_tally;
+
+/* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
+ * Wang, Jacques & Zheng 1995, Eqs. 3.28-3.31). */
+static inline void scatter(double u[3], double g, rng *r)
+{
+    double cos_t;
+    if (g != 0.0) {
+        double q = (1.0 - g * g) / (1.0 - g + 2.0 * g * rng_uniform(r));
+        cos_t = (1.0 + g * g - q * q) / (2.0 * g);
+        if (cos_t < -1.0) cos_t = -1.0;
+        if (cos_t > 1.0) cos_t = 1.0;
+    } else {
+        cos_t = 2.0 * rng_uniform(r) - 1.0;
+    }
+    double sin_t = sqrt(1.0 - cos_t * cos_t), phi = 2.0 * M_PI * rng_uniform(r);
+    double cos_p = cos(phi), sin_p = sin(phi);
+    if (fabs(u[2]) > 0.99999) {
+        u[0] = sin_t * cos_p;
+        u[1] = sin_t * sin_p;
+        u[2] = u[2] > 0 ? cos_t : -cos_t;
+        return;
+    }
+    double tmp = sqrt(1.0 - u[2] * u[2]);
+    double ux = sin_t * (u[0] * u[2] * cos_p - u[1] * sin_p) / tmp + u[0] * cos_t;
+    double uy = sin_t * (u[1] * u[2] * cos_p + u[0] * sin_p) / tmp + u[1] * cos_t;
+    double uz = -sin_t * cos_p * tmp + u[2] * cos_t;
+    /* renormalise: the rotation's round-off would drift over thousands of events */
+    double inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz);
+    u[0] = ux * inv;
+    u[1] = uy * inv;
+    u[2] = uz * inv;
+}
+
+/* Where photon starts: entry e's point, or uniformly over its face; in voxel
+ * coordinates where cell i spans [i, i+1). */
+static void start_point(const mc_scene *sc, const ohm_light_entry *e, const int32_t c[3], rng *r, double p[3])
+{
+    const ohm_voxel_grid *g = sc->net->grid;
+    int d = sc->net->face_dir[e->face], axis = d / 2;
+    for (int a = 0; a < 3; ++a) {
+        double x = e->at_point ? (e->point[a] - g->origin[a]) / g->h + 0.5 : c[a] + rng_uniform(r);
+        /* on the face, and inside the cell's square on the other axes */
+        if (x < c[a]) x = c[a];
+        if (x > c[a] + 1.0) x = c[a] + 1.0;
+        p[a] = x;
+    }
+    p[axis] = c[axis] + (ohm_face_offset[d][axis] > 0 ? 1.0 : 0.0);
+}
+
+static size_t pick_entry(const mc_scene *sc, double xi)
+{
+    size_t lo = 0, hi = sc->nentries - 1;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (sc->cdf[mid] <= xi) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* One photon of weight 1, from entry to its end (mc.h). */
+static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
+{
+    const ohm_network *net = sc->net;
+    const ohm_voxel_grid *g = net->grid;
+    const ohm_light_entry *e = &sc->entries[pick_entry(sc, rng_uniform(r))];
+    int64_t v = net->face_unknown[e->face];
+    int32_t c[3];
+    ohm_voxel_coords(g, net->cell[v], c);
+    double p[3], u[3] = {e->dir[0], e->dir[1], e->dir[2]};
+    start_point(sc, e, c, r, p);
+    double w = 1.0, sa, ss;
+    cell_coefficients(sc, v, &sa, &ss);
+    double tau = rng_depth(r), path_left = sc->max_path;
+    int scattered = 0; /* the unscattered beam is not diffuse fluence (mc.h) */
+    int64_t ev = 0;
+    for (;; ++ev) {
+        if (ev >= MAX_EVENTS) {
+            t->truncated++;
+            break;
+        }
+        /* the nearest cell wall along u (Amanatides & Woo 1987) */
+        double sb = INFINITY;
+        int ax = 0;
+        for (int a = 0; a < 3; ++a) {
+            double ta = u[a] > 0 ? (c[a] + 1.0 - p[a]) / u[a] : u[a] < 0 ? (c[a] - p[a]) / u[a] : INFINITY;
+            if (ta < sb) sb = ta, ax = a;
+        }
+        if (sb < 0) sb = 0;
+        int scatters = ss * sb > tau;
+        double s = scatters ? tau / ss : sb;
+        int gated = s >= path_left;
+        if (gated) s = path_left, scatters = 0;
+        path_left -= s;
+        /* absorption along the segment, exactly: w e^(-sa s); its track
+         * length integral w (1 - e^(-sa s)) / sa is the fluence tally */
+        double x = sa * s, att = exp(-x);
+        if (scattered || sc->total_fluence) t->phi[v] += x > 1e-9 ? w * (1.0 - att) / sa : w * s;
+        double w1 = w * att;
+        t->absorbed += w - w1;
+        w = w1;
+        if (gated) {
+            t->gated += w;
+            w = 0;
+            break;
+        }
+        for (int a = 0; a < 3; ++a) p[a] += s * u[a];
+        if (scatters) {
+            scatter(u, sc->g, r);
+            scattered = 1;
+            tau = rng_depth(r);
+        } else {
+            tau -= ss * s;
+            int step = u[ax] > 0 ? 1 : -1;
+            p[ax] = (double)(step > 0 ? c[ax] + 1 : c[ax]);
+            if (step < 0 && c[ax] == net->mirror_low[ax]) { /* symmetry plane */
+                u[ax] = -u[ax];
+                continue;
+            }
+            int32_t n[3] = {c[0], c[1], c[2]};
+            n[ax] += step;
+            int64_t nv = n[ax] >= 0 && n[ax] < g->dims[ax] ? ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]))
+                                                             : -1;
+            if (nv >= 0) {
+                c[ax] = n[ax];
+                v = nv;
+                cell_coefficients(sc, v, &sa, &ss);
+            } else { /* a boundary face: Fresnel splits the weight */
+                double R = ohm_fresnel_reflectance_inside(sc->eta, fabs(u[ax]));
+                double leave = w * (1.0 - R);
+                int64_t f = face_of(net, v, 2 * ax + (step > 0));
+                if (f >= 0) t->face[f] += leave;
+                t->out += leave;
+                w -= leave;
+                u[ax] = -u[ax];
+            }
+        }
+        if (w < W_MIN) break;
+    }
+    t->absorbed += w; /* what is left ends here (mc.h) */
+    t->events += ev;
+}
+
+/* Fold one batch into the thread's sums, then clear it. */
+static void fold_batch(mc_tally *t)
+{
+    const ohm_network *net = t->sc->net;
+    int64_t n = net->n;
+    for (int64_t v = 0; v < n; ++v) {
+        double x = t->phi[v];
+        t->phi_sum[v] += x;
+        t->phi_sq[v] += x * x;
+    }
+    for (int64_t f = 0; f < net->nfaces;) { /* a cell's exitance: the mean of its faces' */
+        int64_t v = net->face_unknown[f], end = f;
+        double sum = 0;
+        for (; end < net->nfaces && net->face_unknown[end] == v; ++end) {
+            sum += t->face[end];
+            t->face_sum[end] += t->face[end];
+        }
+        double mean = sum / (double)(end - f);
+        t->exit_sq[v] += mean * mean;
+        f = end;
+    }
+    double a = t->absorbed - t->batch_absorbed, o = t->out - t->batch_out;
+    t->absorbed_sq += a * a;
+    t->out_sq += o * o;
+    t->batch_absorbed = t->absorbed;
+    t->batch_out = t->out;
+    memset(t->phi, 0, (size_t)n * sizeof *t->phi);
+    memset(t->face, 0, (size_t)(net->nfaces ? net->nfaces : 1) * sizeof *t->face);
+}
+
+static void *thread_main(void *arg)
+{
+    mc_tally *t = arg;
+    const mc_scene *sc = t->sc;
+    ohm_progress prog;
+    if (t->thread == 0) ohm_progress_begin(&prog, sc->log, sc->what);
+    int mine = 0, done = 0;
+    for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) ++mine;
+    for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) {
+        rng r;
+        rng_seed(&r, sc->seed, (uint64_t)b);
+        for (int64_t k = 0; k < sc->per_batch; ++k) trace_photon(sc, t, &r);
+        fold_batch(t);
+        if (t->thread == 0) ohm_progress_update(&prog, (double)++done / mine);
+    }
+    if (t->thread == 0) ohm_progress_end(&prog);
+    return NULL;
+}
+
+static void tally_free(mc_tally *t)
+{
+    free(t->phi);
+    free(t->face);
+    free(t->phi_sum);
+    free(t->phi_sq);
+    free(t->face_sum);
+    free(t->exit_sq);
+}
+
+static int tally_alloc(mc_tally *t, const ohm_network *net)
+{
+    size_t n = (size_t)(net->n ? net->n : 1), nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    t->phi = calloc(n, sizeof(double));
+    t->face = calloc(nf, sizeof(double));
+    t->phi_sum = calloc(n, sizeof(double));
+    t->phi_sq = calloc(n, sizeof(double));
+    t->face_sum = calloc(nf, sizeof(double));
+    t->exit_sq = calloc(n, sizeof(double));
+    return t->phi && t->face && t->phi_sum && t->phi_sq && t->face_sum && t->exit_sq ? 0 : -1;
+}
+
+/* Thread k's sums into thread 0's, in thread order (reproducible). */
+static void merge_tallies(mc_tally *t, int nthreads, const ohm_network *net)
+{
+    for (int k = 1; k < nthreads; ++k) {
+        for (int64_t v = 0; v < net->n; ++v) {
+            t[0].phi_sum[v] += t[k].phi_sum[v];
+            t[0].phi_sq[v] += t[k].phi_sq[v];
+            t[0].exit_sq[v] += t[k].exit_sq[v];
+        }
+        for (int64_t f = 0; f < net->nfaces; ++f) t[0].face_sum[f] += t[k].face_sum[f];
+        t[0].absorbed += t[k].absorbed;
+        t[0].out += t[k].out;
+        t[0].gated += t[k].gated;
+        t[0].absorbed_sq += t[k].absorbed_sq;
+        t[0].out_sq += t[k].out_sq;
+        t[0].truncated += t[k].truncated;
+        t[0].events += t[k].events;
+    }
+}
+
+/* The standard error of the mean of B batch values with sum s and sum of
+ * squares q (times scale). */
+static double batch_stderr(double s, double q, double scale)
+{
+    const double B = OHM_MC_BATCHES;
+    double var = (q - s * s / B) / (B * (B - 1.0));
+    return var > 0 ? scale * sqrt(var) : 0.0;
+}
+
+/* Means and standard errors, per unit of power: a batch of per_batch photons
+ * of weight P / per_batch each; voxel units to mm (mc.h). */
+static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *sc, double P)
+{
+    const ohm_network *net = sc->net;
+    const double h = net->grid->h, B = OHM_MC_BATCHES;
+    const double k = P / (double)sc->per_batch / (h * h); /* batch tally -> W/mm^2 */
+    for (int64_t v = 0; v < net->n; ++v) {
+        res->fluence[v] = k * t->phi_sum[v] / B;
+        res->fluence_se[v] = batch_stderr(t->phi_sum[v], t->phi_sq[v], k);
+    }
+    for (int64_t f = 0; f < net->nfaces; ++f) res->face_exitance[f] = k * t->face_sum[f] / B;
+    memset(res->exitance_se, 0, (size_t)net->n * sizeof *res->exitance_se);
+    for (int64_t f = 0; f < net->nfaces;) {
+        int64_t v = net->face_unknown[f], end = f;
+        double sum = 0;
+        for (; end < net->nfaces && net->face_unknown[end] == v; ++end) sum += t->face_sum[end];
+        res->exitance_se[v] = batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
+        f = end;
+    }
+    double photons = (double)sc->per_batch * B;
+    res->power_in = P;
+    res->power_absorbed = P * t->absorbed / photons;
+    res->power_out = P * t->out / photons;
+    res->power_gated = P * t->gated / photons;
+    res->power_absorbed_se = batch_stderr(t->absorbed, t->absorbed_sq, P / (double)sc->per_batch);
+    res->power_out_se = batch_stderr(t->out, t->out_sq, P / (double)sc->per_batch);
+    res->photons = (int64_t)photons;
+    res->truncated = t->truncated;
+    res->events = t->events;
+}
+
+static int usable_cores(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
+                 const ohm_light_entry *entries, size_t nentries, int channel, const ohm_mc_params *params,
+                 ohm_error *err)
+{
+    double t0 = ohm_now();
+    if (med->resistance_mode)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc needs optical coefficients, not resistances");
+    if (!(params->g > -1.0 && params->g < 1.0))
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: g=%g: the anisotropy must lie in (-1, 1)", params->g);
+    mc_scene sc = {.net = net,
+                   .med = med,
+                   .entries = entries,
+                   .nentries = nentries,
+                   .g = params->g,
+                   .ss_scale = 1.0 / (1.0 - params->g),
+                   .eta = med->eta,
+                   .seed = params->seed,
+                   .total_fluence = params->total_fluence,
+                   .max_path = params->max_path > 0 ? params->max_path / net->grid->h : INFINITY,
+                   .log = params->log};
+    int64_t photons = params->photons > 0 ? params->photons : 1000000;
+    sc.per_batch = (photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES;
+    snprintf(sc.what, sizeof sc.what, "monte carlo, channel %d, %lld photons", channel,
+             (long long)(sc.per_batch * OHM_MC_BATCHES));
+    int nthreads = params->threads > 0 ? params->threads : usable_cores();
+    if (nthreads > OHM_MC_BATCHES) nthreads = OHM_MC_BATCHES;
+    sc.nthreads = nthreads;
+    res->threads = nthreads;
+    double P = 0;
+    for (size_t e = 0; e < nentries; ++e) P += entries[e].power[channel];
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    memset(res->fluence, 0, n * sizeof *res->fluence);
+    memset(res->fluence_se, 0, n * sizeof *res->fluence_se);
+    memset(res->exitance_se, 0, n * sizeof *res->exitance_se);
+    memset(res->face_exitance, 0, nf * sizeof *res->face_exitance);
+    res->power_in = res->power_absorbed = res->power_out = res->power_gated = 0;
+    res->photons = res->truncated = res->events = 0;
+    if (!(P > 0)) { /* unlit in this channel: nothing to trace */
+        res->seconds = ohm_now() - t0;
+        return OHM_OK;
+    }
+    sc.cdf = malloc(nentries * sizeof *sc.cdf);
+    mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);
+    int rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
+    if (!rc) {
+        double run = 0;
+        for (size_t e = 0; e < nentries; ++e) sc.cdf[e] = (run += entries[e].power[channel]) / P;
+        sc.cdf[nentries - 1] = 1.0;
+    }
+    for (int k = 0; k < nthreads && !rc; ++k) {
+        tally[k].sc = &sc;
+        tally[k].thread = k;
+        if (tally_alloc(&tally[k], net))
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo tallies (%d threads x %lld cells)",
+                          nthreads, (long long)n);
+    }
+    pthread_t *tid = rc ? NULL : malloc((size_t)nthreads * sizeof *tid);
+    if (!rc && !tid) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for threads");
+    int started = 0;
+    for (int k = 1; k < nthreads && !rc; ++k, ++started)
+        if (pthread_create(&tid[k], NULL, thread_main, &tally[k])) {
+            rc = ohm_fail(err, OHM_ERR_INTERNAL, "solve: could not start Monte Carlo thread %d", k);
+            break;
+        }
+    if (!rc) thread_main(&tally[0]);
+    for (int k = 1; k <= started; ++k) pthread_join(tid[k], NULL);
+    if (!rc) {
+        merge_tallies(tally, nthreads, net);
+        write_result(res, &tally[0], &sc, P);
+    }
+    for (int k = 0; k < nthreads && tally; ++k) tally_free(&tally[k]);
+    free(tally);
+    free(tid);
+    free(sc.cdf);
+    res->seconds = ohm_now() - t0;
+    return rc;
+}
