@@ -775,6 +775,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_add(st, "t_solve", sol->t_solve);
     ohm_stats_set(st, "residual", sol->residual);
     ohm_stats_set(st, "power_incident", sol->power_incident);
+    ohm_stats_set(st, "power_entered", sol->power_entered);
     ohm_stats_set(st, "power_in", sol->power_in);
     ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
     ohm_stats_set(st, "power_out", sol->power_out);

@@ -1,6 +1,8 @@
 #include "cli.h"
 
 #include <stdio.h>
+#include <math.h>
+#include <stdlib.h>
 #include <string.h>
 
 #include "ohm_version.h"
@@ -16,6 +18,37 @@ static int report(int rc, const ohm_error *err)
 {
     if (rc) fprintf(stderr, "ohm: error: %s\n", err->msg[0] ? err->msg : "failed");
     return exit_code(rc);
+}
+
+/* `ohm validate transport` KEY=VALUE arguments (validate.h). */
+static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_error *err)
+{
+    for (int i = 0; i < argc; ++i) {
+        const char *eq = strchr(argv[i], '=');
+        char *end = NULL;
+        if (!eq) return ohm_fail(err, OHM_ERR_USAGE, "validate transport: '%s': expected KEY=VALUE", argv[i]);
+        size_t k = (size_t)(eq - argv[i]);
+        const char *val = eq + 1;
+        double x = strtod(val, &end);
+        int number = end != val && *end == '\0' && isfinite(x);
+        if (k == 1 && !strncmp(argv[i], "h", k) && number && x > 0 && x <= 10) cfg->h = x;
+        else if (k == 4 && !strncmp(argv[i], "size", k) && number && x >= 4 && x <= 1000) cfg->size = x;
+        else if (k == 7 && !strncmp(argv[i], "photons", k) && number && x >= 16 && x <= 1e12) cfg->photons = (int64_t)x;
+        else if (k == 4 && !strncmp(argv[i], "seed", k) && number && x >= 0 && x < 9e15) cfg->seed = (uint64_t)x;
+        else if (k == 7 && !strncmp(argv[i], "fresnel", k) && (!strcmp(val, "exact") || !strcmp(val, "polynomial")))
+            cfg->fresnel = strcmp(val, "exact") ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
+        else if (k == 7 && !strncmp(argv[i], "deposit", k) &&
+                 (!strcmp(val, "exponential") || !strcmp(val, "point") || !strcmp(val, "surface")))
+            cfg->deposit = !strcmp(val, "point")     ? OHM_DEPOSIT_POINT
+                           : !strcmp(val, "surface") ? OHM_DEPOSIT_SURFACE
+                                                     : OHM_DEPOSIT_EXPONENTIAL;
+        else
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "validate transport: '%s': expected h=0..10 size=4..1000 photons=16.. seed=N "
+                            "fresnel=exact|polynomial deposit=exponential|point|surface",
+                            argv[i]);
+    }
+    return OHM_OK;
 }
 
 static int run_chain(const ohm_chain *chain, int verbosity)
@@ -79,8 +112,16 @@ int ohm_cli_main(int argc, char **argv)
             ohm_validation_print(stdout, &v);
             return 0;
         }
+        if (first + 1 < argc && strcmp(argv[first + 1], "transport") == 0) {
+            ohm_transport_config cfg;
+            ohm_transport_config_default(&cfg);
+            int trc = transport_args(&cfg, argc - first - 2, argv + first + 2, &err);
+            if (!trc) trc = ohm_validate_transport(&v, &cfg, &log, &err);
+            if (trc) return report(trc, &err);
+            return ohm_validation_print(stdout, &v) ? 1 : 0;
+        }
         if (first + 1 < argc) {
-            fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv]\n");
+            fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv | transport [h=MM] [size=MM] [photons=N] [seed=N] [fresnel=exact|polynomial] [deposit=exponential|point|surface]]\n");
             return 2;
         }
         int vrc = ohm_validate_all(&v, &log, &err);

@@ -93,17 +93,43 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
         if (frac > 0) b[lower] += a0 * P * frac;
         return a0 * P;
     }
-    /* exponential: optical depth accumulated cell by cell */
-    double tau = 0.0;
+    /* exponential: optical depth accumulated cell by cell; each cell's share
+     * alpha' P (e^-tau0 - e^-tau1) is split between it and the cell above so
+     * that its centroid, not its cell's centre, is where it acts: the depth
+     * distribution's first moment is then exact on any grid (issue 13: lumped
+     * at centres, the source sat 8% too deep at h = 1/sigma_t').  The first
+     * cell has no cell above: its shallower part is extrapolated, a negative
+     * share in the second cell (moment exact again), clamped so that no
+     * cell's source turns negative. */
+    double tau = 0.0, pending_up = 0.0; /* weight the previous cell owes the cell above it */
+    int64_t prev = -1, first = v0;
     for (int64_t q = 0;; ++q) {
         int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
         if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
         int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
         if (u < 0) break; /* the rest passes through a thin part unscattered */
-        double t1 = tau + med_sigma_t(med, u) * h;
+        double x = med_sigma_t(med, u) * h, t1 = tau + x;
         double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
-        b[u] += w;
+        /* the centroid of e^-sigma z over the cell, from its top, in cells:
+         * 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0) */
+        double centroid = x > 1e-6 ? 1.0 / x - exp(-x) / -expm1(-x) : 0.5 - x / 12.0;
+        double up = w * (0.5 - centroid); /* to move one cell up */
+        if (q == 0) {
+            b[u] += w;
+            pending_up = up; /* extrapolated into the second cell below */
+        } else {
+            if (q == 1) { /* the first cell's extrapolation, clamped */
+                double own = w - up, minus = fmin(pending_up, own);
+                b[first] += minus;
+                b[u] += own - minus;
+                pending_up = 0.0;
+            } else {
+                b[u] += w - up;
+            }
+            b[prev] += up;
+        }
         put += w;
+        prev = u;
         tau = t1;
         if (tau > 40.0) break; /* e^-40: nothing left */
     }
@@ -472,6 +498,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         if (f < 0) return (int)f;
         double T = face_transmittance(net, f, light->dir, eta);
         pw->incident += I;
+        pw->entered += T * I;
         pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
         return OHM_OK;
     }
@@ -488,7 +515,10 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     one.intensity[0] = I;
     int rc = ohm_light_face_powers(&enter, &arrive, 1, net, &one, eta, occ, err);
     if (!rc) {
-        for (int64_t f = 0; f < net->nfaces; ++f) pw->incident += arrive[f];
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            pw->incident += arrive[f];
+            pw->entered += enter[f];
+        }
         pw->deposited += ohm_source_deposit_faces(b, net, enter, med, deposit);
     }
     free(enter);

@@ -48,6 +48,7 @@ typedef enum ohm_deposit {
 
 typedef struct ohm_source_power {
     double incident;   /* arriving on lit faces, before Fresnel (W) */
+    double entered;    /* through the surface, after Fresnel (W)    */
     double deposited;  /* put into b: the scattered part (W)        */
 } ohm_source_power;
 

@@ -251,13 +251,15 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
                 c[ax] = n[ax];
                 v = nv;
                 cell_coefficients(sc, v, &sa, &ss);
-            } else { /* a boundary face: Fresnel splits the weight */
+            } else { /* a boundary face: reflected with the Fresnel probability, else out */
                 double R = ohm_fresnel_reflectance_inside(sc->eta, fabs(u[ax]));
-                double leave = w * (1.0 - R);
-                int64_t f = face_of(net, v, 2 * ax + (step > 0));
-                if (f >= 0) t->face[f] += leave;
-                t->out += leave;
-                w -= leave;
+                if (R < 1.0 && rng_uniform(r) >= R) {
+                    int64_t f = face_of(net, v, 2 * ax + (step > 0));
+                    if (f >= 0) t->face[f] += w;
+                    t->out += w;
+                    w = 0;
+                    break;
+                }
                 u[ax] = -u[ax];
             }
         }

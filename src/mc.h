@@ -10,9 +10,11 @@
  * e^(-sigma_a s) (the "microscopic Beer-Lambert" weighting of MCX: Fang &
  * Boas 2009), so every path segment's absorption and fluence are exact
  * integrals, not point samples.  At a boundary face (into a cell that is not
- * part of the object) the weight splits by the exact unpolarised Fresnel
- * reflectance at the face's own normal: the transmitted part leaves (booked
- * as that face's exitance), the rest is reflected specularly.  Symmetry
+ * part of the object) a photon is reflected specularly with the probability
+ * of the exact unpolarised Fresnel reflectance at the face's own normal, and
+ * otherwise leaves with all its weight (booked as that face's exitance).
+ * Splitting the weight instead (MCML's partial reflection) measured 4.7x
+ * slower on a mismatched cube, the photon living on at ever smaller weight.  Symmetry
  * planes (validation scenes) reflect everything.  A photon whose weight has
  * fallen below 1e-6 of its start deposits the rest where it is: conservation
  * holds to round-off, at a bias below 1e-6 of the power.

@@ -285,17 +285,21 @@ static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int 
     for (size_t j = 0; j < nb && fp_enter; ++j) {
         const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
         ohm_source_deposit_faces(B + j * n, net, en, med, params->deposit);
-        for (int64_t f = 0; f < net->nfaces; ++f) sol->power_incident += ar[f];
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            sol->power_incident += ar[f];
+            sol->power_entered += en[f];
+        }
     }
     for (size_t l = 0; l < nlights; ++l) {
         int lf = lights[l].frame;
         if (fp_enter && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced already */
         for (size_t j = 0; j < nb; ++j) {
             if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
-            ohm_source_power pw = {0, 0};
+            ohm_source_power pw = {0, 0, 0};
             int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
             if (rc) return rc;
             sol->power_incident += pw.incident;
+            sol->power_entered += pw.entered;
         }
     }
     return OHM_OK;
@@ -481,7 +485,10 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
                                  .fluence_se = sol->fluence_se[c] + fr * n,
                                  .face_exitance = sol->face_exitance[c] + fr * nf,
                                  .exitance_se = sol->exitance_se[c] + fr * n};
-            for (size_t k = 0; k < in.count; ++k) sol->power_incident += in.entry[k].incident[c];
+            for (size_t k = 0; k < in.count; ++k) {
+                sol->power_incident += in.entry[k].incident[c];
+                sol->power_entered += in.entry[k].power[c];
+            }
             int e = 0;
             while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
             if (e < c) { /* the same photons would be traced again: take channel e's */

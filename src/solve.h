@@ -107,7 +107,10 @@ typedef struct ohm_solution {
     int64_t mode_corrections;           /* near-singular pieces whose constant mode was
                                            projected onto exact conservation          */
     double mode_shift;                  /* largest such shift relative to the fluence */
-    double power_incident, power_in, power_absorbed, power_out;
+    /* W: arriving on the surface; entering it (after Fresnel); in = the
+     * source (diffusion: the scattered part of what entered, the rest being
+     * absorbed at its first collision; mc: what entered); absorbed; out */
+    double power_incident, power_entered, power_in, power_absorbed, power_out;
     double power_out_channel[OHM_MAX_CHANNELS], power_in_channel[OHM_MAX_CHANNELS];
 } ohm_solution;
 

@@ -6,11 +6,12 @@
 #include <string.h>
 
 #include "reference.h"
+#include "scene.h"
 #include "solve.h"
 
 /* ---- rows ---------------------------------------------------------------- */
 
-static ohm_check_row *add_row(ohm_validation *v, const char *name, const char *reference, double measured,
+ohm_check_row *ohm_validation_add(ohm_validation *v, const char *name, const char *reference, double measured,
                               double expected, double error, double tolerance)
 {
     if (v->n == OHM_VALIDATION_MAX_ROWS) return NULL;
@@ -48,10 +49,7 @@ int ohm_validation_print(FILE *f, const ohm_validation *v)
 
 /* ---- scenes ---------------------------------------------------------------- */
 
-/* A box of nx x ny x nz cells of size h, one outside cell around it; the box's
- * low corner is at world 0, so cell (i,j,k) (1-based inside) has its centre at
- * ((i-1/2) h, (j-1/2) h, (k-1/2) h).  No distance field: face normals are used. */
-static int make_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error *err)
+int ohm_scene_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error *err)
 {
     memset(g, 0, sizeof *g);
     g->dims[0] = nx + 2;
@@ -75,7 +73,7 @@ static int make_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_err
 #define VALIDATION_ETA 1.3
 static double validation_A(void) { return ohm_boundary_A(VALIDATION_ETA, OHM_FRESNEL_EXACT); }
 
-static ohm_material grey(double sigma_a, double sigma_s)
+ohm_material ohm_scene_grey(double sigma_a, double sigma_s)
 {
     ohm_material m;
     memset(&m, 0, sizeof m);
@@ -134,9 +132,9 @@ static const double INF_L = 6.0;                 /* octant edge, mm (walls: phi 
 static int infinite_run(ohm_solution *sol, ohm_voxel_grid *g, double h, const ohm_log *log, ohm_error *err)
 {
     int n = (int)lround(INF_L / h);
-    int rc = make_box(g, n, n, n, h, err);
+    int rc = ohm_scene_box(g, n, n, n, h, err);
     if (rc) return rc;
-    ohm_material m = grey(INF_SA, INF_SS);
+    ohm_material m = ohm_scene_grey(INF_SA, INF_SS);
     static double P = 1.0;
     int32_t mirror[3] = {1, 1, 1};
     ohm_solve_params p;
@@ -167,9 +165,9 @@ int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err)
         e[s] = rel(phi, exact);
         char name[80];
         snprintf(name, sizeof name, "infinite medium phi(1.5 mm), h=%.2g", hs[s]);
-        add_row(v, name, "P e^-str r/(4 pi D r)", phi, exact, e[s], -1);
+        ohm_validation_add(v, name, "P e^-str r/(4 pi D r)", phi, exact, e[s], -1);
         snprintf(name, sizeof name, "infinite medium conservation, h=%.2g", hs[s]);
-        add_row(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+        ohm_validation_add(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
                 ohm_solution_conservation_error(&sol), 1e-10);
         if (s == 2) {
             /* every cell with 5h <= r <= 3 mm on the finest grid */
@@ -184,13 +182,13 @@ int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err)
                 if (er > worst) worst = er, at = r;
             }
             snprintf(name, sizeof name, "infinite medium, worst over 5h<=r<=3mm (r=%.2f)", at);
-            add_row(v, name, "P e^-str r/(4 pi D r)", worst, 0, worst, 0.02);
+            ohm_validation_add(v, name, "P e^-str r/(4 pi D r)", worst, 0, worst, 0.02);
         }
         ohm_solution_free(&sol);
         ohm_voxel_grid_free(&g);
     }
     double order = log2(e[1] / e[2]);
-    ohm_check_row *r = add_row(v, "infinite medium convergence order in h", "1.7 .. 2.3", order, 2.0,
+    ohm_check_row *r = ohm_validation_add(v, "infinite medium convergence order in h", "1.7 .. 2.3", order, 2.0,
                                fabs(order - 2.0), 0.3);
     (void)r;
     return OHM_OK;
@@ -236,9 +234,9 @@ static int halfspace_run(ohm_solution *sol, ohm_voxel_grid *g, double h, double 
                          beam_source *bs, const ohm_log *log, ohm_error *err)
 {
     int nl = (int)lround(L / h), nd = (int)lround(depth / h);
-    int rc = make_box(g, nl, nl, nd, h, err);
+    int rc = ohm_scene_box(g, nl, nl, nd, h, err);
     if (rc) return rc;
-    ohm_material m = grey(HS_SA, HS_SS);
+    ohm_material m = ohm_scene_grey(HS_SA, HS_SS);
     int32_t mirror[3] = {1, 1, -1}; /* the beam's axis is the corner line x = y = 0 */
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
@@ -282,9 +280,9 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
     }
     char name[80];
     snprintf(name, sizeof name, "half-space J(r), worst over 1/st'..3/str (r=%.2f)", worst_r);
-    add_row(v, name, "exact Robin half-space", worst, 0, worst, 0.02);
+    ohm_validation_add(v, name, "exact Robin half-space", worst, 0, worst, 0.02);
     snprintf(name, sizeof name, "half-space J(r) vs dipole, worst (r=%.2f)", worst_dip_r);
-    add_row(v, name, "Jensen 2001 dipole (loose)", worst_dip, 0, worst_dip, -1);
+    ohm_validation_add(v, name, "Jensen 2001 dipole (loose)", worst_dip, 0, worst_dip, -1);
     /* what leaves through the surface z = 0 (the floor and far walls are the
      * box's, not the half-space's) */
     double surface_out = 0;
@@ -292,16 +290,16 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
         if (sol.net.face_dir[f] == 4) surface_out += sol.face_exitance[0][f] * h * h;
     double escape = surface_out / sol.power_in;
     double escape_ref = ohm_ref_halfspace_escape(z0, HS_SA, HS_SS, validation_A());
-    add_row(v, "half-space escaped fraction of the source", "1-D closed form", escape, escape_ref,
+    ohm_validation_add(v, "half-space escaped fraction of the source", "1-D closed form", escape, escape_ref,
             rel(escape, escape_ref), 0.02);
     double dip_total = ohm_ref_dipole_Rd_total(HS_SA, HS_SS, validation_A()) * (HS_SA + HS_SS) / HS_SS;
-    add_row(v, "half-space escaped fraction vs dipole Rd", "Jensen 2001 total Rd (loose)", escape, dip_total,
+    ohm_validation_add(v, "half-space escaped fraction vs dipole Rd", "Jensen 2001 total Rd (loose)", escape, dip_total,
             rel(escape, dip_total), -1);
-    add_row(v, "half-space: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
+    ohm_validation_add(v, "half-space: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
             (double)sol.mode_corrections, 0);
-    add_row(v, "half-space conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+    ohm_validation_add(v, "half-space conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
             ohm_solution_conservation_error(&sol), 1e-10);
-    add_row(v, "half-space scaled backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    ohm_validation_add(v, "half-space scaled backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
     ohm_solution_free(&sol);
     ohm_voxel_grid_free(&g);
     return OHM_OK;
@@ -316,9 +314,9 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
     ohm_voxel_grid g;
     ohm_solution sol;
     int nl = (int)lround(16.0 / h), nd = (int)lround(12.0 / h);
-    int rc = make_box(&g, nl, nl, nd, h, err);
+    int rc = ohm_scene_box(&g, nl, nl, nd, h, err);
     if (rc) return rc;
-    ohm_material m = grey(HS_SA, HS_SS);
+    ohm_material m = ohm_scene_grey(HS_SA, HS_SS);
     int32_t mirror[3] = {1, 1, -1};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
@@ -371,16 +369,16 @@ int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *er
         ohm_voxel_grid_free(&gr);
         return rc;
     }
-    add_row(v, "neumann: power out", "exactly 0", neumann.power_out, 0, fabs(neumann.power_out), 0);
-    add_row(v, "neumann: absorbed / in", "1", neumann.power_absorbed / neumann.power_in, 1,
+    ohm_validation_add(v, "neumann: power out", "exactly 0", neumann.power_out, 0, fabs(neumann.power_out), 0);
+    ohm_validation_add(v, "neumann: absorbed / in", "1", neumann.power_absorbed / neumann.power_in, 1,
             ohm_solution_conservation_error(&neumann), 1e-10);
-    add_row(v, "robin: escaped fraction (neumann: 0)", "report", robin.power_out / robin.power_in, 0,
+    ohm_validation_add(v, "robin: escaped fraction (neumann: 0)", "report", robin.power_out / robin.power_in, 0,
             robin.power_out / robin.power_in, -1);
     /* how much too bright the paper's boundary makes the surface, 5 mm out */
     int i5 = 1 + (int)lround(5.0 / h - 0.5);
     int64_t ur = unknown_at(&robin, i5, 1, 1), un = unknown_at(&neumann, i5, 1, 1);
     double ratio = neumann.fluence[0][un] / robin.fluence[0][ur];
-    add_row(v, "neumann/robin surface fluence at r=5 mm", "report (paper: too bright)", ratio, 1, ratio, -1);
+    ohm_validation_add(v, "neumann/robin surface fluence at r=5 mm", "report (paper: too bright)", ratio, 1, ratio, -1);
     ohm_solution_free(&robin);
     ohm_solution_free(&neumann);
     ohm_voxel_grid_free(&gr);
@@ -411,7 +409,7 @@ static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot,
                          ohm_boundary bnd, const ohm_log *log, ohm_error *err)
 {
     ohm_voxel_grid g;
-    int rc = make_box(&g, n, n, n, 1.0, err);
+    int rc = ohm_scene_box(&g, n, n, n, 1.0, err);
     if (rc) return rc;
     size_t cells = (size_t)n * n * n;
     double *sa = malloc(cells * sizeof *sa), *ss = malloc(cells * sizeof *ss);
@@ -428,7 +426,7 @@ static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot,
         sa[u] = top ? sa_top : sa_bot;
         ss[u] = top ? ss_top : ss_bot;
     }
-    ohm_material m = grey(sa_bot, ss_bot);
+    ohm_material m = ohm_scene_grey(sa_bot, ss_bot);
     ohm_light l = light_up();
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
@@ -453,14 +451,14 @@ int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err)
     ohm_error_clear(&e2);
     int rc = run_two_layer(&sol, 8, 0.0, 1.0, 0.0, 1.0, OHM_BOUNDARY_NEUMANN, log, &e2);
     int refused = rc == OHM_ERR_NUMERIC && strstr(e2.msg, "sigma_a = 0") && strstr(e2.msg, "neither leave nor be absorbed");
-    add_row(v, "sigma_a=0, neumann: refused as singular", "clear error, no solve", refused, 1, !refused, 0);
+    ohm_validation_add(v, "sigma_a=0, neumann: refused as singular", "clear error, no solve", refused, 1, !refused, 0);
     if (!rc) ohm_solution_free(&sol);
 
     /* sigma_a = 0 with Robin: light leaves through the boundary, fine */
     rc = run_two_layer(&sol, 8, 0.0, 1.0, 0.0, 1.0, OHM_BOUNDARY_ROBIN, log, err);
     if (rc) return rc;
-    add_row(v, "sigma_a=0, robin: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
-    add_row(v, "sigma_a=0, robin: all deposited power leaves", "out = in", sol.power_out, sol.power_in,
+    ohm_validation_add(v, "sigma_a=0, robin: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    ohm_validation_add(v, "sigma_a=0, robin: all deposited power leaves", "out = in", sol.power_out, sol.power_in,
             ohm_solution_conservation_error(&sol), 1e-10);
     ohm_solution_free(&sol);
 
@@ -471,9 +469,9 @@ int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err)
         if (rc) return rc;
         char name[80];
         snprintf(name, sizeof name, "contrast %.0e in sigma_s': backward error", contrast[i]);
-        add_row(v, name, "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+        ohm_validation_add(v, name, "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
         snprintf(name, sizeof name, "contrast %.0e in sigma_s': conservation", contrast[i]);
-        add_row(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+        ohm_validation_add(v, name, "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
                 ohm_solution_conservation_error(&sol), 1e-10);
         ohm_solution_free(&sol);
     }
@@ -481,10 +479,10 @@ int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err)
     /* sigma_a = 1e-9 with Neumann: nearly singular, still backward stable */
     rc = run_two_layer(&sol, 16, 1e-9, 1.0, 1e-9, 1.0, OHM_BOUNDARY_NEUMANN, log, err);
     if (rc) return rc;
-    add_row(v, "sigma_a=1e-9, neumann: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
-    add_row(v, "sigma_a=1e-9, neumann: conservation", "in = absorbed", sol.power_absorbed, sol.power_in,
+    ohm_validation_add(v, "sigma_a=1e-9, neumann: backward error", "< 1e-12", sol.residual, 0, sol.residual, 1e-12);
+    ohm_validation_add(v, "sigma_a=1e-9, neumann: conservation", "in = absorbed", sol.power_absorbed, sol.power_in,
             ohm_solution_conservation_error(&sol), 1e-10);
-    add_row(v, "sigma_a=1e-9, neumann: constant-mode shift", "report (relative to phi)", sol.mode_shift, 0,
+    ohm_validation_add(v, "sigma_a=1e-9, neumann: constant-mode shift", "report (relative to phi)", sol.mode_shift, 0,
             sol.mode_shift, -1);
     ohm_solution_free(&sol);
     return OHM_OK;
@@ -496,9 +494,9 @@ int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err)
     ohm_solution sol;
     int rc = run_two_layer(&sol, 20, 0.02, 1.5, 0.2, 0.5, OHM_BOUNDARY_ROBIN, log, err);
     if (rc) return rc;
-    add_row(v, "two layers: conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
+    ohm_validation_add(v, "two layers: conservation", "in = absorbed + out", sol.power_absorbed + sol.power_out, sol.power_in,
             ohm_solution_conservation_error(&sol), 1e-10);
-    add_row(v, "two layers: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
+    ohm_validation_add(v, "two layers: constant-mode corrections", "none needed", (double)sol.mode_corrections, 0,
             (double)sol.mode_corrections, 0);
     ohm_solution_free(&sol);
     return OHM_OK;
@@ -580,7 +578,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
 {
     const double h = 1.0;
     ohm_voxel_grid g;
-    int rc = make_box(&g, FIG1_N, FIG1_N, 1, h, err);
+    int rc = ohm_scene_box(&g, FIG1_N, FIG1_N, 1, h, err);
     if (rc) return rc;
     double amps = FIG1_V / FIG1_R;
 
@@ -605,7 +603,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         return rc;
     }
     /* (b) the same grid with conductances from the milk coefficients */
-    ohm_material milk = grey(FIG1_SA, FIG1_SS);
+    ohm_material milk = ohm_scene_grey(FIG1_SA, FIG1_SS);
     rc = ohm_solve(&sb, &g, &milk, NULL, 1, &p, log, err);
     if (rc) {
         ohm_solution_free(&sa);
@@ -637,7 +635,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         fig1_slab fs = {0.25, 1.0 / (FIG1_SA + FIG1_SS)};
         ohm_voxel_grid g3;
         int n3 = (int)lround(FIG1_N / fs.h);
-        rc = make_box(&g3, n3, n3, (int)lround(10.0 / fs.h), fs.h, err);
+        rc = ohm_scene_box(&g3, n3, n3, (int)lround(10.0 / fs.h), fs.h, err);
         ohm_solution sd;
         ohm_solve_params p3;
         memset(&p3, 0, sizeof p3);
@@ -668,7 +666,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         }
         for (int i = 0; i < FIG1_N; ++i) prof_d[i] = cnt[i] ? sum[i] / cnt[i] : NAN;
         if (v)
-            add_row(v, "figure 1: ohm 3-D block conservation", "in = absorbed + out", sd.power_absorbed + sd.power_out,
+            ohm_validation_add(v, "figure 1: ohm 3-D block conservation", "in = absorbed + out", sd.power_absorbed + sd.power_out,
                     sd.power_in, ohm_solution_conservation_error(&sd), 1e-10);
         ohm_solution_free(&sd);
         ohm_voxel_grid_free(&g3);
@@ -685,20 +683,20 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
     }
     if (v) {
         double wa = half_width(prof_a, FIG1_N), wb = half_width(prof_b, FIG1_N), wc = half_width(prof_c, FIG1_N);
-        add_row(v, "figure 1: half-width, paper 1 kOhm network (mm)", "dipole half-width", wa * h, wc * h,
+        ohm_validation_add(v, "figure 1: half-width, paper 1 kOhm network (mm)", "dipole half-width", wa * h, wc * h,
                 rel(wa, wc), -1);
-        add_row(v, "figure 1: half-width, milk-derived network (mm)", "dipole half-width", wb * h, wc * h,
+        ohm_validation_add(v, "figure 1: half-width, milk-derived network (mm)", "dipole half-width", wb * h, wc * h,
                 rel(wb, wc), -1);
         double wd = half_width(prof_d, FIG1_N);
-        add_row(v, "figure 1: half-width, ohm 3-D robin block (mm)", "dipole half-width", wd * h, wc * h,
+        ohm_validation_add(v, "figure 1: half-width, ohm 3-D robin block (mm)", "dipole half-width", wd * h, wc * h,
                 rel(wd, wc), -1);
-        add_row(v, "figure 1: edge/peak, ohm 3-D robin block", "dipole edge/peak", prof_d[0] / pd, prof_c[0] / pc,
+        ohm_validation_add(v, "figure 1: edge/peak, ohm 3-D robin block", "dipole edge/peak", prof_d[0] / pd, prof_c[0] / pc,
                 rel(prof_d[0] / pd, prof_c[0] / pc), -1);
-        add_row(v, "figure 1: edge/peak, paper 1 kOhm network", "dipole edge/peak", prof_a[0] / pa, prof_c[0] / pc,
+        ohm_validation_add(v, "figure 1: edge/peak, paper 1 kOhm network", "dipole edge/peak", prof_a[0] / pa, prof_c[0] / pc,
                 rel(prof_a[0] / pa, prof_c[0] / pc), -1);
-        add_row(v, "figure 1: edge/peak, milk-derived network", "dipole edge/peak", prof_b[0] / pb, prof_c[0] / pc,
+        ohm_validation_add(v, "figure 1: edge/peak, milk-derived network", "dipole edge/peak", prof_b[0] / pb, prof_c[0] / pc,
                 rel(prof_b[0] / pb, prof_c[0] / pc), -1);
-        add_row(v, "figure 1: paper network conservation", "in = absorbed", sa.power_absorbed, sa.power_in,
+        ohm_validation_add(v, "figure 1: paper network conservation", "in = absorbed", sa.power_absorbed, sa.power_in,
                 ohm_solution_conservation_error(&sa), 1e-10);
     }
     ohm_solution_free(&sa);

@@ -8,6 +8,8 @@
 #include <stdint.h>
 #include <stdio.h>
 
+#include "fresnel.h"
+#include "light.h"
 #include "log.h"
 #include "ohm_error.h"
 
@@ -20,12 +22,17 @@ typedef struct ohm_check_row {
     int pass;
 } ohm_check_row;
 
-enum { OHM_VALIDATION_MAX_ROWS = 64 };
+enum { OHM_VALIDATION_MAX_ROWS = 96 };
 
 typedef struct ohm_validation {
     ohm_check_row rows[OHM_VALIDATION_MAX_ROWS];
     int n;
 } ohm_validation;
+
+/* Append a row (pass = error <= tolerance; tolerance < 0: reported only);
+ * NULL when the table is full. */
+ohm_check_row *ohm_validation_add(ohm_validation *v, const char *name, const char *reference, double measured,
+                                  double expected, double error, double tolerance);
 
 /* Each adds rows; returns non-zero only when a scene could not be run at all
  * (err says why).  A failed comparison is a row with pass = 0. */
@@ -45,6 +52,26 @@ typedef struct ohm_halfspace_result {
     int64_t cells;
 } ohm_halfspace_result;
 int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, const ohm_log *log, ohm_error *err);
+
+/* Diffusion against ohm's Monte Carlo transport (mc.h; validate_transport.c)
+ * on issue 13's scenes — a slab lit by a pencil beam at eta 1.0 and 1.4, a
+ * cube at eta 1.37, the same cube with a sphere of another medium — in the
+ * MCX benchmark's medium (sigma_a 0.005, sigma_s 1 /mm, g 0.01), cube side
+ * `size` mm (slabs 2 size wide, size / 2 thick), voxel h: per scene the
+ * fluence more than 2 transport mean free paths from the source and the
+ * faces (mean |error|, rms), the absorbed fraction, the total diffuse
+ * reflectance, and the reflectance against radius beyond 2 mm. */
+typedef struct ohm_transport_config {
+    double h, size;           /* mm                                        */
+    int64_t photons;          /* per scene                                 */
+    uint64_t seed;
+    int threads;              /* 0: every core                             */
+    ohm_fresnel fresnel;      /* the diffusion solve's settings            */
+    ohm_deposit deposit;
+    double tol_fluence_mean, tol_fluence_rms, tol_absorbed, tol_reflectance, tol_rings;
+} ohm_transport_config;
+void ohm_transport_config_default(ohm_transport_config *cfg); /* issue 13's targets, h 1, size 60, 1e6 */
+int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, const ohm_log *log, ohm_error *err);
 
 /* All of the above, in order. */
 int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);
