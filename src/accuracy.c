@@ -55,6 +55,8 @@ typedef struct acc_options {
     double slab_h[ACC_MAX_DIMS];
     int nslab;
     const char *csv;
+    int model_mc;                   /* model=mc: diffusion against transport */
+    int64_t photons;                /* per Monte Carlo solve                 */
 } acc_options;
 
 typedef struct acc_row {
@@ -65,6 +67,7 @@ typedef struct acc_row {
     double nnz_L, factor_mb, rss_mb;
     double t_voxelize, t_analyze, t_factor, t_cg, t_source, t_solve, t_total;
     double err_ref, err_max, err_rich, err_full, order;
+    double err_model, mc_noise, t_mc; /* model=mc: against transport, its noise, its time; -1: not run */
     double *P; /* binned exitance power (owned), NULL for slab rows */
 } acc_row;
 
@@ -134,6 +137,9 @@ static void usage(FILE *f)
             "  bands=LIST        depth bands k (cells within k / sigma_tr), 0 = none (default 1,2,3,4)\n"
             "  band_dim=DIM      grid for the band study (default the largest of dims)\n"
             "  slab=LIST         half-space voxel sizes in mm, 0 = none (default 1,0.5,0.35,0.25)\n"
+            "  model=mc          also trace Monte Carlo transport (solver=mc) on each series grid: the model's\n"
+            "                    error (diffusion against transport, same grid) beside the discretisation error\n"
+            "  photons=N         photons per Monte Carlo solve (default 1e6)\n"
             "  csv=FILE          every figure, one row per solve\n",
             OHM_EXITANCE_NBINS, ohm_preset_names);
 }
@@ -166,6 +172,7 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
     const char *slab = "1,0.5,0.35,0.25";
     o->ref = 192;
     o->direct = o->cg = 1;
+    o->photons = 1000000;
     for (int i = 0; i < argc; ++i) {
         const char *a = argv[i], *eq = strchr(a, '=');
         if (!eq) return usage_error(err, "'%s': options are key=value words", a);
@@ -197,6 +204,16 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
             o->band_dim = (int)r;
         } else if (KEY("slab")) slab = v;
         else if (KEY("csv")) o->csv = v;
+        else if (KEY("model")) {
+            if (strcmp(v, "mc") && strcmp(v, "none"))
+                return usage_error(err, "model=%s: expected mc (diffusion against Monte Carlo transport) or none", v);
+            o->model_mc = strcmp(v, "mc") == 0;
+        } else if (KEY("photons")) {
+            char *end;
+            double ph = strtod(v, &end);
+            if (*end || !(ph >= 16 && ph <= 1e12)) return usage_error(err, "photons=%s: expected 16 .. 1e12", v);
+            o->photons = (int64_t)ph;
+        }
         else return usage_error(err, "unknown option '%.*s'", (int)kl, a);
 #undef KEY
     }
@@ -337,9 +354,35 @@ static double observed_order(double d12, double d23, double h1, double h2, doubl
  * mesh shadows): the scene every accuracy figure and error= probe uses.
  * *t_voxelize gets the voxelization's seconds.  On success the caller frees
  * *g and *sol. */
-static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_voxelize, const ohm_mesh *mesh,
-                              const ohm_material *mat, const ohm_light *lights, size_t nlights, int dim, int use_cg,
-                              double band, ohm_error *err)
+/* The scene's solve on grid g (Robin, METIS, exponential deposit, mesh
+ * shadows): solver "direct", "cg" or "mc" (then photons per solve). */
+static int solve_scene(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
+                       const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver,
+                       double band, int64_t photons, ohm_error *err)
+{
+    static const ohm_log quiet = {NULL, 0};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_ROBIN;
+    p.ordering = "metis";
+    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
+    p.shadows = OHM_SHADOWS_MESH;
+    p.mesh = mesh;
+    p.orientation = flipped ? -1 : 1;
+    p.solver = solver;
+    p.band_k = band;
+    p.mc.photons = photons;
+    p.mc.seed = 1;
+    return ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
+}
+
+/* Voxelize the mesh at dim and solve it (solve_scene): the scene every
+ * accuracy figure and error= probe uses.  *t_voxelize gets the
+ * voxelization's seconds, *flipped the mesh's orientation.  On success the
+ * caller frees *g and *sol. */
+static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_voxelize, int *flipped,
+                              const ohm_mesh *mesh, const ohm_material *mat, const ohm_light *lights, size_t nlights,
+                              int dim, int use_cg, double band, ohm_error *err)
 {
     static const ohm_log quiet = {NULL, 0};
     ohm_voxelize_params vp;
@@ -350,23 +393,48 @@ static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_vo
     int rc = ohm_voxelize(g, &vr, mesh, &vp, &quiet, err);
     *t_voxelize = ohm_now() - t0;
     if (rc) return rc;
-    ohm_solve_params p;
-    memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = "metis";
-    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
-    p.shadows = OHM_SHADOWS_MESH;
-    p.mesh = mesh;
-    p.orientation = vr.flipped ? -1 : 1;
-    p.solver = use_cg ? "cg" : "direct";
-    p.band_k = band;
-    rc = ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
+    *flipped = vr.flipped;
+    rc = solve_scene(sol, g, vr.flipped, mesh, mat, lights, nlights, use_cg ? "cg" : "direct", band, 0, err);
     if (rc) ohm_voxel_grid_free(g);
     return rc;
 }
 
+/* The noise of a Monte Carlo solution's binned exitance as a part of it:
+ * each face's variance (its cell's standard error squared) spread with the
+ * trilinear weights like its power (not their squares: an upper estimate),
+ * the nodes' errors taken as independent, and E|N(0, s)| = s sqrt(2/pi). */
+static double binned_noise(const ohm_exitance_lattice *L, const ohm_solution *mc, const ohm_voxel_grid *g,
+                           const double *P)
+{
+    ohm_solution var = *mc; /* the same faces, with se^2 h^2 per face as "exitance" */
+    double *fx[OHM_MAX_CHANNELS] = {NULL};
+    int ok = 1;
+    for (int c = 0; c < mc->channels && ok; ++c) {
+        fx[c] = malloc((size_t)(mc->net.nfaces ? mc->net.nfaces : 1) * sizeof(double));
+        ok = fx[c] != NULL;
+        for (int64_t f = 0; ok && f < mc->net.nfaces; ++f) {
+            double se = mc->exitance_se[c][mc->net.face_unknown[f]];
+            fx[c][f] = se * se * g->h * g->h; /* binned x h^2 below: se^2 h^4, a power's variance */
+        }
+        var.face_exitance[c] = fx[c];
+    }
+    double *V = ok ? ohm_exitance_binned(L, &var, g) : NULL;
+    double noise = NAN;
+    if (V) {
+        double sum = 0, sp = 0;
+        for (size_t i = 0; i < L->nodes * 3; ++i) {
+            sum += sqrt(fmax(V[i], 0.0)) * sqrt(2.0 / 3.14159265358979323846);
+            sp += fabs(P[i]);
+        }
+        noise = sp > 0 ? sum / sp : 0;
+    }
+    free(V);
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) free(fx[c]);
+    return noise;
+}
+
 static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
-                     int dim, int use_cg, double band, const ohm_log *log, ohm_error *err)
+                     int dim, int use_cg, double band, int64_t mc_photons, const ohm_log *log, ohm_error *err)
 {
     ohm_light light;
     memset(&light, 0, sizeof light);
@@ -379,7 +447,8 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
     ohm_voxel_grid g;
     ohm_solution sol;
     reset_peak_rss();
-    int rc = voxelize_and_solve(&g, &sol, &row->t_voxelize, mesh, mat, &light, 1, dim, use_cg, band, err);
+    int flipped;
+    int rc = voxelize_and_solve(&g, &sol, &row->t_voxelize, &flipped, mesh, mat, &light, 1, dim, use_cg, band, err);
     if (rc) return rc;
     row->dim = dim;
     row->h = g.h;
@@ -401,7 +470,27 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
     row->P = ohm_exitance_binned(Lat, &sol, &g);
     row->rss_mb = peak_rss_mb();
     ohm_solution_free(&sol);
+    row->err_model = row->mc_noise = row->t_mc = -1;
+    if (row->P && mc_photons > 0) { /* the same grid and light, traced */
+        ohm_log_info(log, "accuracy: %s dim %d: Monte Carlo, %.3g photons", row->material, dim, (double)mc_photons);
+        ohm_solution t;
+        double t0 = ohm_now();
+        rc = solve_scene(&t, &g, flipped, mesh, mat, &light, 1, "mc", 0, mc_photons, err);
+        if (!rc) {
+            row->t_mc = ohm_now() - t0;
+            double *Pmc = ohm_exitance_binned(Lat, &t, &g);
+            if (Pmc) {
+                double worst;
+                errors(row->P, Pmc, Lat->nodes * 3, &row->err_model, &worst);
+                row->mc_noise = binned_noise(Lat, &t, &g, Pmc);
+            }
+            free(Pmc);
+            ohm_solution_free(&t);
+            if (!Pmc) rc = ohm_fail(err, OHM_ERR_NOMEM, "accuracy: out of memory");
+        }
+    }
     ohm_voxel_grid_free(&g);
+    if (rc) return rc;
     if (!row->P) return ohm_fail(err, OHM_ERR_NOMEM, "accuracy: out of memory");
     return OHM_OK;
 }
@@ -412,15 +501,15 @@ static void write_csv(FILE *f, const acc_row *rows, size_t n)
 {
     fprintf(f, "scene,material,dim,h_mm,solver,band,cells,band_dropped,nnz_L,factor_mb,peak_rss_mb,t_voxelize,"
                "t_analyze,t_factor,t_cg_setup,t_source,t_solve,t_total,cg_iterations,err_ref,err_max_ref,err_rich,"
-               "order,err_full\n");
+               "order,err_full,err_model,mc_noise,t_mc\n");
     for (size_t i = 0; i < n; ++i) {
         const acc_row *r = &rows[i];
         fprintf(f, "%s,%s,%d,%.6g,%s,%g,%lld,%lld,%.6g,%.4g,%.1f,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%.4g,%lld,%.4g,%.4g,"
-                   "%.4g,%.3g,%.4g\n",
+                   "%.4g,%.3g,%.4g,%.4g,%.4g,%.4g\n",
                 r->scene, r->material, r->dim, r->h, r->solver, r->band, (long long)r->cells, (long long)r->dropped,
                 r->nnz_L, r->factor_mb, r->rss_mb, r->t_voxelize, r->t_analyze, r->t_factor, r->t_cg, r->t_source,
                 r->t_solve, r->t_total, (long long)r->iters, r->err_ref, r->err_max, r->err_rich, r->order,
-                r->err_full);
+                r->err_full, r->err_model, r->mc_noise, r->t_mc);
     }
 }
 
@@ -455,6 +544,20 @@ static void write_markdown(FILE *f, const acc_row *rows, size_t n, const acc_opt
         fprintf(f, "| %s | %d%s | %.3g | %lld | %s | %s | %lld | %s | %.1f | %.2f%% | %s | %.2f%% |\n",
                 r->material, r->dim, ref ? " (ref)" : "", r->h, (long long)r->cells, tds, tcs, (long long)it, mem, fm, 100 * r->err_ref, rich,
                 100 * r->err_max);
+    }
+    if (o->model_mc) {
+        fprintf(f, "\n### The model's error: diffusion against Monte Carlo transport (%.3g photons) on the same grid\n\n"
+                   "| material | dim | h (mm) | cells | discretisation (vs ref) | model (vs transport) | transport noise "
+                   "| transport (s) |\n|---|---|---|---|---|---|---|---|\n",
+                (double)o->photons);
+        for (size_t i = 0; i < n; ++i) {
+            const acc_row *r = &rows[i];
+            if (strcmp(r->scene, "series") != 0 || !(r->err_model >= 0)) continue;
+            char disc[32] = "-";
+            if (o->ref) snprintf(disc, sizeof disc, "%.2f%%", 100 * r->err_ref);
+            fprintf(f, "| %s | %d | %.3g | %lld | %s | %.2f%% | %.2f%% | %.3g |\n", r->material, r->dim, r->h,
+                    (long long)r->cells, disc, 100 * r->err_model, 100 * r->mc_noise, r->t_mc);
+        }
     }
     fprintf(f, "\n### Depth band: error against the full solve on the same grid (cg)\n\n"
                "| material | dim | band k | depth (mm) | cells kept | dropped | time (s) | error vs full |\n"
@@ -492,6 +595,7 @@ static int push(acc_row **rows, size_t *n, size_t *cap, acc_row **out, ohm_error
     }
     *out = &(*rows)[(*n)++];
     memset(*out, 0, sizeof **out);
+    (*out)->err_model = (*out)->mc_noise = (*out)->t_mc = -1; /* model=mc not run */
     return OHM_OK;
 }
 
@@ -547,14 +651,17 @@ static int run_material(acc_row **rows, size_t *n, size_t *cap, const acc_option
             if ((rc = push(rows, n, cap, &r, err))) return rc;
             snprintf(r->scene, sizeof r->scene, "series");
             snprintf(r->material, sizeof r->material, "%s", name);
-            if ((rc = solve_one(r, Lat, mesh, &mat, o->dims[i], s == 1, 0, log, err))) return rc;
+            /* the model's error once per grid, beside the first solver's row */
+            int first_solver = s == 0 || !o->direct;
+            int64_t ph = o->model_mc && first_solver ? o->photons : 0;
+            if ((rc = solve_one(r, Lat, mesh, &mat, o->dims[i], s == 1, 0, ph, log, err))) return rc;
         }
     size_t len = Lat->nodes * 3;
     if (o->ref) {
         if ((rc = push(rows, n, cap, &r, err))) return rc;
         snprintf(r->scene, sizeof r->scene, "reference");
         snprintf(r->material, sizeof r->material, "%s", name);
-        if ((rc = solve_one(r, Lat, mesh, &mat, o->ref, 1, 0, log, err))) return rc;
+        if ((rc = solve_one(r, Lat, mesh, &mat, o->ref, 1, 0, 0, log, err))) return rc;
         if ((rc = compare_to_reference(*rows, first, *n - 1, o, len, name, log, err))) return rc;
     }
 
@@ -565,7 +672,7 @@ static int run_material(acc_row **rows, size_t *n, size_t *cap, const acc_option
         if ((rc = push(rows, n, cap, &r, err))) return rc;
         snprintf(r->scene, sizeof r->scene, "band");
         snprintf(r->material, sizeof r->material, "%s", name);
-        if ((rc = solve_one(r, Lat, mesh, &mat, o->band_dim, 1, o->bands[b], log, err))) return rc;
+        if ((rc = solve_one(r, Lat, mesh, &mat, o->band_dim, 1, o->bands[b], 0, log, err))) return rc;
         const double *Pfull = NULL;
         for (size_t i = first; i < *n; ++i)
             if (strcmp((*rows)[i].scene, "series") == 0 && (*rows)[i].dim == o->band_dim &&
@@ -667,7 +774,8 @@ static int probe_solve(double **P, const ohm_exitance_lattice *Lat, const ohm_me
     ohm_voxel_grid g;
     ohm_solution sol;
     double t;
-    int rc = voxelize_and_solve(&g, &sol, &t, mesh, mat, lights, nlights, dim, 1, 0, err);
+    int flipped;
+    int rc = voxelize_and_solve(&g, &sol, &t, &flipped, mesh, mat, lights, nlights, dim, 1, 0, err);
     if (rc) return rc;
     *P = ohm_exitance_binned(Lat, &sol, &g);
     if (!*P) rc = ohm_fail(err, OHM_ERR_NOMEM, "voxelize error=: out of memory");
