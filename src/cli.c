@@ -116,6 +116,7 @@ int ohm_cli_main(int argc, char **argv)
             ohm_transport_config cfg;
             ohm_transport_config_default(&cfg);
             int trc = transport_args(&cfg, argc - first - 2, argv + first + 2, &err);
+            if (!trc) trc = ohm_validate_mc(&v, cfg.photons, cfg.seed, cfg.threads, &log, &err);
             if (!trc) trc = ohm_validate_transport(&v, &cfg, &log, &err);
             if (trc) return report(trc, &err);
             return ohm_validation_print(stdout, &v) ? 1 : 0;

@@ -73,6 +73,12 @@ typedef struct ohm_transport_config {
 void ohm_transport_config_default(ohm_transport_config *cfg); /* issue 13's targets, h 1, size 60, 1e6 */
 int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, const ohm_log *log, ohm_error *err);
 
+/* The Monte Carlo reference (mc.h) itself against published transport
+ * values, `photons` each (random stream `seed`): van de Hulst's matched slab (MCML's check), MCML's
+ * mismatched half-space, MCX's cube60 absorbed fraction; each row passes
+ * within 4 combined standard errors; and its speed on cube60. */
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const ohm_log *log, ohm_error *err);
+
 /* All of the above, in order. */
 int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);
 

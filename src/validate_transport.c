@@ -12,6 +12,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "mc.h"
+#include "network.h"
 #include "scene.h"
 #include "solve.h"
 
@@ -283,4 +285,126 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
         ohm_voxel_grid_free(&g);
     }
     return rc;
+}
+
+/* ---- the Monte Carlo reference itself against published transport values ---- */
+
+/* A box of cells h lit by a pencil beam of 1 W travelling -z onto its top face
+ * at (x, y), traced directly (ohm_mc_trace: its power booking, including the
+ * time gate, and the standard errors of the totals). */
+typedef struct mc_box {
+    ohm_voxel_grid grid;
+    ohm_network net;
+    ohm_light_entries in;
+    double *fluence, *fluence_se, *face, *exit_se;
+    ohm_mc_result res;
+} mc_box;
+
+static void mc_box_free(mc_box *b)
+{
+    ohm_light_entries_free(&b->in);
+    ohm_network_free(&b->net);
+    ohm_voxel_grid_free(&b->grid);
+    free(b->fluence), free(b->fluence_se), free(b->exit_se), free(b->face);
+}
+
+static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, double ss_reduced, double eta,
+                        double x, double y, const ohm_mc_params *p, ohm_error *err)
+{
+    memset(b, 0, sizeof *b);
+    int rc = ohm_scene_box(&b->grid, nx, ny, nz, h, err);
+    if (!rc) rc = ohm_network_build(&b->net, &b->grid, NULL, err);
+    ohm_light l;
+    memset(&l, 0, sizeof l);
+    l.type = OHM_LIGHT_PENCIL;
+    l.pos[0] = x, l.pos[1] = y, l.pos[2] = nz * h + 1.0;
+    l.dir[2] = -1.0;
+    l.intensity[0] = 1.0;
+    l.channels = 1;
+    if (!rc) rc = ohm_light_entries_add(&b->in, &b->net, &l, 1, eta, NULL, err);
+    if (rc) {
+        mc_box_free(b);
+        return rc;
+    }
+    size_t n = (size_t)b->net.n, nf = (size_t)b->net.nfaces;
+    b->fluence = calloc(n, sizeof(double));
+    b->fluence_se = calloc(n, sizeof(double));
+    b->exit_se = calloc(n, sizeof(double));
+    b->face = calloc(nf, sizeof(double));
+    if (!b->fluence || !b->fluence_se || !b->exit_se || !b->face) {
+        mc_box_free(b);
+        return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+    }
+    b->res = (ohm_mc_result){.fluence = b->fluence, .fluence_se = b->fluence_se, .face_exitance = b->face,
+                             .exitance_se = b->exit_se};
+    ohm_channel_medium med;
+    memset(&med, 0, sizeof med);
+    med.sigma_a0 = sa;
+    med.sigma_s0 = ss_reduced;
+    med.eta = eta;
+    rc = ohm_mc_trace(&b->res, &b->net, &med, b->in.entry, b->in.count, 0, p, err);
+    if (rc) mc_box_free(b);
+    return rc;
+}
+
+/* Power leaving through faces of direction d (0..5: -x +x -y +y -z +z). */
+static double mc_box_out(const mc_box *b, int d)
+{
+    double sum = 0, area = b->grid.h * b->grid.h;
+    for (int64_t f = 0; f < b->net.nfaces; ++f)
+        if (b->net.face_dir[f] == d) sum += b->face[f] * area;
+    return sum;
+}
+
+/* A row against a published value: pass within 4 combined standard errors
+ * (absolute: error and tolerance in the quantity's own units). */
+static void published_row(ohm_validation *v, const char *name, const char *ref, double measured, double expected,
+                          double se_ours, double se_theirs)
+{
+    double tol = 4.0 * sqrt(se_ours * se_ours + se_theirs * se_theirs);
+    ohm_validation_add(v, name, ref, measured, expected, fabs(measured - expected), tol);
+}
+
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const ohm_log *log, ohm_error *err)
+{
+    ohm_mc_params p = {.photons = photons, .seed = seed, .threads = threads, .log = log};
+    double N = (double)((photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES * OHM_MC_BATCHES);
+    mc_box b;
+    /* van de Hulst's matched slab (mu_a 1, mu_s 9 /mm, g 0.75, 0.2 mm), the
+     * check of MCML (Wang, Jacques & Zheng 1995): with n = 1 every photon
+     * leaves whole, so each total's error is binomial */
+    p.g = 0.75;
+    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 5.0, 5.0, &p, err);
+    if (rc) return rc;
+    double Rd = mc_box_out(&b, 5), Tt = mc_box_out(&b, 4);
+    published_row(v, "mc: matched slab, diffuse reflectance (abs)", "van de Hulst 0.09739 (MCML)", Rd, 0.09739,
+                  sqrt(0.09739 * (1 - 0.09739) / N), 0);
+    published_row(v, "mc: matched slab, total transmittance (abs)", "van de Hulst 0.66096 (MCML)", Tt, 0.66096,
+                  sqrt(0.66096 * (1 - 0.66096) / N), 0);
+    mc_box_free(&b);
+    /* MCML 2.0's semi-infinite medium under air (sample1.mci, run 2: n 1.5,
+     * mu_a 1, mu_s 9 /mm, g 0): Rd 0.220348 +- 0.000916, specular 0.04 apart */
+    p.g = 0.0;
+    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 2.0, 2.0, &p, err);
+    if (rc) return rc;
+    double incident = b.in.entry[0].incident[0];
+    published_row(v, "mc: half-space n1.5, diffuse reflectance (abs)", "MCML 0.220348 +- 0.000916",
+                  mc_box_out(&b, 5) / incident, 0.220348, b.res.power_out_se / incident, 0.000916);
+    mc_box_free(&b);
+    /* MCX's cube60 (fangq/mcx src/mcx_bench.c): 60 mm of 1 mm voxels, mu_a
+     * 0.005, mu_s 1 /mm, g 0.01, no reflection at the faces (DoMismatch 0),
+     * the beam at grid point (29, 29), absorbed within 5 ns at c / 1.37:
+     * 17.69708% (1e8 photons, mcx PR #267) */
+    p.g = 0.01;
+    p.max_path = 5.0 * 299.792458 / 1.37;
+    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 29.0, 29.0, &p, err);
+    if (rc) return rc;
+    published_row(v, "mc: cube60, absorbed fraction (abs)", "MCX 17.69708% (1e8 photons)",
+                  b.res.power_absorbed / b.res.power_in, 0.1769708, b.res.power_absorbed_se / b.res.power_in, 0);
+    double speed = 1e-3 * (double)b.res.photons / b.res.seconds;
+    char name[80];
+    snprintf(name, sizeof name, "mc: cube60 speed, photons/ms (%d threads)", b.res.threads);
+    ohm_validation_add(v, name, "issue 13: >= 100", speed, 100, speed, -1);
+    mc_box_free(&b);
+    return OHM_OK;
 }
