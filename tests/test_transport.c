@@ -23,7 +23,7 @@ int main(void)
     ohm_error err = {0};
     CHECK(ohm_validate_transport(&v, &cfg, &log, &err) == 0);
     ohm_validation_print(stdout, &v);
-    CHECK(v.n == 4 * 8);
+    CHECK(v.n == 5 * 8);
     int noise_rows = 0, ring_rows = 0;
     for (int i = 0; i < v.n; ++i) {
         const ohm_check_row *r = &v.rows[i];
@@ -40,6 +40,6 @@ int main(void)
             CHECK_MSG(r->pass, "%s: error %g > %g", r->name, r->error, r->tolerance);
         }
     }
-    CHECK(noise_rows == 4 && ring_rows == 4);
+    CHECK(noise_rows == 5 && ring_rows == 5);
     return check_summary();
 }
