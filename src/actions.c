@@ -313,6 +313,13 @@ static const ohm_opt_spec material_opts[] = {
      "apple|chicken1|chicken2|cream|ketchup|marble|potato|skimmilk|skin1|skin2|spectralon|wholemilk", 0, 0, 0},
     {"sigma_a", OHM_OPT_REAL13, NULL, "absorption coefficient, 1/mm", NULL, 0, 1e6, 0},
     {"sigma_s", OHM_OPT_REAL13, NULL, "reduced scattering coefficient sigma_s', 1/mm", NULL, 1e-9, 1e9, 0},
+    {"sigma_s_full", OHM_OPT_REAL13, NULL,
+     "scattering coefficient sigma_s, 1/mm, instead of sigma_s': with g=, sigma_s' = sigma_s (1 - g)", NULL, 1e-9,
+     1e9, 0},
+    {"g", OHM_OPT_REAL, "0",
+     "scattering anisotropy (mean cosine, Henyey-Greenstein): diffusion uses only sigma_s'; solver=mc traces "
+     "sigma_s = sigma_s' / (1 - g) with this phase function",
+     NULL, -0.99, 0.99, 0},
     {"eta", OHM_OPT_REAL, "1.3", "relative index of refraction", NULL, 1, 3, 0},
     {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, 1e-300, 1e300, 0},
     {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, 1e-300, 1e300, 0},
@@ -326,13 +333,13 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_material m;
     memset(&m, 0, sizeof m);
     int preset = ohm_opt_given(inv, "preset");
-    int optical = ohm_opt_given(inv, "sigma_a") || ohm_opt_given(inv, "sigma_s");
+    int optical = ohm_opt_given(inv, "sigma_a") || ohm_opt_given(inv, "sigma_s") || ohm_opt_given(inv, "sigma_s_full");
     int paper = ohm_opt_given(inv, "resistance") || ohm_opt_given(inv, "ground");
     int transfer = ohm_opt_given(inv, "transfer");
     if (preset + optical + paper + transfer != 1)
         return ohm_fail(err, OHM_ERR_USAGE,
-                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s=, resistance= with "
-                        "ground=, or transfer=FILE",
+                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s= (or sigma_s_full=), "
+                        "resistance= with ground=, or transfer=FILE",
                         inv->where);
     int rc;
     ohm_transfer_free(&s->transfer);
@@ -347,6 +354,7 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         m.kind = t.resistance_mode ? OHM_MATERIAL_RESISTANCE : OHM_MATERIAL_OPTICAL;
         m.channels = t.channels;
         m.eta = t.resistance_mode ? 1.0 : t.eta;
+        m.g = t.resistance_mode ? 0.0 : t.g;
         ohm_transfer_eval(&t, t.density[0], m.sigma_a, m.sigma_s);
         if (t.resistance_mode) m.resistance = m.sigma_a[0], m.ground = m.sigma_s[0];
         const char *base = strrchr(tp, '/');
@@ -367,10 +375,22 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         rc = ohm_material_preset(&m, ohm_opt_str(inv, "preset"), err);
         if (rc) return rc;
         if (ohm_opt_given(inv, "eta")) m.eta = ohm_opt_real(inv, "eta");
+        m.g = ohm_opt_real(inv, "g"); /* Jensen's table gives sigma_s' only: 0 unless told */
     } else if (optical) {
-        if (!ohm_opt_given(inv, "sigma_a") || !ohm_opt_given(inv, "sigma_s"))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: sigma_a= and sigma_s= go together", inv->where);
-        int ka = ohm_opt_real13(inv, "sigma_a", m.sigma_a), ks = ohm_opt_real13(inv, "sigma_s", m.sigma_s);
+        int full = ohm_opt_given(inv, "sigma_s_full");
+        if (full && ohm_opt_given(inv, "sigma_s"))
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -material: give sigma_s= (reduced, sigma_s') or sigma_s_full= (sigma_s, with g=), "
+                            "not both",
+                            inv->where);
+        if (!ohm_opt_given(inv, "sigma_a") || !(full || ohm_opt_given(inv, "sigma_s")))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: sigma_a= and sigma_s= (or sigma_s_full=) go together",
+                            inv->where);
+        int ka = ohm_opt_real13(inv, "sigma_a", m.sigma_a);
+        int ks = ohm_opt_real13(inv, full ? "sigma_s_full" : "sigma_s", m.sigma_s);
+        m.g = ohm_opt_real(inv, "g");
+        if (full) /* sigma_s' = sigma_s (1 - g): what diffusion needs (similarity) */
+            for (int c = 0; c < 3; ++c) m.sigma_s[c] *= 1.0 - m.g;
         m.kind = OHM_MATERIAL_OPTICAL;
         m.channels = (ka == 3 || ks == 3) ? 3 : 1;
         m.eta = ohm_opt_real(inv, "eta");
@@ -532,6 +552,10 @@ static const ohm_opt_spec solve_opts[] = {
      "where entering light starts to diffuse: exponential (reduced-intensity profile) | point (at depth "
      "1/sigma_t', the dipole's) | surface (first cell, the paper's)",
      "exponential|point|surface", 0, 0, 0},
+    {"fluence", OHM_OPT_ENUM, "diffuse",
+     "what the fluence grid holds: diffuse (the scattered light, diffusion's phi) | total (plus the unscattered "
+     "beam, attenuated by the full sigma_t, what transport codes report)",
+     "diffuse|total", 0, 0, 0},
     {"shadows", OHM_OPT_ENUM, "auto",
      "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
      "there is one",
@@ -541,15 +565,12 @@ static const ohm_opt_spec solve_opts[] = {
      "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
      "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
-     "model's error, with standard errors; photons= seed= g= threads=)",
+     "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|auto|mc", 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
     {"seed", OHM_OPT_INT, "1", "solver=mc: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
      9.007199254740992e15, 0},
-    {"g", OHM_OPT_REAL, "0",
-     "solver=mc: Henyey-Greenstein anisotropy; materials give sigma_s', traced as sigma_s = sigma_s' / (1 - g)",
-     NULL, -0.99, 0.99, 0},
     {"threads", OHM_OPT_INT, "0", "solver=mc: threads (0: every core)", NULL, 0, 1024, 0},
     {"petsc_options", OHM_OPT_STRING, NULL,
      "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
@@ -654,12 +675,12 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                 : OHM_DEPOSIT_EXPONENTIAL;
     p.ordering = ohm_opt_str(inv, "ordering");
+    p.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
     p.solver = ohm_opt_str(inv, "solver");
     if (ohm_opt_given(inv, "petsc_options")) p.petsc_options = ohm_opt_str(inv, "petsc_options");
     p.cg_tol = ohm_opt_real(inv, "cg_tol");
     p.mc.photons = (int64_t)ohm_opt_real(inv, "photons");
     p.mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
-    p.mc.g = ohm_opt_real(inv, "g");
     p.mc.threads = (int)ohm_opt_int(inv, "threads");
     p.mc.log = &s->log;
     p.band_k = ohm_opt_real(inv, "depth_band");
@@ -698,8 +719,9 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
     snprintf(s->solution_desc, sizeof s->solution_desc,
-             "boundary=%s fresnel=%s deposit=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s band=%g", bname,
-             fname, dname, ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k);
+             "boundary=%s fresnel=%s deposit=%s fluence=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s "
+             "band=%g",
+             bname, fname, dname, ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows), s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -710,7 +732,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         ohm_log_info(&s->log,
                      "monte carlo: %lld photons (g=%g, seed=%llu, %d threads) at %.4g photons/ms, %.4g path "
                      "segments each%s",
-                     (long long)sol->mc_photons, p.mc.g, (unsigned long long)p.mc.seed, sol->mc_threads,
+                     (long long)sol->mc_photons, s->material.g, (unsigned long long)p.mc.seed, sol->mc_threads,
                      sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0.0,
                      sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0.0,
                      sol->mc_truncated ? "; some photons hit the event cap (a medium that keeps light in)" : "");
@@ -752,6 +774,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "boundary", bname);
     ohm_stats_set_str(st, "deposit", dname);
     ohm_stats_set_str(st, "fresnel", fname);
+    ohm_stats_set_str(st, "fluence", ohm_opt_str(inv, "fluence"));
     ohm_stats_set_str(st, "ordering", sol->ordering);
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
@@ -783,7 +806,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (strcmp(sol->solver, "mc") == 0) {
         ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
         ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
-        ohm_stats_set(st, "mc_g", p.mc.g);
+        ohm_stats_set(st, "mc_g", s->material.g);
         ohm_stats_set_int(st, "mc_threads", sol->mc_threads);
         ohm_stats_set_int(st, "mc_truncated", (long long)sol->mc_truncated);
         ohm_stats_set(st, "mc_photons_per_ms", sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0);

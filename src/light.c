@@ -136,6 +136,32 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     return put;
 }
 
+void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P,
+                                 const ohm_channel_medium *med)
+{
+    const ohm_voxel_grid *g = net->grid;
+    int d = net->face_dir[f];
+    int32_t step[3] = {-ohm_face_offset[d][0], -ohm_face_offset[d][1], -ohm_face_offset[d][2]};
+    int32_t c[3];
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
+    const double h = g->h, volume = h * h * h;
+    double tau = 0.0;
+    for (int64_t q = 0;; ++q) {
+        int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
+        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
+        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
+        if (u < 0) break;
+        /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
+         * loses every photon that scatters, forward or not */
+        double sa = med->sigma_a ? med->sigma_a[u] : med->sigma_a0;
+        double st = sa + (med->sigma_s ? med->sigma_s[u] : med->sigma_s0) / (1.0 - med->g), t1 = tau + st * h;
+        /* track length in the cell, P int e^-st z dz, per volume */
+        phi[u] += P * (exp(-tau) - exp(-t1)) / (st * volume);
+        tau = t1;
+        if (tau > 40.0) break;
+    }
+}
+
 static void face_centre(const ohm_network *net, int64_t f, double p[3])
 {
     const ohm_voxel_grid *g = net->grid;

@@ -99,6 +99,15 @@ double ohm_source_deposit_faces(double *b, const ohm_network *net, const double 
 double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
                                const ohm_channel_medium *med, ohm_deposit deposit);
 
+/* Add to phi (n entries) the fluence of the unscattered (reduced-intensity)
+ * beam of power P entering through boundary face f, along the inward normal
+ * like the deposit, attenuated by the full sigma_t = sigma_a + sigma_s
+ * (sigma_s = sigma_s' / (1 - g)): what transport codes include in their
+ * fluence, and diffusion's phi (whose source is the first scattering) does
+ * not. */
+void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P,
+                                 const ohm_channel_medium *med);
+
 /* Outward unit normal of the surface at the interior cell of face f, from the
  * distance field (falls back to the face normal). */
 void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3]);

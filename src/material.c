@@ -67,6 +67,8 @@ int ohm_material_check(const ohm_material *m, ohm_error *err)
             return ohm_fail(err, OHM_ERR_INVALID, "material: sigma_s=%g /mm (%s), expected a finite value > 0",
                             m->sigma_s[c], cn);
     }
+    if (!(m->g > -1.0 && m->g < 1.0))
+        return ohm_fail(err, OHM_ERR_INVALID, "material: g=%g, expected an anisotropy between -1 and 1", m->g);
     if (!(m->eta >= 1.0 && m->eta <= 3.0))
         return ohm_fail(err, OHM_ERR_INVALID, "material: eta=%g, expected a relative index from 1 to 3", m->eta);
     return OHM_OK;

@@ -24,6 +24,10 @@ typedef struct ohm_material {
     double sigma_a[OHM_MAX_CHANNELS];    /* absorption, 1/mm                      */
     double sigma_s[OHM_MAX_CHANNELS];    /* reduced scattering sigma_s', 1/mm     */
     double eta;                          /* relative index of refraction          */
+    double g;                            /* scattering anisotropy (Henyey-Greenstein
+                                            mean cosine): diffusion needs only
+                                            sigma_s' = sigma_s (1 - g); transport
+                                            (mc.h) traces sigma_s and g          */
     double resistance;                   /* paper mode: ohms between neighbours   */
     double ground;                       /* paper mode: ohms from a cell to ground */
     char name[64];                       /* preset name, or "custom"              */
@@ -41,7 +45,7 @@ extern const char *const ohm_preset_names; /* "apple|chicken1|..." */
 
 int ohm_material_preset(ohm_material *out, const char *name, ohm_error *err);
 
-/* Validate: finite, sigma_a >= 0, sigma_s > 0, 1 <= eta <= 3, resistances > 0. */
+/* Validate: finite, sigma_a >= 0, sigma_s > 0, 1 <= eta <= 3, -1 < g < 1, resistances > 0. */
 int ohm_material_check(const ohm_material *m, ohm_error *err);
 
 /* Derived quantities (DESIGN.md §2). */

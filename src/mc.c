@@ -414,14 +414,14 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     double t0 = ohm_now();
     if (med->resistance_mode)
         return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc needs optical coefficients, not resistances");
-    if (!(params->g > -1.0 && params->g < 1.0))
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: g=%g: the anisotropy must lie in (-1, 1)", params->g);
+    if (!(med->g > -1.0 && med->g < 1.0))
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: g=%g: the anisotropy must lie in (-1, 1)", med->g);
     mc_scene sc = {.net = net,
                    .med = med,
                    .entries = entries,
                    .nentries = nentries,
-                   .g = params->g,
-                   .ss_scale = 1.0 / (1.0 - params->g),
+                   .g = med->g,
+                   .ss_scale = 1.0 / (1.0 - med->g),
                    .eta = med->eta,
                    .seed = params->seed,
                    .total_fluence = params->total_fluence,

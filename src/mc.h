@@ -8,7 +8,7 @@
  * scattering coefficient sigma_s = sigma_s' / (1 - g), scatter by
  * Henyey-Greenstein with anisotropy g, and lose weight continuously as
  * e^(-sigma_a s) (the "microscopic Beer-Lambert" weighting of MCX: Fang &
- * Boas 2009), so every path segment's absorption and fluence are exact
+ * Boas 2009; g from the medium, ohm_channel_medium.g), so every path segment's absorption and fluence are exact
  * integrals, not point samples.  At a boundary face (into a cell that is not
  * part of the object) a photon is reflected specularly with the probability
  * of the exact unpolarised Fresnel reflectance at the face's own normal, and
@@ -43,7 +43,6 @@ enum { OHM_MC_BATCHES = 16 };
 typedef struct ohm_mc_params {
     int64_t photons; /* per frame and channel, rounded up to a multiple of 16; 0: 10^6 */
     uint64_t seed;
-    double g;        /* Henyey-Greenstein anisotropy, -1 < g < 1 (media give sigma_s') */
     int threads;     /* 0: every core the process may use */
     double max_path; /* mm; 0: none.  A time gate (path = time x c / n): weight still
                         travelling after this path length is counted as gated, neither

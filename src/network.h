@@ -89,6 +89,7 @@ typedef struct ohm_channel_medium {
     const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
     double sigma_a0, sigma_s0;
     double eta;
+    double g;                   /* anisotropy: transport only (mc.h), sigma_s = sigma_s' / (1 - g) */
     ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
 } ohm_channel_medium;
 

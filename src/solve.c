@@ -256,6 +256,7 @@ static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const o
     med->resistance_v = p->resistance_v;
     med->ground_v = p->ground_v;
     med->eta = mat->eta;
+    med->g = mat->g;
     med->fresnel = p->fresnel;
 }
 
@@ -390,6 +391,26 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
     sol->power_out_channel[c] += out;
 }
 
+/* fluence=total: frames f0..f0+nb of channel c (X) get the unscattered beam
+ * of every light's entries (light.h). */
+static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
+                           ohm_error *err)
+{
+    ohm_light_entries in = {0};
+    int rc = OHM_OK;
+    for (size_t j = 0; j < nb && !rc; ++j) {
+        in.count = 0;
+        for (size_t l = 0; l < nlights && !rc; ++l)
+            if (lights[l].frame == 0 || lights[l].frame == (int)(f0 + j + 1))
+                rc = ohm_light_entries_add(&in, &sol->net, &lights[l], sol->channels, mat->eta, occ, err);
+        for (size_t k = 0; k < in.count && !rc; ++k)
+            ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c], med);
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
 /* The constant-mode correction of nearly singular pieces, then the backward
  * error again (it must stay within the direct solver's limit). */
 static int conserve_exactly(ohm_solution *sol, double *X, const double *B, size_t nu, const double *ga,
@@ -502,7 +523,9 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
             } else {
                 ohm_channel_medium med;
                 medium_for(&med, mat, params, c);
-                rc = ohm_mc_trace(r, net, &med, in.entry, in.count, c, &params->mc, err);
+                ohm_mc_params mp = params->mc;
+                mp.total_fluence = params->total_fluence;
+                rc = ohm_mc_trace(r, net, &med, in.entry, in.count, c, &mp, err);
                 if (rc) break;
                 sol->mc_photons += r->photons;
                 sol->mc_events += r->events;
@@ -737,6 +760,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 sol->solves += (int64_t)nu;
                 expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
                 book_power(sol, X, B, ga, gb, f0, nb, c);
+                if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
+                    rc = add_unscattered(sol, X, f0, nb, c, &med, mat, lights, nlights, occ, err);
             }
             solved[c] = 1;
         }

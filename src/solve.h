@@ -30,6 +30,9 @@ typedef struct ohm_solve_params {
                                   band_k / sigma_tr of the surface; 0: all */
     const char *ordering;      /* metis | amd | nesdis | best            */
     ohm_deposit deposit;
+    int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
+                                  unscattered beam's fluence added (ohm_source_unscattered_face;
+                                  mc: traced), what transport codes report */
     const int32_t *mirror_low; /* validation scenes only; NULL for none  */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
     double max_memory;         /* bytes the factor may take; 0: what the machine has */

@@ -68,7 +68,7 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
     if (strcmp(tok[1], "1") != 0)
         return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: unsupported version \"%s\" (this ohm reads 1)", name,
                         line, tok[1]);
-    int seen_mode = 0, seen_eta = 0;
+    int seen_mode = 0, seen_eta = 0, seen_g = 0, seen_scattering = 0;
     for (int i = 2; i < ntok; ++i) {
         if (strncmp(tok[i], "mode=", 5) == 0) {
             const char *m = tok[i] + 5;
@@ -91,9 +91,30 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
                                 name, line,
                                 tok[i] + 4);
             t->eta = e;
+        } else if (strncmp(tok[i], "g=", 2) == 0) {
+            double g;
+            if (seen_g) return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: g given twice", name, line);
+            seen_g = 1;
+            if (parse_number(tok[i] + 2, &g) || !(g > -1.0 && g < 1.0))
+                return ohm_fail(err, OHM_ERR_PARSE,
+                                "%s:%zu: bad header: g (the anisotropy) must be a number in (-1, 1), got \"%s\"", name,
+                                line, tok[i] + 2);
+            t->g = g;
+        } else if (strncmp(tok[i], "scattering=", 11) == 0) {
+            const char *k = tok[i] + 11;
+            if (seen_scattering)
+                return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: scattering given twice", name, line);
+            seen_scattering = 1;
+            if (strcmp(k, "reduced") == 0) t->scattering_full = 0;
+            else if (strcmp(k, "full") == 0) t->scattering_full = 1;
+            else
+                return ohm_fail(err, OHM_ERR_PARSE,
+                                "%s:%zu: bad header: scattering=%s, expected reduced (sigma_s') or full (sigma_s)",
+                                name, line, k);
         } else {
             return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s:%zu: unknown header option \"%s\" (expected mode=optical|resistance or eta=VALUE)",
+                            "%s:%zu: unknown header option \"%s\" (expected mode=optical|resistance, eta=VALUE, "
+                            "g=VALUE or scattering=reduced|full)",
                             name, line, tok[i]);
         }
     }
@@ -226,6 +247,8 @@ int ohm_transfer_parse(ohm_transfer *out, const char *text, size_t len, const ch
         goto fail;
     }
     if (t.resistance_mode) t.channels = 1;
+    if (t.scattering_full && !t.resistance_mode) /* sigma_s' = sigma_s (1 - g): what diffusion needs */
+        for (size_t i = 0; i < t.n * (size_t)t.channels; ++i) t.sigma_s[i] *= 1.0 - t.g;
     *out = t;
     return OHM_OK;
 fail:

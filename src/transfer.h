@@ -1,11 +1,13 @@
 /* transfer.h — transfer functions: density -> optical coefficients.
  *
  * The file format (documented in docs/transfer-functions.md):
- *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3]
+ *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3] [g=0] [scattering=reduced|full]
  *   # comments; then one control point per line, increasing density:
  *   density  sigma_a  sigma_s'                      (grey)
  *   density  sa_r sa_g sa_b  ss_r ss_g ss_b         (RGB)
  *   density  resistance  ground                     (mode=resistance, ohms)
+ * scattering=full: the third column is sigma_s, and sigma_s' = sigma_s (1 - g)
+ * is kept (diffusion needs only that; g shapes Monte Carlo's phase function).
  * Piecewise linear between points, clamped outside them.  Validated on load:
  * increasing densities, finite non-negative values (sigma_s' and resistances
  * > 0), consistent column counts; errors say "file:line: what". */
@@ -20,6 +22,8 @@ typedef struct ohm_transfer {
     int resistance_mode;      /* points hold resistance, ground instead          */
     int channels;             /* 1 or 3 (resistance mode: 1)                     */
     double eta;
+    double g;                 /* scattering anisotropy (header g=)               */
+    int scattering_full;      /* the file gave sigma_s (converted to sigma_s')    */
     size_t n;                 /* control points                                  */
     double *density;          /* n                                              */
     double *sigma_a;          /* n * channels (resistance mode: resistance, ohm) */

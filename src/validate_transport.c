@@ -71,6 +71,7 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
 {
     ohm_material m = ohm_scene_grey(TR_SA, TR_SS);
     m.eta = sc->eta;
+    m.g = TR_G;
     ohm_light beam;
     memset(&beam, 0, sizeof beam);
     beam.type = OHM_LIGHT_PENCIL;
@@ -271,7 +272,7 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
         {"cube n1.37 + sphere", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, INC_SA, INC_SS, 0},
         {"cube n1.37 + clear void", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, VOID_SA, VOID_SS, 1},
     };
-    ohm_mc_params mc = {.photons = cfg->photons, .seed = cfg->seed, .g = TR_G, .threads = cfg->threads, .log = log};
+    ohm_mc_params mc = {.photons = cfg->photons, .seed = cfg->seed, .threads = cfg->threads, .log = log};
     int rc = OHM_OK;
     for (size_t s = 0; s < sizeof scenes / sizeof scenes[0] && !rc; ++s) {
         const transport_scene *sc = &scenes[s];
@@ -319,7 +320,7 @@ static void mc_box_free(mc_box *b)
 }
 
 static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, double ss_reduced, double eta,
-                        double x, double y, const ohm_mc_params *p, ohm_error *err)
+                        double g, double x, double y, const ohm_mc_params *p, ohm_error *err)
 {
     memset(b, 0, sizeof *b);
     int rc = ohm_scene_box(&b->grid, nx, ny, nz, h, err);
@@ -352,6 +353,7 @@ static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, 
     med.sigma_a0 = sa;
     med.sigma_s0 = ss_reduced;
     med.eta = eta;
+    med.g = g;
     rc = ohm_mc_trace(&b->res, &b->net, &med, b->in.entry, b->in.count, 0, p, err);
     if (rc) mc_box_free(b);
     return rc;
@@ -383,8 +385,7 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
     /* van de Hulst's matched slab (mu_a 1, mu_s 9 /mm, g 0.75, 0.2 mm), the
      * check of MCML (Wang, Jacques & Zheng 1995): with n = 1 every photon
      * leaves whole, so each total's error is binomial */
-    p.g = 0.75;
-    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 5.0, 5.0, &p, err);
+    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 0.75, 5.0, 5.0, &p, err);
     if (rc) return rc;
     double Rd = mc_box_out(&b, 5), Tt = mc_box_out(&b, 4);
     published_row(v, "mc: matched slab, diffuse reflectance (abs)", "van de Hulst 0.09739 (MCML)", Rd, 0.09739,
@@ -394,8 +395,7 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
     mc_box_free(&b);
     /* MCML 2.0's semi-infinite medium under air (sample1.mci, run 2: n 1.5,
      * mu_a 1, mu_s 9 /mm, g 0): Rd 0.220348 +- 0.000916, specular 0.04 apart */
-    p.g = 0.0;
-    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 2.0, 2.0, &p, err);
+    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, &p, err);
     if (rc) return rc;
     double incident = b.in.entry[0].incident[0];
     published_row(v, "mc: half-space n1.5, diffuse reflectance (abs)", "MCML 0.220348 +- 0.000916",
@@ -405,9 +405,8 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
      * 0.005, mu_s 1 /mm, g 0.01, no reflection at the faces (DoMismatch 0),
      * the beam at grid point (29, 29), absorbed within 5 ns at c / 1.37:
      * 17.69708% (1e8 photons, mcx PR #267) */
-    p.g = 0.01;
     p.max_path = 5.0 * 299.792458 / 1.37;
-    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 29.0, 29.0, &p, err);
+    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 0.01, 29.0, 29.0, &p, err);
     if (rc) return rc;
     published_row(v, "mc: cube60, absorbed fraction (abs)", "MCX 17.69708% (1e8 photons)",
                   b.res.power_absorbed / b.res.power_in, 0.1769708, b.res.power_absorbed_se / b.res.power_in, 0);

@@ -153,12 +153,12 @@ expect_exit 2 "fresnel: unknown formula" -- "$OHM" -read file=samples/spot.obj s
 # physics is tested against published values in test_mc); here the command:
 # the same light arriving as the diffusion solve's, exact bookkeeping, a seed
 # that repeats, and the standard-error grids.
-MC=(-read file=samples/spot.obj size=50 -voxelize dim=16 -material sigma_a=0.05 sigma_s=1 eta=1.3
+MC=(-read file=samples/spot.obj size=50 -voxelize dim=16 -material sigma_a=0.05 sigma_s=1 eta=1.3 g=0.5
     -light dir=0,-1,0)
-expect_exit 0 "mc: seed 3" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 g=0.5 \
+expect_exit 0 "mc: seed 3" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 \
   -write file="$T/mc.vdb" -stats file="$T/mc3.json"
-expect_exit 0 "mc: seed 3 again" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 g=0.5 -stats file="$T/mc3b.json"
-expect_exit 0 "mc: seed 4" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=4 g=0.5 -stats file="$T/mc4.json"
+expect_exit 0 "mc: seed 3 again" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 -stats file="$T/mc3b.json"
+expect_exit 0 "mc: seed 4" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=4 -stats file="$T/mc4.json"
 expect_exit 0 "mc: diffusion beside it" -- "$OHM" "${MC[@]}" -solve -stats file="$T/mcd.json"
 check "mc: stats" $PY - "$T/mc3.json" "$T/mc3b.json" "$T/mc4.json" "$T/mcd.json" <<'PY'
 import json, sys
@@ -184,6 +184,18 @@ lit.sort(reverse=True)
 top = lit[: max(1, len(lit) // 10)]
 assert all(s < 0.2 * v for v, s in top), top[:5]
 PY
+# sigma_s_full= with g= is sigma_s' = sigma_s (1 - g): the same diffusion
+expect_exit 0 "material: sigma_s_full" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=16 \
+  -material sigma_a=0.05 sigma_s_full=2 g=0.5 eta=1.3 -light dir=0,-1,0 -solve -stats file="$T/full.json"
+check "sigma_s_full=2 g=0.5 is sigma_s'=1" $PY - "$T/full.json" "$T/mcd.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+assert a["power_out"] == b["power_out"] and a["power_absorbed"] == b["power_absorbed"], (a, b)
+PY
+expect_exit 2 "material: sigma_s and sigma_s_full" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=8 \
+  -material sigma_a=0.05 sigma_s=1 sigma_s_full=2 g=0.5
+expect_exit 2 "material: g out of range" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=8 \
+  -material sigma_a=0.05 sigma_s=1 g=1
 expect_exit 2 "mc: boundary= is diffusion's" -- "$OHM" "${MC[@]}" -solve solver=mc boundary=dirichlet
 expect_exit 2 "mc: depth band" -- "$OHM" "${MC[@]}" -solve solver=mc depth_band=3
 

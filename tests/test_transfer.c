@@ -136,6 +136,21 @@ static void test_parse_single_and_resistance(void)
     rc = parse(&t, "ohm-transfer 1 eta=1.0 mode=optical\n0 0 1\n", &err);
     CHECK_MSG(rc == 0 && t.eta == 1.0, "%s", err.msg);
     ohm_transfer_free(&t);
+    /* scattering=full with g: the columns hold sigma_s, kept as sigma_s' = sigma_s (1 - g),
+     * whichever order the header words come in; reduced (the default) keeps them as they are */
+    rc = parse(&t, "ohm-transfer 1 scattering=full g=0.9\n0 0.01 10\n1 0.02 20\n", &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) {
+        double sa, ss;
+        ohm_transfer_eval(&t, 0.5, &sa, &ss);
+        CHECK(t.g == 0.9 && t.scattering_full == 1);
+        CHECK_REL(ss, 1.5, 1e-14);
+        CHECK_REL(sa, 0.015, 1e-14);
+        ohm_transfer_free(&t);
+    }
+    rc = parse(&t, "ohm-transfer 1 g=0.9\n0 0.01 10\n", &err);
+    CHECK_MSG(rc == 0 && t.g == 0.9 && t.scattering_full == 0 && t.sigma_s[0] == 10, "%s", err.msg);
+    ohm_transfer_free(&t);
 }
 
 static void test_errors(void)
@@ -152,6 +167,10 @@ static void test_errors(void)
     expect_error("ohm-transfer 1 eta=0\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=abc\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=1.3 eta=1.4\n0 0.1 1\n", OHM_ERR_PARSE, 1, "twice");
+    expect_error("ohm-transfer 1 g=1\n0 0.1 1\n", OHM_ERR_PARSE, 1, "anisotropy");
+    expect_error("ohm-transfer 1 g=nan\n0 0.1 1\n", OHM_ERR_PARSE, 1, "anisotropy");
+    expect_error("ohm-transfer 1 g=0.1 g=0.2\n0 0.1 1\n", OHM_ERR_PARSE, 1, "twice");
+    expect_error("ohm-transfer 1 scattering=total\n0 0.1 1\n", OHM_ERR_PARSE, 1, "expected reduced");
     /* no points */
     expect_error("ohm-transfer 1\n", OHM_ERR_PARSE, 1, "no control points");
     expect_error("ohm-transfer 1\n# nothing\n\n", OHM_ERR_PARSE, 3, "no control points");
