@@ -970,7 +970,10 @@ const ohm_action ohm_actions[] = {
      "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
      "solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells) memory, iterations that do not grow with the\n"
      "grid; under `mpirun -np N ohm ...` every rank solves a slab: README, docs/scale.md); solver=auto picks\n"
-     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.",
+     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.\n"
+     "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
+     "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
+     "validate transport`, docs/transport.md).",
      solve_opts, run_solve},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"

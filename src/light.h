@@ -6,8 +6,8 @@
  * irradiance times the object's projected area.  The fraction (1 - F_r) that
  * enters — Fresnel at the smooth surface normal, taken from the distance
  * field — is deposited along the inward normal with the reduced-intensity
- * profile alpha' (e^{-sigma_t' z0} - e^{-sigma_t' z1}) per cell it crosses
- * (deposit=exponential), all at depth 1/sigma_t' (deposit=point, the dipole's
+ * profile alpha' (e^{-sigma_t' z0} - e^{-sigma_t' z1}) per cell it crosses,
+ * each share acting at its centroid (deposit=exponential: light.c), all at depth 1/sigma_t' (deposit=point, the dipole's
  * assumption) or all in the first cell (deposit=surface, the paper's).
  * No shadow rays yet: every face facing the light is lit (issue 4 adds
  * visibility through ohm_source_build's face loop). */
