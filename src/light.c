@@ -52,6 +52,33 @@ static inline double med_albedo(const ohm_channel_medium *m, int64_t v)
     return (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) / med_sigma_t(m, v);
 }
 
+/* The column of cells below boundary face f, walked inward against its
+ * outward normal: the unknown q cells down (q = 0: the face's own cell), or
+ * -1 where the column leaves the object or the grid. */
+typedef struct column {
+    const ohm_network *net;
+    int32_t c[3], step[3];
+} column;
+
+static void column_init(column *col, const ohm_network *net, int64_t f)
+{
+    int d = net->face_dir[f];
+    col->net = net;
+    for (int a = 0; a < 3; ++a) col->step[a] = -ohm_face_offset[d][a];
+    ohm_voxel_coords(net->grid, net->cell[net->face_unknown[f]], col->c);
+}
+
+static int64_t column_unknown(const column *col, int64_t q)
+{
+    const ohm_voxel_grid *g = col->net->grid;
+    int32_t p[3];
+    for (int a = 0; a < 3; ++a) {
+        p[a] = col->c[a] + (int32_t)q * col->step[a];
+        if (p[a] < 0 || p[a] >= g->dims[a]) return -1;
+    }
+    return ohm_network_unknown(col->net, ohm_voxel_index(g, p[0], p[1], p[2]));
+}
+
 double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
                                const ohm_channel_medium *med, ohm_deposit deposit)
 {
@@ -62,11 +89,8 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
         b[v0] += w;
         return w;
     }
-    /* walk inward: against the face's outward normal */
-    int d = net->face_dir[f];
-    int32_t step[3] = {-ohm_face_offset[d][0], -ohm_face_offset[d][1], -ohm_face_offset[d][2]};
-    int32_t c[3];
-    ohm_voxel_coords(g, net->cell[v0], c);
+    column col; /* walk inward: against the face's outward normal */
+    column_init(&col, net, f);
     const double h = g->h;
     double put = 0.0;
     if (deposit == OHM_DEPOSIT_POINT) {
@@ -79,10 +103,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
         /* the column of interior cells below the face, down to cell m+1 */
         int64_t upper = v0, lower = -1;
         for (int64_t q = 1; q <= m + 1; ++q) {
-            int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
-            if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2])
-                break;
-            int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
+            int64_t u = column_unknown(&col, q);
             if (u < 0) break;
             if (q <= m) upper = u;
             else lower = u;
@@ -104,9 +125,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     double tau = 0.0, pending_up = 0.0; /* weight the previous cell owes the cell above it */
     int64_t prev = -1, first = v0;
     for (int64_t q = 0;; ++q) {
-        int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
-        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
-        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
+        int64_t u = column_unknown(&col, q);
         if (u < 0) break; /* the rest passes through a thin part unscattered */
         double x = med_sigma_t(med, u) * h, t1 = tau + x;
         double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
@@ -139,17 +158,12 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
 void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P,
                                  const ohm_channel_medium *med)
 {
-    const ohm_voxel_grid *g = net->grid;
-    int d = net->face_dir[f];
-    int32_t step[3] = {-ohm_face_offset[d][0], -ohm_face_offset[d][1], -ohm_face_offset[d][2]};
-    int32_t c[3];
-    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
-    const double h = g->h, volume = h * h * h;
+    column col;
+    column_init(&col, net, f);
+    const double h = net->grid->h, volume = h * h * h;
     double tau = 0.0;
     for (int64_t q = 0;; ++q) {
-        int32_t p[3] = {c[0] + (int32_t)q * step[0], c[1] + (int32_t)q * step[1], c[2] + (int32_t)q * step[2]};
-        if (p[0] < 0 || p[1] < 0 || p[2] < 0 || p[0] >= g->dims[0] || p[1] >= g->dims[1] || p[2] >= g->dims[2]) break;
-        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, p[0], p[1], p[2]));
+        int64_t u = column_unknown(&col, q);
         if (u < 0) break;
         /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
          * loses every photon that scatters, forward or not */

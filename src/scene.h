@@ -4,6 +4,7 @@
 #ifndef OHM_SCENE_H
 #define OHM_SCENE_H
 
+#include "light.h"
 #include "material.h"
 #include "ohm_error.h"
 #include "voxelize.h"
@@ -15,5 +16,8 @@ int ohm_scene_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error
 
 /* One grey channel of sigma_a, sigma_s' (1/mm) at the validation index 1.3. */
 ohm_material ohm_scene_grey(double sigma_a, double sigma_s);
+
+/* A grey pencil beam of 1 W from pos along the unit direction dir. */
+ohm_light ohm_scene_pencil(const double pos[3], const double dir[3]);
 
 #endif

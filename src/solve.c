@@ -391,6 +391,18 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
     sol->power_out_channel[c] += out;
 }
 
+/* in = the entries (light.h) of every light of frame fr (0-based). */
+static int frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
+                         size_t fr, int channels, double eta, const ohm_occluder *occ, ohm_error *err)
+{
+    in->count = 0;
+    int rc = OHM_OK;
+    for (size_t l = 0; l < nlights && !rc; ++l)
+        if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
+            rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, occ, err);
+    return rc;
+}
+
 /* fluence=total: frames f0..f0+nb of channel c (X) get the unscattered beam
  * of every light's entries (light.h). */
 static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
@@ -400,10 +412,7 @@ static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, i
     ohm_light_entries in = {0};
     int rc = OHM_OK;
     for (size_t j = 0; j < nb && !rc; ++j) {
-        in.count = 0;
-        for (size_t l = 0; l < nlights && !rc; ++l)
-            if (lights[l].frame == 0 || lights[l].frame == (int)(f0 + j + 1))
-                rc = ohm_light_entries_add(&in, &sol->net, &lights[l], sol->channels, mat->eta, occ, err);
+        rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, occ, err);
         for (size_t k = 0; k < in.count && !rc; ++k)
             ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c], med);
     }
@@ -493,11 +502,8 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
     ohm_light_entries in = {0};
     for (size_t fr = 0; fr < frames && !rc; ++fr) {
-        in.count = 0;
         double t0 = ohm_now();
-        for (size_t l = 0; l < nlights && !rc; ++l)
-            if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
-                rc = ohm_light_entries_add(&in, net, &lights[l], sol->channels, mat->eta, occ, err);
+        rc = frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, occ, err);
         sol->t_source += ohm_now() - t0;
         ohm_mc_result res[OHM_MAX_CHANNELS];
         for (int c = 0; c < sol->channels && !rc; ++c) {

@@ -73,6 +73,18 @@ int ohm_scene_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error
 #define VALIDATION_ETA 1.3
 static double validation_A(void) { return ohm_boundary_A(VALIDATION_ETA, OHM_FRESNEL_EXACT); }
 
+ohm_light ohm_scene_pencil(const double pos[3], const double dir[3])
+{
+    ohm_light l;
+    memset(&l, 0, sizeof l);
+    l.type = OHM_LIGHT_PENCIL;
+    memcpy(l.pos, pos, sizeof l.pos);
+    memcpy(l.dir, dir, sizeof l.dir);
+    l.intensity[0] = 1.0;
+    l.channels = 1;
+    return l;
+}
+
 ohm_material ohm_scene_grey(double sigma_a, double sigma_s)
 {
     ohm_material m;

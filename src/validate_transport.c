@@ -72,13 +72,7 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     ohm_material m = ohm_scene_grey(TR_SA, TR_SS);
     m.eta = sc->eta;
     m.g = TR_G;
-    ohm_light beam;
-    memset(&beam, 0, sizeof beam);
-    beam.type = OHM_LIGHT_PENCIL;
-    beam.pos[2] = -1.0;
-    beam.dir[2] = 1.0;
-    beam.intensity[0] = 1.0;
-    beam.channels = 1;
+    ohm_light beam = ohm_scene_pencil((const double[3]){0, 0, -1.0}, (const double[3]){0, 0, 1.0});
     int32_t mirror[3] = {1, 1, -1};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
@@ -325,13 +319,7 @@ static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, 
     memset(b, 0, sizeof *b);
     int rc = ohm_scene_box(&b->grid, nx, ny, nz, h, err);
     if (!rc) rc = ohm_network_build(&b->net, &b->grid, NULL, err);
-    ohm_light l;
-    memset(&l, 0, sizeof l);
-    l.type = OHM_LIGHT_PENCIL;
-    l.pos[0] = x, l.pos[1] = y, l.pos[2] = nz * h + 1.0;
-    l.dir[2] = -1.0;
-    l.intensity[0] = 1.0;
-    l.channels = 1;
+    ohm_light l = ohm_scene_pencil((const double[3]){x, y, nz * h + 1.0}, (const double[3]){0, 0, -1.0});
     if (!rc) rc = ohm_light_entries_add(&b->in, &b->net, &l, 1, eta, NULL, err);
     if (rc) {
         mc_box_free(b);

@@ -37,13 +37,7 @@ static int solve_box(ohm_solution *sol, ohm_voxel_grid *g, const char *solver, u
     if (ohm_scene_box(g, 16, 16, 16, 0.5, &err)) return -1;
     ohm_material m = ohm_scene_grey(0.05, 1.0);
     m.g = 0.5;
-    ohm_light l;
-    memset(&l, 0, sizeof l);
-    l.type = OHM_LIGHT_PENCIL;
-    l.pos[0] = x, l.pos[1] = x, l.pos[2] = 9.0;
-    l.dir[2] = -1.0;
-    l.intensity[0] = 1.0;
-    l.channels = 1;
+    ohm_light l = ohm_scene_pencil((const double[3]){x, x, 9.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.solver = solver;
