@@ -79,9 +79,13 @@ static int64_t column_unknown(const column *col, int64_t q)
     return ohm_network_unknown(col->net, ohm_voxel_index(g, p[0], p[1], p[2]));
 }
 
-double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
+double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P, double mu,
                                const ohm_channel_medium *med, ohm_deposit deposit)
 {
+    /* depth per unit path along the refracted ray; clamped away from
+     * grazing, where the light would need many cells to gain one */
+    if (!(mu > 0.05)) mu = 0.05;
+    if (mu > 1.0) mu = 1.0;
     const ohm_voxel_grid *g = net->grid;
     int64_t v0 = net->face_unknown[f];
     if (med->resistance_mode || deposit == OHM_DEPOSIT_SURFACE) {
@@ -96,7 +100,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     if (deposit == OHM_DEPOSIT_POINT) {
         /* everything at depth z0 = 1/sigma_t' (the dipole's real source),
          * split linearly between the two cell centres around it */
-        double z0 = 1.0 / med_sigma_t(med, v0), a0 = med_albedo(med, v0);
+        double z0 = mu / med_sigma_t(med, v0), a0 = med_albedo(med, v0);
         double s = z0 / h - 0.5; /* position in cell-centre units */
         int64_t m = s <= 0 ? 0 : (int64_t)floor(s);
         double frac = s <= 0 ? 0.0 : s - (double)m;
@@ -127,7 +131,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     for (int64_t q = 0;; ++q) {
         int64_t u = column_unknown(&col, q);
         if (u < 0) break; /* the rest passes through a thin part unscattered */
-        double x = med_sigma_t(med, u) * h, t1 = tau + x;
+        double x = med_sigma_t(med, u) * h / mu, t1 = tau + x; /* optical depth of the cell along the ray */
         double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
         /* the centroid of e^-sigma z over the cell, from its top, in cells:
          * 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0) */
@@ -155,9 +159,11 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     return put;
 }
 
-void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P,
+void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P, double mu,
                                  const ohm_channel_medium *med)
 {
+    if (!(mu > 0.05)) mu = 0.05; /* as the deposit */
+    if (mu > 1.0) mu = 1.0;
     column col;
     column_init(&col, net, f);
     const double h = net->grid->h, volume = h * h * h;
@@ -168,8 +174,8 @@ void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f,
         /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
          * loses every photon that scatters, forward or not */
         double sa = med->sigma_a ? med->sigma_a[u] : med->sigma_a0;
-        double st = sa + (med->sigma_s ? med->sigma_s[u] : med->sigma_s0) / (1.0 - med->g), t1 = tau + st * h;
-        /* track length in the cell, P int e^-st z dz, per volume */
+        double st = sa + (med->sigma_s ? med->sigma_s[u] : med->sigma_s0) / (1.0 - med->g), t1 = tau + st * h / mu;
+        /* track length in the cell along the ray, P int e^-st s ds, per volume */
         phi[u] += P * (exp(-tau) - exp(-t1)) / (st * volume);
         tau = t1;
         if (tau > 40.0) break;
@@ -387,11 +393,15 @@ static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light
 /* 1 - Fresnel reflectance for light travelling along unit direction `travel`
  * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
  * normal would make a sphere's shading a staircase). */
-static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta)
+static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta, double *mu)
 {
     double ns[3];
     ohm_surface_normal(net, f, ns);
     double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    /* Snell: the refracted ray's cosine to the inward normal, the rate at
+     * which it gains depth (sin_t = sin_i / eta) */
+    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
     return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
 }
 
@@ -401,8 +411,9 @@ static void unit_travel(const double l_mean[3], double travel[3])
     for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
 }
 
-int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
-                          const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err)
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
+                          const ohm_network *net, const ohm_light *light, double eta, const ohm_occluder *occ,
+                          ohm_error *err)
 {
     emitters em;
     int rc = emitters_init(&em, light, err);
@@ -414,11 +425,12 @@ int ohm_light_face_powers(double *const *enter, double *const *arrive, int chann
         if (!(E > 0)) continue;
         /* Fresnel for the irradiance-weighted direction */
         unit_travel(l_mean, travel);
-        double T = face_transmittance(net, f, travel, eta);
+        double mu, T = face_transmittance(net, f, travel, eta, &mu);
         for (int c = 0; c < channels; ++c) {
             double I = light->intensity[light->channels == 1 ? 0 : c];
             arrive[c][f] += I * E * area;
             enter[c][f] += I * T * E * area;
+            if (enter_mu) enter_mu[c][f] += I * T * E * area * mu;
         }
     }
     emitters_free(&em);
@@ -481,7 +493,7 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
     if (light->type == OHM_LIGHT_PENCIL) {
         int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
         if (f < 0) return (int)f;
-        double T = face_transmittance(net, f, light->dir, eta);
+        double T = face_transmittance(net, f, light->dir, eta, &e.mu);
         e.face = f;
         e.at_point = 1;
         pencil_entry_point(net, f, light, e.point);
@@ -499,7 +511,7 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
         double E = face_irradiance(net, f, light, &em, occ, l_mean);
         if (!(E > 0)) continue;
         unit_travel(l_mean, travel);
-        double T = face_transmittance(net, f, travel, eta);
+        double T = face_transmittance(net, f, travel, eta, &e.mu);
         e.face = f;
         refract_in(net, f, travel, eta, e.dir);
         for (int c = 0; c < channels; ++c) {
@@ -519,12 +531,13 @@ void ohm_light_entries_free(ohm_light_entries *list)
     memset(list, 0, sizeof *list);
 }
 
-double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
-                                ohm_deposit deposit)
+double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const double *enter_mu,
+                                const ohm_channel_medium *med, ohm_deposit deposit)
 {
     double put = 0;
     for (int64_t f = 0; f < net->nfaces; ++f)
-        if (enter[f] > 0) put += ohm_source_deposit_face(b, net, f, enter[f], med, deposit);
+        if (enter[f] > 0)
+            put += ohm_source_deposit_face(b, net, f, enter[f], enter_mu ? enter_mu[f] / enter[f] : 1.0, med, deposit);
     return put;
 }
 
@@ -536,31 +549,34 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     if (light->type == OHM_LIGHT_PENCIL) {
         int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
         if (f < 0) return (int)f;
-        double T = face_transmittance(net, f, light->dir, eta);
+        double mu, T = face_transmittance(net, f, light->dir, eta, &mu);
         pw->incident += I;
         pw->entered += T * I;
-        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, med, deposit);
+        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, mu, med, deposit);
         return OHM_OK;
     }
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
     double *enter = calloc(nf, sizeof *enter), *arrive = calloc(nf, sizeof *arrive);
-    if (!enter || !arrive) {
+    double *enter_mu = calloc(nf, sizeof *enter_mu);
+    if (!enter || !arrive || !enter_mu) {
         free(enter);
         free(arrive);
+        free(enter_mu);
         return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory");
     }
     /* one channel: pass the light's intensity for c through a copy */
     ohm_light one = *light;
     one.channels = 1;
     one.intensity[0] = I;
-    int rc = ohm_light_face_powers(&enter, &arrive, 1, net, &one, eta, occ, err);
+    int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, occ, err);
     if (!rc) {
         for (int64_t f = 0; f < net->nfaces; ++f) {
             pw->incident += arrive[f];
             pw->entered += enter[f];
         }
-        pw->deposited += ohm_source_deposit_faces(b, net, enter, med, deposit);
+        pw->deposited += ohm_source_deposit_faces(b, net, enter, enter_mu, med, deposit);
     }
+    free(enter_mu);
     free(enter);
     free(arrive);
     return rc;

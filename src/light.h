@@ -61,10 +61,13 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
  * pencil beam: trace the shadow rays once and ADD, per channel c < channels,
  * the power arriving on each boundary face (arrive[c][f], W, before Fresnel)
  * and the power entering it (enter[c][f], after Fresnel at relative index
- * eta).  ohm_solve computes this once per frame and reuses it for every
+ * eta) and, when enter_mu is not NULL, that power times the refracted ray's
+ * cosine to the inward normal (enter_mu / enter: the mean cosine, for the
+ * deposit's depth).  ohm_solve computes this once per frame and reuses it for every
  * channel: visibility does not depend on the colour. */
-int ohm_light_face_powers(double *const *enter, double *const *arrive, int channels, const ohm_network *net,
-                          const ohm_light *light, double eta, const ohm_occluder *occ, ohm_error *err);
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
+                          const ohm_network *net, const ohm_light *light, double eta, const ohm_occluder *occ,
+                          ohm_error *err);
 
 /* Where light enters the object, for Monte Carlo transport (mc.h): per lit
  * boundary face (per pencil beam, its entry point), the power arriving and
@@ -77,6 +80,7 @@ typedef struct ohm_light_entry {
     double power[OHM_MAX_CHANNELS];     /* W entering                             */
     double dir[3];                      /* unit direction inside                  */
     double point[3];                    /* pencil beams: where it enters (mm)     */
+    double mu;                          /* dir's cosine to the inward smooth normal */
     int at_point;                       /* 1: at point; 0: spread over the face   */
 } ohm_light_entry;
 
@@ -90,13 +94,18 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
                           double eta, const ohm_occluder *occ, ohm_error *err);
 void ohm_light_entries_free(ohm_light_entries *list);
 
-/* Deposit per-face entering powers (nfaces) into b; returns the total deposited. */
-double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const ohm_channel_medium *med,
-                                ohm_deposit deposit);
+/* Deposit per-face entering powers (nfaces) into b, at the depths of their
+ * rays' cosines enter_mu / enter (NULL: normal incidence); returns the total
+ * deposited. */
+double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const double *enter_mu,
+                                const ohm_channel_medium *med, ohm_deposit deposit);
 
-/* Deposit power P entering through boundary face f (used by ohm_source_add and
- * by validation scenes that place a beam themselves).  Returns what went in. */
-double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P,
+/* Deposit power P entering through boundary face f along a ray whose cosine
+ * to the inward normal is mu (1: normal incidence): the column below the face
+ * takes the depth profile e^(-sigma_t' z / mu), mean depth mu / sigma_t'
+ * (used by ohm_source_add and by validation scenes that place a beam
+ * themselves).  Returns what went in. */
+double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P, double mu,
                                const ohm_channel_medium *med, ohm_deposit deposit);
 
 /* Add to phi (n entries) the fluence of the unscattered (reduced-intensity)
@@ -105,7 +114,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
  * (sigma_s = sigma_s' / (1 - g)): what transport codes include in their
  * fluence, and diffusion's phi (whose source is the first scattering) does
  * not. */
-void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P,
+void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P, double mu,
                                  const ohm_channel_medium *med);
 
 /* Outward unit normal of the surface at the interior cell of face f, from the

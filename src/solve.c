@@ -273,7 +273,8 @@ static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c
  * beams and when the cache did not fit, the lights themselves. */
 static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
                         const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
-                        double *const *fp_enter, double *const *fp_arrive, const ohm_occluder *occ, ohm_error *err)
+                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
+                        const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -285,7 +286,7 @@ static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int 
     }
     for (size_t j = 0; j < nb && fp_enter; ++j) {
         const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
-        ohm_source_deposit_faces(B + j * n, net, en, med, params->deposit);
+        ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, params->deposit);
         for (int64_t f = 0; f < net->nfaces; ++f) {
             sol->power_incident += ar[f];
             sol->power_entered += en[f];
@@ -414,7 +415,8 @@ static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, i
     for (size_t j = 0; j < nb && !rc; ++j) {
         rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, occ, err);
         for (size_t k = 0; k < in.count && !rc; ++k)
-            ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c], med);
+            ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c],
+                                        in.entry[k].mu, med);
     }
     ohm_light_entries_free(&in);
     return rc;
@@ -646,6 +648,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
     double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
+    double *fp_enter_mu[OHM_MAX_CHANNELS] = {NULL}; /* entering power x the refracted ray's cosine */
     if (!B || !ga || !gb || !col_of || (batch < (size_t)frames && !prev_b)) {
         rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
                       (long long)n);
@@ -666,25 +669,27 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     int cached = 0;
     const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
     if (!params->custom_source &&
-        2.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
+        3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
         cached = 1;
         for (int c = 0; c < channels && cached; ++c) {
             fp_enter[c] = calloc(nf * (size_t)frames, sizeof(double));
             fp_arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
-            if (!fp_enter[c] || !fp_arrive[c]) cached = 0; /* fall back to tracing per channel */
+            fp_enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
+            if (!fp_enter[c] || !fp_arrive[c] || !fp_enter_mu[c]) cached = 0; /* fall back to tracing per channel */
         }
         t0 = ohm_now();
         double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
         for (int fr = 0; fr < frames && cached && !rc; ++fr) {
-            double *en[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
+            double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
             for (int c = 0; c < channels; ++c) {
                 en[c] = fp_enter[c] + (size_t)fr * nf;
+                emu[c] = fp_enter_mu[c] + (size_t)fr * nf;
                 ar[c] = fp_arrive[c] + (size_t)fr * nf;
             }
             for (size_t l = 0; l < nlights && !rc; ++l) {
                 if (lights[l].type == OHM_LIGHT_PENCIL) continue;
                 if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
-                rc = ohm_light_face_powers(en, ar, channels, net, &lights[l], eta, occ, err);
+                rc = ohm_light_face_powers(en, emu, ar, channels, net, &lights[l], eta, occ, err);
             }
         }
         sol->t_source += ohm_now() - t0;
@@ -747,7 +752,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
                 t0 = ohm_now();
                 rc = fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
-                                  cached ? fp_arrive : NULL, occ, err);
+                                  fp_enter_mu, cached ? fp_arrive : NULL, occ, err);
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
                 double *X = sol->fluence[c] + f0 * (size_t)n;
@@ -778,6 +783,7 @@ done:
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
         free(fp_enter[c]);
+        free(fp_enter_mu[c]);
         free(fp_arrive[c]);
     }
     ohm_occluder_free(occ);
