@@ -590,7 +590,7 @@ static const ohm_opt_spec solve_opts[] = {
      NULL, 1, 1e7, 0},
     {"max_memory", OHM_OPT_REAL, NULL,
      "MB the solver may take, estimated before it starts: the factor from its symbolic analysis, cg and amg "
-     "per cell (amg: per rank) (default: what the machine has available)",
+     "per cell (amg: per rank), mc its tallies (default: what the machine has available)",
      NULL, 1e-3, 1e12, 0},
     {0}};
 

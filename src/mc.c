@@ -2,6 +2,7 @@
 
 #include "fresnel.h"
 #include "log.h"
+#include "memory.h"
 
 #include <math.h>
 #include <pthread.h>
@@ -447,6 +448,17 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     if (!(P > 0)) { /* unlit in this channel: nothing to trace */
         res->seconds = ohm_now() - t0;
         return OHM_OK;
+    }
+    /* per thread: this batch's fluence and faces, the sums, the squares */
+    double need = (double)nthreads * (4.0 * (double)n + 2.0 * (double)nf) * sizeof(double);
+    double limit = ohm_memory_limit(params->max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: Monte Carlo's tallies need about %s (%d threads x %lld cells), more than the %s %s; "
+                        "use threads=1 or a coarser grid",
+                        ohm_format_bytes(need, nb, 32), nthreads, (long long)n, ohm_format_bytes(limit, lb, 32),
+                        params->max_memory > 0 ? "max_memory= allows" : "available");
     }
     sc.cdf = malloc(nentries * sizeof *sc.cdf);
     mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);

@@ -51,6 +51,7 @@ typedef struct ohm_mc_params {
     int total_fluence; /* 0: the fluence of scattered light only, what diffusion's
                           phi is (its source is the first scattering); 1: the
                           unscattered beam's too, what transport codes report */
+    double max_memory;  /* bytes the tallies may take; 0: what the machine has */
     const ohm_log *log; /* progress; NULL: quiet */
 } ohm_mc_params;
 

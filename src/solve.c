@@ -533,6 +533,7 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
                 medium_for(&med, mat, params, c);
                 ohm_mc_params mp = params->mc;
                 mp.total_fluence = params->total_fluence;
+                mp.max_memory = params->max_memory;
                 rc = ohm_mc_trace(r, net, &med, in.entry, in.count, c, &mp, err);
                 if (rc) break;
                 sol->mc_photons += r->photons;

@@ -198,6 +198,8 @@ expect_exit 2 "material: g out of range" -- "$OHM" -read file=samples/spot.obj s
   -material sigma_a=0.05 sigma_s=1 g=1
 expect_exit 2 "mc: boundary= is diffusion's" -- "$OHM" "${MC[@]}" -solve solver=mc boundary=dirichlet
 expect_exit 2 "mc: depth band" -- "$OHM" "${MC[@]}" -solve solver=mc depth_band=3
+expect_exit 1 "mc: tallies refused beyond max_memory" -- "$OHM" "${MC[@]}" -solve solver=mc photons=1e3 max_memory=0.01
+check "mc: the refusal names both figures" grep -q "tallies need about .* more than the 10 KiB max_memory= allows" "$T/stderr"
 
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
