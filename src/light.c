@@ -234,15 +234,8 @@ static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], co
             if (last_axis < 0)
                 return ohm_fail(err, OHM_ERR_INVALID, "pencil beam starts inside the object: put pos= outside it");
             int d = 2 * last_axis + (stepv[last_axis] > 0 ? 0 : 1);
-            /* faces are stored in unknown order: find (u, d) */
-            int64_t lo = 0, hi = net->nfaces;
-            while (lo < hi) {
-                int64_t mid = (lo + hi) / 2;
-                if (net->face_unknown[mid] < u) lo = mid + 1;
-                else hi = mid;
-            }
-            for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == u; ++f)
-                if (net->face_dir[f] == d) return f;
+            int64_t f = ohm_network_face(net, u, d);
+            if (f >= 0) return f;
             return ohm_fail(err, OHM_ERR_INVALID, "pencil beam enters through a symmetry plane");
         }
         int a = tmax[0] < tmax[1] ? (tmax[0] < tmax[2] ? 0 : 2) : (tmax[1] < tmax[2] ? 1 : 2);

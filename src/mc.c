@@ -96,21 +96,6 @@ static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, 
     *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * sc->ss_scale * h;
 }
 
-/* The boundary face of unknown v in direction d (faces are stored in unknown
- * order, a cell's faces together), or -1. */
-static int64_t face_of(const ohm_network *net, int64_t v, int d)
-{
-    int64_t lo = 0, hi = net->nfaces;
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (net->face_unknown[mid] < v) lo = mid + 1;
-        else hi = mid;
-    }
-    for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == v; ++f)
-        if (net->face_dir[f] == d) return f;
-    return -1;
-}
-
 /* ---- one thread's tallies ------------------------------------------------------ */
 
 typedef struct mc_tally {
@@ -265,7 +250,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             } else { /* a boundary face: reflected with the Fresnel probability, else out */
                 double R = ohm_fresnel_reflectance_inside(sc->eta, fabs(u[ax]));
                 if (R < 1.0 && rng_uniform(r) >= R) {
-                    int64_t f = face_of(net, v, 2 * ax + (step > 0));
+                    int64_t f = ohm_network_face(net, v, 2 * ax + (step > 0));
                     if (f >= 0) t->face[f] += w;
                     t->out += w;
                     w = 0;
@@ -290,16 +275,15 @@ static void fold_batch(mc_tally *t)
         t->phi_sum[v] += x;
         t->phi_sq[v] += x * x;
     }
-    for (int64_t f = 0; f < net->nfaces;) { /* a cell's exitance: the mean of its faces' */
-        int64_t v = net->face_unknown[f], end = f;
+    for (int64_t f = 0, end; f < net->nfaces; f = end) { /* a cell's exitance: the mean of its faces' */
+        end = ohm_network_face_run_end(net, f);
         double sum = 0;
-        for (; end < net->nfaces && net->face_unknown[end] == v; ++end) {
-            sum += t->face[end];
-            t->face_sum[end] += t->face[end];
+        for (int64_t q = f; q < end; ++q) {
+            sum += t->face[q];
+            t->face_sum[q] += t->face[q];
         }
         double mean = sum / (double)(end - f);
-        t->exit_sq[v] += mean * mean;
-        f = end;
+        t->exit_sq[net->face_unknown[f]] += mean * mean;
     }
     double a = t->absorbed - t->batch_absorbed, o = t->out - t->batch_out;
     t->absorbed_sq += a * a;
@@ -392,13 +376,12 @@ static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *
         res->fluence_se[v] = batch_stderr(t->phi_sum[v], t->phi_sq[v], k);
     }
     for (int64_t f = 0; f < net->nfaces; ++f) res->face_exitance[f] = k * t->face_sum[f] / B;
-    memset(res->exitance_se, 0, (size_t)net->n * sizeof *res->exitance_se);
-    for (int64_t f = 0; f < net->nfaces;) {
-        int64_t v = net->face_unknown[f], end = f;
+    for (int64_t f = 0, end; f < net->nfaces; f = end) {
+        end = ohm_network_face_run_end(net, f);
+        int64_t v = net->face_unknown[f];
         double sum = 0;
-        for (; end < net->nfaces && net->face_unknown[end] == v; ++end) sum += t->face_sum[end];
+        for (int64_t q = f; q < end; ++q) sum += t->face_sum[q];
         res->exitance_se[v] = batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
-        f = end;
     }
     double photons = (double)sc->per_batch * B;
     res->power_in = P;

@@ -113,6 +113,19 @@ static inline int64_t find_root(int64_t *parent, int64_t x)
     return x;
 }
 
+int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
+{
+    int64_t lo = 0, hi = net->nfaces;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (net->face_unknown[mid] < v) lo = mid + 1;
+        else hi = mid;
+    }
+    for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == v; ++f)
+        if (net->face_dir[f] == d) return f;
+    return -1;
+}
+
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err)
 {
     return ohm_network_build_band(net, grid, mirror_low, NULL, err);

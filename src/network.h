@@ -77,6 +77,22 @@ static inline int64_t ohm_network_unknown(const ohm_network *net, size_t c)
     return ohm_cell_index_of(&net->unknowns, c);
 }
 
+/* The boundary face of unknown v in direction d (0..5, ohm_face_offset), or
+ * -1 when that side of v is no boundary face (a neighbour, a symmetry
+ * plane).  Faces are stored in unknown order, a cell's together: a binary
+ * search. */
+int64_t ohm_network_face(const ohm_network *net, int64_t v, int d);
+
+/* The end of face f's run: faces f .. end-1 belong to f's unknown (a cell's
+ * faces are stored together), so `for (f = 0; f < nfaces; f = end)` visits
+ * each boundary cell once. */
+static inline int64_t ohm_network_face_run_end(const ohm_network *net, int64_t f)
+{
+    int64_t v = net->face_unknown[f], end = f + 1;
+    while (end < net->nfaces && net->face_unknown[end] == v) ++end;
+    return end;
+}
+
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
  * constant beside them. */
 typedef struct ohm_channel_medium {

@@ -213,11 +213,9 @@ void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int chann
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
     const double *fx = sol->face_exitance[channel] + (size_t)frame * nf;
     memset(out, 0, (size_t)sol->n * sizeof *out);
-    for (int64_t f = 0; f < net->nfaces;) {
-        int64_t v = net->face_unknown[f], end = f + 1;
-        while (end < net->nfaces && net->face_unknown[end] == v) ++end;
-        out[v] = run_mean(fx, f, end);
-        f = end;
+    for (int64_t f = 0, end; f < net->nfaces; f = end) {
+        end = ohm_network_face_run_end(net, f);
+        out[net->face_unknown[f]] = run_mean(fx, f, end);
     }
 }
 
