@@ -455,6 +455,19 @@ static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
     sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
 }
 
+/* The solution's fluence and face exitance, every channel and frame, zeroed. */
+static int alloc_solution(ohm_solution *sol, ohm_error *err)
+{
+    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
+    for (int c = 0; c < sol->channels; ++c) {
+        sol->fluence[c] = calloc(n * frames, sizeof(double));
+        sol->face_exitance[c] = calloc(nf * frames, sizeof(double));
+        if (!sol->fluence[c] || !sol->face_exitance[c])
+            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", sol->frames);
+    }
+    return OHM_OK;
+}
+
 /* solver=mc refuses what only diffusion has: resistances, the boundary
  * models other than the physical one, a depth band, scenes' own sources. */
 static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
@@ -612,13 +625,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         return rc;
     }
     if (params->solver && strcmp(params->solver, "mc") == 0) {
-        size_t nfm = (size_t)(net->nfaces ? net->nfaces : 1);
-        for (int c = 0; c < channels && !rc; ++c) {
-            sol->fluence[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
-            sol->face_exitance[c] = calloc(nfm * (size_t)frames, sizeof(double));
-            if (!sol->fluence[c] || !sol->face_exitance[c])
-                rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
-        }
+        rc = alloc_solution(sol, err);
         if (!rc) rc = solve_mc(sol, mat, lights, nlights, params, occ, err);
         ohm_occluder_free(occ);
         if (rc) ohm_solution_free(sol);
@@ -653,14 +660,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                       (long long)n);
         goto done;
     }
-    for (int c = 0; c < channels; ++c) {
-        sol->fluence[c] = calloc((size_t)n * (size_t)frames, sizeof(double));
-        sol->face_exitance[c] = calloc(nf * (size_t)frames, sizeof(double));
-        if (!sol->fluence[c] || !sol->face_exitance[c]) {
-            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", frames);
-            goto done;
-        }
-    }
+    rc = alloc_solution(sol, err);
+    if (rc) goto done;
 
     /* Shadow rays and Fresnel do not depend on the channel: trace every
      * frame's lights once, keep the per-face powers for all channels (when
