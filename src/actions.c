@@ -367,8 +367,8 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         snprintf(s->transfer_path, sizeof s->transfer_path, "%s", tp);
         ohm_stats_set_str(&s->stats, "material", m.name);
         ohm_stats_set_str(&s->stats, "transfer", tp);
-        ohm_log_info(&s->log, "material: transfer function %s, %zu points, %d channel(s)%s", tp, t.n, t.channels,
-                     t.resistance_mode ? ", resistances" : "");
+        ohm_log_info(&s->log, "material: transfer function %s, %zu points, %d channel(s)%s%s", tp, t.n, t.channels,
+                     t.resistance_mode ? ", resistances" : "", t.eta_column ? ", a refractive index per density" : "");
         return OHM_OK;
     }
     if (preset) {
@@ -598,7 +598,8 @@ static const ohm_opt_spec solve_opts[] = {
  * density at each interior cell (trilinear at its centre, or the mean over
  * the cell when the grid is coarser than the scan), then the transfer
  * function.  Arrays in unknown order (interior cells, x fastest). */
-static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, ohm_error *err)
+static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, double **eta_cell,
+                              ohm_error *err)
 {
     const ohm_voxel_grid *g = &s->grid;
     const ohm_transfer *t = &s->transfer;
@@ -607,6 +608,10 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
     for (int q = 0; q < 2 * nc; ++q) {
         percell[q] = malloc((n ? n : 1) * sizeof(double));
         if (!percell[q]) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the material");
+    }
+    if (t->eta_column) { /* the index per cell (transfer.h): network.h's interfaces */
+        *eta_cell = malloc((n ? n : 1) * sizeof(double));
+        if (!*eta_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the refractive index");
     }
     /* the scan's finest spacing decides between sampling and averaging */
     double spacing = INFINITY;
@@ -637,6 +642,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
                     percell[ch][u] = sa[ch];
                     percell[nc + ch][u] = ss[ch];
                 }
+                if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, density);
                 ++u;
             }
     if (t->resistance_mode) {
@@ -648,6 +654,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
             p->sigma_s[ch] = percell[nc + ch];
         }
         p->give_media = 1; /* the solution keeps them for its sigma_a / sigma_s grids: no copies */
+        p->eta_v = *eta_cell;
     }
     ohm_log_info(&s->log, "material: %zu cells from %s through %s (%s)", n, s->scan_path, s->transfer_path,
                  average ? "box-averaged: the grid is coarser than the volume" : "trilinear");
@@ -702,19 +709,20 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
     drop_solution(s);
     double t0 = ohm_now();
-    double *percell[2 * OHM_MAX_CHANNELS] = {NULL};
+    double *percell[2 * OHM_MAX_CHANNELS] = {NULL}, *eta_cell = NULL;
     int rc = OHM_OK;
     if (s->have_transfer) {
         if (!s->have_scan)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
                             inv->where);
-        rc = material_from_scan(s, &p, percell, err);
+        rc = material_from_scan(s, &p, percell, &eta_cell, err);
     }
     if (!rc) {
         rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
         if (p.give_media) memset(percell, 0, sizeof percell); /* ohm_solve took them (solve.h) */
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
+    free(eta_cell);
     if (rc) return rc;
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;

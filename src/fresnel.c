@@ -97,4 +97,43 @@ double ohm_boundary_A(double eta, ohm_fresnel how)
     return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
 }
 
+/* The table's coordinate: u = sqrt(|m - 1|) from 0 to U_MAX[s] (m = 1/3 on
+ * side 0, m = 3 on side 1). */
+static const double U_MAX[2] = {0.81649658092772603 /* sqrt(2/3) */, 1.4142135623730951 /* sqrt(2) */};
+
+void ohm_fresnel_table_init(ohm_fresnel_table *t)
+{
+    for (int s = 0; s < 2; ++s)
+        for (int q = 0; q <= OHM_FRESNEL_TABLE_STEPS; ++q) {
+            double u = U_MAX[s] * q / OHM_FRESNEL_TABLE_STEPS, m = s ? 1.0 + u * u : 1.0 - u * u;
+            ohm_fresnel_moments(m, &t->c1[s][q], &t->c2[s][q]);
+        }
+}
+
+/* 4-point Lagrange interpolation of y at fractional node `at`, through the
+ * nodes q-1 .. q+2 (shifted inwards at the ends). */
+static double lagrange4(const double *y, double at)
+{
+    int q = (int)at;
+    if (q < 1) q = 1;
+    if (q > OHM_FRESNEL_TABLE_STEPS - 2) q = OHM_FRESNEL_TABLE_STEPS - 2;
+    double x = at - q;
+    double l0 = -x * (x - 1) * (x - 2) / 6, l1 = (x + 1) * (x - 1) * (x - 2) / 2;
+    double l2 = -(x + 1) * x * (x - 2) / 2, l3 = (x + 1) * x * (x - 1) / 6;
+    return l0 * y[q - 1] + l1 * y[q] + l2 * y[q + 1] + l3 * y[q + 2];
+}
+
+void ohm_fresnel_table_moments(const ohm_fresnel_table *t, double m, double *c1, double *c2)
+{
+    if (m == 1.0) {
+        *c1 = *c2 = 0.0;
+        return;
+    }
+    int s = m > 1.0;
+    double at = sqrt(fabs(m - 1.0)) / U_MAX[s] * OHM_FRESNEL_TABLE_STEPS;
+    if (!(at <= OHM_FRESNEL_TABLE_STEPS)) at = OHM_FRESNEL_TABLE_STEPS; /* clamped to [1/3, 3] */
+    *c1 = lagrange4(t->c1[s], at);
+    *c2 = lagrange4(t->c2[s], at);
+}
+
 const char *ohm_fresnel_name(ohm_fresnel how) { return how == OHM_FRESNEL_POLYNOMIAL ? "polynomial" : "exact"; }

@@ -386,6 +386,12 @@ static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light
 /* 1 - Fresnel reflectance for light travelling along unit direction `travel`
  * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
  * normal would make a sphere's shading a staircase). */
+/* The index light enters through face f. */
+static inline double face_eta(const ohm_network *net, int64_t f, double eta, const double *eta_v)
+{
+    return eta_v ? eta_v[net->face_unknown[f]] : eta;
+}
+
 static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta, double *mu)
 {
     double ns[3];
@@ -405,8 +411,8 @@ static void unit_travel(const double l_mean[3], double travel[3])
 }
 
 int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
-                          const ohm_network *net, const ohm_light *light, double eta, const ohm_occluder *occ,
-                          ohm_error *err)
+                          const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
+                          const ohm_occluder *occ, ohm_error *err)
 {
     emitters em;
     int rc = emitters_init(&em, light, err);
@@ -418,7 +424,7 @@ int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double 
         if (!(E > 0)) continue;
         /* Fresnel for the irradiance-weighted direction */
         unit_travel(l_mean, travel);
-        double mu, T = face_transmittance(net, f, travel, eta, &mu);
+        double mu, T = face_transmittance(net, f, travel, face_eta(net, f, eta, eta_v), &mu);
         for (int c = 0; c < channels; ++c) {
             double I = light->intensity[light->channels == 1 ? 0 : c];
             arrive[c][f] += I * E * area;
@@ -478,7 +484,7 @@ static void pencil_entry_point(const ohm_network *net, int64_t f, const ohm_ligh
 }
 
 int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const ohm_light *light, int channels,
-                          double eta, const ohm_occluder *occ, ohm_error *err)
+                          double eta, const double *eta_v, const ohm_occluder *occ, ohm_error *err)
 {
     const double area = net->grid->h * net->grid->h;
     ohm_light_entry e;
@@ -486,11 +492,11 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
     if (light->type == OHM_LIGHT_PENCIL) {
         int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
         if (f < 0) return (int)f;
-        double T = face_transmittance(net, f, light->dir, eta, &e.mu);
+        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, light->dir, ef, &e.mu);
         e.face = f;
         e.at_point = 1;
         pencil_entry_point(net, f, light, e.point);
-        refract_in(net, f, light->dir, eta, e.dir);
+        refract_in(net, f, light->dir, ef, e.dir);
         for (int c = 0; c < channels; ++c) {
             e.incident[c] = light->intensity[light->channels == 1 ? 0 : c];
             e.power[c] = T * e.incident[c];
@@ -504,9 +510,9 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
         double E = face_irradiance(net, f, light, &em, occ, l_mean);
         if (!(E > 0)) continue;
         unit_travel(l_mean, travel);
-        double T = face_transmittance(net, f, travel, eta, &e.mu);
+        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, travel, ef, &e.mu);
         e.face = f;
-        refract_in(net, f, travel, eta, e.dir);
+        refract_in(net, f, travel, ef, e.dir);
         for (int c = 0; c < channels; ++c) {
             e.incident[c] = light->intensity[light->channels == 1 ? 0 : c] * E * area;
             e.power[c] = T * e.incident[c];
@@ -542,7 +548,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     if (light->type == OHM_LIGHT_PENCIL) {
         int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
         if (f < 0) return (int)f;
-        double mu, T = face_transmittance(net, f, light->dir, eta, &mu);
+        double mu, T = face_transmittance(net, f, light->dir, face_eta(net, f, eta, med->eta_v), &mu);
         pw->incident += I;
         pw->entered += T * I;
         pw->deposited += ohm_source_deposit_face(b, net, f, T * I, mu, med, deposit);
@@ -561,7 +567,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     ohm_light one = *light;
     one.channels = 1;
     one.intensity[0] = I;
-    int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, occ, err);
+    int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, med->eta_v, occ, err);
     if (!rc) {
         for (int64_t f = 0; f < net->nfaces; ++f) {
             pw->incident += arrive[f];

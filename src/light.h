@@ -61,13 +61,13 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
  * pencil beam: trace the shadow rays once and ADD, per channel c < channels,
  * the power arriving on each boundary face (arrive[c][f], W, before Fresnel)
  * and the power entering it (enter[c][f], after Fresnel at relative index
- * eta) and, when enter_mu is not NULL, that power times the refracted ray's
+ * eta, or eta_v of the face's cell) and, when enter_mu is not NULL, that power times the refracted ray's
  * cosine to the inward normal (enter_mu / enter: the mean cosine, for the
  * deposit's depth).  ohm_solve computes this once per frame and reuses it for every
  * channel: visibility does not depend on the colour. */
 int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
-                          const ohm_network *net, const ohm_light *light, double eta, const ohm_occluder *occ,
-                          ohm_error *err);
+                          const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
+                          const ohm_occluder *occ, ohm_error *err);
 
 /* Where light enters the object, for Monte Carlo transport (mc.h): per lit
  * boundary face (per pencil beam, its entry point), the power arriving and
@@ -89,9 +89,11 @@ typedef struct ohm_light_entries {
     size_t count, capacity;
 } ohm_light_entries;
 
-/* Append light's entries (channels < OHM_MAX_CHANNELS) to list. */
+/* Append light's entries (channels < OHM_MAX_CHANNELS) to list.  Here and in
+ * ohm_light_face_powers a face refracts into its own cell's index: eta_v[v]
+ * per unknown, or eta for every face when eta_v is NULL. */
 int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const ohm_light *light, int channels,
-                          double eta, const ohm_occluder *occ, ohm_error *err);
+                          double eta, const double *eta_v, const ohm_occluder *occ, ohm_error *err);
 void ohm_light_entries_free(ohm_light_entries *list);
 
 /* Deposit per-face entering powers (nfaces) into b, at the depths of their

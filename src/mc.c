@@ -177,6 +177,33 @@ static size_t pick_entry(const mc_scene *sc, double xi)
     return lo;
 }
 
+/* The index of unknown v. */
+static inline double cell_eta(const mc_scene *sc, int64_t v)
+{
+    return sc->med->eta_v ? sc->med->eta_v[v] : sc->eta;
+}
+
+/* Crossing from a cell of index ev into one of ew along axis ax: reflected
+ * with the Fresnel probability (u mirrored; returns 0) or refracted by
+ * Snell's law, the tangential components times ev / ew (returns 1). */
+static inline int cross_interface(double u[3], int ax, double ev, double ew, rng *r)
+{
+    double m = ev / ew, mu = fabs(u[ax]);
+    double R = ohm_fresnel_reflectance_inside(m, mu);
+    if (R >= 1.0 || rng_uniform(r) < R) {
+        u[ax] = -u[ax];
+        return 0;
+    }
+    double len2 = 0;
+    for (int a = 0; a < 3; ++a)
+        if (a != ax) {
+            u[a] *= m;
+            len2 += u[a] * u[a];
+        }
+    u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
+    return 1;
+}
+
 /* One photon of weight 1, from entry to its end (mc.h). */
 static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
 {
@@ -235,7 +262,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             tau -= ss * s;
             int step = u[ax] > 0 ? 1 : -1;
             p[ax] = (double)(step > 0 ? c[ax] + 1 : c[ax]);
-            if (step < 0 && c[ax] == net->mirror_low[ax]) { /* symmetry plane */
+            if (c[ax] == (step < 0 ? net->mirror.low[ax] : net->mirror.high[ax])) { /* symmetry plane */
                 u[ax] = -u[ax];
                 continue;
             }
@@ -243,12 +270,15 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             n[ax] += step;
             int64_t nv = n[ax] >= 0 && n[ax] < g->dims[ax] ? ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]))
                                                              : -1;
-            if (nv >= 0) {
+            if (nv >= 0 && sc->med->eta_v && sc->med->eta_v[nv] != sc->med->eta_v[v] &&
+                !cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
+                /* reflected at an internal change of index: stays in v */
+            } else if (nv >= 0) {
                 c[ax] = n[ax];
                 v = nv;
                 cell_coefficients(sc, v, &sa, &ss);
             } else { /* a boundary face: reflected with the Fresnel probability, else out */
-                double R = ohm_fresnel_reflectance_inside(sc->eta, fabs(u[ax]));
+                double R = ohm_fresnel_reflectance_inside(cell_eta(sc, v), fabs(u[ax]));
                 if (R < 1.0 && rng_uniform(r) >= R) {
                     int64_t f = ohm_network_face(net, v, 2 * ax + (step > 0));
                     if (f >= 0) t->face[f] += w;

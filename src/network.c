@@ -74,9 +74,10 @@ static inline int64_t walk_across(const walk *w, int d)
     int axis = d >> 1;
     int32_t x = w->ijk[axis];
     if (d & 1) {
+        if (x == w->net->mirror.high[axis]) return -2; /* unused planes are negative: never a cell */
         if (x + 1 >= w->dims[axis]) return -1;
     } else {
-        if (x == w->net->mirror_low[axis]) return -2; /* unused planes are negative: never a cell */
+        if (x == w->net->mirror.low[axis]) return -2;
         if (x == 0) return -1;
     }
     int64_t nc = w->cell + w->stride[d];
@@ -126,18 +127,21 @@ int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
     return -1;
 }
 
-int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err)
+int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err)
 {
-    return ohm_network_build_band(net, grid, mirror_low, NULL, err);
+    return ohm_network_build_band(net, grid, mirrors, NULL, err);
 }
 
-int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3],
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors,
                            const uint8_t *active, ohm_error *err)
 {
     memset(net, 0, sizeof *net);
     net->grid = grid;
     net->active = active;
-    for (int a = 0; a < 3; ++a) net->mirror_low[a] = mirror_low ? mirror_low[a] : -1;
+    for (int a = 0; a < 3; ++a) {
+        net->mirror.low[a] = mirrors ? mirrors->low[a] : -1;
+        net->mirror.high[a] = mirrors ? mirrors->high[a] : -1;
+    }
     size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
     const uint8_t *inside = grid->inside;
     int64_t n = 0;
@@ -233,6 +237,8 @@ nomem:
  * are bit for bit what each cell would compute for itself. */
 typedef struct coeffs {
     double A;    /* the boundary constant of DESIGN.md §2 (optical media) */
+    ohm_fresnel fresnel;
+    const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
     int uniform; /* no per-cell array: every conductance is one constant  */
     double g_edge, g_ground, g_bound, g_closure;
 } coeffs;
@@ -248,6 +254,40 @@ static inline double edge_conductance(const ohm_channel_medium *m, double h, int
         return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
     double dw = med_D(m, w);
     return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
+}
+
+/* The interface term of network.h's G between cells of index ev and ew (in
+ * the scaled unknowns of a medium of index eta): eta^2 6 (C_2,v + C_2,w) / S,
+ * S the mean of the two sides' eta^2 T (equal by reciprocity; the mean keeps
+ * G exactly symmetric in v and w). */
+static double interface_resistance(const ohm_fresnel_table *tab, double ev, double ew, double eta)
+{
+    double c1v, c2v, c1w, c2w;
+    ohm_fresnel_table_moments(tab, ev / ew, &c1v, &c2v);
+    ohm_fresnel_table_moments(tab, ew / ev, &c1w, &c2w);
+    double S = 0.5 * (ev * ev * (1.0 - 2.0 * c1v) + ew * ew * (1.0 - 2.0 * c1w));
+    return eta * eta * 6.0 * (c2v + c2w) / S;
+}
+
+/* edge_conductance with a per-cell index (network.h). */
+static inline double edge_conductance_eta(const coeffs *k, const ohm_channel_medium *m, double h, int64_t v,
+                                          int64_t w, double dv)
+{
+    double ev = m->eta_v[v], ew = m->eta_v[w];
+    double sv = ohm_network_unknown_scale(m, v), sw = ohm_network_unknown_scale(m, w);
+    double r = h / (2.0 * dv * sv) + h / (2.0 * med_D(m, w) * sw);
+    if (ev != ew) r += interface_resistance(k->tab, ev, ew, m->eta);
+    return h * h / r;
+}
+
+/* The boundary constant of unknown v's faces: its own index's (network.h). */
+static inline double cell_A(const coeffs *k, const ohm_channel_medium *m, int64_t v)
+{
+    if (!m->eta_v || m->resistance_mode) return k->A;
+    if (k->fresnel == OHM_FRESNEL_POLYNOMIAL) return ohm_boundary_A(m->eta_v[v], OHM_FRESNEL_POLYNOMIAL);
+    double c1, c2;
+    ohm_fresnel_table_moments(k->tab, m->eta_v[v], &c1, &c2);
+    return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
 }
 
 static inline double ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
@@ -283,11 +323,15 @@ static inline double closure_conductance(const ohm_channel_medium *m, double h, 
     return h * h / (h / (2.0 * D) + 1.0 / (D * sigma_tr));
 }
 
-static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_boundary b)
+static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_boundary b,
+                        const ohm_fresnel_table *tab)
 {
     memset(k, 0, sizeof *k);
     k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta, m->fresnel);
-    k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v));
+    k->fresnel = m->fresnel;
+    k->tab = tab;
+    k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v)) &&
+                 (m->resistance_mode || !m->eta_v);
     if (k->uniform) {
         double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */
         k->g_edge = edge_conductance(m, h, 0, 0, D);
@@ -327,15 +371,21 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
                         "use boundary=neumann (the paper's) or dirichlet");
     const ohm_voxel_grid *g = net->grid;
     const double h = g->h;
-    coeffs co;
-    coeffs_init(&co, med, h, boundary);
     int64_t n = net->n;
     if ((int64_t)M->nrow != n || (int64_t)M->ncol != n || (int64_t)M->nzmax < net->nnz || M->stype != 1 ||
         M->xtype != CHOLMOD_REAL || M->itype != CHOLMOD_LONG || !M->packed)
         return ohm_fail(err, OHM_ERR_INTERNAL, "network: the matrix to refill is not this network's shape");
+    const int per_cell_eta = med->eta_v && !med->resistance_mode;
+    ohm_fresnel_table *tab = per_cell_eta ? malloc(sizeof *tab) : NULL;
     double *sink = calloc((size_t)net->npieces, sizeof *sink); /* ground + boundary per piece */
-    if (!sink)
+    if (!sink || (per_cell_eta && !tab)) {
+        free(sink);
+        free(tab);
         return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
+    }
+    if (tab) ohm_fresnel_table_init(tab);
+    coeffs co;
+    coeffs_init(&co, med, h, boundary, tab);
     int64_t *Ap = M->p, *Ai = M->i;
     double *Ax = M->x;
     int64_t pos = 0;
@@ -350,9 +400,13 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
         double ge[6];
         int nfaces_v = 0, nclosure_v = 0;
         double dv = co.uniform ? 0.0 : med_D(med, v);
+        double sv = per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
         for (int d = 0; d < 6; ++d) {
             nb[d] = walk_across(&w, d);
-            if (nb[d] >= 0) ge[d] = co.uniform ? co.g_edge : edge_conductance(med, h, v, nb[d], dv);
+            if (nb[d] >= 0)
+                ge[d] = co.uniform     ? co.g_edge
+                        : per_cell_eta ? edge_conductance_eta(&co, med, h, v, nb[d], dv)
+                                       : edge_conductance(med, h, v, nb[d], dv);
             else if (nb[d] == -1) ++nfaces_v;
             else if (nb[d] == -3) ++nclosure_v;
         }
@@ -373,14 +427,14 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
             if (nb[d] >= 0) diag += ge[d];
             else if (nb[d] == -3) gav += gcl;
         }
-        diag += gav;
+        diag += gav * sv; /* the scaled unknown's (network.h); sv = 1 without eta_v */
         if (ga) ga[v] = gav;
         double sinkv = gav;
         if (nfaces_v) {
-            double gbf = co.uniform ? co.g_bound : boundary_conductance(med, h, v, dv, boundary, co.A);
+            double gbf = co.uniform ? co.g_bound : boundary_conductance(med, h, v, dv, boundary, cell_A(&co, med, v));
             for (int q = 0; q < nfaces_v; ++q, ++f) {
                 if (gb) gb[f] = gbf;
-                diag += gbf;
+                diag += gbf * sv;
                 sinkv += gbf;
             }
         }
@@ -401,6 +455,7 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
         ohm_voxel_coords(g, net->cell[v], ijk);
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         free(sink);
+        free(tab);
         if (med->resistance_mode)
             return ohm_fail(err, OHM_ERR_NUMERIC,
                             "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
@@ -412,5 +467,6 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
                         ohm_boundary_name(boundary), i, j, k);
     }
     free(sink);
+    free(tab);
     return OHM_OK;
 }

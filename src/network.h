@@ -36,6 +36,15 @@ typedef enum ohm_boundary {
 /* Face directions: outward normal -x, +x, -y, +y, -z, +z. */
 extern const int32_t ohm_face_offset[6][3];
 
+/* Mirror (symmetry) planes, for the built-in validation scenes: a face on the
+ * low (high) side of axis a of a cell whose index on that axis is low[a]
+ * (high[a]) has zero flux and is not a boundary face; -1: none.  Low planes
+ * make quarter domains; a plane on both sides of a one-cell-wide axis makes
+ * a 1-D column exactly. */
+typedef struct ohm_mirrors {
+    int32_t low[3], high[3];
+} ohm_mirrors;
+
 typedef struct ohm_network {
     const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
     int64_t n;                    /* unknowns = interior cells                */
@@ -49,16 +58,14 @@ typedef struct ohm_network {
                                      of their smallest unknown; NULL when
                                      npieces == 1 (all 0: not worth 8 B a cell) */
     int64_t nnz;                  /* entries of the upper triangle of A       */
-    int32_t mirror_low[3];        /* symmetry planes (see ohm_network_build)  */
+    ohm_mirrors mirror;           /* symmetry planes (above); -1: none        */
     const uint8_t *active;        /* depth band: the cells that are unknowns
                                      (not owned), or NULL: every interior cell */
     int64_t nclosure;             /* faces between the band and the dropped core */
 } ohm_network;
 
-/* Mirror (symmetry) planes for the built-in validation scenes: a face on the
- * low side of axis a of a cell whose index on that axis is mirror_low[a] has
- * zero flux and is not a boundary face.  -1: no mirror on that axis. */
-int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3], ohm_error *err);
+/* mirrors: NULL for none. */
+int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err);
 
 /* The same over a depth band (band.h): unknowns are the cells with active[c]
  * set (a subset of the interior, in cell order); a face between an unknown and
@@ -66,7 +73,7 @@ int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const int32_
  * the assembly gives it the absorbing-half-space conductance
  * h^2 / (h / (2 D) + 1 / (D sigma_tr)) — the flux J = D sigma_tr phi of light
  * decaying as e^(-sigma_tr z) — booked as absorbed. */
-int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const int32_t mirror_low[3],
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors,
                            const uint8_t *active, ohm_error *err);
 void ohm_network_free(ohm_network *net);
 
@@ -105,9 +112,36 @@ typedef struct ohm_channel_medium {
     const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
     double sigma_a0, sigma_s0;
     double eta;
+    const double *eta_v;        /* n, the index per cell, or NULL -> eta (below) */
     double g;                   /* anisotropy: transport only (mc.h), sigma_s = sigma_s' / (1 - g) */
     ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
 } ohm_channel_medium;
+
+/* A refractive index per cell (eta_v).  Where two cells' indices differ, the
+ * face between them is an interface of diffusion theory: the normal flux J is
+ * continuous, and the partial currents on its two sides obey the Fresnel
+ * reflection of each side (the boundary condition's derivation, fresnel.h,
+ * applied to both half-spaces, as Aronson does for interfaces, JOSA A 12,
+ * 1995; docs/transport.md derives it):
+ *     (T_1/4) phi_1 - (T_2/4) phi_2 = (3/2) (C_2,1 + C_2,2) J,   T_i = 1 - 2 C_1,i
+ * with C_n,i the moments for light in side i meeting the other (relative
+ * index eta_i / eta_j).  Reciprocity, eta_1^2 T_1 = eta_2^2 T_2 = S, makes it
+ * a jump in phi / eta^2, which is continuous where no flux crosses (the
+ * radiance's n^2 law):
+ *     phi_1/eta_1^2 - phi_2/eta_2^2 = 6 (C_2,1 + C_2,2) J / S.
+ * In phi the matrix would not be symmetric; so with eta_v the unknown of cell
+ * v is psi_v = phi_v / s_v, s_v = (eta_v / eta)^2 (1 where eta_v = eta), and
+ * the conductance between v and w is
+ *     G = h^2 / (h/(2 D_v s_v) + h/(2 D_w s_w) + eta^2 6 (C_2,v + C_2,w) / S),
+ * symmetric; ground and boundary conductances are multiplied by s_v in the
+ * matrix.  A boundary face uses its own cell's index for A.  ga and gb stay
+ * the physical conductances (of phi): absorbed = sum ga phi, out = sum gb phi. */
+static inline double ohm_network_unknown_scale(const ohm_channel_medium *m, int64_t v)
+{
+    if (!m->eta_v) return 1.0;
+    double r = m->eta_v[v] / m->eta;
+    return r * r;
+}
 
 /* Assemble A (caller frees with cholmod_l_free_sparse) and, optionally, the
  * per-unknown ground conductance ga[n] and per-face boundary conductance

@@ -17,6 +17,9 @@ int ohm_scene_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h, ohm_error
 /* One grey channel of sigma_a, sigma_s' (1/mm) at the validation index 1.3. */
 ohm_material ohm_scene_grey(double sigma_a, double sigma_s);
 
+/* A grey directional light of 1 W/mm^2 along the unit direction dir. */
+ohm_light ohm_scene_directional(const double dir[3]);
+
 /* A grey pencil beam of 1 W from pos along the unit direction dir. */
 ohm_light ohm_scene_pencil(const double pos[3], const double dir[3]);
 

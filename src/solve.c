@@ -21,7 +21,7 @@
 static const double NEAR_SINGULAR = 1e-5;
 
 static int correct_constant_modes(ohm_solution *sol, double *X, const double *B, size_t ncols, const double *ga,
-                                  const double *gb, const cholmod_sparse *A)
+                                  const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med)
 {
     const ohm_network *net = &sol->net;
     int64_t n = net->n, np = net->npieces;
@@ -35,6 +35,8 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
     const double *Ax = A->x;
     for (int64_t v = 0; v < n; ++v) vsink[v] = ga[v];
     for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
+    if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
+        for (int64_t v = 0; v < n; ++v) vsink[v] *= ohm_network_unknown_scale(med, v);
     const int64_t *piece = net->piece; /* NULL: one piece, 0 */
     for (int64_t v = 0; v < n; ++v) {
         int64_t p = piece ? piece[v] : 0;
@@ -137,6 +139,17 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
             }
             dst[q][c] = o;
         }
+    if (params->eta_v) {
+        sol->band_eta = malloc((size_t)kept * sizeof *sol->band_eta);
+        if (!sol->band_eta) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
+        int64_t ii = 0, u = 0;
+        for (size_t cell = 0; cell < ncells; ++cell) {
+            if (!grid->inside[cell]) continue;
+            if (sol->band_active[cell]) sol->band_eta[u++] = params->eta_v[ii];
+            ++ii;
+        }
+        out->eta_v = sol->band_eta;
+    }
     return OHM_OK;
 }
 
@@ -231,6 +244,7 @@ void ohm_solution_free(ohm_solution *sol)
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
     ohm_network_free(&sol->net);
     free(sol->band_active);
+    free(sol->band_eta);
     memset(sol, 0, sizeof *sol);
 }
 
@@ -254,6 +268,7 @@ static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const o
     med->resistance_v = p->resistance_v;
     med->ground_v = p->ground_v;
     med->eta = mat->eta;
+    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
     med->g = mat->g;
     med->fresnel = p->fresnel;
 }
@@ -392,13 +407,14 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
 
 /* in = the entries (light.h) of every light of frame fr (0-based). */
 static int frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
-                         size_t fr, int channels, double eta, const ohm_occluder *occ, ohm_error *err)
+                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
+                         ohm_error *err)
 {
     in->count = 0;
     int rc = OHM_OK;
     for (size_t l = 0; l < nlights && !rc; ++l)
         if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
-            rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, occ, err);
+            rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, eta_v, occ, err);
     return rc;
 }
 
@@ -411,7 +427,7 @@ static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, i
     ohm_light_entries in = {0};
     int rc = OHM_OK;
     for (size_t j = 0; j < nb && !rc; ++j) {
-        rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, occ, err);
+        rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
         for (size_t k = 0; k < in.count && !rc; ++k)
             ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c],
                                         in.entry[k].mu, med);
@@ -423,15 +439,27 @@ static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, i
 /* The constant-mode correction of nearly singular pieces, then the backward
  * error again (it must stay within the direct solver's limit). */
 static int conserve_exactly(ohm_solution *sol, double *X, const double *B, size_t nu, const double *ga,
-                            const double *gb, const cholmod_sparse *A, double *berr, ohm_error *err)
+                            const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med, double *berr,
+                            ohm_error *err)
 {
-    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A);
+    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A, med);
     if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     if (corrected == 0) return OHM_OK;
     *berr = ohm_backward_error(A, B, X, nu, 0);
     if (!(*berr <= 1e-10))
         return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
     return OHM_OK;
+}
+
+/* With a per-cell index the matrix's unknowns are psi = phi / s (network.h):
+ * ncols columns of X from phi to psi (to_phi = 0: a starting guess) or back. */
+static void scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi)
+{
+    if (!med->eta_v) return;
+    for (size_t v = 0; v < n; ++v) {
+        double s = ohm_network_unknown_scale(med, (int64_t)v);
+        for (size_t j = 0; j < ncols; ++j) X[j * n + v] = to_phi ? X[j * n + v] * s : X[j * n + v] / s;
+    }
 }
 
 /* The backend's report into the solution's statistics. */
@@ -516,7 +544,7 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     ohm_light_entries in = {0};
     for (size_t fr = 0; fr < frames && !rc; ++fr) {
         double t0 = ohm_now();
-        rc = frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, occ, err);
+        rc = frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, params->eta_v, occ, err);
         sol->t_source += ohm_now() - t0;
         ohm_mc_result res[OHM_MAX_CHANNELS];
         for (int c = 0; c < sol->channels && !rc; ++c) {
@@ -593,7 +621,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         return rc;
     }
     params = &band_params;
-    rc = ohm_network_build_band(&sol->net, grid, params->mirror_low, sol->band_active, err);
+    rc = ohm_network_build_band(&sol->net, grid, params->mirrors, sol->band_active, err);
     if (rc) {
         for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
         ohm_solution_free(sol);
@@ -689,7 +717,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             for (size_t l = 0; l < nlights && !rc; ++l) {
                 if (lights[l].type == OHM_LIGHT_PENCIL) continue;
                 if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
-                rc = ohm_light_face_powers(en, emu, ar, channels, net, &lights[l], eta, occ, err);
+                rc = ohm_light_face_powers(en, emu, ar, channels, net, &lights[l], eta,
+                                           mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v, occ, err);
             }
         }
         sol->t_source += ohm_now() - t0;
@@ -758,11 +787,13 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 double *X = sol->fluence[c] + f0 * (size_t)n;
                 size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 ? prev_b : NULL, (size_t)n);
                 warm_start(X, sol, f0, c, warm_from, (size_t)n);
+                scale_unknowns(X, 1, (size_t)n, &med, 0);
                 t0 = ohm_now();
                 double t_setups = rep.t_analyze + rep.t_factor + rep.t_precond;
                 double berr = 0;
                 if (nu > 0) rc = backend->solve(bstate, A, B, X, nu, &berr, &rep, err);
-                if (!rc && nu > 0) rc = conserve_exactly(sol, X, B, nu, ga, gb, A, &berr, err);
+                if (!rc && nu > 0) rc = conserve_exactly(sol, X, B, nu, ga, gb, A, &med, &berr, err);
+                scale_unknowns(X, nu, (size_t)n, &med, 1);
                 /* a backend that set up inside solve (auto switching) books
                  * that as analysis / factor / preconditioner, not as solve */
                 sol->t_solve += ohm_now() - t0 - (rep.t_analyze + rep.t_factor + rep.t_precond - t_setups);

@@ -33,7 +33,7 @@ typedef struct ohm_solve_params {
     int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
                                   unscattered beam's fluence added (ohm_source_unscattered_face;
                                   mc: traced), what transport codes report */
-    const int32_t *mirror_low; /* validation scenes only; NULL for none  */
+    const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
     double max_memory;         /* bytes the factor may take; 0: what the machine has */
     ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
@@ -43,6 +43,10 @@ typedef struct ohm_solve_params {
      * media; NULL: the material's constants */
     const double *sigma_a[OHM_MAX_CHANNELS];
     const double *sigma_s[OHM_MAX_CHANNELS];
+    /* the refractive index per unknown (interior cells), 1..3, for every
+     * channel, or NULL: the material's eta; network.h's interfaces.  Not
+     * taken by give_media: the caller frees it after the solve. */
+    const double *eta_v;
     /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
      * caller and ohm_solve takes them, whether it succeeds or fails (the
      * caller must not free them): the solution keeps them as medium_sa /
@@ -99,6 +103,7 @@ typedef struct ohm_solution {
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */
+    double *band_eta;                   /* eta_v compacted to the band's unknowns, or NULL */
     double t_network;                   /* the network's topology: depth band (if any),
                                            unknowns, faces, pieces — once per grid    */
     double t_assemble;                  /* the matrices (and ga, gb), summed over the

@@ -15,7 +15,7 @@
 #include <sys/stat.h>
 
 #define TRANSFER_LINE_MAX 4096 /* characters per line, terminator excluded */
-#define TRANSFER_TOKENS_MAX 8  /* the widest row has 7 columns            */
+#define TRANSFER_TOKENS_MAX 9  /* the widest row has 8 columns (RGB + eta)  */
 
 void ohm_transfer_free(ohm_transfer *t)
 {
@@ -23,6 +23,7 @@ void ohm_transfer_free(ohm_transfer *t)
     free(t->density);
     free(t->sigma_a);
     free(t->sigma_s);
+    free(t->eta_points);
     memset(t, 0, sizeof *t);
 }
 
@@ -85,9 +86,14 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
             double e;
             if (seen_eta) return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: eta given twice", name, line);
             seen_eta = 1;
+            if (strcmp(tok[i] + 4, "column") == 0) {
+                t->eta_column = 1;
+                continue;
+            }
             if (parse_number(tok[i] + 4, &e) || !(e >= 1.0 && e <= 3.0))
                 return ohm_fail(err, OHM_ERR_PARSE,
-                                "%s:%zu: bad header: eta must be a number in [1, 3] (as for materials), got \"%s\"",
+                                "%s:%zu: bad header: eta must be a number in [1, 3] (as for materials) or column, "
+                                "got \"%s\"",
                                 name, line,
                                 tok[i] + 4);
             t->eta = e;
@@ -113,11 +119,14 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
                                 name, line, k);
         } else {
             return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s:%zu: unknown header option \"%s\" (expected mode=optical|resistance, eta=VALUE, "
+                            "%s:%zu: unknown header option \"%s\" (expected mode=optical|resistance, eta=VALUE|column, "
                             "g=VALUE or scattering=reduced|full)",
                             name, line, tok[i]);
         }
     }
+    if (t->resistance_mode && t->eta_column)
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s:%zu: bad header: eta=column needs optical coefficients, not mode=resistance", name, line);
     return OHM_OK;
 }
 
@@ -136,6 +145,11 @@ static int push_point(ohm_transfer *t, size_t *cap, const double *vals, ohm_erro
         double *s = realloc(t->sigma_s, nc * (size_t)ch * sizeof *s);
         if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "transfer: out of memory");
         t->sigma_s = s;
+        if (t->eta_column) {
+            double *e = realloc(t->eta_points, nc * sizeof *e);
+            if (!e) return ohm_fail(err, OHM_ERR_NOMEM, "transfer: out of memory");
+            t->eta_points = e;
+        }
         *cap = nc;
     }
     t->density[t->n] = vals[0];
@@ -143,6 +157,7 @@ static int push_point(ohm_transfer *t, size_t *cap, const double *vals, ohm_erro
         t->sigma_a[t->n * (size_t)ch + (size_t)c] = vals[1 + c];
         t->sigma_s[t->n * (size_t)ch + (size_t)c] = vals[1 + ch + c];
     }
+    if (t->eta_column) t->eta_points[t->n] = vals[1 + 2 * ch];
     t->n++;
     return OHM_OK;
 }
@@ -156,19 +171,20 @@ static int parse_point(ohm_transfer *t, size_t *cap, char **tok, int ntok, const
                             "%s:%zu: expected 3 columns (density resistance ground) in mode=resistance, got %d", name,
                             line, ntok);
     } else if (t->n == 0) {
-        if (ntok != 3 && ntok != 7)
+        int e = t->eta_column;
+        if (ntok != 3 + e && ntok != 7 + e)
             return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s:%zu: expected 3 columns (density sigma_a sigma_s') or 7 (density sa_r sa_g sa_b ss_r "
-                            "ss_g ss_b), got %d",
-                            name, line, ntok);
-        t->channels = ntok == 3 ? 1 : 3;
-    } else if (ntok != 1 + 2 * t->channels) {
+                            "%s:%zu: expected %d columns (density sigma_a sigma_s'%s) or %d (density sa_r sa_g sa_b ss_r "
+                            "ss_g ss_b%s), got %d",
+                            name, line, 3 + e, e ? " eta" : "", 7 + e, e ? " eta" : "", ntok);
+        t->channels = ntok == 3 + e ? 1 : 3;
+    } else if (ntok != 1 + 2 * t->channels + t->eta_column) {
         return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: expected %d columns like the first point, got %d", name, line,
-                        1 + 2 * t->channels, ntok);
+                        1 + 2 * t->channels + t->eta_column, ntok);
     }
-    static const char *const optical_grey[] = {"density", "sigma_a", "sigma_s'"};
-    static const char *const optical_rgb[] = {"density", "sigma_a (R)", "sigma_a (G)", "sigma_a (B)",
-                                              "sigma_s' (R)", "sigma_s' (G)", "sigma_s' (B)"};
+    static const char *const optical_grey[] = {"density", "sigma_a", "sigma_s'", "eta"};
+    static const char *const optical_rgb[] = {"density",      "sigma_a (R)",  "sigma_a (G)",  "sigma_a (B)",
+                                              "sigma_s' (R)", "sigma_s' (G)", "sigma_s' (B)", "eta"};
     static const char *const resist[] = {"density", "resistance", "ground"};
     const char *const *col = t->resistance_mode ? resist : t->channels == 3 ? optical_rgb : optical_grey;
     double v[TRANSFER_TOKENS_MAX];
@@ -177,6 +193,12 @@ static int parse_point(ohm_transfer *t, size_t *cap, char **tok, int ntok, const
             return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: column %d (%s): \"%s\" is not a finite number", name, line,
                             i + 1, col[i], tok[i]);
         if (i == 0) continue;
+        if (!t->resistance_mode && i == 1 + 2 * t->channels) { /* eta=column */
+            if (!(v[i] >= 1.0 && v[i] <= 3.0))
+                return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (eta) must be in [1, 3], got %s", name, line,
+                                i + 1, tok[i]);
+            continue;
+        }
         int positive = t->resistance_mode || i > t->channels; /* sigma_s' and resistances: > 0 */
         if (positive && !(v[i] > 0.0))
             return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be > 0, got %s", name, line, i + 1,
@@ -247,6 +269,7 @@ int ohm_transfer_parse(ohm_transfer *out, const char *text, size_t len, const ch
         goto fail;
     }
     if (t.resistance_mode) t.channels = 1;
+    if (t.eta_column) t.eta = t.eta_points[0]; /* the material's: the scale of network.h's unknowns */
     if (t.scattering_full && !t.resistance_mode) /* sigma_s' = sigma_s (1 - g): what diffusion needs */
         for (size_t i = 0; i < t.n * (size_t)t.channels; ++i) t.sigma_s[i] *= 1.0 - t.g;
     *out = t;
@@ -304,15 +327,10 @@ int ohm_transfer_read(ohm_transfer *out, const char *path, ohm_error *err)
     return rc;
 }
 
-void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss)
+/* The points around density: value = v[i0] + w (v[i1] - v[i0]); n > 0. */
+static void bracket(const ohm_transfer *t, double density, size_t *pi0, size_t *pi1, double *pw)
 {
-    int ch = t->channels;
-    size_t n = t->n;
-    if (n == 0) {
-        for (int c = 0; c < ch; ++c) sa[c] = ss[c] = 0.0;
-        return;
-    }
-    size_t i0, i1;
+    size_t n = t->n, i0, i1;
     double w;
     if (!(density > t->density[0])) { /* below the first point, or NaN: clamp */
         i0 = i1 = 0;
@@ -332,6 +350,30 @@ void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double
         i1 = hi;
         w = (density - t->density[lo]) / (t->density[hi] - t->density[lo]);
     }
+    *pi0 = i0;
+    *pi1 = i1;
+    *pw = w;
+}
+
+double ohm_transfer_eval_eta(const ohm_transfer *t, double density)
+{
+    if (!t->eta_column || t->n == 0) return t->eta;
+    size_t i0, i1;
+    double w;
+    bracket(t, density, &i0, &i1, &w);
+    return t->eta_points[i0] + w * (t->eta_points[i1] - t->eta_points[i0]);
+}
+
+void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss)
+{
+    int ch = t->channels;
+    if (t->n == 0) {
+        for (int c = 0; c < ch; ++c) sa[c] = ss[c] = 0.0;
+        return;
+    }
+    size_t i0, i1;
+    double w;
+    bracket(t, density, &i0, &i1, &w);
     for (int c = 0; c < ch; ++c) {
         double a0 = t->sigma_a[i0 * (size_t)ch + (size_t)c], a1 = t->sigma_a[i1 * (size_t)ch + (size_t)c];
         double s0 = t->sigma_s[i0 * (size_t)ch + (size_t)c], s1 = t->sigma_s[i1 * (size_t)ch + (size_t)c];

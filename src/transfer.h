@@ -1,11 +1,14 @@
 /* transfer.h — transfer functions: density -> optical coefficients.
  *
  * The file format (documented in docs/transfer-functions.md):
- *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3] [g=0] [scattering=reduced|full]
+ *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3|column] [g=0] [scattering=reduced|full]
  *   # comments; then one control point per line, increasing density:
- *   density  sigma_a  sigma_s'                      (grey)
- *   density  sa_r sa_g sa_b  ss_r ss_g ss_b         (RGB)
+ *   density  sigma_a  sigma_s'  [eta]               (grey)
+ *   density  sa_r sa_g sa_b  ss_r ss_g ss_b  [eta]  (RGB)
  *   density  resistance  ground                     (mode=resistance, ohms)
+ * eta=column: the last column is the refractive index at that density, in
+ * [1, 3], interpolated like the others (network.h's interfaces where it
+ * changes between cells).
  * scattering=full: the third column is sigma_s, and sigma_s' = sigma_s (1 - g)
  * is kept (diffusion needs only that; g shapes Monte Carlo's phase function).
  * Piecewise linear between points, clamped outside them.  Validated on load:
@@ -21,7 +24,9 @@
 typedef struct ohm_transfer {
     int resistance_mode;      /* points hold resistance, ground instead          */
     int channels;             /* 1 or 3 (resistance mode: 1)                     */
-    double eta;
+    double eta;               /* the header's, or with eta_column the first point's */
+    int eta_column;           /* eta=column: every point gives its index          */
+    double *eta_points;       /* n when eta_column, else NULL                     */
     double g;                 /* scattering anisotropy (header g=)               */
     int scattering_full;      /* the file gave sigma_s (converted to sigma_s')    */
     size_t n;                 /* control points                                  */
@@ -36,5 +41,8 @@ void ohm_transfer_free(ohm_transfer *t);
 
 /* Coefficients at a density (clamped at the ends): sa[c], ss[c] for c < channels. */
 void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss);
+
+/* The refractive index at a density: the column's (eta=column), else eta. */
+double ohm_transfer_eval_eta(const ohm_transfer *t, double density);
 
 #endif

@@ -41,6 +41,11 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
 int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *err);
 int ohm_validate_extremes(ohm_validation *v, const ohm_log *log, ohm_error *err);
 int ohm_validate_layered(ohm_validation *v, const ohm_log *log, ohm_error *err);
+/* A refractive index per cell (network.h's interfaces): a two-layer slab at
+ * eta 1.3 over 1.6 on a 1-D column against ohm_ref_two_layer at h = 0.4 ..
+ * 0.025 mm (within 1% at the finest; the convergence order), and a uniform
+ * per-cell index against none. */
+int ohm_validate_index_layers(ohm_validation *v, const ohm_log *log, ohm_error *err);
 
 /* The half-space scene of ohm_validate_halfspace (sigma_a 0.05, sigma_s'
  * 0.95 /mm, a pencil beam's source at depth 1/sigma_t', Robin, eta 1.3) at

@@ -73,10 +73,10 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     m.eta = sc->eta;
     m.g = TR_G;
     ohm_light beam = ohm_scene_pencil((const double[3]){0, 0, -1.0}, (const double[3]){0, 0, 1.0});
-    int32_t mirror[3] = {1, 1, -1};
+    ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.mirror_low = mirror;
+    p.mirrors = &mirror;
     p.fresnel = cfg->fresnel;
     p.deposit = cfg->deposit;
     p.solver = mc ? "mc" : "auto";
@@ -302,6 +302,7 @@ typedef struct mc_box {
     ohm_network net;
     ohm_light_entries in;
     double *fluence, *fluence_se, *face, *exit_se;
+    double *sa, *ss, *eta; /* per cell (a clear top layer), or NULL */
     ohm_mc_result res;
 } mc_box;
 
@@ -311,21 +312,37 @@ static void mc_box_free(mc_box *b)
     ohm_network_free(&b->net);
     ohm_voxel_grid_free(&b->grid);
     free(b->fluence), free(b->fluence_se), free(b->exit_se), free(b->face);
+    free(b->sa), free(b->ss), free(b->eta);
 }
 
+/* A box of one medium lit by a pencil beam from +z at (x, y), traced; with
+ * clear_top > 0, its top clear_top cells are a clear (non-absorbing, barely
+ * scattering) layer of index 1 above the medium (eta_v). */
 static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, double ss_reduced, double eta,
-                        double g, double x, double y, const ohm_mc_params *p, ohm_error *err)
+                        double g, double x, double y, int clear_top, const ohm_mc_params *p, ohm_error *err)
 {
     memset(b, 0, sizeof *b);
     int rc = ohm_scene_box(&b->grid, nx, ny, nz, h, err);
     if (!rc) rc = ohm_network_build(&b->net, &b->grid, NULL, err);
+    size_t n = (size_t)b->net.n, nf = (size_t)b->net.nfaces;
+    if (!rc && clear_top > 0) {
+        b->sa = malloc(n * sizeof(double));
+        b->ss = malloc(n * sizeof(double));
+        b->eta = malloc(n * sizeof(double));
+        if (!b->sa || !b->ss || !b->eta) rc = ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+        for (size_t u = 0; u < n && !rc; ++u) { /* x-fastest: z index u / (nx ny) */
+            int clear = (int)(u / ((size_t)nx * (size_t)ny)) >= nz - clear_top;
+            b->sa[u] = clear ? 0.0 : sa;
+            b->ss[u] = clear ? 1e-6 : ss_reduced; /* a scattering every 1e6 mm: clear */
+            b->eta[u] = clear ? 1.0 : eta;
+        }
+    }
     ohm_light l = ohm_scene_pencil((const double[3]){x, y, nz * h + 1.0}, (const double[3]){0, 0, -1.0});
-    if (!rc) rc = ohm_light_entries_add(&b->in, &b->net, &l, 1, eta, NULL, err);
+    if (!rc) rc = ohm_light_entries_add(&b->in, &b->net, &l, 1, eta, b->eta, NULL, err);
     if (rc) {
         mc_box_free(b);
         return rc;
     }
-    size_t n = (size_t)b->net.n, nf = (size_t)b->net.nfaces;
     b->fluence = calloc(n, sizeof(double));
     b->fluence_se = calloc(n, sizeof(double));
     b->exit_se = calloc(n, sizeof(double));
@@ -340,7 +357,10 @@ static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, 
     memset(&med, 0, sizeof med);
     med.sigma_a0 = sa;
     med.sigma_s0 = ss_reduced;
+    med.sigma_a = b->sa;
+    med.sigma_s = b->ss;
     med.eta = eta;
+    med.eta_v = b->eta;
     med.g = g;
     rc = ohm_mc_trace(&b->res, &b->net, &med, b->in.entry, b->in.count, 0, p, err);
     if (rc) mc_box_free(b);
@@ -373,7 +393,7 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
     /* van de Hulst's matched slab (mu_a 1, mu_s 9 /mm, g 0.75, 0.2 mm), the
      * check of MCML (Wang, Jacques & Zheng 1995): with n = 1 every photon
      * leaves whole, so each total's error is binomial */
-    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 0.75, 5.0, 5.0, &p, err);
+    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 0.75, 5.0, 5.0, 0, &p, err);
     if (rc) return rc;
     double Rd = mc_box_out(&b, 5), Tt = mc_box_out(&b, 4);
     published_row(v, "mc: matched slab, diffuse reflectance (abs)", "van de Hulst 0.09739 (MCML)", Rd, 0.09739,
@@ -383,18 +403,33 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
     mc_box_free(&b);
     /* MCML 2.0's semi-infinite medium under air (sample1.mci, run 2: n 1.5,
      * mu_a 1, mu_s 9 /mm, g 0): Rd 0.220348 +- 0.000916, specular 0.04 apart */
-    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, &p, err);
+    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, 0, &p, err);
     if (rc) return rc;
     double incident = b.in.entry[0].incident[0];
     published_row(v, "mc: half-space n1.5, diffuse reflectance (abs)", "MCML 0.220348 +- 0.000916",
                   mc_box_out(&b, 5) / incident, 0.220348, b.res.power_out_se / incident, 0.000916);
+    mc_box_free(&b);
+    /* The same half-space under 0.3 mm of a clear layer of index 1 (a per-cell
+     * index): the air interface is now inside the object, between cells, so
+     * the beam's specular 0.04 = ((1.5 - 1)/(1.5 + 1))^2 and every photon's
+     * Fresnel reflection or refraction on its way out happen at an internal
+     * change of index.  What leaves is the specular part plus MCML's diffuse
+     * reflectance: through the top, and through the clear layer's sides (a
+     * photon refracted out at a grazing angle crosses the 4 mm box's edge
+     * before it rises 0.3 mm; the medium's own sides and bottom, 11 and 22
+     * diffusion lengths away, lose nothing measurable). */
+    rc = mc_box_trace(&b, 40, 40, 43, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, 3, &p, err);
+    if (rc) return rc;
+    incident = b.in.entry[0].incident[0];
+    published_row(v, "mc: half-space n1.5 under a clear n1.0 layer, out (abs)", "0.04 + MCML 0.220348 +- 0.000916",
+                  b.res.power_out / incident, 0.04 + 0.220348, b.res.power_out_se / incident, 0.000916);
     mc_box_free(&b);
     /* MCX's cube60 (fangq/mcx src/mcx_bench.c): 60 mm of 1 mm voxels, mu_a
      * 0.005, mu_s 1 /mm, g 0.01, no reflection at the faces (DoMismatch 0),
      * the beam at grid point (29, 29), absorbed within 5 ns at c / 1.37:
      * 17.69708% (1e8 photons, mcx PR #267) */
     p.max_path = 5.0 * 299.792458 / 1.37;
-    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 0.01, 29.0, 29.0, &p, err);
+    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 0.01, 29.0, 29.0, 0, &p, err);
     if (rc) return rc;
     published_row(v, "mc: cube60, absorbed fraction (abs)", "MCX 17.69708% (1e8 photons)",
                   b.res.power_absorbed / b.res.power_in, 0.1769708, b.res.power_absorbed_se / b.res.power_in, 0);

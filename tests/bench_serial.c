@@ -138,12 +138,14 @@ static void digest_assembly(const char *name, const ohm_network *net, const ohm_
     free(gb);
 }
 
-static int digest_scene(const char *name, const ohm_voxel_grid *g, const int32_t *mirror, const uint8_t *active)
+static int digest_scene(const char *name, const ohm_voxel_grid *g, const int32_t *mirror_low, const uint8_t *active)
 {
     ohm_network net;
     ohm_error err;
     ohm_error_clear(&err);
-    int rc = ohm_network_build_band(&net, g, mirror, active, &err);
+    ohm_mirrors mirror = {{-1, -1, -1}, {-1, -1, -1}};
+    for (int a = 0; a < 3 && mirror_low; ++a) mirror.low[a] = mirror_low[a];
+    int rc = ohm_network_build_band(&net, g, &mirror, active, &err);
     if (rc) {
         printf("%-34s build rc %d: %s\n", name, rc, err.msg);
         return 0;

@@ -32,6 +32,31 @@ import pyopenvdb as vdb
 g = {x.name: x for x in vdb.readAll('$T/placed.vdb')[0]}
 lo, hi = g['sigma_s_g'].evalMinMax(); assert hi > lo > 0, (lo, hi)"
 
+# a refractive index per density (eta=column): the walnut's kernel at 1.33
+# under a shell at 1.55; diffusion and Monte Carlo both conserve power, and
+# the index changes the light (against the same media at one index)
+printf 'ohm-transfer 1 eta=column\n5000 0.01 1.0 1.33\n15000 0.1 3.0 1.55\n' >"$T/eta.transfer"
+printf 'ohm-transfer 1 eta=1.33\n5000 0.01 1.0\n15000 0.1 3.0\n' >"$T/one.transfer"
+for run in "eta diffusion:eta:" "one index:one:" "eta mc:eta:solver=mc photons=20000 seed=3"; do
+  IFS=: read -r what tf opts <<<"$run"
+  expect_exit 0 "$what" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 spacing=0.625 \
+    -voxelize dim=24 threshold=5000 -material transfer="$T/$tf.transfer" -light dir=0,-1,0 -solve $opts \
+    -write file="$T/${what// /_}.vdb" -stats file="$T/${what// /_}.json"
+done
+check "eta column: conservation, and the index matters" $PY - "$T" <<'PY'
+import json, sys
+d = sys.argv[1]
+eta, one, mc = (json.load(open(f"{d}/{n}.json")) for n in ("eta_diffusion", "one_index", "eta_mc"))
+for s in (eta, one, mc):
+    assert s["conservation_error"] < 1e-10, s["conservation_error"]
+assert eta["residual"] < 1e-12, eta["residual"]
+# the shell's 1.55 reflects more light back inside at the surface: less leaves
+rel = abs(eta["power_out"] - one["power_out"]) / one["power_out"]
+assert rel > 0.01 and eta["power_out"] < one["power_out"], (eta["power_out"], one["power_out"])
+# diffusion and transport agree on what leaves to the model error (loosely)
+assert abs(mc["power_out"] - eta["power_out"]) / mc["power_out"] < 0.25, (mc["power_out"], eta["power_out"])
+PY
+
 # errors
 expect_exit 2 "volume without threshold" -- "$OHM" -read file=samples/ch2_2mm.nii.gz -voxelize dim=16
 expect_error_line "volume without threshold" "needs threshold="

@@ -3,6 +3,8 @@
  * between the two sides of an interface, agreement with the independent
  * Egan & Hilgeman fit of F_dr = 2 C1, and convergence of the quadrature. */
 #include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
 
 #include "check.h"
 #include "fresnel.h"
@@ -89,6 +91,39 @@ static void test_quadrature(void)
     }
 }
 
+/* The interfaces' table (fresnel.h) against the quadrature: ~1e-11 at most
+ * beyond |m - 1| > 0.05, ~6e-9 at worst right next to m = 1, both sides. */
+static void test_table(void)
+{
+    ohm_fresnel_table *t = malloc(sizeof *t);
+    CHECK(t != NULL);
+    if (!t) return;
+    ohm_fresnel_table_init(t);
+    double worst = 0, worst_far = 0;
+    for (int i = 0; i < 20000; ++i) {
+        double m = 1.0 / 3.0 + (3.0 - 1.0 / 3.0) * (i + 0.37) / 20000.0, a1, a2, b1, b2;
+        ohm_fresnel_moments(m, &a1, &a2);
+        ohm_fresnel_table_moments(t, m, &b1, &b2);
+        double e = fmax(fabs(a1 - b1), fabs(a2 - b2));
+        worst = fmax(worst, e);
+        if (fabs(m - 1.0) > 0.05) worst_far = fmax(worst_far, e);
+    }
+    const double near1[] = {1.0 + 1e-7, 1.0 - 1e-7, 1.0 + 1e-5, 1.0 - 1e-5};
+    for (int i = 0; i < 4; ++i) {
+        double a1, a2, b1, b2;
+        ohm_fresnel_moments(near1[i], &a1, &a2);
+        ohm_fresnel_table_moments(t, near1[i], &b1, &b2);
+        worst = fmax(worst, fmax(fabs(a1 - b1), fabs(a2 - b2)));
+    }
+    double c1, c2;
+    ohm_fresnel_table_moments(t, 1.0, &c1, &c2);
+    CHECK(c1 == 0.0 && c2 == 0.0);
+    printf("fresnel table: worst interpolation error %.3g (%.3g beyond |m - 1| > 0.05)\n", worst, worst_far);
+    CHECK_MSG(worst < 1e-8, "table error %.3g", worst);
+    CHECK_MSG(worst_far < 3e-11, "table error %.3g away from m = 1", worst_far);
+    free(t);
+}
+
 int main(void)
 {
     test_no_interface();
@@ -96,5 +131,6 @@ int main(void)
     test_reciprocity();
     test_fit();
     test_quadrature();
+    test_table();
     return check_summary();
 }

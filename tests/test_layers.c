@@ -36,6 +36,7 @@
 #include "check.h"
 #include "light.h"
 #include "material.h"
+#include "reference.h"
 #include "solve.h"
 #include "transfer.h"
 
@@ -73,117 +74,37 @@ static ohm_material grey(double eta)
     return m;
 }
 
-/* Solve the n x n system M x = r in place (Gaussian elimination, partial
- * pivoting); r receives x. */
-static int gauss(int n, double *M, double *r)
-{
-    for (int c = 0; c < n; ++c) {
-        int p = c;
-        for (int i = c + 1; i < n; ++i)
-            if (fabs(M[i * n + c]) > fabs(M[p * n + c])) p = i;
-        if (M[p * n + c] == 0.0) return -1;
-        if (p != c) {
-            for (int j = 0; j < n; ++j) {
-                double t = M[c * n + j];
-                M[c * n + j] = M[p * n + j];
-                M[p * n + j] = t;
-            }
-            double t = r[c];
-            r[c] = r[p];
-            r[p] = t;
-        }
-        for (int i = c + 1; i < n; ++i) {
-            double f = M[i * n + c] / M[c * n + c];
-            for (int j = c; j < n; ++j) M[i * n + j] -= f * M[c * n + j];
-            r[i] -= f * r[c];
-        }
-    }
-    for (int c = n - 1; c >= 0; --c) {
-        double s = r[c];
-        for (int j = c + 1; j < n; ++j) s -= M[c * n + j] * r[j];
-        r[c] = s / M[c * n + c];
-    }
-    return 0;
-}
-
-/* The analytic two-layer solution: layer A on x in [0, LA], B on [LA, LA+LB]. */
-typedef struct two_layer {
-    double LA, LB;
-    double DA, DB, kA, kB, tA, tB; /* D, k = sqrt(sigma_a/D), sigma_t' */
-    double pA, pB;                 /* particular amplitudes            */
-    double c[4];                   /* a1, a2 (layer A), b1, b2 (layer B) */
-} two_layer;
-
-static int two_layer_init(two_layer *s, double saA, double ssA, double saB, double ssB, double LA, double LB,
-                          double A, double TI)
-{
-    s->LA = LA;
-    s->LB = LB;
-    s->tA = saA + ssA;
-    s->tB = saB + ssB;
-    s->DA = 1.0 / (3.0 * s->tA);
-    s->DB = 1.0 / (3.0 * s->tB);
-    s->kA = sqrt(saA / s->DA);
-    s->kB = sqrt(saB / s->DB);
-    double QA = ssA * TI, QB = ssB * TI * exp(-s->tA * LA);
-    /* phi'' - k^2 phi = -Q e^{-t x}/D  ->  p = -Q / (D (t^2 - k^2)) */
-    s->pA = -QA / (s->DA * (s->tA * s->tA - s->kA * s->kA));
-    s->pB = -QB / (s->DB * (s->tB * s->tB - s->kB * s->kB));
-    double eA = exp(-s->tA * LA), epA = exp(s->kA * LA), emA = exp(-s->kA * LA);
-    double eB = exp(-s->tB * LB), epB = exp(s->kB * LB), emB = exp(-s->kB * LB);
-    double M[16] = {0}, r[4];
-    /* top, x = 0: D phi' - phi/(2A) = 0 */
-    M[0] = s->DA * s->kA - 1.0 / (2 * A);
-    M[1] = -s->DA * s->kA - 1.0 / (2 * A);
-    r[0] = -(-s->DA * s->tA * s->pA - s->pA / (2 * A));
-    /* phi continuous at the interface: phiA(LA) - phiB(0) = 0 */
-    M[4] = epA;
-    M[5] = emA;
-    M[6] = -1.0;
-    M[7] = -1.0;
-    r[1] = -(s->pA * eA - s->pB);
-    /* D phi' continuous */
-    M[8] = s->DA * s->kA * epA;
-    M[9] = -s->DA * s->kA * emA;
-    M[10] = -s->DB * s->kB;
-    M[11] = s->DB * s->kB;
-    r[2] = -(-s->DA * s->tA * s->pA * eA + s->DB * s->tB * s->pB);
-    /* bottom, y = LB: -D phi' - phi/(2A) = 0 */
-    M[14] = -s->DB * s->kB * epB - epB / (2 * A);
-    M[15] = s->DB * s->kB * emB - emB / (2 * A);
-    r[3] = -(s->DB * s->tB * s->pB * eB - s->pB * eB / (2 * A));
-    if (gauss(4, M, r)) return -1;
-    memcpy(s->c, r, sizeof r);
-    return 0;
-}
-
-static double two_layer_phi(const two_layer *s, double x)
-{
-    if (x <= s->LA) return s->pA * exp(-s->tA * x) + s->c[0] * exp(s->kA * x) + s->c[1] * exp(-s->kA * x);
-    double y = x - s->LA;
-    return s->pB * exp(-s->tB * y) + s->c[2] * exp(s->kB * y) + s->c[3] * exp(-s->kB * y);
-}
-
-/* The reference must satisfy its own equations: check the residuals. */
-static void check_reference(const two_layer *s, double saA, double saB, double ssA, double ssB, double A, double TI)
+/* The reference must satisfy its own equations: check the residuals (the
+ * interior ODE, both Robin boundaries, flux continuity and the interface
+ * condition at L0). */
+static void check_reference(const ohm_ref_two_layer *s, const ohm_ref_layer layer[2], double TI)
 {
     const double d = 1e-4;
-    double x[3] = {0.3 * s->LA, 0.7 * s->LA, s->LA + 0.5 * s->LB};
+    double x[3] = {0.3 * s->L0, 0.7 * s->L0, s->L0 + 0.5 * s->L1};
     for (int q = 0; q < 3; ++q) {
-        int inA = x[q] <= s->LA;
-        double D = inA ? s->DA : s->DB, sa = inA ? saA : saB, ss = inA ? ssA : ssB;
-        double tau = inA ? s->tA * x[q] : s->tA * s->LA + s->tB * (x[q] - s->LA);
-        double f0 = two_layer_phi(s, x[q]), fp = two_layer_phi(s, x[q] + d), fm = two_layer_phi(s, x[q] - d);
-        double lhs = -D * (fp - 2 * f0 + fm) / (d * d) + sa * f0, rhs = ss * TI * exp(-tau);
+        int in0 = x[q] <= s->L0;
+        const ohm_ref_layer *l = &layer[in0 ? 0 : 1];
+        double D = s->D[in0 ? 0 : 1];
+        double tau = in0 ? s->t[0] * x[q] : s->t[0] * s->L0 + s->t[1] * (x[q] - s->L0);
+        double f0 = ohm_ref_two_layer_phi(s, x[q]), fp = ohm_ref_two_layer_phi(s, x[q] + d),
+               fm = ohm_ref_two_layer_phi(s, x[q] - d);
+        double lhs = -D * (fp - 2 * f0 + fm) / (d * d) + l->sigma_a * f0, rhs = l->sigma_s * TI * exp(-tau);
         CHECK_REL(lhs, rhs, 1e-5);
     }
-    double g0 = (two_layer_phi(s, d) - two_layer_phi(s, 0)) / d;
-    CHECK_REL(s->DA * g0, two_layer_phi(s, 0) / (2 * A), 1e-3);
-    double L = s->LA + s->LB, gL = (two_layer_phi(s, L) - two_layer_phi(s, L - d)) / d;
-    CHECK_REL(-s->DB * gL, two_layer_phi(s, L) / (2 * A), 1e-3);
-    double jl = s->DA * (two_layer_phi(s, s->LA) - two_layer_phi(s, s->LA - d)) / d;
-    double jr = s->DB * (two_layer_phi(s, s->LA + d) - two_layer_phi(s, s->LA)) / d;
+    double A0 = ohm_boundary_A(layer[0].eta, OHM_FRESNEL_EXACT), A1 = ohm_boundary_A(layer[1].eta, OHM_FRESNEL_EXACT);
+    double g0 = (ohm_ref_two_layer_phi(s, d) - ohm_ref_two_layer_phi(s, 0)) / d;
+    CHECK_REL(s->D[0] * g0, ohm_ref_two_layer_phi(s, 0) / (2 * A0), 1e-3);
+    double L = s->L0 + s->L1, gL = (ohm_ref_two_layer_phi(s, L) - ohm_ref_two_layer_phi(s, L - d)) / d;
+    CHECK_REL(-s->D[1] * gL, ohm_ref_two_layer_phi(s, L) / (2 * A1), 1e-3);
+    double phi_l = ohm_ref_two_layer_phi(s, s->L0), phi_r = ohm_ref_two_layer_phi(s, s->L0 + 1e-12);
+    double jl = -s->D[0] * (phi_l - ohm_ref_two_layer_phi(s, s->L0 - d)) / d;
+    double jr = -s->D[1] * (ohm_ref_two_layer_phi(s, s->L0 + d) - phi_r) / d;
     CHECK_REL(jl, jr, 1e-3);
+    double c1a, c2a, c1b, c2b;
+    ohm_fresnel_moments(layer[0].eta / layer[1].eta, &c1a, &c2a);
+    ohm_fresnel_moments(layer[1].eta / layer[0].eta, &c1b, &c2b);
+    double jump = 0.25 * (1 - 2 * c1a) * phi_l - 0.25 * (1 - 2 * c1b) * phi_r, want = 1.5 * (c2a + c2b) * jl;
+    CHECK_MSG(fabs(jump - want) <= 1e-3 * fabs(phi_l) * 0.25, "interface condition: %.6g vs %.6g", jump, want);
 }
 
 static void test_two_layers(void)
@@ -228,14 +149,14 @@ static void test_two_layers(void)
     light.dir[2] = -1.0;
     light.intensity[0] = 1.0;
     light.channels = 1;
-    int32_t mirror[3] = {1, 1, -1};
+    ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.boundary = OHM_BOUNDARY_ROBIN;
     p.ordering = "metis";
     p.deposit = OHM_DEPOSIT_EXPONENTIAL;
     p.shadows = OHM_SHADOWS_NONE;
-    p.mirror_low = mirror;
+    p.mirrors = &mirror;
     p.orientation = 1;
     p.sigma_a[0] = sa;
     p.sigma_s[0] = ss;
@@ -253,18 +174,19 @@ static void test_two_layers(void)
     CHECK_MSG(cons < 1e-10, "conservation error %.3g", cons);
     CHECK_MSG(sol.residual < 1e-10, "backward error %.3g", sol.residual);
 
-    double A = ohm_boundary_A(tf.eta, OHM_FRESNEL_EXACT), T = 1.0 - ohm_fresnel_reflectance(tf.eta, 1.0);
+    double T = 1.0 - ohm_fresnel_reflectance(tf.eta, 1.0);
     /* the power that went in, per unit lit area, is T I: check the light's bookkeeping */
     CHECK_REL(sol.power_incident, 1.0 * (W * h) * (W * h), 1e-12);
-    two_layer ref;
-    CHECK(two_layer_init(&ref, 0.02, 1.0, 0.1, 2.0, LA, LB, A, T * 1.0) == 0);
-    check_reference(&ref, 0.02, 0.1, 1.0, 2.0, A, T * 1.0);
+    const ohm_ref_layer layers[2] = {{0.02, 1.0, tf.eta, LA}, {0.1, 2.0, tf.eta, LB}};
+    ohm_ref_two_layer ref;
+    CHECK(ohm_ref_two_layer_init(&ref, layers, T * 1.0) == 0);
+    check_reference(&ref, layers, T * 1.0);
 
     double worst = 0, worst_x = 0, worst_lat = 0;
     for (int k = 1; k <= N; ++k) {
         double x = (N - k + 0.5) * h; /* depth of the cell centre below the lit surface */
         double phi = sol.fluence[0][ohm_network_unknown(&sol.net, ohm_voxel_index(&g, 1, 1, k))];
-        double e = fabs(phi - two_layer_phi(&ref, x)) / two_layer_phi(&ref, x);
+        double e = fabs(phi - ohm_ref_two_layer_phi(&ref, x)) / ohm_ref_two_layer_phi(&ref, x);
         if (e > worst) {
             worst = e;
             worst_x = x;

@@ -363,7 +363,7 @@ static void deposit_moments(void)
     l.channels = 1;
     size_t nf = (size_t)net.nfaces;
     double *en = calloc(nf, sizeof *en), *emu = calloc(nf, sizeof *emu), *ar = calloc(nf, sizeof *ar);
-    CHECK(ohm_light_face_powers(&en, &emu, &ar, 1, &net, &l, 1.3, NULL, &err) == 0);
+    CHECK(ohm_light_face_powers(&en, &emu, &ar, 1, &net, &l, 1.3, NULL, NULL, &err) == 0);
     int64_t top = ohm_network_unknown(&net, ohm_voxel_index(&g, 3, 3, 5));
     int seen = 0;
     for (size_t f = 0; f < nf; ++f)

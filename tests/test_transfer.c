@@ -151,6 +151,26 @@ static void test_parse_single_and_resistance(void)
     rc = parse(&t, "ohm-transfer 1 g=0.9\n0 0.01 10\n", &err);
     CHECK_MSG(rc == 0 && t.g == 0.9 && t.scattering_full == 0 && t.sigma_s[0] == 10, "%s", err.msg);
     ohm_transfer_free(&t);
+    /* eta=column: the last column is the index, interpolated like the rest;
+     * the material's eta is the first point's; grey and RGB */
+    rc = parse(&t, "ohm-transfer 1 eta=column\n0 0.01 1 1.3\n1 0.02 2 1.5\n", &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) {
+        double sa, ss;
+        ohm_transfer_eval(&t, 0.25, &sa, &ss);
+        CHECK(t.eta_column == 1 && t.channels == 1 && t.eta == 1.3);
+        CHECK_REL(ohm_transfer_eval_eta(&t, 0.25), 1.35, 1e-14);
+        CHECK_REL(ss, 1.25, 1e-14);
+        CHECK(ohm_transfer_eval_eta(&t, -5) == 1.3 && ohm_transfer_eval_eta(&t, 7) == 1.5); /* clamped */
+        ohm_transfer_free(&t);
+    }
+    rc = parse(&t, "ohm-transfer 1 eta=column\n0  0.1 0.2 0.3  1 2 3  1.4\n", &err);
+    CHECK_MSG(rc == 0 && t.channels == 3 && t.eta == 1.4 && ohm_transfer_eval_eta(&t, 0) == 1.4, "%s", err.msg);
+    ohm_transfer_free(&t);
+    /* without the column every density has the header's index */
+    rc = parse(&t, "ohm-transfer 1 eta=1.45\n0 0.01 1\n", &err);
+    CHECK_MSG(rc == 0 && !t.eta_column && ohm_transfer_eval_eta(&t, 0.5) == 1.45, "%s", err.msg);
+    ohm_transfer_free(&t);
 }
 
 static void test_errors(void)
@@ -164,6 +184,11 @@ static void test_errors(void)
     expect_error("ohm-transfer 2\n0 0.1 1\n", OHM_ERR_PARSE, 1, "version");
     expect_error("ohm-transfer 1 colour=rgb\n0 0.1 1\n", OHM_ERR_PARSE, 1, "unknown header option \"colour=rgb\"");
     expect_error("ohm-transfer 1 mode=magic\n0 0.1 1\n", OHM_ERR_PARSE, 1, "unknown mode");
+    expect_error("ohm-transfer 1 mode=resistance eta=column\n0 1 1\n", OHM_ERR_PARSE, 1, "eta=column needs optical");
+    expect_error("ohm-transfer 1 eta=column\n0 0.1 1\n", OHM_ERR_PARSE, 2, "expected 4 columns (density sigma_a sigma_s' eta)");
+    expect_error("ohm-transfer 1 eta=column\n0 0.1 1 1.3\n1 0.1 1\n", OHM_ERR_PARSE, 3, "expected 4 columns like the first");
+    expect_error("ohm-transfer 1 eta=column\n0 0.1 1 0.9\n", OHM_ERR_INVALID, 2, "column 4 (eta) must be in [1, 3]");
+    expect_error("ohm-transfer 1 eta=column\n0 0.1 1 nan\n", OHM_ERR_PARSE, 2, "column 4 (eta)");
     expect_error("ohm-transfer 1 eta=0\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=abc\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=1.3 eta=1.4\n0 0.1 1\n", OHM_ERR_PARSE, 1, "twice");
