@@ -35,6 +35,8 @@ static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_
         else if (k == 4 && !strncmp(argv[i], "size", k) && number && x >= 4 && x <= 1000) cfg->size = x;
         else if (k == 7 && !strncmp(argv[i], "photons", k) && number && x >= 16 && x <= 1e12) cfg->photons = (int64_t)x;
         else if (k == 4 && !strncmp(argv[i], "seed", k) && number && x >= 0 && x < 9e15) cfg->seed = (uint64_t)x;
+        else if (k == 6 && !strncmp(argv[i], "hybrid", k) && number && x >= 0 && x <= 1000 && x == floor(x))
+            cfg->hybrid = (int)x;
         else if (k == 7 && !strncmp(argv[i], "fresnel", k) && (!strcmp(val, "exact") || !strcmp(val, "polynomial")))
             cfg->fresnel = strcmp(val, "exact") ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
         else if (k == 7 && !strncmp(argv[i], "deposit", k) &&
@@ -45,7 +47,7 @@ static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_
         else
             return ohm_fail(err, OHM_ERR_USAGE,
                             "validate transport: '%s': expected h=0..10 size=4..1000 photons=16.. seed=N "
-                            "fresnel=exact|polynomial deposit=exponential|point|surface",
+                            "fresnel=exact|polynomial deposit=exponential|point|surface hybrid=0..1000",
                             argv[i]);
     }
     return OHM_OK;
@@ -122,7 +124,7 @@ int ohm_cli_main(int argc, char **argv)
             return ohm_validation_print(stdout, &v) ? 1 : 0;
         }
         if (first + 1 < argc) {
-            fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv | transport [h=MM] [size=MM] [photons=N] [seed=N] [fresnel=exact|polynomial] [deposit=exponential|point|surface]]\n");
+            fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv | transport [h=MM] [size=MM] [photons=N] [seed=N] [fresnel=exact|polynomial] [deposit=exponential|point|surface] [hybrid=N]]\n");
             return 2;
         }
         int vrc = ohm_validate_all(&v, &log, &err);

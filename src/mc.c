@@ -82,6 +82,7 @@ typedef struct mc_scene {
     uint64_t seed;
     double max_path;       /* voxels; INFINITY: no gate                      */
     int total_fluence;     /* tally the unscattered beam's fluence too       */
+    int handoff;           /* > 0: end photons at this scattering (mc.h)     */
     int nthreads;
     const ohm_log *log;
     char what[64];         /* for the progress line                          */
@@ -105,6 +106,8 @@ typedef struct mc_tally {
     double *phi, *face;
     /* over this thread's batches: sums, and sums of squares of batch values */
     double *phi_sum, *phi_sq, *face_sum, *exit_sq;
+    double *handoff; /* n: weight handed to diffusion (mc.h), over every batch; NULL without */
+    double handed;
     double absorbed, out, gated; /* weight, over every batch */
     double batch_absorbed, batch_out; /* at the last batch's start, for: */
     double absorbed_sq, out_sq;       /* sums of squares of batch totals */
@@ -204,6 +207,52 @@ static inline int cross_interface(double u[3], int ax, double ev, double ew, rng
     return 1;
 }
 
+/* The hybrid's handoff (mc.h): weight w at p (voxel coordinates) in unknown
+ * v, cell c, shared between the 8 cell centres around p by trilinear weights,
+ * which keeps its centroid at p (a diffusion source acts at a cell centre); a
+ * share whose cell is not an unknown stays in v. */
+static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c[3], const double p[3], double w)
+{
+    const ohm_network *net = sc->net;
+    const ohm_voxel_grid *g = net->grid;
+    int32_t side[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        double d = p[a] - (c[a] + 0.5);
+        side[a] = d >= 0 ? 1 : -1;
+        f[a] = fabs(d);
+        /* toward a face of the object there is no cell centre to share with:
+         * extrapolate from the one on the other side instead (a negative
+         * share there), which keeps the centroid too */
+        int32_t n[3] = {c[0], c[1], c[2]};
+        n[a] += side[a];
+        int inside = n[a] >= 0 && n[a] < g->dims[a];
+        if (!inside || ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2])) < 0) {
+            side[a] = -side[a];
+            f[a] = -f[a];
+        }
+    }
+    for (int q = 0; q < 8; ++q) {
+        double wq = w;
+        int32_t n[3];
+        for (int a = 0; a < 3; ++a) {
+            int far = (q >> a) & 1;
+            wq *= far ? f[a] : 1.0 - f[a];
+            n[a] = c[a] + (far ? side[a] : 0);
+        }
+        if (wq == 0) continue;
+        int64_t u = v;
+        if (q) {
+            int inside = 1;
+            for (int a = 0; a < 3; ++a) inside &= n[a] >= 0 && n[a] < g->dims[a];
+            int64_t nu = inside ? ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2])) : -1;
+            if (nu >= 0) u = nu;
+        }
+        t->handoff[u] += wq;
+    }
+    t->handed += w;
+}
+
 /* One photon of weight 1, from entry to its end (mc.h). */
 static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
 {
@@ -218,7 +267,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
     double w = 1.0, sa, ss;
     cell_coefficients(sc, v, &sa, &ss);
     double tau = rng_depth(r), path_left = sc->max_path;
-    int scattered = 0; /* the unscattered beam is not diffuse fluence (mc.h) */
+    int scattered = 0; /* scatterings so far; the unscattered beam is not diffuse fluence (mc.h) */
     int64_t ev = 0;
     for (;; ++ev) {
         if (ev >= MAX_EVENTS) {
@@ -255,8 +304,12 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         }
         for (int a = 0; a < 3; ++a) p[a] += s * u[a];
         if (scatters) {
+            if (++scattered == sc->handoff) { /* the hybrid's: diffusion from here */
+                hand_off(sc, t, v, c, p, w);
+                w = 0;
+                break;
+            }
             scatter(u, sc->g, r);
-            scattered = 1;
             tau = rng_depth(r);
         } else {
             tau -= ss * s;
@@ -351,11 +404,13 @@ static void tally_free(mc_tally *t)
     free(t->phi_sq);
     free(t->face_sum);
     free(t->exit_sq);
+    free(t->handoff);
 }
 
-static int tally_alloc(mc_tally *t, const ohm_network *net)
+static int tally_alloc(mc_tally *t, const ohm_network *net, int handoff)
 {
     size_t n = (size_t)(net->n ? net->n : 1), nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    if (handoff > 0 && !(t->handoff = calloc(n, sizeof(double)))) return -1;
     t->phi = calloc(n, sizeof(double));
     t->face = calloc(nf, sizeof(double));
     t->phi_sum = calloc(n, sizeof(double));
@@ -375,6 +430,8 @@ static void merge_tallies(mc_tally *t, int nthreads, const ohm_network *net)
             t[0].exit_sq[v] += t[k].exit_sq[v];
         }
         for (int64_t f = 0; f < net->nfaces; ++f) t[0].face_sum[f] += t[k].face_sum[f];
+        for (int64_t v = 0; v < net->n && t[0].handoff; ++v) t[0].handoff[v] += t[k].handoff[v];
+        t[0].handed += t[k].handed;
         t[0].absorbed += t[k].absorbed;
         t[0].out += t[k].out;
         t[0].gated += t[k].gated;
@@ -417,6 +474,8 @@ static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *
     res->power_in = P;
     res->power_absorbed = P * t->absorbed / photons;
     res->power_out = P * t->out / photons;
+    res->power_handoff = P * t->handed / photons;
+    for (int64_t v = 0; v < net->n && t->handoff; ++v) res->handoff[v] = P * t->handoff[v] / photons;
     res->power_gated = P * t->gated / photons;
     res->power_absorbed_se = batch_stderr(t->absorbed, t->absorbed_sq, P / (double)sc->per_batch);
     res->power_out_se = batch_stderr(t->out, t->out_sq, P / (double)sc->per_batch);
@@ -449,6 +508,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
                    .eta = med->eta,
                    .seed = params->seed,
                    .total_fluence = params->total_fluence,
+                   .handoff = params->handoff > 0 ? (int)fmin(ceil(params->handoff / (1.0 - med->g)), 1e8) : 0,
                    .max_path = params->max_path > 0 ? params->max_path / net->grid->h : INFINITY,
                    .log = params->log};
     int64_t photons = params->photons > 0 ? params->photons : 1000000;
@@ -466,14 +526,15 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     memset(res->fluence_se, 0, n * sizeof *res->fluence_se);
     memset(res->exitance_se, 0, n * sizeof *res->exitance_se);
     memset(res->face_exitance, 0, nf * sizeof *res->face_exitance);
-    res->power_in = res->power_absorbed = res->power_out = res->power_gated = 0;
+    res->power_in = res->power_absorbed = res->power_out = res->power_gated = res->power_handoff = 0;
+    if (params->handoff > 0) memset(res->handoff, 0, n * sizeof *res->handoff);
     res->photons = res->truncated = res->events = 0;
     if (!(P > 0)) { /* unlit in this channel: nothing to trace */
         res->seconds = ohm_now() - t0;
         return OHM_OK;
     }
     /* per thread: this batch's fluence and faces, the sums, the squares */
-    double need = (double)nthreads * (4.0 * (double)n + 2.0 * (double)nf) * sizeof(double);
+    double need = (double)nthreads * ((4.0 + (sc.handoff > 0)) * (double)n + 2.0 * (double)nf) * sizeof(double);
     double limit = ohm_memory_limit(params->max_memory);
     if (need > limit) {
         char nb[32], lb[32];
@@ -494,7 +555,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     for (int k = 0; k < nthreads && !rc; ++k) {
         tally[k].sc = &sc;
         tally[k].thread = k;
-        if (tally_alloc(&tally[k], net))
+        if (tally_alloc(&tally[k], net, sc.handoff))
             rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo tallies (%d threads x %lld cells)",
                           nthreads, (long long)n);
     }

@@ -55,6 +55,14 @@ typedef struct ohm_mc_params {
                           phi is (its source is the first scattering); 1: the
                           unscattered beam's too, what transport codes report */
     double max_memory;  /* bytes the tallies may take; 0: what the machine has */
+    int handoff;        /* > 0: the hybrid of transport and diffusion (solve.h,
+                           hybrid=): a photon ends after `handoff` reduced
+                           scatterings, at its ceil(handoff / (1 - g))-th
+                           scattering (by then its direction is forgotten:
+                           g^k ~ e^-handoff), and its weight becomes an
+                           isotropic diffusion source there, shared between
+                           the nearest cell centres so that its place is kept
+                           (ohm_mc_result.handoff) */
     const ohm_log *log; /* progress; NULL: quiet */
 } ohm_mc_params;
 
@@ -67,6 +75,9 @@ typedef struct ohm_mc_result {
                                          (the mean of its faces', solve.h)     */
     double power_in, power_absorbed, power_out; /* W                           */
     double power_gated;               /* W still travelling at max_path        */
+    double *handoff;                  /* n, params->handoff > 0: W handed to
+                                         diffusion per cell (else unused)      */
+    double power_handoff;             /* their sum                             */
     double power_absorbed_se, power_out_se; /* their standard errors (W)       */
     int64_t photons;                  /* traced                                */
     int64_t truncated;                /* photons stopped after 10^8 events     */

@@ -496,6 +496,92 @@ static int alloc_solution(ohm_solution *sol, ohm_error *err)
     return OHM_OK;
 }
 
+/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
+ * channel: per column, what the photons tallied before their handoff. */
+typedef struct hybrid_part {
+    double *fluence, *face;       /* n and nf per column                   */
+    double *fluence_se, *exit_se; /* scratch for the tracer                */
+    double *power;                /* 3 per column: in, absorbed, out (W)    */
+} hybrid_part;
+
+static int hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err)
+{
+    memset(h, 0, sizeof *h);
+    h->fluence = malloc(n * batch * sizeof(double));
+    h->face = malloc(nf * batch * sizeof(double));
+    h->fluence_se = malloc(n * sizeof(double));
+    h->exit_se = malloc(n * sizeof(double));
+    h->power = malloc(3 * batch * sizeof(double));
+    if (!h->fluence || !h->face || !h->fluence_se || !h->exit_se || !h->power)
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the hybrid's transport part");
+    return OHM_OK;
+}
+
+static void hybrid_free(hybrid_part *h)
+{
+    free(h->fluence), free(h->face), free(h->fluence_se), free(h->exit_se), free(h->power);
+}
+
+/* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
+ * channel c: the frame's light entries traced to their handoff (mc.h); the
+ * photons' own fluence, exitance and power go to h for hybrid_add. */
+static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
+                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
+                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    ohm_light_entries in = {0};
+    int rc = OHM_OK;
+    for (size_t j = 0; j < nb && !rc; ++j) {
+        rc = frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
+        if (rc) break;
+        for (size_t k = 0; k < in.count; ++k) {
+            sol->power_incident += in.entry[k].incident[c];
+            sol->power_entered += in.entry[k].power[c];
+        }
+        ohm_mc_result r = {.fluence = h->fluence + j * n,
+                           .fluence_se = h->fluence_se,
+                           .face_exitance = h->face + j * nf,
+                           .exitance_se = h->exit_se,
+                           .handoff = B + j * n};
+        ohm_mc_params mp = params->mc;
+        mp.total_fluence = params->total_fluence;
+        mp.max_memory = params->max_memory;
+        rc = ohm_mc_trace(&r, net, med, in.entry, in.count, c, &mp, err);
+        if (rc) break;
+        h->power[3 * j] = r.power_in;
+        h->power[3 * j + 1] = r.power_absorbed;
+        h->power[3 * j + 2] = r.power_out;
+        sol->mc_photons += r.photons;
+        sol->mc_events += r.events;
+        sol->mc_truncated += r.truncated;
+        if (r.threads > sol->mc_threads) sol->mc_threads = r.threads;
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
+/* After book_power: the hybrid's transport part added to frames f0..f0+nb of
+ * channel c (X their fluence).  book_power counted the handed-off weight as
+ * in; the photons' absorption and escape before it complete in = entered. */
+static void hybrid_add(ohm_solution *sol, double *X, const hybrid_part *h, size_t f0, size_t nb, int c)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    for (size_t j = 0; j < nb; ++j) {
+        for (size_t v = 0; v < n; ++v) X[j * n + v] += h->fluence[j * n + v];
+        double *fx = sol->face_exitance[c] + (f0 + j) * nf;
+        for (int64_t f = 0; f < net->nfaces; ++f) fx[f] += h->face[j * nf + (size_t)f];
+        double absorbed = h->power[3 * j + 1], out = h->power[3 * j + 2];
+        sol->power_in += absorbed + out;
+        sol->power_absorbed += absorbed;
+        sol->power_out += out;
+        sol->power_in_channel[c] += absorbed + out;
+        sol->power_out_channel[c] += out;
+    }
+}
+
 /* solver=mc refuses what only diffusion has: resistances, the boundary
  * models other than the physical one, a depth band, scenes' own sources. */
 static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
@@ -511,6 +597,10 @@ static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const oh
         return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces every cell: leave depth_band= out");
     if (p->custom_source)
         return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mc needs lights, not a scene's own source vector");
+    if (p->mc.handoff > 0)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: solver=mc traces every scattering: hybrid= hands photons to diffusion, use it with "
+                        "a diffusion solver (direct, cg, amg, auto)");
     return OHM_OK;
 }
 
@@ -678,6 +768,9 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     double *prev_b = batch < (size_t)frames ? malloc((size_t)n * sizeof *prev_b) : NULL;
     cholmod_sparse *A = NULL;
     const ohm_backend_ops *backend = NULL;
+    const int hybrid = params->mc.handoff > 0 && !params->custom_source;
+    hybrid_part hy;
+    memset(&hy, 0, sizeof hy);
     void *bstate = NULL;
     /* per-face powers per frame, shared by the channels (below); declared
      * before the first goto so `done:` may free them */
@@ -689,6 +782,15 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
         goto done;
     }
     rc = alloc_solution(sol, err);
+    if (!rc && hybrid) rc = hybrid_alloc(&hy, (size_t)n, nf, batch, err);
+    if (!rc && hybrid && (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v))
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces light through sigma_a and sigma_s', not resistances");
+    if (!rc && hybrid && params->boundary != OHM_BOUNDARY_ROBIN)
+        rc = ohm_fail(err, OHM_ERR_USAGE,
+                      "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it, leave it out",
+                      ohm_boundary_name(params->boundary));
+    if (!rc && hybrid && sol->band_active)
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: leave depth_band= out");
     if (rc) goto done;
 
     /* Shadow rays and Fresnel do not depend on the channel: trace every
@@ -696,7 +798,7 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
      * they fit in the batch budget), deposit them per channel below. */
     int cached = 0;
     const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
-    if (!params->custom_source &&
+    if (!params->custom_source && !hybrid &&
         3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
         cached = 1;
         for (int c = 0; c < channels && cached; ++c) {
@@ -780,12 +882,15 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             for (size_t f0 = 0; f0 < (size_t)frames && !rc; f0 += batch) {
                 size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
                 t0 = ohm_now();
-                rc = fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
-                                  fp_enter_mu, cached ? fp_arrive : NULL, occ, err);
+                rc = hybrid ? hybrid_sources(sol, B, &hy, f0, nb, c, &med, mat, lights, nlights, params, occ, err)
+                            : fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
+                                           fp_enter_mu, cached ? fp_arrive : NULL, occ, err);
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
                 double *X = sol->fluence[c] + f0 * (size_t)n;
-                size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 ? prev_b : NULL, (size_t)n);
+                /* (the hybrid adds its transport part to each frame after the
+                 * solve: a frame is not taken whole from the batch before) */
+                size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 && !hybrid ? prev_b : NULL, (size_t)n);
                 warm_start(X, sol, f0, c, warm_from, (size_t)n);
                 scale_unknowns(X, 1, (size_t)n, &med, 0);
                 t0 = ohm_now();
@@ -802,7 +907,8 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 sol->solves += (int64_t)nu;
                 expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
                 book_power(sol, X, B, ga, gb, f0, nb, c);
-                if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
+                if (hybrid) hybrid_add(sol, X, &hy, f0, nb, c);
+                else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
                     rc = add_unscattered(sol, X, f0, nb, c, &med, mat, lights, nlights, occ, err);
             }
             solved[c] = 1;
@@ -818,6 +924,7 @@ done:
         free(fp_arrive[c]);
     }
     ohm_occluder_free(occ);
+    hybrid_free(&hy);
     if (backend) backend->destroy(bstate);
     free(col_of);
     free(prev_b);

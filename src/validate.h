@@ -73,6 +73,7 @@ typedef struct ohm_transport_config {
     int threads;              /* 0: every core                             */
     ohm_fresnel fresnel;      /* the diffusion solve's settings            */
     ohm_deposit deposit;
+    int hybrid;               /* > 0: -solve hybrid= (solve.h, mc.handoff)  */
     double tol_fluence_mean, tol_fluence_rms, tol_absorbed, tol_reflectance, tol_rings;
 } ohm_transport_config;
 void ohm_transport_config_default(ohm_transport_config *cfg); /* issue 13's targets, h 1, size 60, 1e6 */

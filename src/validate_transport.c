@@ -81,6 +81,12 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     p.deposit = cfg->deposit;
     p.solver = mc ? "mc" : "auto";
     if (mc) p.mc = *mc;
+    if (!mc && cfg->hybrid > 0) { /* the hybrid: its transport part from another stream than the reference's */
+        p.mc.photons = cfg->photons;
+        p.mc.seed = cfg->seed + 1000003;
+        p.mc.threads = cfg->threads;
+        p.mc.handoff = cfg->hybrid;
+    }
     if (sc->inclusion) {
         double *sa, *ss;
         int rc = inclusion_media(&sa, &ss, g, sc, err);
@@ -247,6 +253,7 @@ void ohm_transport_config_default(ohm_transport_config *cfg)
     cfg->seed = 1;
     cfg->fresnel = OHM_FRESNEL_EXACT;
     cfg->deposit = OHM_DEPOSIT_EXPONENTIAL;
+    cfg->hybrid = OHM_HYBRID_PENCIL; /* -solve's default for a pencil beam (hybrid=auto) */
     /* issue 13's targets */
     cfg->tol_fluence_mean = 0.02;
     cfg->tol_fluence_rms = 0.04;

@@ -201,6 +201,29 @@ expect_exit 2 "mc: depth band" -- "$OHM" "${MC[@]}" -solve solver=mc depth_band=
 expect_exit 1 "mc: tallies refused beyond max_memory" -- "$OHM" "${MC[@]}" -solve solver=mc photons=1e3 max_memory=0.01
 check "mc: the refusal names both figures" grep -q "tallies need about .* more than the 10 KiB max_memory= allows" "$T/stderr"
 
+# hybrid=: a pencil beam's first reduced scatterings traced, diffusion after;
+# auto is 10 for a pencil beam and 0 otherwise; the books close exactly
+BEAM=(-read file=samples/spot.obj size=50 -voxelize dim=16 -material sigma_a=0.05 sigma_s=1 eta=1.3
+      -light type=pencil pos=0,40,0 dir=0,-1,0)
+expect_exit 0 "hybrid: auto on a pencil beam" -- "$OHM" "${BEAM[@]}" -solve photons=20000 -stats file="$T/hy.json"
+expect_exit 0 "hybrid: off" -- "$OHM" "${BEAM[@]}" -solve hybrid=0 -stats file="$T/hy0.json"
+expect_exit 0 "hybrid: auto on a directional light" -- "$OHM" "${MC[@]}" -solve -stats file="$T/hyd.json"
+check "hybrid: stats" $PY - "$T/hy.json" "$T/hy0.json" "$T/hyd.json" <<'PY'
+import json, sys
+h, off, d = (json.load(open(f)) for f in sys.argv[1:4])
+assert h["hybrid"] == 10 and h["mc_photons"] == 20000 and h["solver"] != "mc", h
+assert off["hybrid"] == 0 and "mc_photons" not in off and d["hybrid"] == 0, (off, d)
+assert abs(h["power_in"] - h["power_absorbed"] - h["power_out"]) < 1e-10 * h["power_in"], h
+assert abs(h["power_in"] - h["power_entered"]) < 1e-12 * h["power_entered"], h
+assert h["power_entered"] == off["power_entered"], (h, off)
+# the same light leaves, to the model's difference near the beam
+assert abs(h["power_out"] - off["power_out"]) < 0.1 * off["power_out"], (h["power_out"], off["power_out"])
+PY
+expect_exit 2 "hybrid: not a number" -- "$OHM" "${BEAM[@]}" -solve hybrid=ten
+expect_error_line "hybrid: not a number" "hybrid=ten: expected auto or a whole number"
+expect_exit 2 "hybrid: with solver=mc" -- "$OHM" "${BEAM[@]}" -solve solver=mc hybrid=5
+expect_exit 2 "hybrid: with boundary=neumann" -- "$OHM" "${BEAM[@]}" -solve hybrid=5 boundary=neumann
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'
