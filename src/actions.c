@@ -369,7 +369,11 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         ohm_stats_set_str(&s->stats, "material", m.name);
         ohm_stats_set_str(&s->stats, "transfer", tp);
         ohm_log_info(&s->log, "material: transfer function %s, %zu points, %d channel(s)%s%s", tp, t.n, t.channels,
-                     t.resistance_mode ? ", resistances" : "", t.eta_column ? ", a refractive index per density" : "");
+                     t.resistance_mode ? ", resistances" : "",
+                     t.eta_column && t.g_column ? ", an index and an anisotropy per density"
+                     : t.eta_column             ? ", a refractive index per density"
+                     : t.g_column               ? ", an anisotropy per density"
+                                                : "");
         return OHM_OK;
     }
     if (preset) {
@@ -605,7 +609,7 @@ static const ohm_opt_spec solve_opts[] = {
  * the cell when the grid is coarser than the scan), then the transfer
  * function.  Arrays in unknown order (interior cells, x fastest). */
 static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, double **eta_cell,
-                              ohm_error *err)
+                              double **g_cell, ohm_error *err)
 {
     const ohm_voxel_grid *g = &s->grid;
     const ohm_transfer *t = &s->transfer;
@@ -618,6 +622,10 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
     if (t->eta_column) { /* the index per cell (transfer.h): network.h's interfaces */
         *eta_cell = malloc((n ? n : 1) * sizeof(double));
         if (!*eta_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the refractive index");
+    }
+    if (t->g_column) { /* the anisotropy per cell: transport's phase function (mc.h) */
+        *g_cell = malloc((n ? n : 1) * sizeof(double));
+        if (!*g_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the anisotropy");
     }
     /* the scan's finest spacing decides between sampling and averaging */
     double spacing = INFINITY;
@@ -649,6 +657,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
                     percell[nc + ch][u] = ss[ch];
                 }
                 if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, density);
+                if (*g_cell) (*g_cell)[u] = ohm_transfer_eval_g(t, density);
                 ++u;
             }
     if (t->resistance_mode) {
@@ -661,6 +670,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
         }
         p->give_media = 1; /* the solution keeps them for its sigma_a / sigma_s grids: no copies */
         p->eta_v = *eta_cell;
+        p->g_v = *g_cell;
     }
     ohm_log_info(&s->log, "material: %zu cells from %s through %s (%s)", n, s->scan_path, s->transfer_path,
                  average ? "box-averaged: the grid is coarser than the volume" : "trilinear");
@@ -738,13 +748,13 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
     drop_solution(s);
     double t0 = ohm_now();
-    double *percell[2 * OHM_MAX_CHANNELS] = {NULL}, *eta_cell = NULL;
+    double *percell[2 * OHM_MAX_CHANNELS] = {NULL}, *eta_cell = NULL, *g_cell = NULL;
     int rc = OHM_OK;
     if (s->have_transfer) {
         if (!s->have_scan)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
                             inv->where);
-        rc = material_from_scan(s, &p, percell, &eta_cell, err);
+        rc = material_from_scan(s, &p, percell, &eta_cell, &g_cell, err);
     }
     if (!rc) {
         rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
@@ -752,6 +762,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
     free(eta_cell);
+    free(g_cell);
     if (rc) return rc;
     s->have_solution = 1;
     const ohm_solution *sol = &s->solution;
@@ -860,6 +871,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         if (p.mc.handoff > 0) {
             ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
             ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
+            ohm_stats_set(st, "mc_events_per_photon",
+                          sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
         }
     }
     return OHM_OK;

@@ -76,13 +76,15 @@ typedef struct mc_scene {
     const ohm_light_entry *entries;
     double *cdf;           /* nentries: cumulative entering power, last = 1 */
     size_t nentries;
-    double g, ss_scale;    /* sigma_s = sigma_s' * ss_scale = sigma_s' / (1 - g) */
+    double g, ss_scale;    /* sigma_s = sigma_s' * ss_scale = sigma_s' / (1 - g); per cell
+                              with med->g_v (cell_g)                           */
     double eta;
     int64_t per_batch;     /* photons per batch                              */
     uint64_t seed;
     double max_path;       /* voxels; INFINITY: no gate                      */
     int total_fluence;     /* tally the unscattered beam's fluence too       */
-    int handoff;           /* > 0: end photons at this scattering (mc.h)     */
+    double handoff;        /* > 0: end photons after this many reduced
+                              scatterings, each counting 1 - g (mc.h)          */
     int nthreads;
     const ohm_log *log;
     char what[64];         /* for the progress line                          */
@@ -94,7 +96,8 @@ static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, 
     const ohm_channel_medium *m = sc->med;
     double h = sc->net->grid->h;
     *sa = (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) * h;
-    *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * sc->ss_scale * h;
+    double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
+    *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * scale * h;
 }
 
 /* ---- one thread's tallies ------------------------------------------------------ */
@@ -178,6 +181,12 @@ static size_t pick_entry(const mc_scene *sc, double xi)
         else hi = mid;
     }
     return lo;
+}
+
+/* The anisotropy of unknown v. */
+static inline double cell_g(const mc_scene *sc, int64_t v)
+{
+    return sc->med->g_v ? sc->med->g_v[v] : sc->g;
 }
 
 /* The index of unknown v. */
@@ -267,7 +276,8 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
     double w = 1.0, sa, ss;
     cell_coefficients(sc, v, &sa, &ss);
     double tau = rng_depth(r), path_left = sc->max_path;
-    int scattered = 0; /* scatterings so far; the unscattered beam is not diffuse fluence (mc.h) */
+    int scattered = 0;   /* the unscattered beam is not diffuse fluence (mc.h) */
+    double reduced = 0;  /* reduced scatterings so far: sum of 1 - g (the hybrid's clock) */
     int64_t ev = 0;
     for (;; ++ev) {
         if (ev >= MAX_EVENTS) {
@@ -304,12 +314,14 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         }
         for (int a = 0; a < 3; ++a) p[a] += s * u[a];
         if (scatters) {
-            if (++scattered == sc->handoff) { /* the hybrid's: diffusion from here */
+            double gv = cell_g(sc, v);
+            scattered = 1;
+            if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff) { /* the hybrid's: diffusion from here */
                 hand_off(sc, t, v, c, p, w);
                 w = 0;
                 break;
             }
-            scatter(u, sc->g, r);
+            scatter(u, gv, r);
             tau = rng_depth(r);
         } else {
             tau -= ss * s;
@@ -508,7 +520,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
                    .eta = med->eta,
                    .seed = params->seed,
                    .total_fluence = params->total_fluence,
-                   .handoff = params->handoff > 0 ? (int)fmin(ceil(params->handoff / (1.0 - med->g)), 1e8) : 0,
+                   .handoff = params->handoff > 0 ? params->handoff : 0,
                    .max_path = params->max_path > 0 ? params->max_path / net->grid->h : INFINITY,
                    .log = params->log};
     int64_t photons = params->photons > 0 ? params->photons : 1000000;

@@ -57,9 +57,10 @@ typedef struct ohm_mc_params {
     double max_memory;  /* bytes the tallies may take; 0: what the machine has */
     int handoff;        /* > 0: the hybrid of transport and diffusion (solve.h,
                            hybrid=): a photon ends after `handoff` reduced
-                           scatterings, at its ceil(handoff / (1 - g))-th
-                           scattering (by then its direction is forgotten:
-                           g^k ~ e^-handoff), and its weight becomes an
+                           scatterings (each scattering counts 1 - g of its
+                           cell: ceil(handoff / (1 - g)) scatterings in one
+                           medium, when its direction is forgotten, g^k ~
+                           e^-handoff), and its weight becomes an
                            isotropic diffusion source there, shared between
                            the nearest cell centres so that its place is kept
                            (ohm_mc_result.handoff) */

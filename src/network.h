@@ -114,6 +114,7 @@ typedef struct ohm_channel_medium {
     double eta;
     const double *eta_v;        /* n, the index per cell, or NULL -> eta (below) */
     double g;                   /* anisotropy: transport only (mc.h), sigma_s = sigma_s' / (1 - g) */
+    const double *g_v;          /* n, the anisotropy per cell (transport only), or NULL -> g */
     ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
 } ohm_channel_medium;
 

@@ -70,6 +70,22 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
  * per-cell media compacted from interior-cell order to the band's unknowns
  * into compact[] (the same array for the same input, so channels that share
  * a medium still share a factor).  *out is params with those arrays. */
+/* A per-interior-cell array compacted to the band's kept unknowns (malloc'd;
+ * NULL: out of memory). */
+static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const double *in, int64_t kept)
+{
+    double *o = malloc((size_t)(kept ? kept : 1) * sizeof *o);
+    if (!o) return NULL;
+    size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
+    int64_t ii = 0, u = 0;
+    for (size_t cell = 0; cell < ncells; ++cell) {
+        if (!grid->inside[cell]) continue;
+        if (sol->band_active[cell]) o[u++] = in[ii];
+        ++ii;
+    }
+    return o;
+}
+
 static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[2 * OHM_MAX_CHANNELS],
                       const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
                       const ohm_log *log, ohm_error *err)
@@ -80,7 +96,6 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: depth_band= needs optical coefficients (its depth is k / sigma_tr); with "
                         "resistance= leave depth_band=0");
-    size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
     int64_t ni = (int64_t)grid->interior_cells;
     double sigma_tr = INFINITY;
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -128,28 +143,15 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
                 dst[q][c] = same;
                 continue;
             }
-            double *o = malloc((size_t)kept * sizeof *o);
+            double *o = compact_to_band(sol, grid, in, kept);
             if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's material");
             compact[used++] = o;
-            int64_t ii = 0, u = 0;
-            for (size_t cell = 0; cell < ncells; ++cell) {
-                if (!grid->inside[cell]) continue;
-                if (sol->band_active[cell]) o[u++] = in[ii];
-                ++ii;
-            }
             dst[q][c] = o;
         }
-    if (params->eta_v) {
-        sol->band_eta = malloc((size_t)kept * sizeof *sol->band_eta);
-        if (!sol->band_eta) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
-        int64_t ii = 0, u = 0;
-        for (size_t cell = 0; cell < ncells; ++cell) {
-            if (!grid->inside[cell]) continue;
-            if (sol->band_active[cell]) sol->band_eta[u++] = params->eta_v[ii];
-            ++ii;
-        }
-        out->eta_v = sol->band_eta;
-    }
+    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, kept)))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
+    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, kept)))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
     return OHM_OK;
 }
 
@@ -245,6 +247,7 @@ void ohm_solution_free(ohm_solution *sol)
     ohm_network_free(&sol->net);
     free(sol->band_active);
     free(sol->band_eta);
+    free(sol->band_g);
     memset(sol, 0, sizeof *sol);
 }
 
@@ -270,6 +273,7 @@ static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const o
     med->eta = mat->eta;
     med->eta_v = med->resistance_mode ? NULL : p->eta_v;
     med->g = mat->g;
+    med->g_v = med->resistance_mode ? NULL : p->g_v;
     med->fresnel = p->fresnel;
 }
 

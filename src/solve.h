@@ -58,6 +58,10 @@ typedef struct ohm_solve_params {
      * channel, or NULL: the material's eta; network.h's interfaces.  Not
      * taken by give_media: the caller frees it after the solve. */
     const double *eta_v;
+    /* the anisotropy per unknown (interior cells), in (-1, 1), or NULL: the
+     * material's g; transport only (solver=mc, hybrid=): diffusion takes
+     * sigma_s' as given.  Not taken by give_media either. */
+    const double *g_v;
     /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
      * caller and ohm_solve takes them, whether it succeeds or fails (the
      * caller must not free them): the solution keeps them as medium_sa /
@@ -114,7 +118,7 @@ typedef struct ohm_solution {
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */
-    double *band_eta;                   /* eta_v compacted to the band's unknowns, or NULL */
+    double *band_eta, *band_g;          /* eta_v, g_v compacted to the band's unknowns, or NULL */
     double t_network;                   /* the network's topology: depth band (if any),
                                            unknowns, faces, pieces — once per grid    */
     double t_assemble;                  /* the matrices (and ga, gb), summed over the

@@ -15,7 +15,7 @@
 #include <sys/stat.h>
 
 #define TRANSFER_LINE_MAX 4096 /* characters per line, terminator excluded */
-#define TRANSFER_TOKENS_MAX 9  /* the widest row has 8 columns (RGB + eta)  */
+#define TRANSFER_TOKENS_MAX 10 /* the widest row has 9 columns (RGB, eta, g) */
 
 void ohm_transfer_free(ohm_transfer *t)
 {
@@ -24,6 +24,7 @@ void ohm_transfer_free(ohm_transfer *t)
     free(t->sigma_a);
     free(t->sigma_s);
     free(t->eta_points);
+    free(t->g_points);
     memset(t, 0, sizeof *t);
 }
 
@@ -101,9 +102,13 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
             double g;
             if (seen_g) return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: g given twice", name, line);
             seen_g = 1;
+            if (strcmp(tok[i] + 2, "column") == 0) {
+                t->g_column = 1;
+                continue;
+            }
             if (parse_number(tok[i] + 2, &g) || !(g > -1.0 && g < 1.0))
                 return ohm_fail(err, OHM_ERR_PARSE,
-                                "%s:%zu: bad header: g (the anisotropy) must be a number in (-1, 1), got \"%s\"", name,
+                                "%s:%zu: bad header: g (the anisotropy) must be a number in (-1, 1) or column, got \"%s\"", name,
                                 line, tok[i] + 2);
             t->g = g;
         } else if (strncmp(tok[i], "scattering=", 11) == 0) {
@@ -124,9 +129,9 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
                             name, line, tok[i]);
         }
     }
-    if (t->resistance_mode && t->eta_column)
-        return ohm_fail(err, OHM_ERR_PARSE,
-                        "%s:%zu: bad header: eta=column needs optical coefficients, not mode=resistance", name, line);
+    if (t->resistance_mode && (t->eta_column || t->g_column))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: bad header: %s=column needs optical coefficients, not mode=resistance",
+                        name, line, t->eta_column ? "eta" : "g");
     return OHM_OK;
 }
 
@@ -150,6 +155,11 @@ static int push_point(ohm_transfer *t, size_t *cap, const double *vals, ohm_erro
             if (!e) return ohm_fail(err, OHM_ERR_NOMEM, "transfer: out of memory");
             t->eta_points = e;
         }
+        if (t->g_column) {
+            double *g = realloc(t->g_points, nc * sizeof *g);
+            if (!g) return ohm_fail(err, OHM_ERR_NOMEM, "transfer: out of memory");
+            t->g_points = g;
+        }
         *cap = nc;
     }
     t->density[t->n] = vals[0];
@@ -158,6 +168,7 @@ static int push_point(ohm_transfer *t, size_t *cap, const double *vals, ohm_erro
         t->sigma_s[t->n * (size_t)ch + (size_t)c] = vals[1 + ch + c];
     }
     if (t->eta_column) t->eta_points[t->n] = vals[1 + 2 * ch];
+    if (t->g_column) t->g_points[t->n] = vals[1 + 2 * ch + t->eta_column];
     t->n++;
     return OHM_OK;
 }
@@ -171,41 +182,52 @@ static int parse_point(ohm_transfer *t, size_t *cap, char **tok, int ntok, const
                             "%s:%zu: expected 3 columns (density resistance ground) in mode=resistance, got %d", name,
                             line, ntok);
     } else if (t->n == 0) {
-        int e = t->eta_column;
+        int e = t->eta_column + t->g_column;
+        const char *tail = t->eta_column && t->g_column ? " eta g" : t->eta_column ? " eta" : t->g_column ? " g" : "";
         if (ntok != 3 + e && ntok != 7 + e)
             return ohm_fail(err, OHM_ERR_PARSE,
                             "%s:%zu: expected %d columns (density sigma_a sigma_s'%s) or %d (density sa_r sa_g sa_b ss_r "
                             "ss_g ss_b%s), got %d",
-                            name, line, 3 + e, e ? " eta" : "", 7 + e, e ? " eta" : "", ntok);
+                            name, line, 3 + e, tail, 7 + e, tail, ntok);
         t->channels = ntok == 3 + e ? 1 : 3;
-    } else if (ntok != 1 + 2 * t->channels + t->eta_column) {
+    } else if (ntok != 1 + 2 * t->channels + t->eta_column + t->g_column) {
         return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: expected %d columns like the first point, got %d", name, line,
-                        1 + 2 * t->channels + t->eta_column, ntok);
+                        1 + 2 * t->channels + t->eta_column + t->g_column, ntok);
     }
-    static const char *const optical_grey[] = {"density", "sigma_a", "sigma_s'", "eta"};
-    static const char *const optical_rgb[] = {"density",      "sigma_a (R)",  "sigma_a (G)",  "sigma_a (B)",
-                                              "sigma_s' (R)", "sigma_s' (G)", "sigma_s' (B)", "eta"};
+    /* the extra columns' names: eta, then g (either may be absent) */
+    const int eta_col = t->eta_column ? 1 + 2 * t->channels : -1;
+    const int g_col = t->g_column ? 1 + 2 * t->channels + t->eta_column : -1;
+    static const char *const optical_grey[] = {"density", "sigma_a", "sigma_s'", "", ""}; /* "": eta_col, g_col */
+    static const char *const optical_rgb[] = {"density",      "sigma_a (R)",  "sigma_a (G)",  "sigma_a (B)", "sigma_s' (R)",
+                                              "sigma_s' (G)", "sigma_s' (B)", "",             ""};
     static const char *const resist[] = {"density", "resistance", "ground"};
-    const char *const *col = t->resistance_mode ? resist : t->channels == 3 ? optical_rgb : optical_grey;
+    const char *const *cols = t->resistance_mode ? resist : t->channels == 3 ? optical_rgb : optical_grey;
+
     double v[TRANSFER_TOKENS_MAX];
     for (int i = 0; i < ntok; ++i) {
         if (parse_number(tok[i], &v[i]))
             return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: column %d (%s): \"%s\" is not a finite number", name, line,
-                            i + 1, col[i], tok[i]);
+                            i + 1, i == eta_col ? "eta" : i == g_col ? "g" : cols[i], tok[i]);
         if (i == 0) continue;
-        if (!t->resistance_mode && i == 1 + 2 * t->channels) { /* eta=column */
+        if (i == eta_col) {
             if (!(v[i] >= 1.0 && v[i] <= 3.0))
                 return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (eta) must be in [1, 3], got %s", name, line,
+                                i + 1, tok[i]);
+            continue;
+        }
+        if (i == g_col) {
+            if (!(v[i] > -1.0 && v[i] < 1.0))
+                return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (g) must be in (-1, 1), got %s", name, line,
                                 i + 1, tok[i]);
             continue;
         }
         int positive = t->resistance_mode || i > t->channels; /* sigma_s' and resistances: > 0 */
         if (positive && !(v[i] > 0.0))
             return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be > 0, got %s", name, line, i + 1,
-                            col[i], tok[i]);
+                            cols[i], tok[i]);
         if (!positive && v[i] < 0.0)
             return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be >= 0, got %s", name, line, i + 1,
-                            col[i], tok[i]);
+                            cols[i], tok[i]);
     }
     if (t->n > 0 && !(v[0] > t->density[t->n - 1]))
         return ohm_fail(err, OHM_ERR_INVALID,
@@ -271,7 +293,9 @@ int ohm_transfer_parse(ohm_transfer *out, const char *text, size_t len, const ch
     if (t.resistance_mode) t.channels = 1;
     if (t.eta_column) t.eta = t.eta_points[0]; /* the material's: the scale of network.h's unknowns */
     if (t.scattering_full && !t.resistance_mode) /* sigma_s' = sigma_s (1 - g): what diffusion needs */
-        for (size_t i = 0; i < t.n * (size_t)t.channels; ++i) t.sigma_s[i] *= 1.0 - t.g;
+        for (size_t i = 0; i < t.n * (size_t)t.channels; ++i)
+            t.sigma_s[i] *= 1.0 - (t.g_column ? t.g_points[i / (size_t)t.channels] : t.g);
+    if (t.g_column) t.g = t.g_points[0]; /* the material's (reports) */
     *out = t;
     return OHM_OK;
 fail:
@@ -355,13 +379,25 @@ static void bracket(const ohm_transfer *t, double density, size_t *pi0, size_t *
     *pw = w;
 }
 
-double ohm_transfer_eval_eta(const ohm_transfer *t, double density)
+/* One extra column (eta, g) at a density, or its header value when it is
+ * not a column (points NULL). */
+static double eval_column(const ohm_transfer *t, const double *points, double constant, double density)
 {
-    if (!t->eta_column || t->n == 0) return t->eta;
+    if (!points || t->n == 0) return constant;
     size_t i0, i1;
     double w;
     bracket(t, density, &i0, &i1, &w);
-    return t->eta_points[i0] + w * (t->eta_points[i1] - t->eta_points[i0]);
+    return points[i0] + w * (points[i1] - points[i0]);
+}
+
+double ohm_transfer_eval_g(const ohm_transfer *t, double density)
+{
+    return eval_column(t, t->g_column ? t->g_points : NULL, t->g, density);
+}
+
+double ohm_transfer_eval_eta(const ohm_transfer *t, double density)
+{
+    return eval_column(t, t->eta_column ? t->eta_points : NULL, t->eta, density);
 }
 
 void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss)

@@ -1,14 +1,16 @@
 /* transfer.h — transfer functions: density -> optical coefficients.
  *
  * The file format (documented in docs/transfer-functions.md):
- *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3|column] [g=0] [scattering=reduced|full]
+ *   ohm-transfer 1 [mode=optical|resistance] [eta=1.3|column] [g=0|column] [scattering=reduced|full]
  *   # comments; then one control point per line, increasing density:
- *   density  sigma_a  sigma_s'  [eta]               (grey)
- *   density  sa_r sa_g sa_b  ss_r ss_g ss_b  [eta]  (RGB)
+ *   density  sigma_a  sigma_s'  [eta] [g]               (grey)
+ *   density  sa_r sa_g sa_b  ss_r ss_g ss_b  [eta] [g]  (RGB)
  *   density  resistance  ground                     (mode=resistance, ohms)
  * eta=column: the last column is the refractive index at that density, in
  * [1, 3], interpolated like the others (network.h's interfaces where it
- * changes between cells).
+ * changes between cells); g=column: the last column is the anisotropy, in
+ * (-1, 1) (transport: mc.h; with scattering=full each point's sigma_s' =
+ * sigma_s (1 - its g)).
  * scattering=full: the third column is sigma_s, and sigma_s' = sigma_s (1 - g)
  * is kept (diffusion needs only that; g shapes Monte Carlo's phase function).
  * Piecewise linear between points, clamped outside them.  Validated on load:
@@ -27,6 +29,8 @@ typedef struct ohm_transfer {
     double eta;               /* the header's, or with eta_column the first point's */
     int eta_column;           /* eta=column: every point gives its index          */
     double *eta_points;       /* n when eta_column, else NULL                     */
+    int g_column;             /* g=column: every point gives its anisotropy       */
+    double *g_points;         /* n when g_column, else NULL                       */
     double g;                 /* scattering anisotropy (header g=)               */
     int scattering_full;      /* the file gave sigma_s (converted to sigma_s')    */
     size_t n;                 /* control points                                  */
@@ -44,5 +48,8 @@ void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double
 
 /* The refractive index at a density: the column's (eta=column), else eta. */
 double ohm_transfer_eval_eta(const ohm_transfer *t, double density);
+
+/* The anisotropy at a density: the column's (g=column), else g. */
+double ohm_transfer_eval_g(const ohm_transfer *t, double density);
 
 #endif

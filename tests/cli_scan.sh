@@ -37,7 +37,11 @@ lo, hi = g['sigma_s_g'].evalMinMax(); assert hi > lo > 0, (lo, hi)"
 # the index changes the light (against the same media at one index)
 printf 'ohm-transfer 1 eta=column\n5000 0.01 1.0 1.33\n15000 0.1 3.0 1.55\n' >"$T/eta.transfer"
 printf 'ohm-transfer 1 eta=1.33\n5000 0.01 1.0\n15000 0.1 3.0\n' >"$T/one.transfer"
-for run in "eta diffusion:eta:" "one index:one:" "eta mc:eta:solver=mc photons=20000 seed=3"; do
+# and an anisotropy per density (g=column) with full sigma_s: the same sigma_s' as eta.transfer
+printf 'ohm-transfer 1 eta=column g=column scattering=full\n5000 0.01 2.0 1.33 0.5\n15000 0.1 30 1.55 0.9\n' \
+  >"$T/g.transfer"
+for run in "eta diffusion:eta:" "one index:one:" "eta mc:eta:solver=mc photons=20000 seed=3" "g diffusion:g:" \
+  "g mc:g:solver=mc photons=20000 seed=3"; do
   IFS=: read -r what tf opts <<<"$run"
   expect_exit 0 "$what" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 spacing=0.625 \
     -voxelize dim=24 threshold=5000 -material transfer="$T/$tf.transfer" -light dir=0,-1,0 -solve $opts \
@@ -46,9 +50,15 @@ done
 check "eta column: conservation, and the index matters" $PY - "$T" <<'PY'
 import json, sys
 d = sys.argv[1]
-eta, one, mc = (json.load(open(f"{d}/{n}.json")) for n in ("eta_diffusion", "one_index", "eta_mc"))
-for s in (eta, one, mc):
+eta, one, mc, gd, gmc = (json.load(open(f"{d}/{n}.json"))
+                         for n in ("eta_diffusion", "one_index", "eta_mc", "g_diffusion", "g_mc"))
+for s in (eta, one, mc, gd, gmc):
     assert s["conservation_error"] < 1e-10, s["conservation_error"]
+# diffusion sees only sigma_s' = sigma_s (1 - g): the g column changes nothing there (but
+# the round-off of 30 x (1 - 0.9))
+assert abs(gd["power_out"] - eta["power_out"]) < 1e-12 * eta["power_out"], (gd["power_out"], eta["power_out"])
+# transport sees the phase function: another sample, close (similarity)
+assert gmc["power_out"] != mc["power_out"] and abs(gmc["power_out"] - mc["power_out"]) < 0.1 * mc["power_out"]
 assert eta["residual"] < 1e-12, eta["residual"]
 # the shell's 1.55 reflects more light back inside at the surface: less leaves
 rel = abs(eta["power_out"] - one["power_out"]) / one["power_out"]

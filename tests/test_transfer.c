@@ -167,6 +167,20 @@ static void test_parse_single_and_resistance(void)
     rc = parse(&t, "ohm-transfer 1 eta=column\n0  0.1 0.2 0.3  1 2 3  1.4\n", &err);
     CHECK_MSG(rc == 0 && t.channels == 3 && t.eta == 1.4 && ohm_transfer_eval_eta(&t, 0) == 1.4, "%s", err.msg);
     ohm_transfer_free(&t);
+    /* g=column after eta: with scattering=full each point keeps sigma_s' = sigma_s (1 - its g) */
+    rc = parse(&t, "ohm-transfer 1 eta=column g=column scattering=full\n0 0.01 10 1.3 0.9\n1 0.02 10 1.5 0.5\n", &err);
+    CHECK_MSG(rc == 0, "%s", err.msg);
+    if (!rc) {
+        CHECK(t.g_column && t.eta_column && t.g == 0.9);
+        CHECK_REL(t.sigma_s[0], 1.0, 1e-14);
+        CHECK_REL(t.sigma_s[1], 5.0, 1e-14);
+        CHECK_REL(ohm_transfer_eval_g(&t, 0.5), 0.7, 1e-14);
+        CHECK_REL(ohm_transfer_eval_eta(&t, 0.5), 1.4, 1e-14);
+        ohm_transfer_free(&t);
+    }
+    rc = parse(&t, "ohm-transfer 1 g=0.3\n0 0.01 1\n", &err);
+    CHECK_MSG(rc == 0 && !t.g_column && ohm_transfer_eval_g(&t, 4) == 0.3, "%s", err.msg);
+    ohm_transfer_free(&t);
     /* without the column every density has the header's index */
     rc = parse(&t, "ohm-transfer 1 eta=1.45\n0 0.01 1\n", &err);
     CHECK_MSG(rc == 0 && !t.eta_column && ohm_transfer_eval_eta(&t, 0.5) == 1.45, "%s", err.msg);
@@ -189,6 +203,10 @@ static void test_errors(void)
     expect_error("ohm-transfer 1 eta=column\n0 0.1 1 1.3\n1 0.1 1\n", OHM_ERR_PARSE, 3, "expected 4 columns like the first");
     expect_error("ohm-transfer 1 eta=column\n0 0.1 1 0.9\n", OHM_ERR_INVALID, 2, "column 4 (eta) must be in [1, 3]");
     expect_error("ohm-transfer 1 eta=column\n0 0.1 1 nan\n", OHM_ERR_PARSE, 2, "column 4 (eta)");
+    expect_error("ohm-transfer 1 g=column\n0 0.1 1 1\n", OHM_ERR_INVALID, 2, "column 4 (g) must be in (-1, 1)");
+    expect_error("ohm-transfer 1 g=column eta=column\n0 0.1 1 1.3\n", OHM_ERR_PARSE, 2,
+                 "expected 5 columns (density sigma_a sigma_s' eta g)");
+    expect_error("ohm-transfer 1 mode=resistance g=column\n0 1 1\n", OHM_ERR_PARSE, 1, "g=column needs optical");
     expect_error("ohm-transfer 1 eta=0\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=abc\n0 0.1 1\n", OHM_ERR_PARSE, 1, "eta");
     expect_error("ohm-transfer 1 eta=1.3 eta=1.4\n0 0.1 1\n", OHM_ERR_PARSE, 1, "twice");
