@@ -677,15 +677,20 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
     return OHM_OK;
 }
 
-/* -solve hybrid=auto|N (solve.h). */
-static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, int *handoff, ohm_error *err)
+/* -solve hybrid=auto|N (solve.h), after p's boundary, solver and band are
+ * set: auto is OHM_HYBRID_PENCIL for a pencil beam where the hybrid applies
+ * (optical media, the Fresnel boundary, every cell), else 0. */
+static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const ohm_solve_params *p, int *handoff,
+                         ohm_error *err)
 {
     const char *h = ohm_opt_str(inv, "hybrid");
     if (strcmp(h, "auto") == 0) {
         *handoff = 0;
         for (size_t l = 0; l < s->nlights; ++l)
             if (s->lights[l].type == OHM_LIGHT_PENCIL) *handoff = OHM_HYBRID_PENCIL;
-        if (strcmp(ohm_opt_str(inv, "solver"), "mc") == 0) *handoff = 0; /* all transport already */
+        if (strcmp(p->solver, "mc") == 0 || p->boundary != OHM_BOUNDARY_ROBIN || p->band_k > 0 ||
+            s->material.kind == OHM_MATERIAL_RESISTANCE)
+            *handoff = 0; /* all transport already, or a scene the tracer does not model */
         return OHM_OK;
     }
     char *end;
@@ -726,8 +731,6 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     p.mc.photons = (int64_t)ohm_opt_real(inv, "photons");
     p.mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
     p.mc.threads = (int)ohm_opt_int(inv, "threads");
-    int rc_h = hybrid_option(s, inv, &p.mc.handoff, err);
-    if (rc_h) return rc_h;
     p.mc.log = &s->log;
     p.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
@@ -736,6 +739,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                             inv->where);
         p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
     }
+    int rc_h = hybrid_option(s, inv, &p, &p.mc.handoff, err);
+    if (rc_h) return rc_h;
     const char *sh = ohm_opt_str(inv, "shadows");
     p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
                 : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
@@ -787,9 +792,10 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                      sol->mc_truncated ? "; some photons hit the event cap (a medium that keeps light in)" : "");
     else if (sol->mc_photons > 0)
         ohm_log_info(&s->log,
-                     "hybrid: the first %d reduced scatterings of %lld photons traced as transport (g=%g, seed=%llu), "
+                     "hybrid: the first %d reduced scatterings of %lld photons traced as transport (g=%g%s, seed=%llu), "
                      "diffusion from there",
-                     p.mc.handoff, (long long)sol->mc_photons, s->material.g, (unsigned long long)p.mc.seed);
+                     p.mc.handoff, (long long)sol->mc_photons, s->material.g, p.g_v ? " at the first point, per cell" : "",
+                     (unsigned long long)p.mc.seed);
     if (p.boundary == OHM_BOUNDARY_NEUMANN)
         ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
     if (sol->mode_corrections)

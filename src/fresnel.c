@@ -94,7 +94,7 @@ double ohm_boundary_A(double eta, ohm_fresnel how)
     }
     double c1, c2;
     ohm_fresnel_moments(eta, &c1, &c2);
-    return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
+    return ohm_boundary_A_of_moments(c1, c2);
 }
 
 /* The table's coordinate: u = sqrt(|m - 1|) from 0 to U_MAX[s] (m = 1/3 on

@@ -36,6 +36,9 @@ void ohm_fresnel_moments(double eta, double *c1, double *c2);
 /* F_dr, the polynomial fit of Egan & Hilgeman (1979). */
 double ohm_fresnel_dr(double eta);
 
+/* A = (1 + 3 C_2) / (1 - 2 C_1) from the moments (above). */
+static inline double ohm_boundary_A_of_moments(double c1, double c2) { return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1); }
+
 /* The boundary constant A for eta by the chosen formula (above). */
 double ohm_boundary_A(double eta, ohm_fresnel how);
 

@@ -316,7 +316,8 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         if (scatters) {
             double gv = cell_g(sc, v);
             scattered = 1;
-            if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff) { /* the hybrid's: diffusion from here */
+            /* the hybrid's: diffusion from here (the margin: ten steps of 1 - 0.9 sum to 0.99..9) */
+            if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff - 1e-9) {
                 hand_off(sc, t, v, c, p, w);
                 w = 0;
                 break;

@@ -287,7 +287,7 @@ static inline double cell_A(const coeffs *k, const ohm_channel_medium *m, int64_
     if (k->fresnel == OHM_FRESNEL_POLYNOMIAL) return ohm_boundary_A(m->eta_v[v], OHM_FRESNEL_POLYNOMIAL);
     double c1, c2;
     ohm_fresnel_table_moments(k->tab, m->eta_v[v], &c1, &c2);
-    return (1.0 + 3.0 * c2) / (1.0 - 2.0 * c1);
+    return ohm_boundary_A_of_moments(c1, c2);
 }
 
 static inline double ground_conductance(const ohm_channel_medium *m, double h, int64_t v)

@@ -65,11 +65,6 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
     return any;
 }
 
-/* The depth band (band.h): the depth band_k / sigma_tr, with sigma_tr the
- * smallest over channels and cells (the most penetrating light decides), and
- * per-cell media compacted from interior-cell order to the band's unknowns
- * into compact[] (the same array for the same input, so channels that share
- * a medium still share a factor).  *out is params with those arrays. */
 /* A per-interior-cell array compacted to the band's kept unknowns (malloc'd;
  * NULL: out of memory). */
 static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const double *in, int64_t kept)
@@ -86,6 +81,11 @@ static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *gr
     return o;
 }
 
+/* The depth band (band.h): the depth band_k / sigma_tr, with sigma_tr the
+ * smallest over channels and cells (the most penetrating light decides), and
+ * per-cell media compacted from interior-cell order to the band's unknowns
+ * into compact[] (the same array for the same input, so channels that share
+ * a medium still share a factor).  *out is params with those arrays. */
 static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[2 * OHM_MAX_CHANNELS],
                       const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
                       const ohm_log *log, ohm_error *err)
@@ -500,6 +500,32 @@ static int alloc_solution(ohm_solution *sol, ohm_error *err)
     return OHM_OK;
 }
 
+/* The light arriving and entering in channel c, booked from a frame's entries. */
+static void book_entries(ohm_solution *sol, const ohm_light_entries *in, int c)
+{
+    for (size_t k = 0; k < in->count; ++k) {
+        sol->power_incident += in->entry[k].incident[c];
+        sol->power_entered += in->entry[k].power[c];
+    }
+}
+
+/* Trace a frame's entries in channel c through med (mc.h) into r, with the
+ * solve's fluence choice and memory cap; the tracer's counts are booked. */
+static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_medium *med,
+                         const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_error *err)
+{
+    ohm_mc_params mp = params->mc;
+    mp.total_fluence = params->total_fluence;
+    mp.max_memory = params->max_memory;
+    int rc = ohm_mc_trace(r, &sol->net, med, in->entry, in->count, c, &mp, err);
+    if (rc) return rc;
+    sol->mc_photons += r->photons;
+    sol->mc_events += r->events;
+    sol->mc_truncated += r->truncated;
+    if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
+    return OHM_OK;
+}
+
 /* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
  * channel: per column, what the photons tallied before their handoff. */
 typedef struct hybrid_part {
@@ -540,27 +566,17 @@ static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f
     for (size_t j = 0; j < nb && !rc; ++j) {
         rc = frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
         if (rc) break;
-        for (size_t k = 0; k < in.count; ++k) {
-            sol->power_incident += in.entry[k].incident[c];
-            sol->power_entered += in.entry[k].power[c];
-        }
+        book_entries(sol, &in, c);
         ohm_mc_result r = {.fluence = h->fluence + j * n,
                            .fluence_se = h->fluence_se,
                            .face_exitance = h->face + j * nf,
                            .exitance_se = h->exit_se,
                            .handoff = B + j * n};
-        ohm_mc_params mp = params->mc;
-        mp.total_fluence = params->total_fluence;
-        mp.max_memory = params->max_memory;
-        rc = ohm_mc_trace(&r, net, med, in.entry, in.count, c, &mp, err);
+        rc = trace_entries(sol, &r, med, &in, c, params, err);
         if (rc) break;
         h->power[3 * j] = r.power_in;
         h->power[3 * j + 1] = r.power_absorbed;
         h->power[3 * j + 2] = r.power_out;
-        sol->mc_photons += r.photons;
-        sol->mc_events += r.events;
-        sol->mc_truncated += r.truncated;
-        if (r.threads > sol->mc_threads) sol->mc_threads = r.threads;
     }
     ohm_light_entries_free(&in);
     return rc;
@@ -647,10 +663,7 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
                                  .fluence_se = sol->fluence_se[c] + fr * n,
                                  .face_exitance = sol->face_exitance[c] + fr * nf,
                                  .exitance_se = sol->exitance_se[c] + fr * n};
-            for (size_t k = 0; k < in.count; ++k) {
-                sol->power_incident += in.entry[k].incident[c];
-                sol->power_entered += in.entry[k].power[c];
-            }
+            book_entries(sol, &in, c);
             int e = 0;
             while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
             if (e < c) { /* the same photons would be traced again: take channel e's */
@@ -664,15 +677,8 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
             } else {
                 ohm_channel_medium med;
                 medium_for(&med, mat, params, c);
-                ohm_mc_params mp = params->mc;
-                mp.total_fluence = params->total_fluence;
-                mp.max_memory = params->max_memory;
-                rc = ohm_mc_trace(r, net, &med, in.entry, in.count, c, &mp, err);
+                rc = trace_entries(sol, r, &med, &in, c, params, err);
                 if (rc) break;
-                sol->mc_photons += r->photons;
-                sol->mc_events += r->events;
-                sol->mc_truncated += r->truncated;
-                if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
                 sol->t_solve += r->seconds;
                 sol->solves += r->photons > 0;
             }
@@ -687,11 +693,32 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     return rc;
 }
 
+/* The per-cell index and anisotropy (interior cells) within their ranges:
+ * the Fresnel table covers indices in [1, 3]; g = 1 has no sigma_s. */
+static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err)
+{
+    size_t ni = grid->interior_cells;
+    for (size_t u = 0; u < ni && p->eta_v; ++u)
+        if (!(p->eta_v[u] >= 1.0 && p->eta_v[u] <= 3.0))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has refractive index %g, expected 1 .. 3",
+                            u, p->eta_v[u]);
+    for (size_t u = 0; u < ni && p->g_v; ++u)
+        if (!(p->g_v[u] > -1.0 && p->g_v[u] < 1.0))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has anisotropy g = %g, expected -1 < g < 1",
+                            u, p->g_v[u]);
+    return OHM_OK;
+}
+
 int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
 {
     memset(sol, 0, sizeof *sol);
     take_media(sol, params);
+    int rc_optics = check_cell_optics(grid, params, err);
+    if (rc_optics) {
+        ohm_solution_free(sol);
+        return rc_optics;
+    }
     if (nlights == 0 && !params->custom_source) {
         ohm_solution_free(sol);
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
@@ -734,7 +761,9 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
 
     /* Frames per batch: B and X together within the memory cap. */
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
-    size_t batch = (size_t)(cap / (2.0 * sizeof(double) * (double)n));
+    /* the hybrid keeps its transport part's fluence and faces per column too */
+    double per_column = params->mc.handoff > 0 ? 3.0 * (double)n + (double)net->nfaces : 2.0 * (double)n;
+    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
     if (batch < 1) batch = 1;
     if (batch > (size_t)frames) batch = (size_t)frames;
 
@@ -788,13 +817,14 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
     rc = alloc_solution(sol, err);
     if (!rc && hybrid) rc = hybrid_alloc(&hy, (size_t)n, nf, batch, err);
     if (!rc && hybrid && (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v))
-        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces light through sigma_a and sigma_s', not resistances");
+        rc = ohm_fail(err, OHM_ERR_USAGE,
+                      "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
     if (!rc && hybrid && params->boundary != OHM_BOUNDARY_ROBIN)
         rc = ohm_fail(err, OHM_ERR_USAGE,
-                      "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it, leave it out",
+                      "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
                       ohm_boundary_name(params->boundary));
     if (!rc && hybrid && sol->band_active)
-        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: leave depth_band= out");
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
     if (rc) goto done;
 
     /* Shadow rays and Fresnel do not depend on the channel: trace every

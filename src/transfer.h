@@ -6,11 +6,12 @@
  *   density  sigma_a  sigma_s'  [eta] [g]               (grey)
  *   density  sa_r sa_g sa_b  ss_r ss_g ss_b  [eta] [g]  (RGB)
  *   density  resistance  ground                     (mode=resistance, ohms)
- * eta=column: the last column is the refractive index at that density, in
- * [1, 3], interpolated like the others (network.h's interfaces where it
- * changes between cells); g=column: the last column is the anisotropy, in
- * (-1, 1) (transport: mc.h; with scattering=full each point's sigma_s' =
- * sigma_s (1 - its g)).
+ * eta=column: a column after the scattering ones holds the refractive index
+ * at that density, in [1, 3], interpolated like the others (network.h's
+ * interfaces where it changes between cells); g=column: the column after
+ * that (or after the scattering ones) holds the anisotropy, in (-1, 1)
+ * (transport: mc.h; with scattering=full each point's sigma_s' = sigma_s
+ * (1 - its g)), whichever order the header words come in.
  * scattering=full: the third column is sigma_s, and sigma_s' = sigma_s (1 - g)
  * is kept (diffusion needs only that; g shapes Monte Carlo's phase function).
  * Piecewise linear between points, clamped outside them.  Validated on load:

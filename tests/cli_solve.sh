@@ -223,6 +223,13 @@ expect_exit 2 "hybrid: not a number" -- "$OHM" "${BEAM[@]}" -solve hybrid=ten
 expect_error_line "hybrid: not a number" "hybrid=ten: expected auto or a whole number"
 expect_exit 2 "hybrid: with solver=mc" -- "$OHM" "${BEAM[@]}" -solve solver=mc hybrid=5
 expect_exit 2 "hybrid: with boundary=neumann" -- "$OHM" "${BEAM[@]}" -solve hybrid=5 boundary=neumann
+expect_error_line "hybrid: with boundary=neumann" "use hybrid=0"
+# auto steps aside where the tracer does not model the scene
+expect_exit 0 "hybrid: auto with boundary=neumann" -- "$OHM" "${BEAM[@]}" -solve boundary=neumann -stats file="$T/hyn.json"
+expect_exit 0 "hybrid: auto with a depth band" -- "$OHM" "${BEAM[@]}" -solve depth_band=3 -stats file="$T/hyb.json"
+check "hybrid: auto off there" $PY -c "
+import json
+for f in ('$T/hyn.json', '$T/hyb.json'): assert json.load(open(f))['hybrid'] == 0, f"
 
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"

@@ -181,6 +181,13 @@ static void test_two_layers(void)
     ohm_ref_two_layer ref;
     CHECK(ohm_ref_two_layer_init(&ref, layers, T * 1.0) == 0);
     check_reference(&ref, layers, T * 1.0);
+    /* and with an index step (network.h's interface; validate.c solves it) */
+    const ohm_ref_layer stepped[2] = {{0.02, 1.0, 1.3, LA}, {0.1, 2.0, 1.6, LB}};
+    ohm_ref_two_layer ref_step;
+    CHECK(ohm_ref_two_layer_init(&ref_step, stepped, T * 1.0) == 0);
+    check_reference(&ref_step, stepped, T * 1.0);
+    double jump = ohm_ref_two_layer_phi(&ref_step, LA + 1e-12) / ohm_ref_two_layer_phi(&ref_step, LA);
+    CHECK_MSG(jump > 1.2 && jump < (1.6 / 1.3) * (1.6 / 1.3), "phi jumps %.4g across 1.3 | 1.6", jump);
 
     double worst = 0, worst_x = 0, worst_lat = 0;
     for (int k = 1; k <= N; ++k) {
