@@ -280,9 +280,78 @@ static void test_contrast(void)
     ohm_transfer_free(&tf);
 }
 
+/* A per-cell index through the solver paths: the 1.3 | 1.6 column (1 x 1 x
+ * N, mirrors on both sides of x and y) by the direct factor, by CG (its
+ * warm start and solution in the scaled unknowns, network.h), and with two
+ * frames of the same light (the second reuses the first): the same fluence. */
+static int index_column(ohm_solution *sol, ohm_voxel_grid *g, const char *solver, int frames)
+{
+    const int n0 = 20, n1 = 20, N = n0 + n1;
+    const double h = 0.1;
+    if (make_box(g, 1, 1, N, h)) return -1;
+    static double sa[40], ss[40], eta[40];
+    for (int u = 0; u < N; ++u) { /* unknown u is cell k = u + 1, layer 0 on top */
+        int top = u >= n1;
+        sa[u] = top ? 0.02 : 0.1;
+        ss[u] = top ? 1.0 : 2.0;
+        eta[u] = top ? 1.3 : 1.6;
+    }
+    ohm_material m = grey(1.3);
+    ohm_light l[2];
+    memset(l, 0, sizeof l);
+    for (int f = 0; f < 2; ++f) {
+        l[f].type = OHM_LIGHT_DIRECTIONAL;
+        l[f].dir[2] = -1.0;
+        l[f].intensity[0] = 1.0;
+        l[f].channels = 1;
+        l[f].frame = frames > 1 ? f + 1 : 0;
+    }
+    ohm_mirrors mirror = {{1, 1, -1}, {1, 1, -1}};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_ROBIN;
+    p.ordering = "amd";
+    p.solver = solver;
+    p.cg_tol = 1e-13;
+    p.mirrors = &mirror;
+    p.sigma_a[0] = sa;
+    p.sigma_s[0] = ss;
+    p.eta_v = eta;
+    ohm_error err;
+    ohm_error_clear(&err);
+    int rc = ohm_solve(sol, g, &m, l, (size_t)(frames > 1 ? 2 : 1), &p, &quiet, &err);
+    if (rc) fprintf(stderr, "index column (%s): %s\n", solver, err.msg);
+    return rc;
+}
+
+static void test_index_paths(void)
+{
+    ohm_voxel_grid g[3];
+    ohm_solution s[3];
+    CHECK(index_column(&s[0], &g[0], "direct", 1) == 0);
+    CHECK(index_column(&s[1], &g[1], "cg", 1) == 0);
+    CHECK(index_column(&s[2], &g[2], "direct", 2) == 0);
+    CHECK(s[2].frames == 2 && s[2].solves_skipped == 1);
+    double worst_cg = 0, worst_frame = 0;
+    for (int64_t u = 0; u < s[0].n; ++u) {
+        double ref = s[0].fluence[0][u];
+        worst_cg = fmax(worst_cg, fabs(s[1].fluence[0][u] - ref) / ref);
+        worst_frame = fmax(worst_frame, fabs(s[2].fluence[0][s[0].n + u] - ref) / ref);
+    }
+    printf("per-cell index: cg vs direct %.2g, second frame %.2g\n", worst_cg, worst_frame);
+    CHECK_MSG(worst_cg < 1e-9, "cg %.3g", worst_cg);
+    CHECK_MSG(worst_frame == 0, "frame 2 %.3g", worst_frame);
+    for (int i = 0; i < 3; ++i) {
+        CHECK(ohm_solution_conservation_error(&s[i]) < 1e-10);
+        ohm_solution_free(&s[i]);
+        ohm_voxel_grid_free(&g[i]);
+    }
+}
+
 int main(void)
 {
     test_two_layers();
     test_contrast();
+    test_index_paths();
     return check_summary();
 }
