@@ -922,9 +922,11 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
                 sol->t_source += ohm_now() - t0;
                 if (rc) break;
                 double *X = sol->fluence[c] + f0 * (size_t)n;
-                /* (the hybrid adds its transport part to each frame after the
-                 * solve: a frame is not taken whole from the batch before) */
-                size_t nu = distinct_columns(sol, B, col_of, nb, f0 > 0 && !hybrid ? prev_b : NULL, (size_t)n);
+                /* (the hybrid and fluence=total add to each frame after the
+                 * solve: a frame is not taken whole from the batch before,
+                 * whose fluence already holds that part) */
+                size_t nu = distinct_columns(sol, B, col_of, nb,
+                                             f0 > 0 && !hybrid && !params->total_fluence ? prev_b : NULL, (size_t)n);
                 warm_start(X, sol, f0, c, warm_from, (size_t)n);
                 scale_unknowns(X, 1, (size_t)n, &med, 0);
                 t0 = ohm_now();

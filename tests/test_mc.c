@@ -179,6 +179,35 @@ static void test_per_cell_g(void)
     ohm_voxel_grid_free(&gb);
 }
 
+/* fluence=total with the same light in two frames solved in separate
+ * batches (a tiny batch budget): the second frame is the first, and the
+ * books close (the unscattered part was once added twice there). */
+static void test_total_repeated_frames(void)
+{
+    ohm_error err = {0};
+    ohm_voxel_grid g;
+    CHECK(ohm_scene_box(&g, 8, 8, 8, 0.5, &err) == 0);
+    ohm_material m = ohm_scene_grey(0.05, 1.0);
+    ohm_light l[2];
+    for (int f = 0; f < 2; ++f) {
+        l[f] = ohm_scene_directional((const double[3]){0, 0, -1.0});
+        l[f].frame = f + 1;
+    }
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.total_fluence = 1;
+    p.max_rhs_bytes = 1; /* one frame per batch */
+    ohm_solution s;
+    ohm_log quiet = {NULL, 0};
+    CHECK(ohm_solve(&s, &g, &m, l, 2, &p, &quiet, &err) == 0);
+    CHECK(s.frames == 2);
+    size_t n = (size_t)s.n;
+    CHECK(memcmp(s.fluence[0], s.fluence[0] + n, n * sizeof(double)) == 0);
+    CHECK_MSG(ohm_solution_conservation_error(&s) < 1e-10, "conservation %.3g", ohm_solution_conservation_error(&s));
+    ohm_solution_free(&s);
+    ohm_voxel_grid_free(&g);
+}
+
 static void test_bookkeeping_and_seeds(void)
 {
     ohm_voxel_grid ga, gb;
@@ -225,6 +254,7 @@ int main(void)
     test_bookkeeping_and_seeds();
     test_hybrid();
     test_per_cell_g();
+    test_total_repeated_frames();
     test_total_fluence();
     return check_summary();
 }
