@@ -125,7 +125,7 @@ static int parse_header(ohm_transfer *t, char **tok, int ntok, const char *name,
         } else {
             return ohm_fail(err, OHM_ERR_PARSE,
                             "%s:%zu: unknown header option \"%s\" (expected mode=optical|resistance, eta=VALUE|column, "
-                            "g=VALUE or scattering=reduced|full)",
+                            "g=VALUE|column or scattering=reduced|full)",
                             name, line, tok[i]);
         }
     }
