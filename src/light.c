@@ -383,15 +383,15 @@ static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light
     return E;
 }
 
-/* 1 - Fresnel reflectance for light travelling along unit direction `travel`
- * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
- * normal would make a sphere's shading a staircase). */
 /* The index light enters through face f. */
 static inline double face_eta(const ohm_network *net, int64_t f, double eta, const double *eta_v)
 {
     return eta_v ? eta_v[net->face_unknown[f]] : eta;
 }
 
+/* 1 - Fresnel reflectance for light travelling along unit direction `travel`
+ * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
+ * normal would make a sphere's shading a staircase). */
 static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta, double *mu)
 {
     double ns[3];

@@ -183,6 +183,15 @@ static size_t pick_entry(const mc_scene *sc, double xi)
     return lo;
 }
 
+/* The unknown of grid cell n, or -1 outside the grid or the object. */
+static inline int64_t unknown_at(const ohm_network *net, const int32_t n[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    for (int a = 0; a < 3; ++a)
+        if (n[a] < 0 || n[a] >= g->dims[a]) return -1;
+    return ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]));
+}
+
 /* The anisotropy of unknown v. */
 static inline double cell_g(const mc_scene *sc, int64_t v)
 {
@@ -223,7 +232,6 @@ static inline int cross_interface(double u[3], int ax, double ev, double ew, rng
 static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c[3], const double p[3], double w)
 {
     const ohm_network *net = sc->net;
-    const ohm_voxel_grid *g = net->grid;
     int32_t side[3];
     double f[3];
     for (int a = 0; a < 3; ++a) {
@@ -235,8 +243,7 @@ static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c
          * share there), which keeps the centroid too */
         int32_t n[3] = {c[0], c[1], c[2]};
         n[a] += side[a];
-        int inside = n[a] >= 0 && n[a] < g->dims[a];
-        if (!inside || ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2])) < 0) {
+        if (unknown_at(net, n) < 0) {
             side[a] = -side[a];
             f[a] = -f[a];
         }
@@ -250,14 +257,8 @@ static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c
             n[a] = c[a] + (far ? side[a] : 0);
         }
         if (wq == 0) continue;
-        int64_t u = v;
-        if (q) {
-            int inside = 1;
-            for (int a = 0; a < 3; ++a) inside &= n[a] >= 0 && n[a] < g->dims[a];
-            int64_t nu = inside ? ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2])) : -1;
-            if (nu >= 0) u = nu;
-        }
-        t->handoff[u] += wq;
+        int64_t u = q ? unknown_at(net, n) : v;
+        t->handoff[u >= 0 ? u : v] += wq;
     }
     t->handed += w;
 }
@@ -334,8 +335,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             }
             int32_t n[3] = {c[0], c[1], c[2]};
             n[ax] += step;
-            int64_t nv = n[ax] >= 0 && n[ax] < g->dims[ax] ? ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]))
-                                                             : -1;
+            int64_t nv = unknown_at(net, n);
             if (nv >= 0 && sc->med->eta_v && sc->med->eta_v[nv] != sc->med->eta_v[v] &&
                 !cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
                 /* reflected at an internal change of index: stays in v */
