@@ -35,7 +35,7 @@ mkdir -p out/fuzz
 # UBSan-clean and would drown the C findings.  Objects are cached in
 # out/fuzz/obj/ and rebuilt when their source (or any header) is newer.
 objdir=out/fuzz/obj; mkdir -p "$objdir"
-sed 's/@PROJECT_VERSION@/fuzz/' src/version.h.in > "$objdir/ohm_version.h.new"
+sed 's/@PROJECT_VERSION@/fuzz/' src/base/version.h.in > "$objdir/ohm_version.h.new"
 cmp -s "$objdir/ohm_version.h.new" "$objdir/ohm_version.h" 2>/dev/null || mv "$objdir/ohm_version.h.new" "$objdir/ohm_version.h"
 rm -f "$objdir/ohm_version.h.new"
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
@@ -43,7 +43,7 @@ CFLAGS="-std=c11 -D_POSIX_C_SOURCE=200809L -g -O1 -fno-omit-frame-pointer $SAN -
   -Isrc -I$objdir -Iwrappers/vdb -Iwrappers/oiio -isystem /usr/include/suitesparse -isystem /usr/include/nifti"
 CXXFLAGS="-std=c++17 -g -O1 -fno-omit-frame-pointer -fsanitize=address,fuzzer-no-link
   -Isrc -Iwrappers/vdb -Iwrappers/oiio -isystem /usr/include/Imath"
-newest_header=$(ls -t src/*.h wrappers/*/*.h | head -n 1)
+newest_header=$(ls -t src/*/*.h wrappers/*/*.h | head -n 1)
 objs=()
 obj() { # obj SOURCE [extra flags...]: compile once, append to objs
   local src=$1; shift
@@ -56,19 +56,19 @@ obj() { # obj SOURCE [extra flags...]: compile once, append to objs
 VDB_LIBS="-lopenvdb -ltbb -lImath-3_1 -lboost_iostreams"
 OIIO_LIBS="-lOpenImageIO -lOpenImageIO_Util"
 SCAN_LIBS="$VDB_LIBS $OIIO_LIBS -lnifti2 -lznz -lz -lm -lpthread"
-scan_objs() { obj src/scan.c; obj src/scan_check.c; obj src/ohm_error.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; }
+scan_objs() { obj src/input/scan.c; obj src/input/scan_check.c; obj src/base/ohm_error.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; }
 link=clang; libs="-lz -lm"
 case $name in
   obj|off|ply|stl)
     obj tests/fuzz/fuzz_mesh.c -DFORMAT=ohm_mesh_parse_$name
-    obj src/mesh_io.c; obj src/mesh.c; obj src/ohm_error.c ;;
+    obj src/input/mesh_io.c; obj src/input/mesh.c; obj src/base/ohm_error.c ;;
   transfer)
-    obj tests/fuzz/fuzz_transfer.c; obj src/transfer.c; obj src/ohm_error.c ;;
+    obj tests/fuzz/fuzz_transfer.c; obj src/input/transfer.c; obj src/base/ohm_error.c ;;
   pipeline)
     # The option specs live in the action table (actions.c), whose run functions
     # reach every module: link the whole core, as the ohm binary does.
     obj tests/fuzz/fuzz_pipeline.c
-    for f in src/*.c; do [ "$f" = src/main.c ] || obj "$f"; done
+    for f in src/*/*.c; do [ "$f" = src/cli/main.c ] || obj "$f"; done
     obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp
     link=clang++
     libs="$SCAN_LIBS -lcholmod -lsuitesparseconfig -lembree3 -lblas" ;;
@@ -114,7 +114,7 @@ export LSAN_OPTIONS="suppressions=$PWD/tests/fuzz/lsan.supp${LSAN_OPTIONS:+:$LSA
 # FUZZ_KEEP_GOING=1: fork mode that records a crash and goes on (for a harness
 # whose known crash would otherwise end every run at once).  Off by default for
 # every harness: since ohm checks NIfTI headers and .vdb structure before
-# libnifti2/OpenVDB see them (src/scan.c, src/scan_check.c), nifti and vdb no
+# libnifti2/OpenVDB see them (src/input/scan.c, src/input/scan_check.c), nifti and vdb no
 # longer stop on the libraries' known crashes (docs/fuzzing.md).
 keep=""; [ "${FUZZ_KEEP_GOING:-0}" = 1 ] && keep="-fork=1 -ignore_crashes=1 -ignore_timeouts=1 -ignore_ooms=1"
 set +e

@@ -25,8 +25,8 @@
 #include <string.h>
 #include <time.h>
 
-#include "band.h"
-#include "network.h"
+#include "grid/band.h"
+#include "physics/network.h"
 
 /* ---- digest -------------------------------------------------------------- */
 

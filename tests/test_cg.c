@@ -9,8 +9,8 @@
 #include "solvers/cg.h"
 #include "check.h"
 #include "solvers/direct.h"
-#include "network.h"
-#include "validate.h"
+#include "physics/network.h"
+#include "studies/validate.h"
 
 /* A box of nx^3 interior cells (and a one-cell margin) of size h. */
 static int make_box(ohm_voxel_grid *g, int nx, double h)

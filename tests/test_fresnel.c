@@ -7,7 +7,7 @@
 #include <stdlib.h>
 
 #include "check.h"
-#include "fresnel.h"
+#include "physics/fresnel.h"
 
 /* The same moments by a plain midpoint rule in theta with many points: slow,
  * second order, but independent of fresnel.c's substitution and panels. */

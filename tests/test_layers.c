@@ -34,11 +34,11 @@
 #include <string.h>
 
 #include "check.h"
-#include "light.h"
-#include "material.h"
-#include "reference.h"
-#include "solve.h"
-#include "transfer.h"
+#include "physics/light.h"
+#include "physics/material.h"
+#include "physics/reference.h"
+#include "solvers/solve.h"
+#include "input/transfer.h"
 
 static const ohm_log quiet = {NULL, 0};
 

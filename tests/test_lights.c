@@ -15,9 +15,9 @@
 #include <string.h>
 
 #include "check.h"
-#include "light.h"
-#include "scene.h"
-#include "solve.h"
+#include "physics/light.h"
+#include "studies/scene.h"
+#include "solvers/solve.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846

@@ -15,9 +15,9 @@
 #include <string.h>
 
 #include "check.h"
-#include "scene.h"
-#include "solve.h"
-#include "validate.h"
+#include "studies/scene.h"
+#include "solvers/solve.h"
+#include "studies/validate.h"
 
 static void test_published(void)
 {

@@ -13,7 +13,7 @@
  *    into exact-size heap blocks so AddressSanitizer sees any over-read;
  *  - topology counts on small hand-made meshes. */
 #include "check.h"
-#include "mesh.h"
+#include "input/mesh.h"
 
 #include <stdarg.h>
 #include <stdint.h>

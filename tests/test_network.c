@@ -5,9 +5,9 @@
 #include <string.h>
 
 #include "check.h"
-#include "material.h"
-#include "network.h"
-#include "solve.h"
+#include "physics/material.h"
+#include "physics/network.h"
+#include "solvers/solve.h"
 
 static const ohm_log quiet = {NULL, 0};
 

@@ -6,10 +6,10 @@
  * box means, bounds; PNG stacks (a directory, sorted by name); and the
  * walnut / head samples in samples/. */
 #include "check.h"
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 #include "ohm_vdb.h"
-#include "scan.h"
-#include "scan_check.h"
+#include "input/scan.h"
+#include "input/scan_check.h"
 
 #include <math.h>
 #include <stdint.h>

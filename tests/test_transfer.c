@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "transfer.h"
+#include "input/transfer.h"
 
 static int parse(ohm_transfer *t, const char *text, ohm_error *err)
 {

@@ -10,7 +10,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "validate.h"
+#include "studies/validate.h"
 
 int main(void)
 {

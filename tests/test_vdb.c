@@ -2,7 +2,7 @@
  * values, metadata, write/read round trip, error messages that name the path,
  * and OpenVDB's mesh -> level set on a unit cube. */
 #include "check.h"
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 #include "ohm_vdb.h"
 
 #include <math.h>

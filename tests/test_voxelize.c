@@ -5,8 +5,8 @@
 #include <string.h>
 
 #include "check.h"
-#include "mesh.h"
-#include "voxelize.h"
+#include "input/mesh.h"
+#include "grid/voxelize.h"
 
 static const ohm_log quiet = {NULL, 0};
 

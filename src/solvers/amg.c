@@ -44,7 +44,7 @@ double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks)
 
 #include <petscksp.h>
 
-#include "memory.h"
+#include "base/memory.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -26,7 +26,7 @@
  * (docs/scale.md). */
 #include "solvers/backend.h"
 
-#include "memory.h"
+#include "base/memory.h"
 
 #include <math.h>
 #include <stdio.h>

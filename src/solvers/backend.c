@@ -6,7 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "memory.h"
+#include "base/memory.h"
 #include "solvers/cg.h"
 
 const ohm_backend_ops *ohm_backend_find(const char *name)

@@ -32,8 +32,8 @@
 
 #include <cholmod.h>
 
-#include "log.h"
-#include "ohm_error.h"
+#include "base/log.h"
+#include "base/ohm_error.h"
 
 /* What a backend did, summed over its setups and solves (the driver copies it
  * into the run's statistics). */

@@ -6,8 +6,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "log.h"
-#include "memory.h"
+#include "base/log.h"
+#include "base/memory.h"
 #include "solvers/backend.h"
 
 /* Modification weight: 1 keeps M's row sums equal to A's (full MIC), which

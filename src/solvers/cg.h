@@ -21,7 +21,7 @@
 
 #include <cholmod.h>
 
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 
 typedef struct ohm_cg {
     const cholmod_sparse *A; /* upper triangle, CSC, diagonal last in each column (not owned) */

@@ -7,8 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "log.h"
-#include "memory.h"
+#include "base/log.h"
+#include "base/memory.h"
 #include "solvers/cg.h"
 
 /* Thresholds on the scaled backward error (issue 3 / DESIGN.md §3). */

@@ -15,7 +15,7 @@
 
 #include <cholmod.h>
 
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 #include "solvers/backend.h"
 
 typedef struct ohm_solver {

@@ -3,7 +3,7 @@
  * scripts/fuzz.sh FORMAT SECONDS.  Checks: no crash or UB (sanitizers), a
  * failure leaves the mesh zeroed with a one-line message, a success has
  * in-range indices and finite coordinates. */
-#include "mesh.h"
+#include "input/mesh.h"
 #include <stdint.h>
 #include <stdlib.h>
 #include <string.h>

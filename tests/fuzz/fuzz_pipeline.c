@@ -4,7 +4,7 @@
  * code is the return value; a success has at least one action, each with a
  * known action, and every option it was given reads back as validated (finite
  * reals, integers and reals inside the spec's [min, max] when it has one). */
-#include "pipeline.h"
+#include "steps/pipeline.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>

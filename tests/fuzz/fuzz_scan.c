@@ -15,7 +15,7 @@
  * asked for), finite values with min <= max matching them, a finite affine, and
  * ohm_scan_sample / ohm_scan_box_mean / ohm_scan_bounds give finite results. */
 #define _DEFAULT_SOURCE /* mkstemps */
-#include "scan.h"
+#include "input/scan.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdio.h>

@@ -5,7 +5,7 @@
  * resistance mode), strictly increasing finite densities, finite non-negative
  * coefficients (sigma_s' / ground > 0), a finite eta, and ohm_transfer_eval
  * gives finite values inside, between and outside the points. */
-#include "transfer.h"
+#include "input/transfer.h"
 #include <math.h>
 #include <stdint.h>
 #include <stdlib.h>

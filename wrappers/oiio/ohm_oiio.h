@@ -14,7 +14,7 @@
 #ifndef OHM_OIIO_H
 #define OHM_OIIO_H
 
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 
 #ifdef __cplusplus
 extern "C" {

@@ -14,7 +14,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
-#include "ohm_error.h"
+#include "base/ohm_error.h"
 
 #ifdef __cplusplus
 extern "C" {

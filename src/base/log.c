@@ -1,0 +1,60 @@
+#include "base/log.h"
+
+#include <stdarg.h>
+#include <time.h>
+
+static FILE *log_stream(const ohm_log *log) { return (log && log->stream) ? log->stream : stderr; }
+
+void ohm_log_info(const ohm_log *log, const char *fmt, ...)
+{
+    if (log && log->verbosity < 1) return;
+    FILE *f = log_stream(log);
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("ohm: ", f);
+    vfprintf(f, fmt, ap);
+    fputc('\n', f);
+    va_end(ap);
+}
+
+void ohm_log_warn(const ohm_log *log, const char *fmt, ...)
+{
+    FILE *f = log_stream(log);
+    va_list ap;
+    va_start(ap, fmt);
+    fputs("ohm: warning: ", f);
+    vfprintf(f, fmt, ap);
+    fputc('\n', f);
+    va_end(ap);
+}
+
+double ohm_now(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (double)ts.tv_sec + 1e-9 * (double)ts.tv_nsec;
+}
+
+void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what)
+{
+    p->log = log;
+    p->what = what;
+    p->t_begin = p->t_last = ohm_now();
+    p->printed = 0;
+}
+
+void ohm_progress_update(ohm_progress *p, double fraction)
+{
+    if (!p || (p->log && p->log->verbosity < 1)) return;
+    double t = ohm_now();
+    if (t - p->t_begin < 1.0 || t - p->t_last < 1.0) return;
+    p->t_last = t;
+    p->printed = 1;
+    fprintf(log_stream(p->log), "ohm: %s: %3.0f%% (%.1f s)\n", p->what, 100.0 * fraction, t - p->t_begin);
+}
+
+void ohm_progress_end(ohm_progress *p)
+{
+    if (!p || !p->printed) return;
+    fprintf(log_stream(p->log), "ohm: %s: done (%.1f s)\n", p->what, ohm_now() - p->t_begin);
+}

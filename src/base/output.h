@@ -1,0 +1,47 @@
+/* output.h — every file ohm writes goes through here: it is written to a
+ * temporary file in the same directory, flushed to disk, and renamed over the
+ * target only when complete.  A failure (or a kill) at any moment leaves any
+ * earlier file at that path intact (DESIGN.md §6). */
+#ifndef OHM_OUTPUT_H
+#define OHM_OUTPUT_H
+
+#include <stdio.h>
+
+#include "base/ohm_error.h"
+
+#define OHM_PATH_MAX 4096
+
+typedef struct ohm_output {
+    char path[OHM_PATH_MAX]; /* the final name                              */
+    char tmp[OHM_PATH_MAX];  /* the temporary name, same directory           */
+    FILE *stream;            /* open on tmp for stdio writers; NULL after commit/abort */
+} ohm_output;
+
+/* Create the temporary file.  Fails, naming the path, when the target is a
+ * directory or its directory is missing or not writable. */
+int ohm_output_begin(ohm_output *o, const char *path, ohm_error *err);
+
+/* For libraries that write by path (OpenVDB, OpenImageIO): close the stream
+ * and return the temporary name for the library to overwrite. */
+const char *ohm_output_tmp_path(ohm_output *o);
+
+/* Flush, fsync and rename tmp -> path.  On failure the temporary is removed
+ * and the old file (if any) is untouched. */
+int ohm_output_commit(ohm_output *o, ohm_error *err);
+
+/* Remove the temporary; safe to call after commit (does nothing then). */
+void ohm_output_abort(ohm_output *o);
+
+/* Ctrl-C / SIGTERM while a file is being written: remove the temporaries in
+ * flight, then die of the signal as usual, so an interruption leaves neither
+ * a partial output nor litter (the earlier file at the path is untouched, as
+ * it always is until the rename).  This needs the one piece of process-wide
+ * state in ohm, a small table of the temporaries in flight: a signal handler
+ * can reach nothing else.  The ohm command installs it; a library user may.
+ * (SIGKILL cannot be caught: the old file is still intact, a temporary named
+ * ".NAME.ohm-XXXXXX" may remain.)
+ * Test hook: OHM_TEST_COMMIT_DELAY_MS=N in the environment waits N ms before
+ * each rename, so tests can interrupt a write deterministically. */
+void ohm_output_install_signal_cleanup(void);
+
+#endif

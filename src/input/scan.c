@@ -1,0 +1,852 @@
+/* scan.c — the density-volume readers behind scan.h (.vdb, NIfTI-1/2, raw,
+ * directories of TIFF/PNG slices through wrappers/oiio).
+ *
+ * Careful-reader rules as in mesh_io.c: every message names the file; no size
+ * declared by a header is trusted before the bytes are there (raw files must be
+ * exactly dims x bytes-per-voxel long, checked before any voxel is converted);
+ * every size product is overflow-checked.  NIfTI goes through Debian's
+ * libnifti2 (which reads both versions, plain or gzip), headers first so a bad
+ * datatype or shape is refused before the data is loaded; and before that,
+ * nifti_precheck reads the header itself, because libnifti2 does not survive
+ * every bad one.  A .vdb passes ohm_vdb_check (scan_check.c) before OpenVDB,
+ * which trusts every size in the file, reads it.  Content errors are
+ * OHM_ERR_PARSE, unopenable files OHM_ERR_IO, bad parameters OHM_ERR_USAGE. */
+#include "input/scan.h"
+
+#include <errno.h>
+#include <inttypes.h>
+#include <math.h>
+#include <stdint.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <dirent.h>
+#include <sys/stat.h>
+#include <zlib.h>
+
+#include <nifti2_io.h>
+
+#include "ohm_oiio.h"
+#include "ohm_vdb.h"
+#include "input/scan_check.h"
+
+/* Largest volume we allocate (voxels). */
+#define SCAN_MAX_VOXELS ((uint64_t)1 << 31)
+
+static int ends_with_ci(const char *s, const char *suffix)
+{
+    size_t n = strlen(s), m = strlen(suffix);
+    if (m > n) return 0;
+    for (size_t i = 0; i < m; ++i) {
+        char a = s[n - m + i], b = suffix[i];
+        if (a >= 'A' && a <= 'Z') a = (char)(a - 'A' + 'a');
+        if (a != b) return 0;
+    }
+    return 1;
+}
+
+/* dims product, checked against SCAN_MAX_VOXELS. */
+static int voxel_count(const char *path, const int64_t d[3], size_t *n, ohm_error *err)
+{
+    for (int k = 0; k < 3; ++k)
+        if (d[k] <= 0)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: dimension %d is %" PRId64 ", expected at least 1", path, k,
+                            d[k]);
+    uint64_t total = 1;
+    for (int k = 0; k < 3; ++k) {
+        if ((uint64_t)d[k] > SCAN_MAX_VOXELS || total * (uint64_t)d[k] > SCAN_MAX_VOXELS)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: %" PRId64 " x %" PRId64 " x %" PRId64 " voxels is more than the limit of %" PRIu64,
+                            path, d[0], d[1], d[2], SCAN_MAX_VOXELS);
+        total *= (uint64_t)d[k];
+    }
+    *n = (size_t)total;
+    return 0;
+}
+
+static int alloc_values(ohm_scan *s, const char *path, const int64_t d[3], ohm_error *err)
+{
+    size_t n;
+    int rc = voxel_count(path, d, &n, err);
+    if (rc) return rc;
+    s->values = malloc(n * sizeof(float));
+    if (!s->values)
+        return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory allocating %zu voxels", path, n);
+    for (int k = 0; k < 3; ++k) s->dims[k] = (int32_t)d[k];
+    return 0;
+}
+
+static size_t scan_count(const ohm_scan *s)
+{
+    return (size_t)s->dims[0] * (size_t)s->dims[1] * (size_t)s->dims[2];
+}
+
+/* NaN/Inf check and range. */
+static int finish_values(ohm_scan *s, const char *path, ohm_error *err)
+{
+    size_t n = scan_count(s);
+    double lo = INFINITY, hi = -INFINITY;
+    for (size_t i = 0; i < n; ++i) {
+        float v = s->values[i];
+        if (!isfinite(v)) {
+            size_t nx = (size_t)s->dims[0], ny = (size_t)s->dims[1];
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: voxel (%zu, %zu, %zu) is %s, expected a finite value", path,
+                            i % nx, (i / nx) % ny, i / (nx * ny), isnan(v) ? "NaN" : "infinite");
+        }
+        if (v < lo) lo = v;
+        if (v > hi) hi = v;
+    }
+    s->min = lo;
+    s->max = hi;
+    return 0;
+}
+
+static void scan_bounds_of(const ohm_scan *s, double lo[3], double hi[3]);
+
+/* The voxel-to-world map must be invertible and put every voxel at a finite
+ * place (a fuzz finding: a NIfTI sform of 1e296 gave infinite bounds). */
+static int check_placement(const ohm_scan *s, const char *path, ohm_error *err)
+{
+    const double(*m)[4] = s->index_to_world;
+    double det = m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
+                 m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
+    if (!isfinite(det) || det == 0)
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: the voxel-to-world transform is singular or overflows (determinant %g), expected "
+                        "an invertible map",
+                        path, det);
+    double lo[3], hi[3];
+    scan_bounds_of(s, lo, hi);
+    for (int a = 0; a < 3; ++a)
+        if (!isfinite(lo[a]) || !isfinite(hi[a]))
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: the voxel-to-world transform puts the volume at non-finite coordinates "
+                            "(axis %d: %g .. %g mm)",
+                            path, a, lo[a], hi[a]);
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* .vdb                                                                      */
+
+typedef struct densify {
+    ohm_scan *s;
+    int32_t lo[3];
+} densify;
+
+static int densify_voxel(void *user, const int32_t ijk[3], float value)
+{
+    densify *d = user;
+    size_t i = (size_t)(ijk[0] - d->lo[0]), j = (size_t)(ijk[1] - d->lo[1]), k = (size_t)(ijk[2] - d->lo[2]);
+    if (i >= (size_t)d->s->dims[0] || j >= (size_t)d->s->dims[1] || k >= (size_t)d->s->dims[2]) return 0;
+    d->s->values[(k * (size_t)d->s->dims[1] + j) * (size_t)d->s->dims[0] + i] = value;
+    return 0;
+}
+
+static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
+{
+    const char *want = p && p->grid && *p->grid ? p->grid : "density";
+    ohm_vdb_grid **grids = NULL;
+    size_t n = 0;
+    /* OpenVDB trusts every size in the file: check them all first. */
+    int rc = ohm_vdb_check(path, err);
+    if (rc) return rc;
+    rc = ohm_vdb_read(&grids, &n, path, err);
+    if (rc) return rc;
+    if (n == 0) return ohm_fail(err, OHM_ERR_PARSE, "%s: the file holds no grids, expected a float grid named '%s'", path, want);
+    ohm_vdb_grid *g = NULL;
+    ohm_vdb_grid_info info;
+    char names[512] = "";
+    size_t used = 0;
+    for (size_t i = 0; i < n && !g; ++i) {
+        ohm_vdb_grid_info gi;
+        rc = ohm_vdb_grid_get_info(grids[i], &gi, err);
+        if (rc) goto done;
+        if (strcmp(gi.name, want) == 0) {
+            g = grids[i];
+            info = gi;
+        } else if (used < sizeof names - 1) {
+            int w = snprintf(names + used, sizeof names - used, "%s'%s'", used ? ", " : "", gi.name);
+            if (w > 0) used += (size_t)w;
+            if (used >= sizeof names) used = sizeof names - 1;
+        }
+    }
+    if (!g) {
+        rc = ohm_fail(err, OHM_ERR_USAGE, "%s: no float grid named '%s' (grids present: %s)", path, want,
+                      n ? names : "none");
+        goto done;
+    }
+    if (info.active_voxels == 0) {
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: grid '%s' has no active voxels, expected a density volume", path,
+                      want);
+        goto done;
+    }
+    int64_t d[3];
+    for (int k = 0; k < 3; ++k) d[k] = (int64_t)info.bbox_max[k] - info.bbox_min[k] + 1;
+    rc = alloc_values(s, path, d, err);
+    if (rc) goto done;
+    size_t nv = scan_count(s);
+    for (size_t i = 0; i < nv; ++i) s->values[i] = info.background;
+    densify ds = {s, {info.bbox_min[0], info.bbox_min[1], info.bbox_min[2]}};
+    rc = ohm_vdb_grid_foreach_active(g, densify_voxel, &ds, err);
+    if (rc) goto done;
+    memset(s->index_to_world, 0, sizeof s->index_to_world);
+    for (int k = 0; k < 3; ++k) {
+        s->index_to_world[k][k] = info.voxel_size;
+        s->index_to_world[k][3] = info.origin[k] + info.voxel_size * info.bbox_min[k];
+    }
+done:
+    for (size_t i = 0; i < n; ++i) ohm_vdb_grid_free(grids[i]);
+    free(grids);
+    return rc;
+}
+
+/* ------------------------------------------------------------------------ */
+/* NIfTI-1/2                                                                 */
+
+/* The voxel data of a header-only nifti_image: exactly nvox * nbyper bytes
+ * from iname_offset of iname (plain or gzip, through znzlib), byte-swapped to
+ * the host's order. */
+static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void **out, ohm_error *err)
+{
+    int nbyper = 0, swapsize = 0;
+    nifti_datatype_sizes(nim->datatype, &nbyper, &swapsize);
+    if (nbyper <= 0 || nvox > SIZE_MAX / (size_t)nbyper)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: bad datatype size for %zu voxels", path, nvox);
+    size_t want = nvox * (size_t)nbyper;
+    const char *iname = nim->iname ? nim->iname : path;
+    if (nim->iname_offset < 0)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: vox_offset %" PRId64 " is negative", path,
+                        (int64_t)nim->iname_offset);
+    /* Never allocate what the file cannot hold: a plain file must have the
+     * bytes; a gzip stream expands at most ~1032:1 (deflate's limit). */
+    struct stat st;
+    if (stat(iname, &st) == 0 && S_ISREG(st.st_mode)) {
+        double have = (double)st.st_size - (double)nim->iname_offset;
+        if (nifti_is_gzfile(iname)) have = 1032.0 * (double)st.st_size;
+        if ((double)want > have)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: truncated: %zu voxels of %s need %zu bytes from byte %" PRId64
+                            ", more than the %lld-byte file can hold",
+                            path, nvox, nifti_datatype_string(nim->datatype), want, (int64_t)nim->iname_offset,
+                            (long long)st.st_size);
+    }
+    znzFile f = znzopen(iname, "rb", nifti_is_gzfile(iname));
+    if (znz_isnull(f)) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open image data %s", path, iname);
+    int rc = 0;
+    unsigned char *buf = malloc(want ? want : 1);
+    if (!buf) rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
+    else if (znzseek(f, (znz_off_t)nim->iname_offset, SEEK_SET) < 0)
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: cannot seek to the voxel data at byte %" PRId64, path,
+                      (int64_t)nim->iname_offset);
+    else {
+        size_t got = 0;
+        while (got < want) {
+            size_t chunk = want - got > ((size_t)1 << 30) ? (size_t)1 << 30 : want - got;
+            size_t r = znzread(buf + got, 1, chunk, f);
+            if (r == 0) break;
+            got += r;
+        }
+        if (got != want)
+            rc = ohm_fail(err, OHM_ERR_PARSE,
+                          "%s: truncated: %zu voxels of %s need %zu bytes from byte %" PRId64 ", found %zu", path,
+                          nvox, nifti_datatype_string(nim->datatype), want, (int64_t)nim->iname_offset, got);
+    }
+    znzclose(f);
+    if (rc) {
+        free(buf);
+        return rc;
+    }
+    if (swapsize > 1 && nim->byteorder != nifti_short_order()) nifti_swap_Nbytes((int64_t)nvox, swapsize, buf);
+    *out = buf;
+    return 0;
+}
+
+/* The bytes of a NIfTI header field, printable: "n+1", "\x00\r\n"... */
+static void show_bytes(char *out, size_t outlen, const unsigned char *b, size_t n)
+{
+    size_t used = 0;
+    out[0] = 0;
+    while (n > 0 && b[n - 1] == 0) n--; /* trailing NULs are padding */
+    for (size_t i = 0; i < n && used + 5 < outlen; ++i) {
+        int w = b[i] >= 0x20 && b[i] < 0x7f && b[i] != '\'' && b[i] != '\\'
+                    ? snprintf(out + used, outlen - used, "%c", b[i])
+                    : snprintf(out + used, outlen - used, "\\x%02x", b[i]);
+        if (w > 0) used += (size_t)w;
+    }
+}
+
+static uint64_t nii_u(const unsigned char *b, int nbytes, int swap)
+{
+    uint64_t v = 0;
+    for (int i = 0; i < nbytes; ++i) v |= (uint64_t)b[swap ? nbytes - 1 - i : i] << (8 * i);
+    return v;
+}
+static int64_t nii_i16(const unsigned char *b, int swap) { return (int16_t)nii_u(b, 2, swap); }
+static int64_t nii_i32(const unsigned char *b, int swap) { return (int32_t)nii_u(b, 4, swap); }
+static int64_t nii_i64(const unsigned char *b, int swap) { return (int64_t)nii_u(b, 8, swap); }
+static double nii_f32(const unsigned char *b, int swap)
+{
+    uint32_t u = (uint32_t)nii_u(b, 4, swap);
+    float f;
+    memcpy(&f, &u, sizeof f);
+    return f;
+}
+
+/* Check a NIfTI-1/2 header ourselves before libnifti2 sees it: libnifti2 3.0.1
+ * smashes its stack on a NIfTI-2 header with a bad datatype, reads a wrong
+ * magic as Analyze 7.5 and a negative dimension as 1 (docs/fuzzing.md).  The
+ * first 348 or 540 bytes are read through zlib (plain or gzip alike). */
+/* The voxel types ohm converts (checked on the raw header, then again on
+ * what libnifti2 parsed). */
+static int nifti_type_supported(int64_t t)
+{
+    return t == NIFTI_TYPE_UINT8 || t == NIFTI_TYPE_INT16 || t == NIFTI_TYPE_UINT16 || t == NIFTI_TYPE_INT32 ||
+           t == NIFTI_TYPE_FLOAT32 || t == NIFTI_TYPE_FLOAT64;
+}
+
+static int nifti_precheck(const char *path, ohm_error *err)
+{
+    unsigned char h[540];
+    errno = 0;
+    gzFile f = gzopen(path, "rb");
+    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, errno ? strerror(errno) : "zlib");
+    size_t got = 0;
+    int zerr = Z_OK;
+    while (got < sizeof h) {
+        int r = gzread(f, h + got, (unsigned)(sizeof h - got));
+        if (r <= 0) {
+            if (r < 0) gzerror(f, &zerr);
+            break;
+        }
+        got += (size_t)r;
+    }
+    if (zerr == Z_OK && got < sizeof h) gzerror(f, &zerr);
+    gzclose(f);
+    if (got < 4) {
+        if (zerr != Z_OK && zerr != Z_BUF_ERROR)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream before the NIfTI header", path);
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated NIfTI header: %zu bytes, expected 348 (NIfTI-1) or 540 (NIfTI-2)",
+                        path, got);
+    }
+    int swap = 0, v2 = 0;
+    int64_t sz = nii_i32(h, 0);
+    if (sz == 348 || sz == 540) v2 = sz == 540;
+    else if (nii_i32(h, 1) == 348 || nii_i32(h, 1) == 540) {
+        swap = 1;
+        v2 = nii_i32(h, 1) == 540;
+    } else
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: NIfTI sizeof_hdr is %" PRId64 ", expected 348 (NIfTI-1) or 540 (NIfTI-2) in either byte order",
+                        path, sz);
+    const size_t hsize = v2 ? 540 : 348;
+    const char *ver = v2 ? "NIfTI-2" : "NIfTI-1";
+    if (got < hsize)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated %s header: %zu bytes, expected %zu", path, ver, got,
+                        hsize);
+    char shown[64];
+    if (v2 ? memcmp(h + 4, "n+2\0\r\n\032\n", 8) != 0 : memcmp(h + 344, "n+1\0", 4) != 0) {
+        show_bytes(shown, sizeof shown, v2 ? h + 4 : h + 344, v2 ? 8 : 4);
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s magic is '%s', expected '%s' (a single-file .nii)", path, ver,
+                        shown, v2 ? "n+2\\x00\\x0d\\x0a\\x1a\\x0a" : "n+1");
+    }
+    int64_t datatype = nii_i16(h + (v2 ? 12 : 70), swap);
+    if (!nifti_type_supported(datatype))
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: %s datatype %" PRId64 " (%s) is unsupported, expected uint8 (2), int16 (4), int32 (8), "
+                        "float32 (16), float64 (64) or uint16 (512)",
+                        path, ver, datatype, nifti_datatype_string((int)datatype));
+    int64_t dim[8];
+    for (int k = 0; k < 8; ++k) dim[k] = v2 ? nii_i64(h + 16 + 8 * k, swap) : nii_i16(h + 40 + 2 * k, swap);
+    if (dim[0] < 1 || dim[0] > 7)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s dim[0] (the number of dimensions) is %" PRId64 ", expected 1 to 7",
+                        path, ver, dim[0]);
+    for (int k = 1; k <= dim[0]; ++k) {
+        if (dim[k] < 1)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: %s dim[%d] is %" PRId64 ", expected at least 1", path, ver, k,
+                            dim[k]);
+        if (k > 3 && dim[k] != 1)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: %s dim[%d] is %" PRId64 ", expected 1 (a single 3-D volume)", path, ver, k, dim[k]);
+    }
+    int64_t d3[3] = {1, 1, 1};
+    for (int k = 1; k <= 3 && k <= dim[0]; ++k) d3[k - 1] = dim[k];
+    size_t nvox;
+    int rc = voxel_count(path, d3, &nvox, err);
+    if (rc) return rc;
+    /* vox_offset: float32 in NIfTI-1, int64 in NIfTI-2; at most 2^40 so that
+     * libnifti's conversion to int64 is defined and seeks stay sane. */
+    double off = v2 ? (double)nii_i64(h + 168, swap) : nii_f32(h + 108, swap);
+    if (!isfinite(off) || off < (double)hsize || off > 1099511627776.0)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s vox_offset is %g, expected a finite byte offset of at least %zu",
+                        path, ver, off, hsize);
+    return 0;
+}
+
+static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
+{
+    nifti_set_debug_level(0);
+    int prc = nifti_precheck(path, err);
+    if (prc) return prc;
+    nifti_image *nim = nifti_image_read(path, 0);
+    void *data = NULL;
+    if (!nim)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: not a readable NIfTI-1/2 file (bad or truncated header)", path);
+    int rc = 0;
+    if (!nifti_type_supported(nim->datatype)) {
+        rc = ohm_fail(err, OHM_ERR_PARSE,
+                      "%s: unsupported datatype %d (%s), expected uint8, int16, uint16, int32, float32 or float64",
+                      path, nim->datatype, nifti_datatype_string(nim->datatype));
+        goto done;
+    }
+    if (nim->ndim < 1 || nim->ndim > 7) {
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: dim[0] = %" PRId64 ", expected 1 to 7", path, nim->ndim);
+        goto done;
+    }
+    for (int k = 4; k <= nim->ndim; ++k)
+        if (nim->dim[k] > 1) {
+            rc = ohm_fail(err, OHM_ERR_PARSE,
+                          "%s: dimension %d has %" PRId64 " entries, expected a single 3-D volume", path, k,
+                          nim->dim[k]);
+            goto done;
+        }
+    int64_t d[3] = {nim->nx, nim->ny, nim->nz};
+    for (int k = nim->ndim; k < 3; ++k) d[k] = 1; /* 1-D / 2-D images */
+    size_t nvox;
+    rc = voxel_count(path, d, &nvox, err);
+    if (rc) goto done;
+    if ((uint64_t)nim->nvox != (uint64_t)nvox) {
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: header says %" PRId64 " voxels but dims give %zu", path, nim->nvox,
+                      nvox);
+        goto done;
+    }
+    double slope = nim->scl_slope, inter = nim->scl_inter;
+    if (!isfinite(slope) || !isfinite(inter)) {
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: scl_slope %g / scl_inter %g not finite", path, slope, inter);
+        goto done;
+    }
+    if (slope == 0) slope = 1;
+    nifti_dmat44 m = nim->sform_code > 0 ? nim->sto_xyz : nim->qto_xyz;
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) {
+            if (!isfinite(m.m[r][c])) {
+                rc = ohm_fail(err, OHM_ERR_PARSE, "%s: %s matrix has a non-finite entry", path,
+                              nim->sform_code > 0 ? "sform" : "qform");
+                goto done;
+            }
+            s->index_to_world[r][c] = m.m[r][c];
+        }
+    /* Only now read the data, ourselves: nifti_image_load silently turns
+     * NaN/Inf floats into 0, and ohm wants to report them. */
+    rc = load_nifti_data(nim, path, nvox, &data, err);
+    if (rc) goto done;
+    rc = alloc_values(s, path, d, err);
+    if (rc) goto done;
+    const void *src = data;
+    for (size_t i = 0; i < nvox; ++i) {
+        double v;
+        switch (nim->datatype) {
+        case NIFTI_TYPE_UINT8: v = ((const uint8_t *)src)[i]; break;
+        case NIFTI_TYPE_INT16: v = ((const int16_t *)src)[i]; break;
+        case NIFTI_TYPE_UINT16: v = ((const uint16_t *)src)[i]; break;
+        case NIFTI_TYPE_INT32: v = ((const int32_t *)src)[i]; break;
+        case NIFTI_TYPE_FLOAT32: v = ((const float *)src)[i]; break;
+        default: v = ((const double *)src)[i]; break;
+        }
+        s->values[i] = (float)(v * slope + inter);
+    }
+done:
+    free(data);
+    nifti_image_free(nim);
+    return rc;
+}
+
+/* ------------------------------------------------------------------------ */
+/* raw                                                                       */
+
+/* Read exactly `want` bytes into buf; *actual is the file's (decompressed)
+ * length, counted to the end when it differs. */
+static int read_exact(const char *path, int gz, unsigned char *buf, size_t want, uint64_t *actual,
+                      ohm_error *err)
+{
+    if (!gz) {
+        FILE *f = fopen(path, "rb");
+        if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+        size_t got = fread(buf, 1, want, f);
+        uint64_t total = got;
+        unsigned char scratch[4096];
+        size_t more;
+        while ((more = fread(scratch, 1, sizeof scratch, f)) > 0) total += more;
+        int bad = ferror(f);
+        int e = errno;
+        fclose(f);
+        if (bad) return ohm_fail(err, OHM_ERR_IO, "%s: read error: %s", path, strerror(e));
+        *actual = total;
+        return 0;
+    }
+    errno = 0;
+    gzFile f = gzopen(path, "rb");
+    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, errno ? strerror(errno) : "zlib");
+    gzbuffer(f, 1 << 17);
+    uint64_t total = 0;
+    int rc = 0;
+    unsigned char scratch[4096];
+    for (;;) {
+        unsigned char *dst;
+        size_t room;
+        if (total < want) {
+            dst = buf + total;
+            room = want - (size_t)total;
+        } else {
+            dst = scratch;
+            room = sizeof scratch;
+        }
+        if (room > (1u << 30)) room = 1u << 30;
+        int got = gzread(f, dst, (unsigned)room);
+        if (got < 0) {
+            int zerr;
+            const char *m = gzerror(f, &zerr);
+            rc = zerr == Z_ERRNO ? ohm_fail(err, OHM_ERR_IO, "%s: read error: %s", path, strerror(errno))
+                                 : ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream: %s", path,
+                                            m ? m : "unknown");
+            break;
+        }
+        if (total == 0 && got > 0 && gzdirect(f)) {
+            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: not a gzip file (expected the magic bytes 1f 8b)", path);
+            break;
+        }
+        if (got == 0) {
+            int zerr;
+            const char *m = gzerror(f, &zerr);
+            if (zerr != Z_OK)
+                rc = ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream: %s", path,
+                              m && *m ? m : "unexpected end of file");
+            break;
+        }
+        total += (uint64_t)got;
+    }
+    gzclose(f);
+    *actual = total;
+    return rc;
+}
+
+static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params *p, ohm_error *err)
+{
+    if (!p || p->dims[0] <= 0 || p->dims[1] <= 0 || p->dims[2] <= 0)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: a raw volume needs dims=NX,NY,NZ (all at least 1)%s", path,
+                        p ? "" : ", none given");
+    const char *type = p->type ? p->type : "";
+    size_t bpv;
+    if (strcmp(type, "u8") == 0) bpv = 1;
+    else if (strcmp(type, "u16") == 0 || strcmp(type, "i16") == 0) bpv = 2;
+    else if (strcmp(type, "f32") == 0) bpv = 4;
+    else
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: raw type '%s', expected type=u8, u16, i16 or f32", path,
+                        p->type ? p->type : "(none)");
+    int big = 0;
+    if (p->endian && strcmp(p->endian, "big") == 0) big = 1;
+    else if (p->endian && strcmp(p->endian, "little") != 0)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: endian '%s', expected little or big", path, p->endian);
+    double sp[3];
+    for (int k = 0; k < 3; ++k) {
+        sp[k] = p->spacing[k] == 0 ? 1.0 : p->spacing[k];
+        if (!isfinite(sp[k]) || sp[k] < 0)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: spacing %g on axis %d, expected a positive size in mm", path,
+                            p->spacing[k], k);
+    }
+    int64_t d[3] = {p->dims[0], p->dims[1], p->dims[2]};
+    size_t n;
+    int rc = voxel_count(path, d, &n, err);
+    if (rc) return rc;
+    size_t want = n * bpv;
+    if (!gz) {
+        struct stat st;
+        if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+        if (S_ISREG(st.st_mode) && (uint64_t)st.st_size != (uint64_t)want)
+            return ohm_fail(err, OHM_ERR_PARSE,
+                            "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, the file has %" PRIu64,
+                            path, (uint64_t)st.st_size < want ? "truncated" : "too long", d[0], d[1], d[2], type,
+                            want, (uint64_t)st.st_size);
+    }
+    unsigned char *buf = malloc(want);
+    if (!buf) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
+    uint64_t actual = 0;
+    rc = read_exact(path, gz, buf, want, &actual, err);
+    if (!rc && actual != (uint64_t)want)
+        rc = ohm_fail(err, OHM_ERR_PARSE,
+                      "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, the %s has %" PRIu64,
+                      path, actual < want ? "truncated" : "too long", d[0], d[1], d[2], type, want,
+                      gz ? "decompressed data" : "file", actual);
+    if (!rc) rc = alloc_values(s, path, d, err);
+    if (rc) {
+        free(buf);
+        return rc;
+    }
+    for (size_t i = 0; i < n; ++i) {
+        const unsigned char *b = buf + i * bpv;
+        unsigned char t[4];
+        for (size_t q = 0; q < bpv; ++q) t[q] = big ? b[bpv - 1 - q] : b[q];
+        float v;
+        if (bpv == 1) v = t[0];
+        else if (bpv == 2) {
+            uint16_t u = (uint16_t)(t[0] | (t[1] << 8));
+            v = type[0] == 'u' ? (float)u : (float)(int16_t)u;
+        } else {
+            uint32_t u = (uint32_t)t[0] | ((uint32_t)t[1] << 8) | ((uint32_t)t[2] << 16) | ((uint32_t)t[3] << 24);
+            memcpy(&v, &u, sizeof v);
+        }
+        s->values[i] = v;
+    }
+    free(buf);
+    memset(s->index_to_world, 0, sizeof s->index_to_world);
+    for (int k = 0; k < 3; ++k) s->index_to_world[k][k] = sp[k];
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+/* TIFF / PNG stacks: a directory of images, one slice each, sorted by name  */
+
+static int is_slice_name(const char *n)
+{
+    return n[0] != '.' && (ends_with_ci(n, ".tif") || ends_with_ci(n, ".tiff") || ends_with_ci(n, ".png"));
+}
+
+static int cmp_names(const void *a, const void *b)
+{
+    return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
+{
+    double sp[3];
+    for (int k = 0; k < 3; ++k) {
+        sp[k] = !p || p->spacing[k] == 0 ? 1.0 : p->spacing[k];
+        if (!isfinite(sp[k]) || sp[k] < 0)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: spacing %g on axis %d, expected a positive size in mm", path,
+                            sp[k], k);
+    }
+    DIR *dir = opendir(path);
+    if (!dir) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open directory: %s", path, strerror(errno));
+    char **names = NULL;
+    size_t n = 0, cap = 0;
+    int rc = 0;
+    struct dirent *de;
+    while ((de = readdir(dir)) != NULL) {
+        if (!is_slice_name(de->d_name)) continue;
+        if (n == cap) {
+            size_t nc = cap ? cap * 2 : 64;
+            char **q = nc < SIZE_MAX / sizeof *q ? realloc(names, nc * sizeof *q) : NULL;
+            if (!q) {
+                rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory listing the directory", path);
+                break;
+            }
+            names = q;
+            cap = nc;
+        }
+        size_t len = strlen(path) + strlen(de->d_name) + 2;
+        names[n] = malloc(len);
+        if (!names[n]) {
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory listing the directory", path);
+            break;
+        }
+        snprintf(names[n], len, "%s/%s", path, de->d_name);
+        n++;
+    }
+    closedir(dir);
+    if (!rc && n == 0)
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: no .tif, .tiff or .png images in the directory, expected an image stack",
+                      path);
+    if (!rc) qsort(names, n, sizeof *names, cmp_names);
+    int w0 = 0, h0 = 0;
+    for (size_t z = 0; z < n && !rc; ++z) {
+        float *px = NULL;
+        int w = 0, h = 0;
+        rc = ohm_image_read_gray(names[z], &px, &w, &h, err);
+        if (rc) break;
+        if (z == 0) {
+            int64_t d[3] = {w, h, (int64_t)n};
+            w0 = w;
+            h0 = h;
+            rc = alloc_values(s, path, d, err);
+        } else if (w != w0 || h != h0) {
+            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: slice %zu is %d x %d pixels, expected %d x %d like the first (%s)",
+                          names[z], z, w, h, w0, h0, names[0]);
+        }
+        if (!rc) memcpy(s->values + z * (size_t)w0 * (size_t)h0, px, (size_t)w0 * (size_t)h0 * sizeof(float));
+        free(px);
+    }
+    for (size_t i = 0; i < n; ++i) free(names[i]);
+    free(names);
+    if (rc) return rc;
+    memset(s->index_to_world, 0, sizeof s->index_to_world);
+    for (int k = 0; k < 3; ++k) s->index_to_world[k][k] = sp[k];
+    return 0;
+}
+
+/* ------------------------------------------------------------------------ */
+
+int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err)
+{
+    memset(out, 0, sizeof *out);
+    if (!path) return ohm_fail(err, OHM_ERR_USAGE, "scan read: no file name given");
+    struct stat st;
+    if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    int rc;
+    if (S_ISDIR(st.st_mode)) rc = read_stack(out, path, p, err);
+    else if (!S_ISREG(st.st_mode))
+        return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a scan", path);
+    else if (ends_with_ci(path, ".vdb")) rc = read_vdb(out, path, p, err);
+    else if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) rc = read_nifti(out, path, err);
+    else if (ends_with_ci(path, ".raw")) rc = read_raw(out, path, 0, p, err);
+    else if (ends_with_ci(path, ".raw.gz")) rc = read_raw(out, path, 1, p, err);
+    else
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "%s: unknown scan format, expected .vdb, .nii, .nii.gz, .raw, .raw.gz or a directory of "
+                        ".tif/.png slices",
+                        path);
+    if (!rc) rc = finish_values(out, path, err);
+    if (!rc) rc = check_placement(out, path, err);
+    if (rc) ohm_scan_free(out);
+    return rc;
+}
+
+void ohm_scan_free(ohm_scan *s)
+{
+    if (!s) return;
+    free(s->values);
+    memset(s, 0, sizeof *s);
+}
+
+/* ------------------------------------------------------------------------ */
+/* Sampling                                                                  */
+
+/* world -> index: the inverse of the 3x3 part and the offset.  0 if singular. */
+static int world_to_index(const ohm_scan *s, const double w[3], double ijk[3])
+{
+    const double(*m)[4] = s->index_to_world;
+    double a = m[0][0], b = m[0][1], c = m[0][2], d = m[1][0], e = m[1][1], f = m[1][2], g = m[2][0],
+           h = m[2][1], k = m[2][2];
+    double A = e * k - f * h, B = -(d * k - f * g), C = d * h - e * g;
+    double det = a * A + b * B + c * C;
+    if (det == 0 || !isfinite(det)) return 0;
+    double inv[3][3] = {{A / det, -(b * k - c * h) / det, (b * f - c * e) / det},
+                        {B / det, (a * k - c * g) / det, -(a * f - c * d) / det},
+                        {C / det, -(a * h - b * g) / det, (a * e - b * d) / det}};
+    double r[3] = {w[0] - m[0][3], w[1] - m[1][3], w[2] - m[2][3]};
+    for (int i = 0; i < 3; ++i) ijk[i] = inv[i][0] * r[0] + inv[i][1] * r[1] + inv[i][2] * r[2];
+    return 1;
+}
+
+static float voxel(const ohm_scan *s, int32_t i, int32_t j, int32_t k)
+{
+    return s->values[((size_t)k * (size_t)s->dims[1] + (size_t)j) * (size_t)s->dims[0] + (size_t)i];
+}
+
+static double sample_index(const ohm_scan *s, const double x[3])
+{
+    const double eps = 1e-5; /* NIfTI-1 stores the sform in float32 */
+    int32_t i0[3];
+    double t[3];
+    for (int a = 0; a < 3; ++a) {
+        double n1 = (double)s->dims[a] - 1;
+        if (!(x[a] >= -eps && x[a] <= n1 + eps)) return 0;
+        double c = x[a] < 0 ? 0 : x[a] > n1 ? n1 : x[a];
+        double fl = floor(c);
+        if (fl >= n1) fl = n1 > 0 ? n1 - 1 : 0;
+        i0[a] = (int32_t)fl;
+        t[a] = s->dims[a] > 1 ? c - fl : 0;
+    }
+    double v = 0;
+    for (int corner = 0; corner < 8; ++corner) {
+        int32_t q[3];
+        double wgt = 1;
+        for (int a = 0; a < 3; ++a) {
+            int up = (corner >> a) & 1;
+            wgt *= up ? t[a] : 1 - t[a];
+            q[a] = i0[a] + (up && s->dims[a] > 1 ? 1 : 0);
+        }
+        if (wgt != 0) v += wgt * voxel(s, q[0], q[1], q[2]);
+    }
+    return v;
+}
+
+double ohm_scan_sample(const ohm_scan *s, const double world[3])
+{
+    if (!s || !s->values) return 0;
+    double x[3];
+    if (!world_to_index(s, world, x)) return 0;
+    return sample_index(s, x);
+}
+
+double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[3])
+{
+    if (!s || !s->values) return 0;
+    /* index-space bounding box of the world box's corners */
+    double ilo[3] = {INFINITY, INFINITY, INFINITY}, ihi[3] = {-INFINITY, -INFINITY, -INFINITY};
+    for (int c = 0; c < 8; ++c) {
+        double w[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]}, x[3];
+        if (!world_to_index(s, w, x)) return 0;
+        for (int a = 0; a < 3; ++a) {
+            if (x[a] < ilo[a]) ilo[a] = x[a];
+            if (x[a] > ihi[a]) ihi[a] = x[a];
+        }
+    }
+    int32_t b0[3], b1[3];
+    int empty = 0;
+    for (int a = 0; a < 3; ++a) {
+        double f0 = ceil(ilo[a] - 1e-9), f1 = floor(ihi[a] + 1e-9);
+        if (f0 < 0) f0 = 0;
+        if (f1 > s->dims[a] - 1) f1 = s->dims[a] - 1;
+        if (f0 > f1) empty = 1;
+        else {
+            b0[a] = (int32_t)f0;
+            b1[a] = (int32_t)f1;
+        }
+    }
+    double sum = 0;
+    size_t cnt = 0;
+    if (!empty) {
+        const double(*m)[4] = s->index_to_world;
+        const double tol = 1e-9;
+        for (int32_t k = b0[2]; k <= b1[2]; ++k)
+            for (int32_t j = b0[1]; j <= b1[1]; ++j)
+                for (int32_t i = b0[0]; i <= b1[0]; ++i) {
+                    int inside = 1;
+                    for (int a = 0; a < 3 && inside; ++a) {
+                        double w = m[a][0] * i + m[a][1] * j + m[a][2] * k + m[a][3];
+                        double slack = tol * (fabs(lo[a]) + fabs(hi[a]) + 1);
+                        if (w < lo[a] - slack || w > hi[a] + slack) inside = 0;
+                    }
+                    if (inside) {
+                        sum += voxel(s, i, j, k);
+                        cnt++;
+                    }
+                }
+    }
+    if (cnt) return sum / (double)cnt;
+    double centre[3] = {0.5 * (lo[0] + hi[0]), 0.5 * (lo[1] + hi[1]), 0.5 * (lo[2] + hi[2])};
+    return ohm_scan_sample(s, centre);
+}
+
+void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3]) { scan_bounds_of(s, lo, hi); }
+
+static void scan_bounds_of(const ohm_scan *s, double lo[3], double hi[3])
+{
+    for (int a = 0; a < 3; ++a) {
+        lo[a] = INFINITY;
+        hi[a] = -INFINITY;
+    }
+    if (!s || s->dims[0] <= 0 || s->dims[1] <= 0 || s->dims[2] <= 0) {
+        for (int a = 0; a < 3; ++a) lo[a] = hi[a] = 0;
+        return;
+    }
+    const double(*m)[4] = s->index_to_world;
+    for (int c = 0; c < 8; ++c) {
+        double x[3] = {c & 1 ? s->dims[0] - 1 : 0, c & 2 ? s->dims[1] - 1 : 0, c & 4 ? s->dims[2] - 1 : 0};
+        for (int a = 0; a < 3; ++a) {
+            double w = m[a][0] * x[0] + m[a][1] * x[1] + m[a][2] * x[2] + m[a][3];
+            if (w < lo[a]) lo[a] = w;
+            if (w > hi[a]) hi[a] = w;
+        }
+    }
+}

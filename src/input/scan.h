@@ -1,0 +1,49 @@
+/* scan.h — density volumes in (CT, MRI, any scalar field): stage "scans" of
+ * DESIGN.md §1.  One in-memory form for every reader: a dense float array,
+ * x fastest, and the affine map from voxel index (voxel centres) to world mm.
+ *
+ * Readers: .vdb (a float grid, grid= picks it; default "density"), NIfTI-1/2
+ * (.nii, .nii.gz: voxel spacing, sform (else qform), scl_slope/scl_inter
+ * honoured), headerless raw (.raw, .raw.gz: dims=, type=u8|u16|i16|f32,
+ * endian=little|big, spacing=; x fastest), and TIFF/PNG stacks through
+ * OpenImageIO (a directory of slices sorted by name, spacing=).  Every error names
+ * the file and what was expected; NaN or Inf voxels are an error naming the
+ * first one.  The scan owns `values`; ohm_scan_free releases it. */
+#ifndef OHM_SCAN_H
+#define OHM_SCAN_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include "base/ohm_error.h"
+
+typedef struct ohm_scan {
+    int32_t dims[3];              /* voxels per axis                                   */
+    float *values;                /* dims[0]*dims[1]*dims[2], x fastest, scaled values */
+    double index_to_world[3][4];  /* world mm = M (i, j, k, 1)^T, at voxel centres     */
+    double min, max;              /* range of values                                   */
+} ohm_scan;
+
+typedef struct ohm_scan_params {
+    const char *grid;             /* .vdb: grid name (NULL: "density")                 */
+    int32_t dims[3];              /* raw: required                                      */
+    const char *type;             /* raw: u8 | u16 | i16 | f32                          */
+    const char *endian;           /* raw: little | big (NULL: little)                   */
+    double spacing[3];            /* raw, stacks: voxel size mm (0: 1 mm)               */
+} ohm_scan_params;
+
+int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err);
+void ohm_scan_free(ohm_scan *s);
+
+/* Value at a world point: trilinear between voxel centres, 0 outside. */
+double ohm_scan_sample(const ohm_scan *s, const double world[3]);
+
+/* Mean over the axis-aligned world box [lo, hi] (box filter, for grids
+ * coarser than the scan): averages the voxels whose centres fall inside,
+ * or the trilinear value at the centre when none does. */
+double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[3]);
+
+/* World bounds of the scan's voxel centres (lo, hi). */
+void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3]);
+
+#endif

@@ -1,0 +1,582 @@
+#include "physics/light.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* Signed distance at a cell (negative inside); NaN when unknown. */
+static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2]) return NAN;
+    size_t idx = ohm_voxel_index(g, i, j, k);
+    double d = ohm_voxel_dist(g, idx);
+    if (isnan(d)) return NAN;
+    if (!isfinite(d)) d = g->band;
+    return g->inside[idx] ? -d : d;
+}
+
+void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int d = net->face_dir[f];
+    int32_t c[3];
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
+    double grad[3], len2 = 0;
+    for (int a = 0; a < 3; ++a) {
+        int32_t p[3] = {c[0], c[1], c[2]}, m[3] = {c[0], c[1], c[2]};
+        p[a] += 1;
+        m[a] -= 1;
+        grad[a] = signed_dist(g, p[0], p[1], p[2]) - signed_dist(g, m[0], m[1], m[2]);
+        len2 += grad[a] * grad[a];
+    }
+    if (isfinite(len2) && len2 > 0) {
+        double inv = 1.0 / sqrt(len2);
+        for (int a = 0; a < 3; ++a) n[a] = grad[a] * inv;
+        /* a gradient pointing away from this face's side is noise: use the face */
+        double along = n[0] * ohm_face_offset[d][0] + n[1] * ohm_face_offset[d][1] + n[2] * ohm_face_offset[d][2];
+        if (along > 0) return;
+    }
+    for (int a = 0; a < 3; ++a) n[a] = ohm_face_offset[d][a];
+}
+
+static inline double med_sigma_t(const ohm_channel_medium *m, int64_t v)
+{
+    return (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) + (m->sigma_s ? m->sigma_s[v] : m->sigma_s0);
+}
+static inline double med_albedo(const ohm_channel_medium *m, int64_t v)
+{
+    return (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) / med_sigma_t(m, v);
+}
+
+/* The column of cells below boundary face f, walked inward against its
+ * outward normal: the unknown q cells down (q = 0: the face's own cell), or
+ * -1 where the column leaves the object or the grid. */
+typedef struct column {
+    const ohm_network *net;
+    int32_t c[3], step[3];
+} column;
+
+static void column_init(column *col, const ohm_network *net, int64_t f)
+{
+    int d = net->face_dir[f];
+    col->net = net;
+    for (int a = 0; a < 3; ++a) col->step[a] = -ohm_face_offset[d][a];
+    ohm_voxel_coords(net->grid, net->cell[net->face_unknown[f]], col->c);
+}
+
+static int64_t column_unknown(const column *col, int64_t q)
+{
+    const ohm_voxel_grid *g = col->net->grid;
+    int32_t p[3];
+    for (int a = 0; a < 3; ++a) {
+        p[a] = col->c[a] + (int32_t)q * col->step[a];
+        if (p[a] < 0 || p[a] >= g->dims[a]) return -1;
+    }
+    return ohm_network_unknown(col->net, ohm_voxel_index(g, p[0], p[1], p[2]));
+}
+
+double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, double P, double mu,
+                               const ohm_channel_medium *med, ohm_deposit deposit)
+{
+    /* depth per unit path along the refracted ray; clamped away from
+     * grazing, where the light would need many cells to gain one */
+    if (!(mu > 0.05)) mu = 0.05;
+    if (mu > 1.0) mu = 1.0;
+    const ohm_voxel_grid *g = net->grid;
+    int64_t v0 = net->face_unknown[f];
+    if (med->resistance_mode || deposit == OHM_DEPOSIT_SURFACE) {
+        double w = med->resistance_mode ? P : P * med_albedo(med, v0);
+        b[v0] += w;
+        return w;
+    }
+    column col; /* walk inward: against the face's outward normal */
+    column_init(&col, net, f);
+    const double h = g->h;
+    double put = 0.0;
+    if (deposit == OHM_DEPOSIT_POINT) {
+        /* everything at depth z0 = 1/sigma_t' (the dipole's real source),
+         * split linearly between the two cell centres around it */
+        double z0 = mu / med_sigma_t(med, v0), a0 = med_albedo(med, v0);
+        double s = z0 / h - 0.5; /* position in cell-centre units */
+        int64_t m = s <= 0 ? 0 : (int64_t)floor(s);
+        double frac = s <= 0 ? 0.0 : s - (double)m;
+        /* the column of interior cells below the face, down to cell m+1 */
+        int64_t upper = v0, lower = -1;
+        for (int64_t q = 1; q <= m + 1; ++q) {
+            int64_t u = column_unknown(&col, q);
+            if (u < 0) break;
+            if (q <= m) upper = u;
+            else lower = u;
+        }
+        /* a part thinner than z0 keeps everything in its deepest cell */
+        if (lower < 0) frac = 0.0;
+        b[upper] += a0 * P * (1.0 - frac);
+        if (frac > 0) b[lower] += a0 * P * frac;
+        return a0 * P;
+    }
+    /* exponential: optical depth accumulated cell by cell; each cell's share
+     * alpha' P (e^-tau0 - e^-tau1) is split between it and the cell above so
+     * that its centroid, not its cell's centre, is where it acts: the depth
+     * distribution's first moment is then exact on any grid (issue 13: lumped
+     * at centres, the source sat 8% too deep at h = 1/sigma_t').  The first
+     * cell has no cell above: its shallower part is extrapolated, a negative
+     * share in the second cell (moment exact again), clamped so that no
+     * cell's source turns negative. */
+    double tau = 0.0, pending_up = 0.0; /* weight the previous cell owes the cell above it */
+    int64_t prev = -1, first = v0;
+    for (int64_t q = 0;; ++q) {
+        int64_t u = column_unknown(&col, q);
+        if (u < 0) break; /* the rest passes through a thin part unscattered */
+        double x = med_sigma_t(med, u) * h / mu, t1 = tau + x; /* optical depth of the cell along the ray */
+        double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
+        /* the centroid of e^-sigma z over the cell, from its top, in cells:
+         * 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0) */
+        double centroid = x > 1e-6 ? 1.0 / x - exp(-x) / -expm1(-x) : 0.5 - x / 12.0;
+        double up = w * (0.5 - centroid); /* to move one cell up */
+        if (q == 0) {
+            b[u] += w;
+            pending_up = up; /* extrapolated into the second cell below */
+        } else {
+            if (q == 1) { /* the first cell's extrapolation, clamped */
+                double own = w - up, minus = fmin(pending_up, own);
+                b[first] += minus;
+                b[u] += own - minus;
+                pending_up = 0.0;
+            } else {
+                b[u] += w - up;
+            }
+            b[prev] += up;
+        }
+        put += w;
+        prev = u;
+        tau = t1;
+        if (tau > 40.0) break; /* e^-40: nothing left */
+    }
+    return put;
+}
+
+void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f, double P, double mu,
+                                 const ohm_channel_medium *med)
+{
+    if (!(mu > 0.05)) mu = 0.05; /* as the deposit */
+    if (mu > 1.0) mu = 1.0;
+    column col;
+    column_init(&col, net, f);
+    const double h = net->grid->h, volume = h * h * h;
+    double tau = 0.0;
+    for (int64_t q = 0;; ++q) {
+        int64_t u = column_unknown(&col, q);
+        if (u < 0) break;
+        /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
+         * loses every photon that scatters, forward or not */
+        double sa = med->sigma_a ? med->sigma_a[u] : med->sigma_a0;
+        double st = sa + (med->sigma_s ? med->sigma_s[u] : med->sigma_s0) / (1.0 - med->g), t1 = tau + st * h / mu;
+        /* track length in the cell along the ray, P int e^-st s ds, per volume */
+        phi[u] += P * (exp(-tau) - exp(-t1)) / (st * volume);
+        tau = t1;
+        if (tau > 40.0) break;
+    }
+}
+
+static void face_centre(const ohm_network *net, int64_t f, double p[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int32_t c[3];
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
+    int d = net->face_dir[f];
+    for (int a = 0; a < 3; ++a) p[a] = g->origin[a] + g->h * (c[a] + 0.5 * ohm_face_offset[d][a]);
+}
+
+/* Pencil beam: walk the ray through the grid (Amanatides & Woo 1987) to the
+ * first interior cell; the face it crosses is where the beam enters. */
+static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], const double dir[3], ohm_error *err)
+{
+    const ohm_voxel_grid *g = net->grid;
+    double gp[3], t_enter = 0.0, t_exit = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        gp[a] = (pos[a] - g->origin[a]) / g->h + 0.5; /* cell i spans [i, i+1) */
+        double lo = 0.0, hi = (double)g->dims[a];
+        if (fabs(dir[a]) < 1e-300) {
+            if (gp[a] < lo || gp[a] >= hi) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+            continue;
+        }
+        double t0 = (lo - gp[a]) / dir[a], t1 = (hi - gp[a]) / dir[a];
+        if (t0 > t1) { double tmp = t0; t0 = t1; t1 = tmp; }
+        if (t0 > t_enter) t_enter = t0;
+        if (t1 < t_exit) t_exit = t1;
+    }
+    if (t_enter > t_exit) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object's grid");
+    int32_t c[3], stepv[3];
+    double tmax[3], tdelta[3];
+    for (int a = 0; a < 3; ++a) {
+        double x = gp[a] + t_enter * dir[a];
+        c[a] = (int32_t)floor(x);
+        if (c[a] < 0) c[a] = 0;
+        if (c[a] >= g->dims[a]) c[a] = g->dims[a] - 1;
+        stepv[a] = dir[a] > 0 ? 1 : (dir[a] < 0 ? -1 : 0);
+        if (stepv[a] == 0) {
+            tmax[a] = INFINITY;
+            tdelta[a] = INFINITY;
+        } else {
+            double next = stepv[a] > 0 ? c[a] + 1.0 : (double)c[a];
+            tmax[a] = (next - gp[a]) / dir[a];
+            tdelta[a] = 1.0 / fabs(dir[a]);
+        }
+    }
+    int last_axis = -1;
+    for (;;) {
+        int64_t u = ohm_network_unknown(net, ohm_voxel_index(g, c[0], c[1], c[2]));
+        if (u >= 0) {
+            if (last_axis < 0)
+                return ohm_fail(err, OHM_ERR_INVALID, "pencil beam starts inside the object: put pos= outside it");
+            int d = 2 * last_axis + (stepv[last_axis] > 0 ? 0 : 1);
+            int64_t f = ohm_network_face(net, u, d);
+            if (f >= 0) return f;
+            return ohm_fail(err, OHM_ERR_INVALID, "pencil beam enters through a symmetry plane");
+        }
+        int a = tmax[0] < tmax[1] ? (tmax[0] < tmax[2] ? 0 : 2) : (tmax[1] < tmax[2] ? 1 : 2);
+        c[a] += stepv[a];
+        if (c[a] < 0 || c[a] >= g->dims[a]) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+        tmax[a] += tdelta[a];
+        last_axis = a;
+    }
+}
+
+/* An orthonormal basis (u, v) of the plane perpendicular to unit vector n. */
+static void plane_basis(const double n[3], double u[3], double v[3])
+{
+    double up[3] = {0, 1, 0};
+    if (fabs(n[1]) > 0.9) up[0] = 1, up[1] = 0;
+    u[0] = up[1] * n[2] - up[2] * n[1];
+    u[1] = up[2] * n[0] - up[0] * n[2];
+    u[2] = up[0] * n[1] - up[1] * n[0];
+    double len = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
+    for (int a = 0; a < 3; ++a) u[a] /= len;
+    v[0] = n[1] * u[2] - n[2] * u[1];
+    v[1] = n[2] * u[0] - n[0] * u[2];
+    v[2] = n[0] * u[1] - n[1] * u[0];
+}
+
+/* Sample points of an area light: a stratified k x k grid over the
+ * rectangle (or over the disk's square, mapped concentrically so every
+ * sample covers equal area: Shirley & Chiu 1997). */
+static int area_samples(const ohm_light *light, double (*pts)[3], int max)
+{
+    int k = (int)floor(sqrt((double)(light->samples > 0 ? light->samples : 64)));
+    if (k < 1) k = 1;
+    if (k * k > max) k = (int)floor(sqrt((double)max));
+    double u[3], v[3];
+    plane_basis(light->dir, u, v);
+    int n = 0;
+    for (int j = 0; j < k; ++j)
+        for (int i = 0; i < k; ++i) {
+            double a = 2.0 * (i + 0.5) / k - 1.0, b = 2.0 * (j + 0.5) / k - 1.0, x, y;
+            if (light->disk) {
+                double r, phi, R = 0.5 * light->width;
+                if (fabs(a) > fabs(b)) r = a, phi = (M_PI / 4) * (b / a);
+                else r = b, phi = (M_PI / 2) - (M_PI / 4) * (a / b);
+                x = R * r * cos(phi);
+                y = R * r * sin(phi);
+            } else {
+                x = 0.5 * light->width * a;
+                y = 0.5 * light->height * b;
+            }
+            for (int c = 0; c < 3; ++c) pts[n][c] = light->pos[c] + x * u[c] + y * v[c];
+            ++n;
+        }
+    return n;
+}
+
+/* Spot cone: 1 inside angle - falloff, 0 outside angle, smoothstep between. */
+static double spot_factor(const ohm_light *light, const double to_face[3])
+{
+    double c = to_face[0] * light->dir[0] + to_face[1] * light->dir[1] + to_face[2] * light->dir[2];
+    double outer = cos(light->angle * M_PI / 180.0), inner = cos((light->angle - light->falloff) * M_PI / 180.0);
+    if (c >= inner) return 1.0;
+    if (c <= outer) return 0.0;
+    double t = (c - outer) / (inner - outer);
+    return t * t * (3.0 - 2.0 * t);
+}
+
+enum { AREA_MAX_SAMPLES = 4096 };
+
+/* A light's emitters: one point for directional / point / spot / pencil,
+ * stratified samples for an area light (each carrying scale_each of it). */
+typedef struct emitters {
+    double one_point[1][3];
+    double (*pts)[3];
+    int npts;
+    double scale_each;
+} emitters;
+
+static int emitters_init(emitters *em, const ohm_light *light, ohm_error *err)
+{
+    em->pts = em->one_point;
+    em->npts = 1;
+    em->scale_each = 1.0;
+    if (light->type == OHM_LIGHT_AREA) {
+        em->pts = malloc(AREA_MAX_SAMPLES * sizeof *em->pts);
+        if (!em->pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
+        em->npts = area_samples(light, em->pts, AREA_MAX_SAMPLES);
+        /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
+        em->scale_each = 1.0 / (M_PI * em->npts);
+    } else {
+        memcpy(em->pts[0], light->pos, sizeof em->pts[0]);
+    }
+    return OHM_OK;
+}
+
+static void emitters_free(emitters *em)
+{
+    if (em->pts != em->one_point) free(em->pts);
+}
+
+/* The irradiance per unit intensity the light puts on boundary face f
+ * (shadow rays included), and l_mean, the irradiance-weighted direction
+ * towards the light (not normalised); 0 when the face is unlit. */
+static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light *light, const emitters *em,
+                              const ohm_occluder *occ, double l_mean[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    int d = net->face_dir[f];
+    double p[3];
+    face_centre(net, f, p);
+    int32_t cell[3];
+    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
+    double E = 0.0;
+    l_mean[0] = l_mean[1] = l_mean[2] = 0.0;
+    for (int k = 0; k < em->npts; ++k) {
+        double l[3], scale = 1.0, dist = INFINITY;
+        if (light->type == OHM_LIGHT_DIRECTIONAL) {
+            for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
+        } else {
+            double dist2 = 0;
+            for (int a = 0; a < 3; ++a) {
+                l[a] = em->pts[k][a] - p[a];
+                dist2 += l[a] * l[a];
+            }
+            if (!(dist2 > 0)) continue;
+            dist = sqrt(dist2);
+            for (int a = 0; a < 3; ++a) l[a] /= dist;
+            scale = 1.0 / dist2;
+        }
+        double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
+        if (cos_face <= 0) continue; /* faces turned away: skipped, no ray */
+        double emit = 1.0;
+        if (light->type == OHM_LIGHT_SPOT) {
+            double to_face[3] = {-l[0], -l[1], -l[2]};
+            emit = spot_factor(light, to_face);
+        } else if (light->type == OHM_LIGHT_AREA) {
+            emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]) * em->scale_each;
+        }
+        if (emit <= 0) continue;
+        double vis = ohm_face_visibility(occ, cell, d, l, dist);
+        if (vis <= 0) continue;
+        double e = emit * cos_face * scale * vis;
+        E += e;
+        for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
+    }
+    return E;
+}
+
+/* The index light enters through face f. */
+static inline double face_eta(const ohm_network *net, int64_t f, double eta, const double *eta_v)
+{
+    return eta_v ? eta_v[net->face_unknown[f]] : eta;
+}
+
+/* 1 - Fresnel reflectance for light travelling along unit direction `travel`
+ * onto face f, at the smooth surface normal (Fresnel at a voxel face's own
+ * normal would make a sphere's shading a staircase). */
+static double face_transmittance(const ohm_network *net, int64_t f, const double travel[3], double eta, double *mu)
+{
+    double ns[3];
+    ohm_surface_normal(net, f, ns);
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    /* Snell: the refracted ray's cosine to the inward normal, the rate at
+     * which it gains depth (sin_t = sin_i / eta) */
+    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
+    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+}
+
+static void unit_travel(const double l_mean[3], double travel[3])
+{
+    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
+    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
+}
+
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
+                          const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
+                          const ohm_occluder *occ, ohm_error *err)
+{
+    emitters em;
+    int rc = emitters_init(&em, light, err);
+    if (rc) return rc;
+    const double area = net->grid->h * net->grid->h;
+    for (int64_t f = 0; f < net->nfaces; ++f) {
+        double l_mean[3], travel[3];
+        double E = face_irradiance(net, f, light, &em, occ, l_mean);
+        if (!(E > 0)) continue;
+        /* Fresnel for the irradiance-weighted direction */
+        unit_travel(l_mean, travel);
+        double mu, T = face_transmittance(net, f, travel, face_eta(net, f, eta, eta_v), &mu);
+        for (int c = 0; c < channels; ++c) {
+            double I = light->intensity[light->channels == 1 ? 0 : c];
+            arrive[c][f] += I * E * area;
+            enter[c][f] += I * T * E * area;
+            if (enter_mu) enter_mu[c][f] += I * T * E * area * mu;
+        }
+    }
+    emitters_free(&em);
+    return OHM_OK;
+}
+
+/* Snell's law at the smooth normal of face f: the direction inside of light
+ * travelling along unit `travel` from outside (index 1) into index eta; a
+ * direction the staircase face would send back out is mirrored in the face's
+ * plane, so every photon starts into its cell. */
+static void refract_in(const ohm_network *net, int64_t f, const double travel[3], double eta, double out[3])
+{
+    double ns[3];
+    ohm_surface_normal(net, f, ns);
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    double k = 1.0 / eta, sin2_t = k * k * (1.0 - cos_i * cos_i);
+    double cos_t = sqrt(fmax(0.0, 1.0 - sin2_t)), len2 = 0;
+    for (int a = 0; a < 3; ++a) {
+        out[a] = k * travel[a] + (k * cos_i - cos_t) * ns[a];
+        len2 += out[a] * out[a];
+    }
+    double inv = 1.0 / sqrt(len2);
+    for (int a = 0; a < 3; ++a) out[a] *= inv;
+    int d = net->face_dir[f], axis = d / 2;
+    double outward = out[axis] * ohm_face_offset[d][axis];
+    if (outward >= 0) out[axis] = -ohm_face_offset[d][axis] * fmax(outward, 1e-6);
+}
+
+static int push_entry(ohm_light_entries *list, const ohm_light_entry *e, ohm_error *err)
+{
+    if (list->count == list->capacity) {
+        size_t cap = list->capacity ? 2 * list->capacity : 256;
+        ohm_light_entry *grown = realloc(list->entry, cap * sizeof *grown);
+        if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %zu entry points", cap);
+        list->entry = grown;
+        list->capacity = cap;
+    }
+    list->entry[list->count++] = *e;
+    return OHM_OK;
+}
+
+/* Where a pencil beam crosses entry face f (world mm). */
+static void pencil_entry_point(const ohm_network *net, int64_t f, const ohm_light *light, double point[3])
+{
+    double c[3];
+    face_centre(net, f, c);
+    int axis = net->face_dir[f] / 2;
+    double t = fabs(light->dir[axis]) > 0 ? (c[axis] - light->pos[axis]) / light->dir[axis] : 0.0;
+    for (int a = 0; a < 3; ++a) point[a] = light->pos[a] + t * light->dir[a];
+    point[axis] = c[axis];
+}
+
+int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const ohm_light *light, int channels,
+                          double eta, const double *eta_v, const ohm_occluder *occ, ohm_error *err)
+{
+    const double area = net->grid->h * net->grid->h;
+    ohm_light_entry e;
+    memset(&e, 0, sizeof e);
+    if (light->type == OHM_LIGHT_PENCIL) {
+        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
+        if (f < 0) return (int)f;
+        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, light->dir, ef, &e.mu);
+        e.face = f;
+        e.at_point = 1;
+        pencil_entry_point(net, f, light, e.point);
+        refract_in(net, f, light->dir, ef, e.dir);
+        for (int c = 0; c < channels; ++c) {
+            e.incident[c] = light->intensity[light->channels == 1 ? 0 : c];
+            e.power[c] = T * e.incident[c];
+        }
+        return push_entry(list, &e, err);
+    }
+    emitters em;
+    int rc = emitters_init(&em, light, err);
+    for (int64_t f = 0; f < net->nfaces && !rc; ++f) {
+        double l_mean[3], travel[3];
+        double E = face_irradiance(net, f, light, &em, occ, l_mean);
+        if (!(E > 0)) continue;
+        unit_travel(l_mean, travel);
+        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, travel, ef, &e.mu);
+        e.face = f;
+        refract_in(net, f, travel, ef, e.dir);
+        for (int c = 0; c < channels; ++c) {
+            e.incident[c] = light->intensity[light->channels == 1 ? 0 : c] * E * area;
+            e.power[c] = T * e.incident[c];
+        }
+        rc = push_entry(list, &e, err);
+    }
+    emitters_free(&em);
+    return rc;
+}
+
+void ohm_light_entries_free(ohm_light_entries *list)
+{
+    if (!list) return;
+    free(list->entry);
+    memset(list, 0, sizeof *list);
+}
+
+double ohm_source_deposit_faces(double *b, const ohm_network *net, const double *enter, const double *enter_mu,
+                                const ohm_channel_medium *med, ohm_deposit deposit)
+{
+    double put = 0;
+    for (int64_t f = 0; f < net->nfaces; ++f)
+        if (enter[f] > 0)
+            put += ohm_source_deposit_face(b, net, f, enter[f], enter_mu ? enter_mu[f] / enter[f] : 1.0, med, deposit);
+    return put;
+}
+
+int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, const ohm_light *light, int c,
+                   const ohm_channel_medium *med, ohm_deposit deposit, const ohm_occluder *occ, ohm_error *err)
+{
+    double I = light->intensity[light->channels == 1 ? 0 : c];
+    double eta = med->resistance_mode ? 1.0 : med->eta;
+    if (light->type == OHM_LIGHT_PENCIL) {
+        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
+        if (f < 0) return (int)f;
+        double mu, T = face_transmittance(net, f, light->dir, face_eta(net, f, eta, med->eta_v), &mu);
+        pw->incident += I;
+        pw->entered += T * I;
+        pw->deposited += ohm_source_deposit_face(b, net, f, T * I, mu, med, deposit);
+        return OHM_OK;
+    }
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    double *enter = calloc(nf, sizeof *enter), *arrive = calloc(nf, sizeof *arrive);
+    double *enter_mu = calloc(nf, sizeof *enter_mu);
+    if (!enter || !arrive || !enter_mu) {
+        free(enter);
+        free(arrive);
+        free(enter_mu);
+        return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory");
+    }
+    /* one channel: pass the light's intensity for c through a copy */
+    ohm_light one = *light;
+    one.channels = 1;
+    one.intensity[0] = I;
+    int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, med->eta_v, occ, err);
+    if (!rc) {
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            pw->incident += arrive[f];
+            pw->entered += enter[f];
+        }
+        pw->deposited += ohm_source_deposit_faces(b, net, enter, enter_mu, med, deposit);
+    }
+    free(enter_mu);
+    free(enter);
+    free(arrive);
+    return rc;
+}

@@ -1,0 +1,595 @@
+#include "physics/mc.h"
+
+#include "physics/fresnel.h"
+#include "base/log.h"
+#include "base/memory.h"
+
+#include <math.h>
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <unistd.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+/* Below this weight (of a photon's 1 at entry) a photon ends, depositing the
+ * rest where it is (mc.h). */
+static const double W_MIN = 1e-6;
+/* A photon still alive after this many path segments (a medium that neither
+ * absorbs nor lets light out, in practice) ends the same way, and is counted. */
+static const int64_t MAX_EVENTS = 100000000;
+
+/* ---- random numbers: xoshiro256+ (Blackman & Vigna 2018), seeded by splitmix64 */
+
+typedef struct rng {
+    uint64_t s[4];
+} rng;
+
+static inline uint64_t rotl(uint64_t x, int k)
+{
+    return (x << k) | (x >> (64 - k));
+}
+
+/* Uniform on [0, 1): the top 53 bits. */
+static inline double rng_uniform(rng *r)
+{
+    uint64_t *s = r->s, result = s[0] + s[3], t = s[1] << 17;
+    s[2] ^= s[0];
+    s[3] ^= s[1];
+    s[1] ^= s[2];
+    s[0] ^= s[3];
+    s[2] ^= t;
+    s[3] = rotl(s[3], 45);
+    return (double)(result >> 11) * 0x1.0p-53;
+}
+
+static uint64_t splitmix64(uint64_t *x)
+{
+    uint64_t z = (*x += 0x9e3779b97f4a7c15ULL);
+    z = (z ^ (z >> 30)) * 0xbf58476d1ce4e5b9ULL;
+    z = (z ^ (z >> 27)) * 0x94d049bb133111ebULL;
+    return z ^ (z >> 31);
+}
+
+/* One stream per batch: the state from (seed, batch) through splitmix64, as
+ * the xoshiro authors recommend for seeding. */
+static void rng_seed(rng *r, uint64_t seed, uint64_t batch)
+{
+    uint64_t x = seed ^ (0xd1342543de82ef95ULL * (batch + 1));
+    for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
+}
+
+/* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
+static inline double rng_depth(rng *r)
+{
+    return -log(1.0 - rng_uniform(r));
+}
+
+/* ---- the scene, read by every thread ----------------------------------------- */
+
+typedef struct mc_scene {
+    const ohm_network *net;
+    const ohm_channel_medium *med;
+    const ohm_light_entry *entries;
+    double *cdf;           /* nentries: cumulative entering power, last = 1 */
+    size_t nentries;
+    double g, ss_scale;    /* sigma_s = sigma_s' * ss_scale = sigma_s' / (1 - g); per cell
+                              with med->g_v (cell_g)                           */
+    double eta;
+    int64_t per_batch;     /* photons per batch                              */
+    uint64_t seed;
+    double max_path;       /* voxels; INFINITY: no gate                      */
+    int total_fluence;     /* tally the unscattered beam's fluence too       */
+    double handoff;        /* > 0: end photons after this many reduced
+                              scatterings, each counting 1 - g (mc.h)          */
+    int nthreads;
+    const ohm_log *log;
+    char what[64];         /* for the progress line                          */
+} mc_scene;
+
+/* Coefficients of unknown v in 1/voxel (lengths below are in voxels). */
+static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, double *ss)
+{
+    const ohm_channel_medium *m = sc->med;
+    double h = sc->net->grid->h;
+    *sa = (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) * h;
+    double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
+    *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * scale * h;
+}
+
+/* ---- one thread's tallies ------------------------------------------------------ */
+
+typedef struct mc_tally {
+    const mc_scene *sc;
+    int thread;
+    /* this batch's, in voxel units of weight x length and weight */
+    double *phi, *face;
+    /* over this thread's batches: sums, and sums of squares of batch values */
+    double *phi_sum, *phi_sq, *face_sum, *exit_sq;
+    double *handoff; /* n: weight handed to diffusion (mc.h), over every batch; NULL without */
+    double handed;
+    double absorbed, out, gated; /* weight, over every batch */
+    double batch_absorbed, batch_out; /* at the last batch's start, for: */
+    double absorbed_sq, out_sq;       /* sums of squares of batch totals */
+    int64_t truncated, events;
+} mc_tally;
+
+/* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
+ * Wang, Jacques & Zheng 1995, Eqs. 3.28-3.31). */
+static inline void scatter(double u[3], double g, rng *r)
+{
+    double cos_t;
+    if (g != 0.0) {
+        double q = (1.0 - g * g) / (1.0 - g + 2.0 * g * rng_uniform(r));
+        cos_t = (1.0 + g * g - q * q) / (2.0 * g);
+        if (cos_t < -1.0) cos_t = -1.0;
+        if (cos_t > 1.0) cos_t = 1.0;
+    } else {
+        cos_t = 2.0 * rng_uniform(r) - 1.0;
+    }
+    /* (cos, sin) of a uniform azimuth by rejection from the unit disk (von
+     * Neumann 1951): 1.27 draws on average, cheaper than sincos */
+    double a, b, q2;
+    do {
+        a = 2.0 * rng_uniform(r) - 1.0;
+        b = 2.0 * rng_uniform(r) - 1.0;
+        q2 = a * a + b * b;
+    } while (q2 > 1.0 || q2 < 1e-300);
+    double sin_t = sqrt(1.0 - cos_t * cos_t), cos_p = (a * a - b * b) / q2, sin_p = 2.0 * a * b / q2;
+    if (fabs(u[2]) > 0.99999) {
+        u[0] = sin_t * cos_p;
+        u[1] = sin_t * sin_p;
+        u[2] = u[2] > 0 ? cos_t : -cos_t;
+        return;
+    }
+    double tmp = sqrt(1.0 - u[2] * u[2]);
+    double ux = sin_t * (u[0] * u[2] * cos_p - u[1] * sin_p) / tmp + u[0] * cos_t;
+    double uy = sin_t * (u[1] * u[2] * cos_p + u[0] * sin_p) / tmp + u[1] * cos_t;
+    double uz = -sin_t * cos_p * tmp + u[2] * cos_t;
+    /* renormalise: the rotation's round-off would drift over thousands of events */
+    double inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz);
+    u[0] = ux * inv;
+    u[1] = uy * inv;
+    u[2] = uz * inv;
+}
+
+/* Where photon starts: entry e's point, or uniformly over its face; in voxel
+ * coordinates where cell i spans [i, i+1). */
+static void start_point(const mc_scene *sc, const ohm_light_entry *e, const int32_t c[3], rng *r, double p[3])
+{
+    const ohm_voxel_grid *g = sc->net->grid;
+    int d = sc->net->face_dir[e->face], axis = d / 2;
+    for (int a = 0; a < 3; ++a) {
+        double x = e->at_point ? (e->point[a] - g->origin[a]) / g->h + 0.5 : c[a] + rng_uniform(r);
+        /* on the face, and inside the cell's square on the other axes */
+        if (x < c[a]) x = c[a];
+        if (x > c[a] + 1.0) x = c[a] + 1.0;
+        p[a] = x;
+    }
+    p[axis] = c[axis] + (ohm_face_offset[d][axis] > 0 ? 1.0 : 0.0);
+}
+
+static size_t pick_entry(const mc_scene *sc, double xi)
+{
+    size_t lo = 0, hi = sc->nentries - 1;
+    while (lo < hi) {
+        size_t mid = lo + (hi - lo) / 2;
+        if (sc->cdf[mid] <= xi) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* The unknown of grid cell n, or -1 outside the grid or the object. */
+static inline int64_t unknown_at(const ohm_network *net, const int32_t n[3])
+{
+    const ohm_voxel_grid *g = net->grid;
+    for (int a = 0; a < 3; ++a)
+        if (n[a] < 0 || n[a] >= g->dims[a]) return -1;
+    return ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]));
+}
+
+/* The anisotropy of unknown v. */
+static inline double cell_g(const mc_scene *sc, int64_t v)
+{
+    return sc->med->g_v ? sc->med->g_v[v] : sc->g;
+}
+
+/* The index of unknown v. */
+static inline double cell_eta(const mc_scene *sc, int64_t v)
+{
+    return sc->med->eta_v ? sc->med->eta_v[v] : sc->eta;
+}
+
+/* Crossing from a cell of index ev into one of ew along axis ax: reflected
+ * with the Fresnel probability (u mirrored; returns 0) or refracted by
+ * Snell's law, the tangential components times ev / ew (returns 1). */
+static inline int cross_interface(double u[3], int ax, double ev, double ew, rng *r)
+{
+    double m = ev / ew, mu = fabs(u[ax]);
+    double R = ohm_fresnel_reflectance_inside(m, mu);
+    if (R >= 1.0 || rng_uniform(r) < R) {
+        u[ax] = -u[ax];
+        return 0;
+    }
+    double len2 = 0;
+    for (int a = 0; a < 3; ++a)
+        if (a != ax) {
+            u[a] *= m;
+            len2 += u[a] * u[a];
+        }
+    u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
+    return 1;
+}
+
+/* The hybrid's handoff (mc.h): weight w at p (voxel coordinates) in unknown
+ * v, cell c, shared between the 8 cell centres around p by trilinear weights,
+ * which keeps its centroid at p (a diffusion source acts at a cell centre); a
+ * share whose cell is not an unknown stays in v. */
+static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c[3], const double p[3], double w)
+{
+    const ohm_network *net = sc->net;
+    int32_t side[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        double d = p[a] - (c[a] + 0.5);
+        side[a] = d >= 0 ? 1 : -1;
+        f[a] = fabs(d);
+        /* toward a face of the object there is no cell centre to share with:
+         * extrapolate from the one on the other side instead (a negative
+         * share there), which keeps the centroid too */
+        int32_t n[3] = {c[0], c[1], c[2]};
+        n[a] += side[a];
+        if (unknown_at(net, n) < 0) {
+            side[a] = -side[a];
+            f[a] = -f[a];
+        }
+    }
+    for (int q = 0; q < 8; ++q) {
+        double wq = w;
+        int32_t n[3];
+        for (int a = 0; a < 3; ++a) {
+            int far = (q >> a) & 1;
+            wq *= far ? f[a] : 1.0 - f[a];
+            n[a] = c[a] + (far ? side[a] : 0);
+        }
+        if (wq == 0) continue;
+        int64_t u = q ? unknown_at(net, n) : v;
+        t->handoff[u >= 0 ? u : v] += wq;
+    }
+    t->handed += w;
+}
+
+/* One photon of weight 1, from entry to its end (mc.h). */
+static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
+{
+    const ohm_network *net = sc->net;
+    const ohm_voxel_grid *g = net->grid;
+    const ohm_light_entry *e = &sc->entries[pick_entry(sc, rng_uniform(r))];
+    int64_t v = net->face_unknown[e->face];
+    int32_t c[3];
+    ohm_voxel_coords(g, net->cell[v], c);
+    double p[3], u[3] = {e->dir[0], e->dir[1], e->dir[2]};
+    start_point(sc, e, c, r, p);
+    double w = 1.0, sa, ss;
+    cell_coefficients(sc, v, &sa, &ss);
+    double tau = rng_depth(r), path_left = sc->max_path;
+    int scattered = 0;   /* the unscattered beam is not diffuse fluence (mc.h) */
+    double reduced = 0;  /* reduced scatterings so far: sum of 1 - g (the hybrid's clock) */
+    int64_t ev = 0;
+    for (;; ++ev) {
+        if (ev >= MAX_EVENTS) {
+            t->truncated++;
+            break;
+        }
+        /* the nearest cell wall along u (Amanatides & Woo 1987) */
+        double sb = INFINITY;
+        int ax = 0;
+        for (int a = 0; a < 3; ++a) {
+            double ta = u[a] > 0 ? (c[a] + 1.0 - p[a]) / u[a] : u[a] < 0 ? (c[a] - p[a]) / u[a] : INFINITY;
+            if (ta < sb) sb = ta, ax = a;
+        }
+        if (sb < 0) sb = 0;
+        int scatters = ss * sb > tau;
+        double s = scatters ? tau / ss : sb;
+        int gated = s >= path_left;
+        if (gated) s = path_left, scatters = 0;
+        path_left -= s;
+        /* absorption along the segment, exactly: w e^(-sa s); its track
+         * length integral w (1 - e^(-sa s)) / sa is the fluence tally */
+        double x = sa * s, lost; /* 1 - e^-x, by its series where x is small (the common case:
+                                    one exp per segment was 15% of the time, measured) */
+        if (x < 1e-2) lost = x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))));
+        else lost = -expm1(-x);
+        if (scattered || sc->total_fluence) t->phi[v] += x > 1e-9 ? w * lost / sa : w * s;
+        double w1 = w - w * lost;
+        t->absorbed += w - w1;
+        w = w1;
+        if (gated) {
+            t->gated += w;
+            w = 0;
+            break;
+        }
+        for (int a = 0; a < 3; ++a) p[a] += s * u[a];
+        if (scatters) {
+            double gv = cell_g(sc, v);
+            scattered = 1;
+            /* the hybrid's: diffusion from here (the margin: ten steps of 1 - 0.9 sum to 0.99..9) */
+            if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff - 1e-9) {
+                hand_off(sc, t, v, c, p, w);
+                w = 0;
+                break;
+            }
+            scatter(u, gv, r);
+            tau = rng_depth(r);
+        } else {
+            tau -= ss * s;
+            int step = u[ax] > 0 ? 1 : -1;
+            p[ax] = (double)(step > 0 ? c[ax] + 1 : c[ax]);
+            if (c[ax] == (step < 0 ? net->mirror.low[ax] : net->mirror.high[ax])) { /* symmetry plane */
+                u[ax] = -u[ax];
+                continue;
+            }
+            int32_t n[3] = {c[0], c[1], c[2]};
+            n[ax] += step;
+            int64_t nv = unknown_at(net, n);
+            if (nv >= 0 && sc->med->eta_v && sc->med->eta_v[nv] != sc->med->eta_v[v] &&
+                !cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
+                /* reflected at an internal change of index: stays in v */
+            } else if (nv >= 0) {
+                c[ax] = n[ax];
+                v = nv;
+                cell_coefficients(sc, v, &sa, &ss);
+            } else { /* a boundary face: reflected with the Fresnel probability, else out */
+                double R = ohm_fresnel_reflectance_inside(cell_eta(sc, v), fabs(u[ax]));
+                if (R < 1.0 && rng_uniform(r) >= R) {
+                    int64_t f = ohm_network_face(net, v, 2 * ax + (step > 0));
+                    if (f >= 0) t->face[f] += w;
+                    t->out += w;
+                    w = 0;
+                    break;
+                }
+                u[ax] = -u[ax];
+            }
+        }
+        if (w < W_MIN) break;
+    }
+    t->absorbed += w; /* what is left ends here (mc.h) */
+    t->events += ev;
+}
+
+/* Fold one batch into the thread's sums, then clear it. */
+static void fold_batch(mc_tally *t)
+{
+    const ohm_network *net = t->sc->net;
+    int64_t n = net->n;
+    for (int64_t v = 0; v < n; ++v) {
+        double x = t->phi[v];
+        t->phi_sum[v] += x;
+        t->phi_sq[v] += x * x;
+    }
+    for (int64_t f = 0, end; f < net->nfaces; f = end) { /* a cell's exitance: the mean of its faces' */
+        end = ohm_network_face_run_end(net, f);
+        double sum = 0;
+        for (int64_t q = f; q < end; ++q) {
+            sum += t->face[q];
+            t->face_sum[q] += t->face[q];
+        }
+        double mean = sum / (double)(end - f);
+        t->exit_sq[net->face_unknown[f]] += mean * mean;
+    }
+    double a = t->absorbed - t->batch_absorbed, o = t->out - t->batch_out;
+    t->absorbed_sq += a * a;
+    t->out_sq += o * o;
+    t->batch_absorbed = t->absorbed;
+    t->batch_out = t->out;
+    memset(t->phi, 0, (size_t)n * sizeof *t->phi);
+    memset(t->face, 0, (size_t)(net->nfaces ? net->nfaces : 1) * sizeof *t->face);
+}
+
+static void *thread_main(void *arg)
+{
+    mc_tally *t = arg;
+    const mc_scene *sc = t->sc;
+    ohm_progress prog;
+    if (t->thread == 0) ohm_progress_begin(&prog, sc->log, sc->what);
+    int mine = 0, done = 0;
+    for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) ++mine;
+    for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) {
+        rng r;
+        rng_seed(&r, sc->seed, (uint64_t)b);
+        for (int64_t k = 0; k < sc->per_batch; ++k) trace_photon(sc, t, &r);
+        fold_batch(t);
+        if (t->thread == 0) ohm_progress_update(&prog, (double)++done / mine);
+    }
+    if (t->thread == 0) ohm_progress_end(&prog);
+    return NULL;
+}
+
+static void tally_free(mc_tally *t)
+{
+    free(t->phi);
+    free(t->face);
+    free(t->phi_sum);
+    free(t->phi_sq);
+    free(t->face_sum);
+    free(t->exit_sq);
+    free(t->handoff);
+}
+
+static int tally_alloc(mc_tally *t, const ohm_network *net, int handoff)
+{
+    size_t n = (size_t)(net->n ? net->n : 1), nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    if (handoff > 0 && !(t->handoff = calloc(n, sizeof(double)))) return -1;
+    t->phi = calloc(n, sizeof(double));
+    t->face = calloc(nf, sizeof(double));
+    t->phi_sum = calloc(n, sizeof(double));
+    t->phi_sq = calloc(n, sizeof(double));
+    t->face_sum = calloc(nf, sizeof(double));
+    t->exit_sq = calloc(n, sizeof(double));
+    return t->phi && t->face && t->phi_sum && t->phi_sq && t->face_sum && t->exit_sq ? 0 : -1;
+}
+
+/* Thread k's sums into thread 0's, in thread order (reproducible). */
+static void merge_tallies(mc_tally *t, int nthreads, const ohm_network *net)
+{
+    for (int k = 1; k < nthreads; ++k) {
+        for (int64_t v = 0; v < net->n; ++v) {
+            t[0].phi_sum[v] += t[k].phi_sum[v];
+            t[0].phi_sq[v] += t[k].phi_sq[v];
+            t[0].exit_sq[v] += t[k].exit_sq[v];
+        }
+        for (int64_t f = 0; f < net->nfaces; ++f) t[0].face_sum[f] += t[k].face_sum[f];
+        for (int64_t v = 0; v < net->n && t[0].handoff; ++v) t[0].handoff[v] += t[k].handoff[v];
+        t[0].handed += t[k].handed;
+        t[0].absorbed += t[k].absorbed;
+        t[0].out += t[k].out;
+        t[0].gated += t[k].gated;
+        t[0].absorbed_sq += t[k].absorbed_sq;
+        t[0].out_sq += t[k].out_sq;
+        t[0].truncated += t[k].truncated;
+        t[0].events += t[k].events;
+    }
+}
+
+/* The standard error of the mean of B batch values with sum s and sum of
+ * squares q (times scale). */
+static double batch_stderr(double s, double q, double scale)
+{
+    const double B = OHM_MC_BATCHES;
+    double var = (q - s * s / B) / (B * (B - 1.0));
+    return var > 0 ? scale * sqrt(var) : 0.0;
+}
+
+/* Means and standard errors, per unit of power: a batch of per_batch photons
+ * of weight P / per_batch each; voxel units to mm (mc.h). */
+static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *sc, double P)
+{
+    const ohm_network *net = sc->net;
+    const double h = net->grid->h, B = OHM_MC_BATCHES;
+    const double k = P / (double)sc->per_batch / (h * h); /* batch tally -> W/mm^2 */
+    for (int64_t v = 0; v < net->n; ++v) {
+        res->fluence[v] = k * t->phi_sum[v] / B;
+        res->fluence_se[v] = batch_stderr(t->phi_sum[v], t->phi_sq[v], k);
+    }
+    for (int64_t f = 0; f < net->nfaces; ++f) res->face_exitance[f] = k * t->face_sum[f] / B;
+    for (int64_t f = 0, end; f < net->nfaces; f = end) {
+        end = ohm_network_face_run_end(net, f);
+        int64_t v = net->face_unknown[f];
+        double sum = 0;
+        for (int64_t q = f; q < end; ++q) sum += t->face_sum[q];
+        res->exitance_se[v] = batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
+    }
+    double photons = (double)sc->per_batch * B;
+    res->power_in = P;
+    res->power_absorbed = P * t->absorbed / photons;
+    res->power_out = P * t->out / photons;
+    res->power_handoff = P * t->handed / photons;
+    for (int64_t v = 0; v < net->n && t->handoff; ++v) res->handoff[v] = P * t->handoff[v] / photons;
+    res->power_gated = P * t->gated / photons;
+    res->power_absorbed_se = batch_stderr(t->absorbed, t->absorbed_sq, P / (double)sc->per_batch);
+    res->power_out_se = batch_stderr(t->out, t->out_sq, P / (double)sc->per_batch);
+    res->photons = (int64_t)photons;
+    res->truncated = t->truncated;
+    res->events = t->events;
+}
+
+static int usable_cores(void)
+{
+    long n = sysconf(_SC_NPROCESSORS_ONLN);
+    return n > 0 ? (int)n : 1;
+}
+
+int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
+                 const ohm_light_entry *entries, size_t nentries, int channel, const ohm_mc_params *params,
+                 ohm_error *err)
+{
+    double t0 = ohm_now();
+    if (med->resistance_mode)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc needs optical coefficients, not resistances");
+    if (!(med->g > -1.0 && med->g < 1.0))
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: g=%g: the anisotropy must lie in (-1, 1)", med->g);
+    mc_scene sc = {.net = net,
+                   .med = med,
+                   .entries = entries,
+                   .nentries = nentries,
+                   .g = med->g,
+                   .ss_scale = 1.0 / (1.0 - med->g),
+                   .eta = med->eta,
+                   .seed = params->seed,
+                   .total_fluence = params->total_fluence,
+                   .handoff = params->handoff > 0 ? params->handoff : 0,
+                   .max_path = params->max_path > 0 ? params->max_path / net->grid->h : INFINITY,
+                   .log = params->log};
+    int64_t photons = params->photons > 0 ? params->photons : 1000000;
+    sc.per_batch = (photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES;
+    snprintf(sc.what, sizeof sc.what, "monte carlo, channel %d, %lld photons", channel,
+             (long long)(sc.per_batch * OHM_MC_BATCHES));
+    int nthreads = params->threads > 0 ? params->threads : usable_cores();
+    if (nthreads > OHM_MC_BATCHES) nthreads = OHM_MC_BATCHES;
+    sc.nthreads = nthreads;
+    res->threads = nthreads;
+    double P = 0;
+    for (size_t e = 0; e < nentries; ++e) P += entries[e].power[channel];
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    memset(res->fluence, 0, n * sizeof *res->fluence);
+    memset(res->fluence_se, 0, n * sizeof *res->fluence_se);
+    memset(res->exitance_se, 0, n * sizeof *res->exitance_se);
+    memset(res->face_exitance, 0, nf * sizeof *res->face_exitance);
+    res->power_in = res->power_absorbed = res->power_out = res->power_gated = res->power_handoff = 0;
+    if (params->handoff > 0) memset(res->handoff, 0, n * sizeof *res->handoff);
+    res->photons = res->truncated = res->events = 0;
+    if (!(P > 0)) { /* unlit in this channel: nothing to trace */
+        res->seconds = ohm_now() - t0;
+        return OHM_OK;
+    }
+    /* per thread: this batch's fluence and faces, the sums, the squares */
+    double need = (double)nthreads * ((4.0 + (sc.handoff > 0)) * (double)n + 2.0 * (double)nf) * sizeof(double);
+    double limit = ohm_memory_limit(params->max_memory);
+    if (need > limit) {
+        char nb[32], lb[32];
+        return ohm_fail(err, OHM_ERR_NOMEM,
+                        "solve: Monte Carlo's tallies need about %s (%d threads x %lld cells), more than the %s %s; "
+                        "use threads=1 or a coarser grid",
+                        ohm_format_bytes(need, nb, 32), nthreads, (long long)n, ohm_format_bytes(limit, lb, 32),
+                        params->max_memory > 0 ? "max_memory= allows" : "available");
+    }
+    sc.cdf = malloc(nentries * sizeof *sc.cdf);
+    mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);
+    int rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
+    if (!rc) {
+        double run = 0;
+        for (size_t e = 0; e < nentries; ++e) sc.cdf[e] = (run += entries[e].power[channel]) / P;
+        sc.cdf[nentries - 1] = 1.0;
+    }
+    for (int k = 0; k < nthreads && !rc; ++k) {
+        tally[k].sc = &sc;
+        tally[k].thread = k;
+        if (tally_alloc(&tally[k], net, sc.handoff))
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo tallies (%d threads x %lld cells)",
+                          nthreads, (long long)n);
+    }
+    pthread_t *tid = rc ? NULL : malloc((size_t)nthreads * sizeof *tid);
+    if (!rc && !tid) rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for threads");
+    int started = 0;
+    for (int k = 1; k < nthreads && !rc; ++k, ++started)
+        if (pthread_create(&tid[k], NULL, thread_main, &tally[k])) {
+            rc = ohm_fail(err, OHM_ERR_INTERNAL, "solve: could not start Monte Carlo thread %d", k);
+            break;
+        }
+    if (!rc) thread_main(&tally[0]);
+    for (int k = 1; k <= started; ++k) pthread_join(tid[k], NULL);
+    if (!rc) {
+        merge_tallies(tally, nthreads, net);
+        write_result(res, &tally[0], &sc, P);
+    }
+    for (int k = 0; k < nthreads && tally; ++k) tally_free(&tally[k]);
+    free(tally);
+    free(tid);
+    free(sc.cdf);
+    res->seconds = ohm_now() - t0;
+    return rc;
+}

@@ -1,0 +1,472 @@
+/* network.c — topology and assembly of the diffusion network (network.h). */
+#include "physics/network.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "physics/material.h"
+#include "base/memory.h"
+
+const int32_t ohm_face_offset[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
+
+const char *ohm_boundary_name(ohm_boundary b)
+{
+    switch (b) {
+    case OHM_BOUNDARY_ROBIN: return "robin";
+    case OHM_BOUNDARY_NEUMANN: return "neumann";
+    case OHM_BOUNDARY_DIRICHLET: return "dirichlet";
+    }
+    return "?";
+}
+
+void ohm_network_free(ohm_network *net)
+{
+    if (!net) return;
+    free(net->cell);
+    ohm_cell_index_free(&net->unknowns);
+    free(net->face_unknown);
+    free(net->face_dir);
+    free(net->piece);
+    memset(net, 0, sizeof *net);
+}
+
+/* The walk both stages share.  Unknowns are numbered in cell order (x
+ * fastest), so a walk over them visits the grid in k, j, i order: (i,j,k) of
+ * the next unknown comes from the previous one by an addition, and a
+ * division is needed only where the walk leaves a row (about n^(2/3) times,
+ * not twice per unknown and face as before). */
+typedef struct walk {
+    const ohm_network *net;
+    const uint8_t *inside;
+    int32_t dims[3];
+    int64_t stride[6]; /* dense-index offset of the neighbour across face d */
+    int32_t ijk[3];    /* the current unknown's cell */
+    int64_t cell;
+} walk;
+
+static void walk_begin(walk *w, const ohm_network *net)
+{
+    const ohm_voxel_grid *g = net->grid;
+    w->net = net;
+    w->inside = g->inside;
+    for (int a = 0; a < 3; ++a) w->dims[a] = g->dims[a];
+    int64_t sy = g->dims[0], sz = (int64_t)g->dims[0] * g->dims[1];
+    int64_t s[6] = {-1, 1, -sy, sy, -sz, sz};
+    memcpy(w->stride, s, sizeof s);
+    w->cell = -1;
+}
+
+/* Move to unknown v (visited in increasing order). */
+static inline void walk_to(walk *w, int64_t v)
+{
+    int64_t c = w->net->cell[v], step = c - w->cell;
+    if (w->cell >= 0 && w->ijk[0] + step < w->dims[0]) w->ijk[0] += (int32_t)step;
+    else ohm_voxel_coords(w->net->grid, c, w->ijk);
+    w->cell = c;
+}
+
+/* Neighbour of the current cell across face d: its unknown, -1 if outside
+ * the object, -2 if the face is a mirror plane, -3 if it is interior but
+ * below the depth band (a closure face).  Needs the unknown index complete. */
+static inline int64_t walk_across(const walk *w, int d)
+{
+    int axis = d >> 1;
+    int32_t x = w->ijk[axis];
+    if (d & 1) {
+        if (x == w->net->mirror.high[axis]) return -2; /* unused planes are negative: never a cell */
+        if (x + 1 >= w->dims[axis]) return -1;
+    } else {
+        if (x == w->net->mirror.low[axis]) return -2;
+        if (x == 0) return -1;
+    }
+    int64_t nc = w->cell + w->stride[d];
+    int64_t u = ohm_network_unknown(w->net, (size_t)nc);
+    if (u < 0 && w->net->active && w->inside[nc]) return -3;
+    return u;
+}
+
+/* Grow the boundary-face arrays to hold at least need faces. */
+static int reserve_faces(ohm_network *net, int64_t *cap, int64_t need)
+{
+    if (need <= *cap) return 0;
+    int64_t c = *cap ? *cap : 1024;
+    while (c < need) c *= 2;
+    int64_t *fu = realloc(net->face_unknown, (size_t)c * sizeof *fu);
+    if (!fu) return -1;
+    net->face_unknown = fu;
+    uint8_t *fd = realloc(net->face_dir, (size_t)c);
+    if (!fd) return -1;
+    net->face_dir = fd;
+    *cap = c;
+    return 0;
+}
+
+/* Union-find that always links the larger root under the smaller, so every
+ * parent[x] <= x and each piece's root is its smallest unknown; path halving
+ * keeps that (a grandparent is never larger than a parent). */
+static inline int64_t find_root(int64_t *parent, int64_t x)
+{
+    while (parent[x] != x) {
+        parent[x] = parent[parent[x]];
+        x = parent[x];
+    }
+    return x;
+}
+
+int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
+{
+    int64_t lo = 0, hi = net->nfaces;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (net->face_unknown[mid] < v) lo = mid + 1;
+        else hi = mid;
+    }
+    for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == v; ++f)
+        if (net->face_dir[f] == d) return f;
+    return -1;
+}
+
+int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err)
+{
+    return ohm_network_build_band(net, grid, mirrors, NULL, err);
+}
+
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors,
+                           const uint8_t *active, ohm_error *err)
+{
+    memset(net, 0, sizeof *net);
+    net->grid = grid;
+    net->active = active;
+    for (int a = 0; a < 3; ++a) {
+        net->mirror.low[a] = mirrors ? mirrors->low[a] : -1;
+        net->mirror.high[a] = mirrors ? mirrors->high[a] : -1;
+    }
+    size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
+    const uint8_t *inside = grid->inside;
+    int64_t n = 0;
+    if (active) {
+        for (size_t c = 0; c < ncells; ++c) n += active[c] && inside[c];
+    } else {
+        n = (int64_t)grid->interior_cells;
+    }
+    if (n == 0) return ohm_fail(err, OHM_ERR_INVALID, "network: the voxel object has no interior cells");
+    int index_failed = ohm_cell_index_alloc(&net->unknowns, ncells);
+    net->cell = malloc((size_t)n * sizeof *net->cell);
+    net->piece = malloc((size_t)n * sizeof *net->piece);
+    if (index_failed || !net->cell || !net->piece) goto nomem;
+    ohm_memory_advise_huge(net->cell, (size_t)n * sizeof *net->cell);
+    ohm_memory_advise_huge(net->piece, (size_t)n * sizeof *net->piece);
+    int64_t u = 0;
+    for (size_t c = 0; c < ncells; ++c) {
+        if ((active ? active[c] : 1) && inside[c]) {
+            if (u == n) {
+                ohm_network_free(net);
+                return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
+            }
+            net->cell[u++] = (int64_t)c;
+            ohm_cell_index_add(&net->unknowns, c);
+        }
+    }
+    ohm_cell_index_finish(&net->unknowns, ncells);
+    if (u != n) {
+        ohm_network_free(net);
+        return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
+    }
+    net->n = n;
+
+    /* One walk: boundary faces in unknown order (then direction), matrix
+     * entries, closure faces, and pieces joined across lower neighbours. */
+    int64_t nfaces = 0, offdiag = 0, nclosure = 0, cap = 0;
+    int64_t *parent = net->piece;
+    walk w;
+    walk_begin(&w, net);
+    for (int64_t v = 0; v < n; ++v) {
+        parent[v] = v;
+        walk_to(&w, v);
+        if (reserve_faces(net, &cap, nfaces + 6)) goto nomem;
+        for (int d = 0; d < 6; ++d) {
+            int64_t x = walk_across(&w, d);
+            if (x == -1) {
+                net->face_unknown[nfaces] = v;
+                net->face_dir[nfaces] = (uint8_t)d;
+                ++nfaces;
+            } else if (x == -3) {
+                ++nclosure;
+            } else if (x >= 0 && x < v) {
+                ++offdiag;
+                int64_t ra = find_root(parent, v), rb = find_root(parent, x);
+                if (ra < rb) parent[rb] = ra;
+                else if (rb < ra) parent[ra] = rb;
+            }
+        }
+    }
+    /* Number the pieces 0.. in the order of their smallest unknown, in place:
+     * parent[v] < v is already labelled and lies in v's piece. */
+    int64_t npieces = 0;
+    for (int64_t v = 0; v < n; ++v) {
+        int64_t p = parent[v];
+        net->piece[v] = p == v ? npieces++ : net->piece[p];
+    }
+    net->npieces = npieces;
+    if (npieces == 1) { /* every label is 0: keep none (8 B per cell less, network.h) */
+        free(net->piece);
+        net->piece = NULL;
+    }
+    net->nclosure = nclosure;
+    net->nfaces = nfaces;
+    net->nnz = n + offdiag;
+    /* give back the doubling's slack (at least one element, as callers may index an empty list's base) */
+    int64_t keep = nfaces ? nfaces : 1;
+    if (keep < cap) {
+        int64_t *fu = realloc(net->face_unknown, (size_t)keep * sizeof *fu);
+        if (fu) net->face_unknown = fu;
+        uint8_t *fd = realloc(net->face_dir, (size_t)keep);
+        if (fd) net->face_dir = fd;
+    }
+    return OHM_OK;
+
+nomem:
+    ohm_network_free(net);
+    return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for %lld cells", (long long)n);
+}
+
+/* One channel's coefficients, with what does not vary hoisted.  Every value
+ * is computed by the same expression, in the same order, as the per-cell
+ * formulas of DESIGN.md §2 (network.h), so a homogeneous medium's constants
+ * are bit for bit what each cell would compute for itself. */
+typedef struct coeffs {
+    double A;    /* the boundary constant of DESIGN.md §2 (optical media) */
+    ohm_fresnel fresnel;
+    const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
+    int uniform; /* no per-cell array: every conductance is one constant  */
+    double g_edge, g_ground, g_bound, g_closure;
+} coeffs;
+
+static inline double med_sa(const ohm_channel_medium *m, int64_t v) { return m->sigma_a ? m->sigma_a[v] : m->sigma_a0; }
+static inline double med_ss(const ohm_channel_medium *m, int64_t v) { return m->sigma_s ? m->sigma_s[v] : m->sigma_s0; }
+static inline double med_D(const ohm_channel_medium *m, int64_t v) { return 1.0 / (3.0 * (med_sa(m, v) + med_ss(m, v))); }
+
+/* Conductance between neighbouring unknowns v and w (Dv = med_D(m, v)). */
+static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w, double dv)
+{
+    if (m->resistance_mode)
+        return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
+    double dw = med_D(m, w);
+    return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
+}
+
+/* The interface term of network.h's G between cells of index ev and ew (in
+ * the scaled unknowns of a medium of index eta): eta^2 6 (C_2,v + C_2,w) / S,
+ * S the mean of the two sides' eta^2 T (equal by reciprocity; the mean keeps
+ * G exactly symmetric in v and w). */
+static double interface_resistance(const ohm_fresnel_table *tab, double ev, double ew, double eta)
+{
+    double c1v, c2v, c1w, c2w;
+    ohm_fresnel_table_moments(tab, ev / ew, &c1v, &c2v);
+    ohm_fresnel_table_moments(tab, ew / ev, &c1w, &c2w);
+    double S = 0.5 * (ev * ev * (1.0 - 2.0 * c1v) + ew * ew * (1.0 - 2.0 * c1w));
+    return eta * eta * 6.0 * (c2v + c2w) / S;
+}
+
+/* edge_conductance with a per-cell index (network.h). */
+static inline double edge_conductance_eta(const coeffs *k, const ohm_channel_medium *m, double h, int64_t v,
+                                          int64_t w, double dv)
+{
+    double ev = m->eta_v[v], ew = m->eta_v[w];
+    double sv = ohm_network_unknown_scale(m, v), sw = ohm_network_unknown_scale(m, w);
+    double r = h / (2.0 * dv * sv) + h / (2.0 * med_D(m, w) * sw);
+    if (ev != ew) r += interface_resistance(k->tab, ev, ew, m->eta);
+    return h * h / r;
+}
+
+/* The boundary constant of unknown v's faces: its own index's (network.h). */
+static inline double cell_A(const coeffs *k, const ohm_channel_medium *m, int64_t v)
+{
+    if (!m->eta_v || m->resistance_mode) return k->A;
+    if (k->fresnel == OHM_FRESNEL_POLYNOMIAL) return ohm_boundary_A(m->eta_v[v], OHM_FRESNEL_POLYNOMIAL);
+    double c1, c2;
+    ohm_fresnel_table_moments(k->tab, m->eta_v[v], &c1, &c2);
+    return ohm_boundary_A_of_moments(c1, c2);
+}
+
+static inline double ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
+{
+    if (m->resistance_mode) return 1.0 / (m->ground_v ? m->ground_v[v] : m->ground);
+    return med_sa(m, v) * h * h * h;
+}
+
+static inline double boundary_conductance(const ohm_channel_medium *m, double h, int64_t v, double dv, ohm_boundary b,
+                                          double A)
+{
+    switch (b) {
+    case OHM_BOUNDARY_NEUMANN: return 0.0;
+    case OHM_BOUNDARY_DIRICHLET:
+        /* phi = 0 on the face, half a cell away: D h^2 / (h/2) */
+        if (m->resistance_mode) return 2.0 / (m->resistance_v ? m->resistance_v[v] : m->resistance);
+        return 2.0 * dv * h;
+    case OHM_BOUNDARY_ROBIN:
+        /* half a cell of diffusion in series with the partial-current
+         * condition phi_face = 2 A J (Jensen et al. 2001, Eq. 5-6) */
+        return h * h / (h / (2.0 * dv) + 2.0 * A);
+    }
+    return 0.0;
+}
+
+/* The depth band's closure face (network.h): half a cell of diffusion in
+ * series with the absorbing half-space's impedance 1 / (D sigma_tr). */
+static inline double closure_conductance(const ohm_channel_medium *m, double h, int64_t v, double D)
+{
+    double sa = med_sa(m, v), st = sa + med_ss(m, v);
+    double sigma_tr = sqrt(3.0 * sa * st);
+    if (!(sigma_tr > 0)) return 0.0; /* no absorption: the core reflects (zero flux) */
+    return h * h / (h / (2.0 * D) + 1.0 / (D * sigma_tr));
+}
+
+static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_boundary b,
+                        const ohm_fresnel_table *tab)
+{
+    memset(k, 0, sizeof *k);
+    k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta, m->fresnel);
+    k->fresnel = m->fresnel;
+    k->tab = tab;
+    k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v)) &&
+                 (m->resistance_mode || !m->eta_v);
+    if (k->uniform) {
+        double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */
+        k->g_edge = edge_conductance(m, h, 0, 0, D);
+        k->g_ground = ground_conductance(m, h, 0);
+        k->g_bound = boundary_conductance(m, h, 0, D, b, k->A);
+        k->g_closure = closure_conductance(m, h, 0, D);
+    }
+}
+
+int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const ohm_network *net,
+                         const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err)
+{
+    *Aout = NULL;
+    int64_t n = net->n;
+    cholmod_sparse *M = cholmod_l_allocate_sparse((size_t)n, (size_t)n, (size_t)net->nnz, 1, 1, 1, CHOLMOD_REAL, cc);
+    if (!M)
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns (%lld entries)",
+                        (long long)n, (long long)net->nnz);
+    ohm_memory_advise_huge(M->p, ((size_t)n + 1) * sizeof(int64_t));
+    ohm_memory_advise_huge(M->i, (size_t)net->nnz * sizeof(int64_t));
+    ohm_memory_advise_huge(M->x, (size_t)net->nnz * sizeof(double));
+    int rc = ohm_network_assemble_into(M, ga, gb, net, med, boundary, err);
+    if (rc) {
+        cholmod_l_free_sparse(&M, cc);
+        return rc;
+    }
+    *Aout = M;
+    return OHM_OK;
+}
+
+int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const ohm_network *net,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
+    if (med->resistance_mode && boundary == OHM_BOUNDARY_ROBIN)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "boundary=robin needs optical coefficients (sigma_a, sigma_s, eta); with resistance= "
+                        "use boundary=neumann (the paper's) or dirichlet");
+    const ohm_voxel_grid *g = net->grid;
+    const double h = g->h;
+    int64_t n = net->n;
+    if ((int64_t)M->nrow != n || (int64_t)M->ncol != n || (int64_t)M->nzmax < net->nnz || M->stype != 1 ||
+        M->xtype != CHOLMOD_REAL || M->itype != CHOLMOD_LONG || !M->packed)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "network: the matrix to refill is not this network's shape");
+    const int per_cell_eta = med->eta_v && !med->resistance_mode;
+    ohm_fresnel_table *tab = per_cell_eta ? malloc(sizeof *tab) : NULL;
+    double *sink = calloc((size_t)net->npieces, sizeof *sink); /* ground + boundary per piece */
+    if (!sink || (per_cell_eta && !tab)) {
+        free(sink);
+        free(tab);
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
+    }
+    if (tab) ohm_fresnel_table_init(tab);
+    coeffs co;
+    coeffs_init(&co, med, h, boundary, tab);
+    int64_t *Ap = M->p, *Ai = M->i;
+    double *Ax = M->x;
+    int64_t pos = 0;
+    int64_t f = 0; /* boundary faces come in unknown order, as built */
+    const int64_t *piece = net->piece;
+    walk w;
+    walk_begin(&w, net);
+    for (int64_t v = 0; v < n; ++v) {
+        Ap[v] = pos;
+        walk_to(&w, v);
+        int64_t nb[6];
+        double ge[6];
+        int nfaces_v = 0, nclosure_v = 0;
+        double dv = co.uniform ? 0.0 : med_D(med, v);
+        double sv = per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
+        for (int d = 0; d < 6; ++d) {
+            nb[d] = walk_across(&w, d);
+            if (nb[d] >= 0)
+                ge[d] = co.uniform     ? co.g_edge
+                        : per_cell_eta ? edge_conductance_eta(&co, med, h, v, nb[d], dv)
+                                       : edge_conductance(med, h, v, nb[d], dv);
+            else if (nb[d] == -1) ++nfaces_v;
+            else if (nb[d] == -3) ++nclosure_v;
+        }
+        /* lower neighbours in the order -z, -y, -x give ascending rows */
+        static const int lower[3] = {4, 2, 0};
+        for (int q = 0; q < 3; ++q) {
+            int d = lower[q];
+            if (nb[d] < 0) continue;
+            Ai[pos] = nb[d];
+            Ax[pos] = -ge[d];
+            ++pos;
+        }
+        /* the sums in face order, as the per-face formulation adds them */
+        double gav = co.uniform ? co.g_ground : ground_conductance(med, h, v);
+        double gcl = !nclosure_v ? 0.0 : co.uniform ? co.g_closure : closure_conductance(med, h, v, dv);
+        double diag = 0.0;
+        for (int d = 0; d < 6; ++d) {
+            if (nb[d] >= 0) diag += ge[d];
+            else if (nb[d] == -3) gav += gcl;
+        }
+        diag += gav * sv; /* the scaled unknown's (network.h); sv = 1 without eta_v */
+        if (ga) ga[v] = gav;
+        double sinkv = gav;
+        if (nfaces_v) {
+            double gbf = co.uniform ? co.g_bound : boundary_conductance(med, h, v, dv, boundary, cell_A(&co, med, v));
+            for (int q = 0; q < nfaces_v; ++q, ++f) {
+                if (gb) gb[f] = gbf;
+                diag += gbf * sv;
+                sinkv += gbf;
+            }
+        }
+        sink[piece ? piece[v] : 0] += sinkv;
+        Ai[pos] = v;
+        Ax[pos] = diag;
+        ++pos;
+    }
+    Ap[n] = pos;
+
+    /* A piece with no ground and no leaking face has a constant null vector:
+     * light injected there can neither be absorbed nor leave. */
+    for (int64_t p = 0; p < net->npieces; ++p) {
+        if (sink[p] > 0) continue;
+        int64_t v = 0;
+        while (piece && piece[v] != p) ++v;
+        int32_t ijk[3];
+        ohm_voxel_coords(g, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
+        free(sink);
+        free(tab);
+        if (med->resistance_mode)
+            return ohm_fail(err, OHM_ERR_NUMERIC,
+                            "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
+                            "boundary=%s lets nothing out",
+                            i, j, k, ohm_boundary_name(boundary));
+        return ohm_fail(err, OHM_ERR_NUMERIC,
+                        "singular matrix: sigma_a = 0 with boundary=%s in the piece containing cell (%d,%d,%d): light "
+                        "can neither leave nor be absorbed (use boundary=robin, or give sigma_a > 0)",
+                        ohm_boundary_name(boundary), i, j, k);
+    }
+    free(sink);
+    free(tab);
+    return OHM_OK;
+}

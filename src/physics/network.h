@@ -1,0 +1,165 @@
+/* network.h — the resistor network of DESIGN.md §2 (cell-centred finite
+ * volumes).  Unknown phi_c is the fluence at the centre of every interior cell;
+ * KCL at cell c:  sum_d G_cd (phi_c - phi_d) + G_a,c phi_c + sum_f G_b,f phi_c = S_c.
+ *
+ *   G_cd  = h * D_f, D_f the harmonic mean of D_c and D_d (exact for layers)
+ *   G_a,c = sigma_a,c * h^3
+ *   G_b,f = 0 (neumann, the paper's Eq. 11) | h^2/(h/(2D_c) + 2A) (robin,
+ *           partial current) | 2 D_c h (dirichlet, phi = 0 on the face)
+ *
+ * The matrix is symmetric positive definite when every connected piece has
+ * some absorption or a non-Neumann boundary face; ohm checks that per piece
+ * before factorizing and says which physical cause makes it singular.
+ *
+ * ohm_network holds the topology (unknown numbering, boundary faces, pieces),
+ * built once per voxel grid; ohm_network_assemble builds one channel's matrix
+ * from per-cell coefficients, straight into CHOLMOD's compressed-column form
+ * (upper triangle, stype = 1, 64-bit indices). */
+#ifndef OHM_NETWORK_H
+#define OHM_NETWORK_H
+
+#include <stdint.h>
+
+#include <cholmod.h>
+
+#include "grid/cell_index.h"
+#include "physics/fresnel.h"
+#include "base/ohm_error.h"
+#include "grid/voxelize.h"
+
+typedef enum ohm_boundary {
+    OHM_BOUNDARY_ROBIN = 0,
+    OHM_BOUNDARY_NEUMANN = 1,
+    OHM_BOUNDARY_DIRICHLET = 2
+} ohm_boundary;
+
+/* Face directions: outward normal -x, +x, -y, +y, -z, +z. */
+extern const int32_t ohm_face_offset[6][3];
+
+/* Mirror (symmetry) planes, for the built-in validation scenes: a face on the
+ * low (high) side of axis a of a cell whose index on that axis is low[a]
+ * (high[a]) has zero flux and is not a boundary face; -1: none.  Low planes
+ * make quarter domains; a plane on both sides of a one-cell-wide axis makes
+ * a 1-D column exactly. */
+typedef struct ohm_mirrors {
+    int32_t low[3], high[3];
+} ohm_mirrors;
+
+typedef struct ohm_network {
+    const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
+    int64_t n;                    /* unknowns = interior cells                */
+    int64_t *cell;                /* n: dense grid index of unknown u         */
+    ohm_cell_index unknowns;      /* which grid cells are unknowns; their numbers */
+    int64_t nfaces;               /* boundary faces (mirror faces excluded)   */
+    int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
+    uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
+    int64_t npieces;              /* connected pieces (face-adjacent cells)   */
+    int64_t *piece;               /* n: piece of unknown u, numbered in the order
+                                     of their smallest unknown; NULL when
+                                     npieces == 1 (all 0: not worth 8 B a cell) */
+    int64_t nnz;                  /* entries of the upper triangle of A       */
+    ohm_mirrors mirror;           /* symmetry planes (above); -1: none        */
+    const uint8_t *active;        /* depth band: the cells that are unknowns
+                                     (not owned), or NULL: every interior cell */
+    int64_t nclosure;             /* faces between the band and the dropped core */
+} ohm_network;
+
+/* mirrors: NULL for none. */
+int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err);
+
+/* The same over a depth band (band.h): unknowns are the cells with active[c]
+ * set (a subset of the interior, in cell order); a face between an unknown and
+ * an interior cell outside the band is a closure face, not a boundary face:
+ * the assembly gives it the absorbing-half-space conductance
+ * h^2 / (h / (2 D) + 1 / (D sigma_tr)) — the flux J = D sigma_tr phi of light
+ * decaying as e^(-sigma_tr z) — booked as absorbed. */
+int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors,
+                           const uint8_t *active, ohm_error *err);
+void ohm_network_free(ohm_network *net);
+
+/* The unknown of dense grid cell c, or -1 when c is not one (unknowns are
+ * numbered in cell order: cell_index.h). */
+static inline int64_t ohm_network_unknown(const ohm_network *net, size_t c)
+{
+    return ohm_cell_index_of(&net->unknowns, c);
+}
+
+/* The boundary face of unknown v in direction d (0..5, ohm_face_offset), or
+ * -1 when that side of v is no boundary face (a neighbour, a symmetry
+ * plane).  Faces are stored in unknown order, a cell's together: a binary
+ * search. */
+int64_t ohm_network_face(const ohm_network *net, int64_t v, int d);
+
+/* The end of face f's run: faces f .. end-1 belong to f's unknown (a cell's
+ * faces are stored together), so `for (f = 0; f < nfaces; f = end)` visits
+ * each boundary cell once. */
+static inline int64_t ohm_network_face_run_end(const ohm_network *net, int64_t f)
+{
+    int64_t v = net->face_unknown[f], end = f + 1;
+    while (end < net->nfaces && net->face_unknown[end] == v) ++end;
+    return end;
+}
+
+/* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
+ * constant beside them. */
+typedef struct ohm_channel_medium {
+    int resistance_mode;        /* paper mode: G = 1/R between neighbours, 1/R_g to ground */
+    double resistance, ground;  /* ohms, paper mode                           */
+    const double *resistance_v; /* n, paper mode per cell, or NULL: the link between two
+                                   cells is two half-resistors in series        */
+    const double *ground_v;     /* n, paper mode per cell, or NULL             */
+    const double *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
+    const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
+    double sigma_a0, sigma_s0;
+    double eta;
+    const double *eta_v;        /* n, the index per cell, or NULL -> eta (below) */
+    double g;                   /* anisotropy: transport only (mc.h), sigma_s = sigma_s' / (1 - g) */
+    const double *g_v;          /* n, the anisotropy per cell (transport only), or NULL -> g */
+    ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
+} ohm_channel_medium;
+
+/* A refractive index per cell (eta_v).  Where two cells' indices differ, the
+ * face between them is an interface of diffusion theory: the normal flux J is
+ * continuous, and the partial currents on its two sides obey the Fresnel
+ * reflection of each side (the boundary condition's derivation, fresnel.h,
+ * applied to both half-spaces, as Aronson does for interfaces, JOSA A 12,
+ * 1995; docs/transport.md derives it):
+ *     (T_1/4) phi_1 - (T_2/4) phi_2 = (3/2) (C_2,1 + C_2,2) J,   T_i = 1 - 2 C_1,i
+ * with C_n,i the moments for light in side i meeting the other (relative
+ * index eta_i / eta_j).  Reciprocity, eta_1^2 T_1 = eta_2^2 T_2 = S, makes it
+ * a jump in phi / eta^2, which is continuous where no flux crosses (the
+ * radiance's n^2 law):
+ *     phi_1/eta_1^2 - phi_2/eta_2^2 = 6 (C_2,1 + C_2,2) J / S.
+ * In phi the matrix would not be symmetric; so with eta_v the unknown of cell
+ * v is psi_v = phi_v / s_v, s_v = (eta_v / eta)^2 (1 where eta_v = eta), and
+ * the conductance between v and w is
+ *     G = h^2 / (h/(2 D_v s_v) + h/(2 D_w s_w) + eta^2 6 (C_2,v + C_2,w) / S),
+ * symmetric; ground and boundary conductances are multiplied by s_v in the
+ * matrix.  A boundary face uses its own cell's index for A.  ga and gb stay
+ * the physical conductances (of phi): absorbed = sum ga phi, out = sum gb phi. */
+static inline double ohm_network_unknown_scale(const ohm_channel_medium *m, int64_t v)
+{
+    if (!m->eta_v) return 1.0;
+    double r = m->eta_v[v] / m->eta;
+    return r * r;
+}
+
+/* Assemble A (caller frees with cholmod_l_free_sparse) and, optionally, the
+ * per-unknown ground conductance ga[n] and per-face boundary conductance
+ * gb[nfaces] (for power bookkeeping and exitance).  Fails with a physical
+ * explanation when a piece can neither absorb nor lose light. */
+int ohm_network_assemble(cholmod_sparse **A, double *ga, double *gb, const ohm_network *net,
+                         const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err);
+
+/* The same into a matrix this network's assembly made before (any channel):
+ * the pattern is the network's, the same for every medium, so only the
+ * values are rewritten, in place.  Reusing the memory is the point: a fresh
+ * matrix is 72 bytes per unknown whose first writes page-fault at ~3 ns/B on
+ * this project's machine, 3x the assembly's arithmetic (docs/serial-stages.md).
+ * On failure A's values are undefined (its shape is kept). */
+int ohm_network_assemble_into(cholmod_sparse *A, double *ga, double *gb, const ohm_network *net,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
+
+const char *ohm_boundary_name(ohm_boundary b);
+
+#endif

@@ -1,0 +1,974 @@
+#include "solvers/solve.h"
+
+#include "grid/band.h"
+#include "solvers/backend.h"
+#include "solvers/cg.h"
+#include "base/memory.h"
+
+#include <math.h>
+#include <stdint.h>
+#include <stdlib.h>
+#include <string.h>
+
+/* A piece whose sinks (ground + boundary conductance) are this small next to
+ * its diagonal is nearly singular (e.g. sigma_a = 1e-9 with boundary=neumann):
+ * x is a huge constant mode plus the variation that matters, and in double
+ * precision sum(b - A x) = in - absorbed - out cannot fall below ~kappa eps,
+ * however small the backward error (measured: 3.6e-9 at sink/diagonal ~ 1e-7,
+ * 6e-10 at ~1e-6; tests/cli_extremes.sh).  For such pieces only, shift the constant
+ * mode so the discrete conservation law holds exactly; the shift is reported
+ * and the backward error is checked again afterwards. */
+static const double NEAR_SINGULAR = 1e-5;
+
+static int correct_constant_modes(ohm_solution *sol, double *X, const double *B, size_t ncols, const double *ga,
+                                  const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med)
+{
+    const ohm_network *net = &sol->net;
+    int64_t n = net->n, np = net->npieces;
+    double *sink = calloc((size_t)np, sizeof *sink), *diag = calloc((size_t)np, sizeof *diag);
+    double *defect = malloc((size_t)np * sizeof *defect), *vsink = malloc((size_t)n * sizeof *vsink);
+    if (!sink || !diag || !defect || !vsink) {
+        free(sink), free(diag), free(defect), free(vsink);
+        return -1;
+    }
+    const int64_t *Ap = A->p;
+    const double *Ax = A->x;
+    for (int64_t v = 0; v < n; ++v) vsink[v] = ga[v];
+    for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
+    if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
+        for (int64_t v = 0; v < n; ++v) vsink[v] *= ohm_network_unknown_scale(med, v);
+    const int64_t *piece = net->piece; /* NULL: one piece, 0 */
+    for (int64_t v = 0; v < n; ++v) {
+        int64_t p = piece ? piece[v] : 0;
+        sink[p] += vsink[v];
+        diag[p] += Ax[Ap[v + 1] - 1]; /* the diagonal closes each column */
+    }
+    int any = 0;
+    for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];
+    for (size_t col = 0; any && col < ncols; ++col) {
+        double *x = X + col * (size_t)n;
+        const double *b = B + col * (size_t)n;
+        for (int64_t p = 0; p < np; ++p) defect[p] = 0;
+        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - vsink[v] * x[v];
+        double xmax = 0;
+        for (int64_t v = 0; v < n; ++v) xmax = fmax(xmax, fabs(x[v]));
+        for (int64_t p = 0; p < np; ++p) {
+            if (!(sink[p] < NEAR_SINGULAR * diag[p]) || !(sink[p] > 0)) continue;
+            double c = defect[p] / sink[p];
+            for (int64_t v = 0; v < n; ++v)
+                if (!piece || piece[v] == p) x[v] += c;
+            sol->mode_corrections++;
+            if (xmax > 0 && fabs(c) / xmax > sol->mode_shift) sol->mode_shift = fabs(c) / xmax;
+        }
+    }
+    free(sink), free(diag), free(defect), free(vsink);
+    return any;
+}
+
+/* A per-interior-cell array compacted to the band's kept unknowns (malloc'd;
+ * NULL: out of memory). */
+static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const double *in, int64_t kept)
+{
+    double *o = malloc((size_t)(kept ? kept : 1) * sizeof *o);
+    if (!o) return NULL;
+    size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
+    int64_t ii = 0, u = 0;
+    for (size_t cell = 0; cell < ncells; ++cell) {
+        if (!grid->inside[cell]) continue;
+        if (sol->band_active[cell]) o[u++] = in[ii];
+        ++ii;
+    }
+    return o;
+}
+
+/* The depth band (band.h): the depth band_k / sigma_tr, with sigma_tr the
+ * smallest over channels and cells (the most penetrating light decides), and
+ * per-cell media compacted from interior-cell order to the band's unknowns
+ * into compact[] (the same array for the same input, so channels that share
+ * a medium still share a factor).  *out is params with those arrays. */
+static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[2 * OHM_MAX_CHANNELS],
+                      const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
+                      const ohm_log *log, ohm_error *err)
+{
+    *out = *params;
+    if (!(params->band_k > 0)) return OHM_OK;
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: depth_band= needs optical coefficients (its depth is k / sigma_tr); with "
+                        "resistance= leave depth_band=0");
+    int64_t ni = (int64_t)grid->interior_cells;
+    double sigma_tr = INFINITY;
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        int per_cell = params->sigma_a[c] || params->sigma_s[c];
+        if (c >= mat->channels && !per_cell) continue;
+        int mc = mat->channels == 1 || c >= mat->channels ? 0 : c;
+        for (int64_t v = 0; v < (per_cell ? ni : 1); ++v) {
+            double sa = params->sigma_a[c] ? params->sigma_a[c][v] : mat->sigma_a[mc];
+            double ss = params->sigma_s[c] ? params->sigma_s[c][v] : mat->sigma_s[mc];
+            sigma_tr = fmin(sigma_tr, sqrt(3.0 * sa * (sa + ss)));
+        }
+    }
+    if (!(sigma_tr > 0) || !isfinite(sigma_tr)) {
+        ohm_log_warn(log, "solve: depth_band=%g ignored: with sigma_a = 0 light reaches every depth", params->band_k);
+        return OHM_OK;
+    }
+    double depth = params->band_k / sigma_tr;
+    int64_t kept = 0;
+    int rc = ohm_depth_band(&sol->band_active, &kept, grid, depth, err);
+    if (rc) return rc;
+    if (kept == ni) { /* nothing is deeper: no band */
+        free(sol->band_active);
+        sol->band_active = NULL;
+        ohm_log_info(log, "solve: depth_band=%g: every cell lies within %.3g mm of the surface; nothing to drop",
+                     params->band_k, depth);
+        return OHM_OK;
+    }
+    sol->band_depth = depth;
+    sol->band_dropped = ni - kept;
+    ohm_log_info(log, "solve: depth band %.3g mm (depth_band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
+                 depth, params->band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
+    /* compact the per-cell arrays: interior order -> band order */
+    const double *const *src[2] = {params->sigma_a, params->sigma_s};
+    const double **dst[2] = {out->sigma_a, out->sigma_s};
+    int used = 0;
+    for (int q = 0; q < 2; ++q)
+        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+            const double *in = src[q][c];
+            if (!in) continue;
+            const double *same = NULL; /* compacted already? */
+            for (int q2 = 0; q2 <= q && !same; ++q2)
+                for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
+                    if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
+            if (same) {
+                dst[q][c] = same;
+                continue;
+            }
+            double *o = compact_to_band(sol, grid, in, kept);
+            if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's material");
+            compact[used++] = o;
+            dst[q][c] = o;
+        }
+    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, kept)))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
+    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, kept)))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
+    return OHM_OK;
+}
+
+/* Add array a to the solution's owned media once (the same array may serve
+ * several channels). */
+static void own_medium(ohm_solution *sol, double *a)
+{
+    int q = 0;
+    while (q < 2 * OHM_MAX_CHANNELS && sol->medium_owned[q] && sol->medium_owned[q] != a) ++q;
+    if (q < 2 * OHM_MAX_CHANNELS) sol->medium_owned[q] = a; /* 2 per channel at most: always fits */
+}
+
+/* give_media: the caller's arrays are the solution's from the start, so that
+ * every failure path frees them with the solution. */
+static void take_media(ohm_solution *sol, const ohm_solve_params *p)
+{
+    if (!p->give_media) return;
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        /* ours now (solve.h): the const is the params' promise not to write them */
+        if (p->sigma_a[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_a[c]);
+        if (p->sigma_s[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_s[c]);
+    }
+}
+
+/* The medium the solution keeps for its output grids (solve.h), from p (the
+ * params after the band): with a band, p's arrays are compact[] (moved into
+ * the solution; given originals are freed now, no longer needed); given
+ * arrays are kept as they are; others are copied once each. */
+static int keep_media(ohm_solution *sol, const ohm_solve_params *p, double *compact[2 * OHM_MAX_CHANNELS],
+                      ohm_error *err)
+{
+    if (sol->band_active) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) {
+            free(sol->medium_owned[q]);
+            sol->medium_owned[q] = compact[q];
+            compact[q] = NULL;
+        }
+    }
+    const double *const *src[2] = {p->sigma_a, p->sigma_s};
+    const double **dst[2] = {sol->medium_sa, sol->medium_ss};
+    for (int q = 0; q < 2; ++q)
+        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+            const double *in = src[q][c];
+            if (!in) continue;
+            int owned = 0;
+            for (int k = 0; k < 2 * OHM_MAX_CHANNELS && !owned; ++k) owned = sol->medium_owned[k] == in;
+            const double *same = owned ? in : NULL; /* copied already? */
+            for (int q2 = 0; q2 <= q && !same; ++q2)
+                for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
+                    if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
+            if (!same) {
+                double *copy = malloc((size_t)sol->net.n * sizeof *copy);
+                if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the medium");
+                memcpy(copy, in, (size_t)sol->net.n * sizeof *copy);
+                own_medium(sol, copy);
+                same = copy;
+            }
+            dst[q][c] = same;
+        }
+    return OHM_OK;
+}
+
+/* The mean of face_exitance over faces [f, end) (one cell's run). */
+static double run_mean(const double *fx, int64_t f, int64_t end)
+{
+    double sum = 0;
+    for (int64_t q = f; q < end; ++q) sum += fx[q];
+    return end > f ? sum / (double)(end - f) : 0.0;
+}
+
+void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
+{
+    const ohm_network *net = &sol->net;
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    const double *fx = sol->face_exitance[channel] + (size_t)frame * nf;
+    memset(out, 0, (size_t)sol->n * sizeof *out);
+    for (int64_t f = 0, end; f < net->nfaces; f = end) {
+        end = ohm_network_face_run_end(net, f);
+        out[net->face_unknown[f]] = run_mean(fx, f, end);
+    }
+}
+
+void ohm_solution_free(ohm_solution *sol)
+{
+    if (!sol) return;
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(sol->fluence[c]);
+        free(sol->face_exitance[c]);
+        free(sol->fluence_se[c]);
+        free(sol->exitance_se[c]);
+    }
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
+    ohm_network_free(&sol->net);
+    free(sol->band_active);
+    free(sol->band_eta);
+    free(sol->band_g);
+    memset(sol, 0, sizeof *sol);
+}
+
+double ohm_solution_conservation_error(const ohm_solution *sol)
+{
+    if (!(sol->power_in > 0)) return 0.0;
+    return fabs(sol->power_in - sol->power_absorbed - sol->power_out) / sol->power_in;
+}
+
+static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c)
+{
+    memset(med, 0, sizeof *med);
+    int mc = mat->channels == 1 ? 0 : c;
+    med->resistance_mode = mat->kind == OHM_MATERIAL_RESISTANCE;
+    med->resistance = mat->resistance;
+    med->ground = mat->ground;
+    med->sigma_a0 = mat->sigma_a[mc];
+    med->sigma_s0 = mat->sigma_s[mc];
+    med->sigma_a = p->sigma_a[c];
+    med->sigma_s = p->sigma_s[c];
+    med->resistance_v = p->resistance_v;
+    med->ground_v = p->ground_v;
+    med->eta = mat->eta;
+    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
+    med->g = mat->g;
+    med->g_v = med->resistance_mode ? NULL : p->g_v;
+    med->fresnel = p->fresnel;
+}
+
+/* Channels c and e share a factor when their coefficients are identical. */
+static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e)
+{
+    if (p->sigma_a[c] != p->sigma_a[e] || p->sigma_s[c] != p->sigma_s[e]) return 0;
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || mat->channels == 1) return 1;
+    return mat->sigma_a[c] == mat->sigma_a[e] && mat->sigma_s[c] == mat->sigma_s[e];
+}
+
+/* Column j of B (zeroed first) gets frame f0 + j's sources for channel c:
+ * the cached per-face powers (traced once for every channel) or, for pencil
+ * beams and when the cache did not fit, the lights themselves. */
+static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
+                        const ohm_occluder *occ, ohm_error *err)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    memset(B, 0, n * nb * sizeof *B);
+    if (params->custom_source) {
+        if (params->custom_source(params->custom_user, B, nb, net, c))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
+        return OHM_OK;
+    }
+    for (size_t j = 0; j < nb && fp_enter; ++j) {
+        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
+        ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, params->deposit);
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            sol->power_incident += ar[f];
+            sol->power_entered += en[f];
+        }
+    }
+    for (size_t l = 0; l < nlights; ++l) {
+        int lf = lights[l].frame;
+        if (fp_enter && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced already */
+        for (size_t j = 0; j < nb; ++j) {
+            if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
+            ohm_source_power pw = {0, 0, 0};
+            int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
+            if (rc) return rc;
+            sol->power_incident += pw.incident;
+            sol->power_entered += pw.entered;
+        }
+    }
+    return OHM_OK;
+}
+
+/* Frames whose light did not change (the same right-hand side as the frame
+ * before) are not solved again: B's nb columns are compacted to the distinct
+ * ones, in order; col_of[j] is the distinct column frame j takes, or SIZE_MAX
+ * for "the previous batch's last frame" (prev_b, NULL in the first batch).
+ * Returns how many are distinct. */
+static size_t distinct_columns(ohm_solution *sol, double *B, size_t *col_of, size_t nb, const double *prev_b,
+                               size_t n)
+{
+    size_t nu = 0;
+    for (size_t j = 0; j < nb; ++j) {
+        const double *bj = B + j * n;
+        const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * n : prev_b;
+        if (bp && !memcmp(bj, bp, n * sizeof *B)) {
+            col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
+            sol->solves_skipped++;
+            continue;
+        }
+        if (nu != j) memcpy(B + nu * n, bj, n * sizeof *B);
+        col_of[j] = nu++;
+    }
+    return nu;
+}
+
+/* The starting guess of the batch's first column (the backends start every
+ * later one from the column before it: consecutive frames): the frame before
+ * (the last batch's last), else this frame of channel warm_from (same light,
+ * another colour or medium), else zero. */
+static void warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n)
+{
+    if (f0 > 0) memcpy(X, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
+    else if (warm_from >= 0) memcpy(X, sol->fluence[warm_from], n * sizeof *X);
+    else memset(X, 0, n * sizeof *X);
+}
+
+/* Undo distinct_columns: column j of X and B becomes distinct column
+ * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
+ * this batch's last right-hand side (NULL: there is no later batch). */
+static void expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
+                           int c, double *prev_b, size_t n)
+{
+    for (size_t j = nb; j-- > 0;) {
+        double *xj = X + j * n, *bj = B + j * n;
+        if (col_of[j] == SIZE_MAX) {
+            memcpy(xj, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
+            memcpy(bj, prev_b, n * sizeof *B);
+        } else if (col_of[j] != j) {
+            memcpy(xj, X + col_of[j] * n, n * sizeof *X);
+            memcpy(bj, B + col_of[j] * n, n * sizeof *B);
+        }
+    }
+    if (prev_b) memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
+}
+
+/* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
+ * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
+ * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
+ * derived from its faces' when read: ohm_solution_exitance_frame). */
+static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
+                       size_t f0, size_t nb, int c)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    const double area = net->grid->h * net->grid->h;
+    double in = 0, absorbed = 0, out = 0;
+    for (size_t j = 0; j < nb; ++j) {
+        size_t fr = f0 + j;
+        const double *x = X + j * n, *b = B + j * n;
+        double *fx = sol->face_exitance[c] + fr * nf;
+        for (size_t v = 0; v < n; ++v) {
+            in += b[v];
+            absorbed += ga[v] * x[v];
+        }
+        for (int64_t f = 0; f < net->nfaces; ++f) {
+            double p = gb[f] * x[net->face_unknown[f]];
+            out += p;
+            fx[f] = p / area;
+        }
+    }
+    sol->power_in += in;
+    sol->power_absorbed += absorbed;
+    sol->power_out += out;
+    sol->power_in_channel[c] += in;
+    sol->power_out_channel[c] += out;
+}
+
+/* in = the entries (light.h) of every light of frame fr (0-based). */
+static int frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
+                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
+                         ohm_error *err)
+{
+    in->count = 0;
+    int rc = OHM_OK;
+    for (size_t l = 0; l < nlights && !rc; ++l)
+        if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
+            rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, eta_v, occ, err);
+    return rc;
+}
+
+/* fluence=total: frames f0..f0+nb of channel c (X) get the unscattered beam
+ * of every light's entries (light.h). */
+static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
+                           ohm_error *err)
+{
+    ohm_light_entries in = {0};
+    int rc = OHM_OK;
+    for (size_t j = 0; j < nb && !rc; ++j) {
+        rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
+        for (size_t k = 0; k < in.count && !rc; ++k)
+            ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c],
+                                        in.entry[k].mu, med);
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
+/* The constant-mode correction of nearly singular pieces, then the backward
+ * error again (it must stay within the direct solver's limit). */
+static int conserve_exactly(ohm_solution *sol, double *X, const double *B, size_t nu, const double *ga,
+                            const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med, double *berr,
+                            ohm_error *err)
+{
+    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A, med);
+    if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+    if (corrected == 0) return OHM_OK;
+    *berr = ohm_backward_error(A, B, X, nu, 0);
+    if (!(*berr <= 1e-10))
+        return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
+    return OHM_OK;
+}
+
+/* With a per-cell index the matrix's unknowns are psi = phi / s (network.h):
+ * ncols columns of X from phi to psi (to_phi = 0: a starting guess) or back. */
+static void scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi)
+{
+    if (!med->eta_v) return;
+    for (size_t v = 0; v < n; ++v) {
+        double s = ohm_network_unknown_scale(med, (int64_t)v);
+        for (size_t j = 0; j < ncols; ++j) X[j * n + v] = to_phi ? X[j * n + v] * s : X[j * n + v] / s;
+    }
+}
+
+/* The backend's report into the solution's statistics. */
+static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
+{
+    snprintf(sol->solver, sizeof sol->solver, "%s", rep->solver);
+    snprintf(sol->solver_reason, sizeof sol->solver_reason, "%s", rep->reason);
+    snprintf(sol->ordering, sizeof sol->ordering, "%s", rep->ordering);
+    sol->factors = rep->factors;
+    sol->analyses = rep->analyses;
+    sol->t_analyze = rep->t_analyze;
+    sol->t_factor = rep->t_factor;
+    sol->t_cg_setup = rep->t_precond;
+    sol->nnz_A = rep->nnz_A;
+    sol->nnz_L = rep->nnz_L;
+    sol->flops = rep->flops;
+    sol->cg_iterations = rep->iterations;
+    sol->cg_relres = rep->relres;
+    sol->refined = rep->refined;
+    sol->solver_bytes = rep->bytes;
+    sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
+}
+
+/* The solution's fluence and face exitance, every channel and frame, zeroed. */
+static int alloc_solution(ohm_solution *sol, ohm_error *err)
+{
+    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
+    for (int c = 0; c < sol->channels; ++c) {
+        sol->fluence[c] = calloc(n * frames, sizeof(double));
+        sol->face_exitance[c] = calloc(nf * frames, sizeof(double));
+        if (!sol->fluence[c] || !sol->face_exitance[c])
+            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", sol->frames);
+    }
+    return OHM_OK;
+}
+
+/* The light arriving and entering in channel c, booked from a frame's entries. */
+static void book_entries(ohm_solution *sol, const ohm_light_entries *in, int c)
+{
+    for (size_t k = 0; k < in->count; ++k) {
+        sol->power_incident += in->entry[k].incident[c];
+        sol->power_entered += in->entry[k].power[c];
+    }
+}
+
+/* Trace a frame's entries in channel c through med (mc.h) into r, with the
+ * solve's fluence choice and memory cap; the tracer's counts are booked. */
+static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_medium *med,
+                         const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_error *err)
+{
+    ohm_mc_params mp = params->mc;
+    mp.total_fluence = params->total_fluence;
+    mp.max_memory = params->max_memory;
+    int rc = ohm_mc_trace(r, &sol->net, med, in->entry, in->count, c, &mp, err);
+    if (rc) return rc;
+    sol->mc_photons += r->photons;
+    sol->mc_events += r->events;
+    sol->mc_truncated += r->truncated;
+    if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
+    return OHM_OK;
+}
+
+/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
+ * channel: per column, what the photons tallied before their handoff. */
+typedef struct hybrid_part {
+    double *fluence, *face;       /* n and nf per column                   */
+    double *fluence_se, *exit_se; /* scratch for the tracer                */
+    double *power;                /* 3 per column: in, absorbed, out (W)    */
+} hybrid_part;
+
+static int hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err)
+{
+    memset(h, 0, sizeof *h);
+    h->fluence = malloc(n * batch * sizeof(double));
+    h->face = malloc(nf * batch * sizeof(double));
+    h->fluence_se = malloc(n * sizeof(double));
+    h->exit_se = malloc(n * sizeof(double));
+    h->power = malloc(3 * batch * sizeof(double));
+    if (!h->fluence || !h->face || !h->fluence_se || !h->exit_se || !h->power)
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the hybrid's transport part");
+    return OHM_OK;
+}
+
+static void hybrid_free(hybrid_part *h)
+{
+    free(h->fluence), free(h->face), free(h->fluence_se), free(h->exit_se), free(h->power);
+}
+
+/* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
+ * channel c: the frame's light entries traced to their handoff (mc.h); the
+ * photons' own fluence, exitance and power go to h for hybrid_add. */
+static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
+                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
+                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    ohm_light_entries in = {0};
+    int rc = OHM_OK;
+    for (size_t j = 0; j < nb && !rc; ++j) {
+        rc = frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
+        if (rc) break;
+        book_entries(sol, &in, c);
+        ohm_mc_result r = {.fluence = h->fluence + j * n,
+                           .fluence_se = h->fluence_se,
+                           .face_exitance = h->face + j * nf,
+                           .exitance_se = h->exit_se,
+                           .handoff = B + j * n};
+        rc = trace_entries(sol, &r, med, &in, c, params, err);
+        if (rc) break;
+        h->power[3 * j] = r.power_in;
+        h->power[3 * j + 1] = r.power_absorbed;
+        h->power[3 * j + 2] = r.power_out;
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
+/* After book_power: the hybrid's transport part added to frames f0..f0+nb of
+ * channel c (X their fluence).  book_power counted the handed-off weight as
+ * in; the photons' absorption and escape before it complete in = entered. */
+static void hybrid_add(ohm_solution *sol, double *X, const hybrid_part *h, size_t f0, size_t nb, int c)
+{
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    for (size_t j = 0; j < nb; ++j) {
+        for (size_t v = 0; v < n; ++v) X[j * n + v] += h->fluence[j * n + v];
+        double *fx = sol->face_exitance[c] + (f0 + j) * nf;
+        for (int64_t f = 0; f < net->nfaces; ++f) fx[f] += h->face[j * nf + (size_t)f];
+        double absorbed = h->power[3 * j + 1], out = h->power[3 * j + 2];
+        sol->power_in += absorbed + out;
+        sol->power_absorbed += absorbed;
+        sol->power_out += out;
+        sol->power_in_channel[c] += absorbed + out;
+        sol->power_out_channel[c] += out;
+    }
+}
+
+/* solver=mc refuses what only diffusion has: resistances, the boundary
+ * models other than the physical one, a depth band, scenes' own sources. */
+static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
+{
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || p->resistance_v)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces light through sigma_a and sigma_s', not resistances");
+    if (p->boundary != OHM_BOUNDARY_ROBIN)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: solver=mc traces the Fresnel boundary itself: boundary=%s is a diffusion model, leave "
+                        "it out",
+                        ohm_boundary_name(p->boundary));
+    if (sol->band_active)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces every cell: leave depth_band= out");
+    if (p->custom_source)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mc needs lights, not a scene's own source vector");
+    if (p->mc.handoff > 0)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: solver=mc traces every scattering: hybrid= hands photons to diffusion, use it with "
+                        "a diffusion solver (direct, cg, amg, auto)");
+    return OHM_OK;
+}
+
+/* Channel c of a frame may take channel e's transport when both media and
+ * every entry's power are the same (grey lights on a grey material). */
+static int same_transport(const ohm_material *mat, const ohm_solve_params *p, const ohm_light_entries *in, int c, int e)
+{
+    if (!same_medium(mat, p, c, e)) return 0;
+    for (size_t k = 0; k < in->count; ++k)
+        if (in->entry[k].power[c] != in->entry[k].power[e]) return 0;
+    return 1;
+}
+
+/* Monte Carlo transport instead of diffusion (mc.h): every frame's light
+ * entries traced per channel; the same solution arrays, plus standard errors. */
+static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
+                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+{
+    int rc = mc_applies(sol, mat, params, err);
+    if (rc) return rc;
+    const ohm_network *net = &sol->net;
+    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1), frames = (size_t)sol->frames;
+    for (int c = 0; c < sol->channels; ++c) {
+        sol->fluence_se[c] = calloc(n * frames, sizeof(double));
+        sol->exitance_se[c] = calloc(n * frames, sizeof(double));
+        if (!sol->fluence_se[c] || !sol->exitance_se[c])
+            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the standard errors");
+    }
+    snprintf(sol->solver, sizeof sol->solver, "mc");
+    snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
+    ohm_light_entries in = {0};
+    for (size_t fr = 0; fr < frames && !rc; ++fr) {
+        double t0 = ohm_now();
+        rc = frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, params->eta_v, occ, err);
+        sol->t_source += ohm_now() - t0;
+        ohm_mc_result res[OHM_MAX_CHANNELS];
+        for (int c = 0; c < sol->channels && !rc; ++c) {
+            ohm_mc_result *r = &res[c];
+            *r = (ohm_mc_result){.fluence = sol->fluence[c] + fr * n,
+                                 .fluence_se = sol->fluence_se[c] + fr * n,
+                                 .face_exitance = sol->face_exitance[c] + fr * nf,
+                                 .exitance_se = sol->exitance_se[c] + fr * n};
+            book_entries(sol, &in, c);
+            int e = 0;
+            while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
+            if (e < c) { /* the same photons would be traced again: take channel e's */
+                memcpy(r->fluence, res[e].fluence, n * sizeof(double));
+                memcpy(r->fluence_se, res[e].fluence_se, n * sizeof(double));
+                memcpy(r->exitance_se, res[e].exitance_se, n * sizeof(double));
+                memcpy(r->face_exitance, res[e].face_exitance, nf * sizeof(double));
+                r->power_in = res[e].power_in;
+                r->power_absorbed = res[e].power_absorbed;
+                r->power_out = res[e].power_out;
+            } else {
+                ohm_channel_medium med;
+                medium_for(&med, mat, params, c);
+                rc = trace_entries(sol, r, &med, &in, c, params, err);
+                if (rc) break;
+                sol->t_solve += r->seconds;
+                sol->solves += r->photons > 0;
+            }
+            sol->power_in += r->power_in;
+            sol->power_absorbed += r->power_absorbed;
+            sol->power_out += r->power_out;
+            sol->power_in_channel[c] += r->power_in;
+            sol->power_out_channel[c] += r->power_out;
+        }
+    }
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
+/* The per-cell index and anisotropy (interior cells) within their ranges:
+ * the Fresnel table covers indices in [1, 3]; g = 1 has no sigma_s. */
+static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err)
+{
+    size_t ni = grid->interior_cells;
+    for (size_t u = 0; u < ni && p->eta_v; ++u)
+        if (!(p->eta_v[u] >= 1.0 && p->eta_v[u] <= 3.0))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has refractive index %g, expected 1 .. 3",
+                            u, p->eta_v[u]);
+    for (size_t u = 0; u < ni && p->g_v; ++u)
+        if (!(p->g_v[u] > -1.0 && p->g_v[u] < 1.0))
+            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has anisotropy g = %g, expected -1 < g < 1",
+                            u, p->g_v[u]);
+    return OHM_OK;
+}
+
+int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
+              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
+{
+    memset(sol, 0, sizeof *sol);
+    take_media(sol, params);
+    int rc_optics = check_cell_optics(grid, params, err);
+    if (rc_optics) {
+        ohm_solution_free(sol);
+        return rc_optics;
+    }
+    if (nlights == 0 && !params->custom_source) {
+        ohm_solution_free(sol);
+        return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
+    }
+    int channels = mat->channels, frames = 1;
+    for (size_t l = 0; l < nlights && lights; ++l) {
+        if (lights[l].channels > channels) channels = lights[l].channels;
+        if (lights[l].frame > frames) frames = lights[l].frame;
+    }
+    sol->channels = channels;
+    sol->frames = frames;
+
+    double t0 = ohm_now();
+    /* per-cell media compacted to the band's unknowns (when there is one) */
+    double *compact[2 * OHM_MAX_CHANNELS] = {NULL};
+    ohm_solve_params band_params;
+    int rc = setup_band(sol, &band_params, compact, grid, mat, params, log, err);
+    if (rc) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+        ohm_solution_free(sol);
+        return rc;
+    }
+    params = &band_params;
+    rc = ohm_network_build_band(&sol->net, grid, params->mirrors, sol->band_active, err);
+    if (rc) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+        ohm_solution_free(sol);
+        return rc;
+    }
+    const ohm_network *net = &sol->net;
+    int64_t n = net->n;
+    sol->n = n;
+    sol->t_network = ohm_now() - t0;
+    rc = keep_media(sol, params, compact, err);
+    if (rc) {
+        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+        ohm_solution_free(sol);
+        return rc;
+    }
+
+    /* Frames per batch: B and X together within the memory cap. */
+    double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
+    /* the hybrid keeps its transport part's fluence and faces per column too */
+    double per_column = params->mc.handoff > 0 ? 3.0 * (double)n + (double)net->nfaces : 2.0 * (double)n;
+    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
+    if (batch < 1) batch = 1;
+    if (batch > (size_t)frames) batch = (size_t)frames;
+
+    ohm_occluder *occ = NULL;
+    t0 = ohm_now();
+    rc = ohm_occluder_create(&occ, params->shadows, grid, params->mesh, params->orientation, err);
+    sol->t_shadow_setup = ohm_now() - t0;
+    if (rc) {
+        ohm_solution_free(sol);
+        return rc;
+    }
+    if (params->solver && strcmp(params->solver, "mc") == 0) {
+        rc = alloc_solution(sol, err);
+        if (!rc) rc = solve_mc(sol, mat, lights, nlights, params, occ, err);
+        ohm_occluder_free(occ);
+        if (rc) ohm_solution_free(sol);
+        return rc;
+    }
+    cholmod_common cc; /* for assembling A in CHOLMOD's form */
+    if (!cholmod_l_start(&cc)) {
+        ohm_occluder_free(occ);
+        ohm_solution_free(sol);
+        return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
+    }
+    cc.print = 0;
+    cc.error_handler = NULL;
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    /* X, the solution, is no array of its own: each batch is solved in place
+     * in its frames' columns of sol->fluence (-8 B per cell and column) */
+    double *B = malloc((size_t)n * batch * sizeof *B);
+    double *ga = malloc((size_t)n * sizeof *ga);
+    double *gb = malloc(nf * sizeof *gb);
+    size_t *col_of = malloc(batch * sizeof *col_of); /* batch column -> distinct column */
+    /* the last frame's right-hand side, for a later batch to compare with */
+    double *prev_b = batch < (size_t)frames ? malloc((size_t)n * sizeof *prev_b) : NULL;
+    cholmod_sparse *A = NULL;
+    const ohm_backend_ops *backend = NULL;
+    const int hybrid = params->mc.handoff > 0 && !params->custom_source;
+    hybrid_part hy;
+    memset(&hy, 0, sizeof hy);
+    void *bstate = NULL;
+    /* per-face powers per frame, shared by the channels (below); declared
+     * before the first goto so `done:` may free them */
+    double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
+    double *fp_enter_mu[OHM_MAX_CHANNELS] = {NULL}; /* entering power x the refracted ray's cosine */
+    if (!B || !ga || !gb || !col_of || (batch < (size_t)frames && !prev_b)) {
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
+                      (long long)n);
+        goto done;
+    }
+    rc = alloc_solution(sol, err);
+    if (!rc && hybrid) rc = hybrid_alloc(&hy, (size_t)n, nf, batch, err);
+    if (!rc && hybrid && (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v))
+        rc = ohm_fail(err, OHM_ERR_USAGE,
+                      "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
+    if (!rc && hybrid && params->boundary != OHM_BOUNDARY_ROBIN)
+        rc = ohm_fail(err, OHM_ERR_USAGE,
+                      "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
+                      ohm_boundary_name(params->boundary));
+    if (!rc && hybrid && sol->band_active)
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
+    if (rc) goto done;
+
+    /* Shadow rays and Fresnel do not depend on the channel: trace every
+     * frame's lights once, keep the per-face powers for all channels (when
+     * they fit in the batch budget), deposit them per channel below. */
+    int cached = 0;
+    const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
+    if (!params->custom_source && !hybrid &&
+        3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
+        cached = 1;
+        for (int c = 0; c < channels && cached; ++c) {
+            fp_enter[c] = calloc(nf * (size_t)frames, sizeof(double));
+            fp_arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
+            fp_enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
+            if (!fp_enter[c] || !fp_arrive[c] || !fp_enter_mu[c]) cached = 0; /* fall back to tracing per channel */
+        }
+        t0 = ohm_now();
+        double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
+        for (int fr = 0; fr < frames && cached && !rc; ++fr) {
+            double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
+            for (int c = 0; c < channels; ++c) {
+                en[c] = fp_enter[c] + (size_t)fr * nf;
+                emu[c] = fp_enter_mu[c] + (size_t)fr * nf;
+                ar[c] = fp_arrive[c] + (size_t)fr * nf;
+            }
+            for (size_t l = 0; l < nlights && !rc; ++l) {
+                if (lights[l].type == OHM_LIGHT_PENCIL) continue;
+                if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
+                rc = ohm_light_face_powers(en, emu, ar, channels, net, &lights[l], eta,
+                                           mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v, occ, err);
+            }
+        }
+        sol->t_source += ohm_now() - t0;
+        if (rc) goto done;
+    }
+
+    /* Group channels by medium: each distinct medium is assembled and set up
+     * once (one factorization, or one preconditioner), and all its channels'
+     * frames are solved with it.  Grey materials with grey lights have one
+     * channel. */
+    int cls[OHM_MAX_CHANNELS];
+    for (int c = 0; c < channels; ++c) {
+        cls[c] = c;
+        for (int e = 0; e < c; ++e)
+            if (same_medium(mat, params, c, e)) {
+                cls[c] = cls[e];
+                break;
+            }
+    }
+    int nclasses = 0;
+    for (int c = 0; c < channels; ++c) nclasses += cls[c] == c;
+    ohm_backend_config bcfg = {.ordering = params->ordering,
+                               .tol = params->cg_tol,
+                               .petsc_options = params->petsc_options,
+                               .max_memory = params->max_memory,
+                               .batch = batch,
+                               .columns = (double)frames * (double)channels,
+                               .materials = nclasses,
+                               .log = log};
+    backend = ohm_backend_find(params->solver ? params->solver : "direct");
+    if (!backend) {
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", params->solver);
+        goto done;
+    }
+    rc = backend->create(&bstate, &bcfg, err);
+    if (rc) goto done;
+    ohm_backend_report rep;
+    memset(&rep, 0, sizeof rep);
+    snprintf(rep.reason, sizeof rep.reason, "asked for");
+    int solved[OHM_MAX_CHANNELS] = {0};
+    for (int k = 0; k < channels && !rc; ++k) {
+        if (cls[k] != k) continue; /* not the first channel of its class */
+        ohm_channel_medium med;
+        medium_for(&med, mat, params, k);
+        t0 = ohm_now();
+        /* the first class allocates A, later ones refill it (same pattern):
+         * the backend's setup below sees the new values */
+        rc = A ? ohm_network_assemble_into(A, ga, gb, net, &med, params->boundary, err)
+               : ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &cc, err);
+        sol->t_assemble += ohm_now() - t0;
+        if (!rc) rc = backend->setup(bstate, A, &rep, err);
+        for (int c = k; c < channels && !rc; ++c) {
+            if (cls[c] != k) continue;
+            /* warm start for iterative backends: this frame of a channel
+             * solved before (same light, another colour or medium) */
+            int warm_from = -1;
+            for (int q = 0; q < channels; ++q)
+                if (solved[q]) warm_from = q;
+            for (size_t f0 = 0; f0 < (size_t)frames && !rc; f0 += batch) {
+                size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
+                t0 = ohm_now();
+                rc = hybrid ? hybrid_sources(sol, B, &hy, f0, nb, c, &med, mat, lights, nlights, params, occ, err)
+                            : fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
+                                           fp_enter_mu, cached ? fp_arrive : NULL, occ, err);
+                sol->t_source += ohm_now() - t0;
+                if (rc) break;
+                double *X = sol->fluence[c] + f0 * (size_t)n;
+                /* (the hybrid and fluence=total add to each frame after the
+                 * solve: a frame is not taken whole from the batch before,
+                 * whose fluence already holds that part) */
+                size_t nu = distinct_columns(sol, B, col_of, nb,
+                                             f0 > 0 && !hybrid && !params->total_fluence ? prev_b : NULL, (size_t)n);
+                warm_start(X, sol, f0, c, warm_from, (size_t)n);
+                scale_unknowns(X, 1, (size_t)n, &med, 0);
+                t0 = ohm_now();
+                double t_setups = rep.t_analyze + rep.t_factor + rep.t_precond;
+                double berr = 0;
+                if (nu > 0) rc = backend->solve(bstate, A, B, X, nu, &berr, &rep, err);
+                if (!rc && nu > 0) rc = conserve_exactly(sol, X, B, nu, ga, gb, A, &med, &berr, err);
+                scale_unknowns(X, nu, (size_t)n, &med, 1);
+                /* a backend that set up inside solve (auto switching) books
+                 * that as analysis / factor / preconditioner, not as solve */
+                sol->t_solve += ohm_now() - t0 - (rep.t_analyze + rep.t_factor + rep.t_precond - t_setups);
+                if (rc) break;
+                if (berr > sol->residual) sol->residual = berr;
+                sol->solves += (int64_t)nu;
+                expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
+                book_power(sol, X, B, ga, gb, f0, nb, c);
+                if (hybrid) hybrid_add(sol, X, &hy, f0, nb, c);
+                else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
+                    rc = add_unscattered(sol, X, f0, nb, c, &med, mat, lights, nlights, occ, err);
+            }
+            solved[c] = 1;
+        }
+    }
+    report_backend(sol, &rep);
+
+done:
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(fp_enter[c]);
+        free(fp_enter_mu[c]);
+        free(fp_arrive[c]);
+    }
+    ohm_occluder_free(occ);
+    hybrid_free(&hy);
+    if (backend) backend->destroy(bstate);
+    free(col_of);
+    free(prev_b);
+    cholmod_l_free_sparse(&A, &cc);
+    cholmod_l_finish(&cc);
+    free(B);
+    free(ga);
+    free(gb);
+    if (rc) ohm_solution_free(sol);
+    return rc;
+}

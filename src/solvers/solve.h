@@ -1,0 +1,155 @@
+/* solve.h — stage: material + lights + voxel object -> fluence and exitance.
+ *
+ * Lights belong to frames (ohm_light.frame: 0 = every frame, k = frame k); a
+ * frame is one column of the right-hand side, its lights summed.  For each
+ * distinct channel material: assemble A, factorize it once (one symbolic
+ * analysis shared by all channels), and solve every frame as a column of
+ * multi-column right-hand sides (in batches when memory asks for it) — the
+ * paper's point: a change of light never refactors.  Power is booked per solve:
+ * in (deposited) = absorbed (sum G_a phi) + out (sum G_b phi), exact in this
+ * discretisation up to round-off (DESIGN.md §2). */
+#ifndef OHM_SOLVE_H
+#define OHM_SOLVE_H
+
+#include "physics/light.h"
+#include "base/log.h"
+#include "physics/material.h"
+#include "physics/mc.h"
+#include "physics/network.h"
+
+/* The reduced scatterings `-solve hybrid=auto` traces as transport when a
+ * frame has a pencil beam (docs/transport.md: reflectance against radius
+ * within 2.5% beyond 2 mm, where diffusion alone is 15-22% off). */
+enum { OHM_HYBRID_PENCIL = 10 };
+
+typedef struct ohm_solve_params {
+    ohm_boundary boundary;
+    ohm_fresnel fresnel;       /* robin: how A comes from eta (fresnel.h); 0: exact */
+    const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
+                                  or mc, Monte Carlo transport instead of
+                                  diffusion (mc.h); NULL: direct             */
+    ohm_mc_params mc;          /* solver=mc: photons, seed, g, threads; with a
+                                  diffusion solver and mc.handoff > 0, the
+                                  hybrid: each frame's light is traced as
+                                  transport up to its mc.handoff-th scattering,
+                                  and diffusion carries it from there (the
+                                  handed-off weight is the source; fluence and
+                                  exitance are the sums of both parts)        */
+    double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
+    const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
+    double band_k;             /* depth band (band.h): keep cells within
+                                  band_k / sigma_tr of the surface; 0: all */
+    const char *ordering;      /* metis | amd | nesdis | best            */
+    ohm_deposit deposit;
+    int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
+                                  unscattered beam's fluence added (ohm_source_unscattered_face;
+                                  mc: traced), what transport codes report */
+    const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
+    double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
+    double max_memory;         /* bytes the factor may take; 0: what the machine has */
+    ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
+    const ohm_mesh *mesh;      /* for shadows=mesh                       */
+    int orientation;           /* +1, or -1 for an inside-out mesh       */
+    /* per-unknown coefficients (n entries per channel) for inhomogeneous
+     * media; NULL: the material's constants */
+    const double *sigma_a[OHM_MAX_CHANNELS];
+    const double *sigma_s[OHM_MAX_CHANNELS];
+    /* the refractive index per unknown (interior cells), 1..3, for every
+     * channel, or NULL: the material's eta; network.h's interfaces.  Not
+     * taken by give_media: the caller frees it after the solve. */
+    const double *eta_v;
+    /* the anisotropy per unknown (interior cells), in (-1, 1), or NULL: the
+     * material's g; transport only (solver=mc, hybrid=): diffusion takes
+     * sigma_s' as given.  Not taken by give_media either. */
+    const double *g_v;
+    /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
+     * caller and ohm_solve takes them, whether it succeeds or fails (the
+     * caller must not free them): the solution keeps them as medium_sa /
+     * medium_ss instead of copies (16 B per cell and channel less). */
+    int give_media;
+    /* paper mode with per-cell resistances (transfer functions): n each */
+    const double *resistance_v, *ground_v;
+    /* Validation scenes place their own sources: when set, called once per
+     * channel instead of the lights (`lights` may be NULL, one frame).
+     * Fills b (n x ncols, zeroed) and returns 0. */
+    int (*custom_source)(void *user, double *b, size_t ncols, const ohm_network *net, int channel);
+    void *custom_user;
+} ohm_solve_params;
+
+typedef struct ohm_solution {
+    int channels;
+    int frames;                         /* columns solved (1 without orbits)          */
+    int64_t n;                          /* unknowns                                   */
+    ohm_network net;                    /* topology (cell of each unknown, faces)     */
+    /* Per channel, frame-major: value of unknown v in frame f at [f * n + v]. */
+    double *fluence[OHM_MAX_CHANNELS];  /* fluence rate phi (W/mm^2)                  */
+    /* solver=mc: standard errors of fluence and of each cell's exitance,
+     * frame-major like fluence; NULL for the diffusion solvers */
+    double *fluence_se[OHM_MAX_CHANNELS], *exitance_se[OHM_MAX_CHANNELS];
+    double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
+                                           G_b phi / h^2 per face; a cell's exitance
+                                           is the mean of its faces' (below)          */
+    /* The medium when it varies cell by cell, in unknown order (NULL when
+     * homogeneous), for the sigma_a / sigma_s output grids: the params'
+     * arrays themselves when given (give_media), the depth band's compacted
+     * ones, else copies.  Channels with one array share it; medium_owned
+     * lists each distinct array once, for ohm_solution_free. */
+    const double *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
+    double *medium_owned[2 * OHM_MAX_CHANNELS];
+    /* statistics (DESIGN.md §7) */
+    int factors;
+    int analyses;                       /* symbolic analyses (one per grid)           */
+    int64_t solves;                     /* columns solved, summed over channels       */
+    int64_t solves_skipped;             /* frames whose light did not change: reused  */
+    double nnz_A, nnz_L, flops;
+    char ordering[16];
+    char solver[8];                     /* direct | cg | amg | mc: what ran           */
+    int64_t mc_photons;                 /* mc: photons traced, over channels and frames */
+    int64_t mc_events;                  /* mc: path segments traced                   */
+    int64_t mc_truncated;               /* mc: photons stopped by the event cap       */
+    int mc_threads;                     /* mc: threads that traced                    */
+    char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
+    int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
+                                           summed over columns                        */
+    double cg_relres;                   /* largest final relative residual            */
+    double t_cg_setup;                  /* building the preconditioners (cg, amg)     */
+    double solver_bytes;                /* memory the backend held (its estimate)     */
+    int ranks;                          /* MPI ranks that solved (amg), else 1        */
+    double band_depth;                  /* mm kept below the surface; 0: no band      */
+    int64_t band_dropped;               /* interior cells below the band              */
+    uint8_t *band_active;               /* the band's cells (net.active points here)  */
+    double *band_eta, *band_g;          /* eta_v, g_v compacted to the band's unknowns, or NULL */
+    double t_network;                   /* the network's topology: depth band (if any),
+                                           unknowns, faces, pieces — once per grid    */
+    double t_assemble;                  /* the matrices (and ga, gb), summed over the
+                                           distinct channel materials                 */
+    double t_analyze, t_factor, t_source, t_solve;
+    double t_shadow_setup;              /* building the occluder (Embree BVH)         */
+    double residual;                    /* largest scaled backward error              */
+    int refined;                        /* solves that took a refinement step         */
+    int64_t mode_corrections;           /* near-singular pieces whose constant mode was
+                                           projected onto exact conservation          */
+    double mode_shift;                  /* largest such shift relative to the fluence */
+    /* W: arriving on the surface; entering it (after Fresnel); in = the
+     * source (diffusion: the scattered part of what entered, the rest being
+     * absorbed at its first collision; mc: what entered); absorbed; out */
+    double power_incident, power_entered, power_in, power_absorbed, power_out;
+    double power_out_channel[OHM_MAX_CHANNELS], power_in_channel[OHM_MAX_CHANNELS];
+} ohm_solution;
+
+int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
+              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err);
+
+void ohm_solution_free(ohm_solution *sol);
+
+/* Every cell's exitance in one channel and frame, into out[n]: the power
+ * leaving through its boundary faces per unit area, the mean of their
+ * face_exitance; 0 for a cell with none.  It is derived when an output asks,
+ * not stored: a stored copy was 8 B per cell per channel and frame, held
+ * through the solve, for values that are nonzero only on the surface. */
+void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
+
+/* |in - absorbed - out| / in */
+double ohm_solution_conservation_error(const ohm_solution *sol);
+
+#endif

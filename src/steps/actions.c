@@ -1,0 +1,1066 @@
+/* actions.c — the action table: every action, its options (type, default,
+ * doc) and the function that runs it.  `ohm help` is generated from here. */
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <strings.h>
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+#include "studies/accuracy.h"
+#include "steps/export_action.h"
+#include "outputs/export_vdb.h"
+#include "ohm_vdb.h"
+#include "ohm_version.h"
+#include "steps/pipeline.h"
+#include "steps/render.h"
+
+/* ---- state --------------------------------------------------------------------- */
+
+void ohm_state_init(ohm_state *s)
+{
+    memset(s, 0, sizeof *s);
+    s->log.verbosity = 1;
+    s->mesh_scale_mm = 1.0;
+    ohm_stats_set_str(&s->stats, "ohm_version", OHM_VERSION);
+}
+
+void ohm_state_free(ohm_state *s)
+{
+    ohm_mesh_free(&s->mesh);
+    ohm_voxel_grid_free(&s->grid);
+    ohm_solution_free(&s->solution);
+    free(s->lights);
+    ohm_scan_free(&s->scan);
+    ohm_transfer_free(&s->transfer);
+}
+
+/* A new mesh, grid or material makes an earlier solution stale. */
+static void drop_solution(ohm_state *s)
+{
+    ohm_solution_free(&s->solution);
+    s->have_solution = 0;
+}
+
+/* millimetres per unit */
+static double unit_mm(const char *u)
+{
+    if (strcmp(u, "cm") == 0) return 10.0;
+    if (strcmp(u, "m") == 0) return 1000.0;
+    if (strcmp(u, "in") == 0) return 25.4;
+    return 1.0;
+}
+
+/* ---- read ---------------------------------------------------------------------- */
+
+static const ohm_opt_spec read_opts[] = {
+    {"file", OHM_OPT_STRING, NULL,
+     "mesh (.obj .ply .stl .off, optionally .gz) or density volume (.vdb .nii .nii.gz .raw .raw.gz)", NULL, 0, 0,
+     1},
+    {"grid", OHM_OPT_STRING, "density", "volume: the .vdb grid to read", NULL, 0, 0, 0},
+    {"dims", OHM_OPT_VEC3, NULL, "raw volume: voxels per axis nx,ny,nz (x fastest)", NULL, 0, 0, 0},
+    {"type", OHM_OPT_ENUM, "u16", "raw volume: voxel type", "u8|u16|i16|f32", 0, 0, 0},
+    {"endian", OHM_OPT_ENUM, "little", "raw volume: byte order", "little|big", 0, 0, 0},
+    {"spacing", OHM_OPT_REAL13, "1", "raw volume: voxel size in mm (one value or x,y,z)", NULL, 1e-9, 1e9, 0},
+    {"units", OHM_OPT_ENUM, "mm", "what one unit of the file is", "mm|cm|m|in", 0, 0, 0},
+    {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
+    {0}};
+
+static int is_volume_path(const char *p)
+{
+    static const char *ext[] = {".vdb", ".nii", ".nii.gz", ".raw", ".raw.gz"};
+    size_t lp = strlen(p);
+    for (size_t i = 0; i < sizeof ext / sizeof *ext; ++i) {
+        size_t le = strlen(ext[i]);
+        if (lp >= le && strcasecmp(p + lp - le, ext[i]) == 0) return 1;
+    }
+    return 0;
+}
+
+/* A density volume: the material's source (transfer functions) and, alone,
+ * the object itself (-voxelize threshold=). */
+static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path, ohm_error *err)
+{
+    double t0 = ohm_now();
+    ohm_scan_params p;
+    memset(&p, 0, sizeof p);
+    p.grid = ohm_opt_str(inv, "grid");
+    p.type = ohm_opt_str(inv, "type");
+    p.endian = ohm_opt_str(inv, "endian");
+    ohm_opt_real13(inv, "spacing", p.spacing);
+    if (ohm_opt_given(inv, "dims")) {
+        double d[3];
+        ohm_opt_vec3(inv, "dims", d);
+        for (int a = 0; a < 3; ++a) {
+            if (d[a] < 1 || d[a] > 1e6 || d[a] != floor(d[a]))
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -read dims=: expected three whole numbers >= 1", inv->where);
+            p.dims[a] = (int32_t)d[a];
+        }
+    }
+    ohm_scan scan;
+    int rc = ohm_scan_read(&scan, path, &p, err);
+    if (rc) return rc;
+    ohm_scan_free(&s->scan);
+    s->scan = scan;
+    s->have_scan = 1;
+    snprintf(s->scan_path, sizeof s->scan_path, "%s", path);
+    drop_solution(s);
+    double lo[3], hi[3];
+    ohm_scan_bounds(&scan, lo, hi);
+    double t = ohm_now() - t0;
+    ohm_log_info(&s->log, "read %s: %d x %d x %d voxels, values %.6g .. %.6g, %.4g x %.4g x %.4g mm, %.2f s", path,
+                 scan.dims[0], scan.dims[1], scan.dims[2], scan.min, scan.max, hi[0] - lo[0], hi[1] - lo[1],
+                 hi[2] - lo[2], t);
+    ohm_stats_set_str(&s->stats, "scan_file", path);
+    ohm_stats_set_int(&s->stats, "scan_x", scan.dims[0]);
+    ohm_stats_set_int(&s->stats, "scan_y", scan.dims[1]);
+    ohm_stats_set_int(&s->stats, "scan_z", scan.dims[2]);
+    ohm_stats_add(&s->stats, "t_read", t);
+    return OHM_OK;
+}
+
+static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    const char *path = ohm_opt_str(inv, "file");
+    if (is_volume_path(path)) return read_volume(s, inv, path, err);
+    double t0 = ohm_now();
+    ohm_mesh m;
+    int rc = ohm_mesh_read(&m, path, err);
+    if (rc) return rc;
+
+    ohm_mesh_topology topo;
+    rc = ohm_mesh_topology_compute(&topo, &m, err);
+    if (rc) {
+        ohm_mesh_free(&m);
+        return rc;
+    }
+    double lo[3], hi[3];
+    ohm_mesh_bounds(&m, lo, hi);
+    double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    double scale = unit_mm(ohm_opt_str(inv, "units"));
+    if (ohm_opt_given(inv, "size")) {
+        if (!(extent > 0)) {
+            ohm_mesh_free(&m);
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: all vertices coincide, cannot scale to size=", path);
+        }
+        scale = ohm_opt_real(inv, "size") / extent;
+    }
+    ohm_mesh_scale(&m, scale);
+
+    ohm_mesh_free(&s->mesh);
+    drop_solution(s);
+    ohm_voxel_grid_free(&s->grid); /* a new mesh makes the old grid stale */
+    s->have_grid = 0;
+    s->mesh = m;
+    s->have_mesh = 1;
+    s->mesh_scale_mm = scale;
+    snprintf(s->mesh_path, sizeof s->mesh_path, "%s", path);
+
+    double t = ohm_now() - t0;
+    ohm_log_info(&s->log, "read %s: %zu vertices, %zu triangles, %.4g x %.4g x %.4g mm (%.6g mm per unit), %.2f s",
+                 path, m.nverts, m.ntris, (hi[0] - lo[0]) * scale, (hi[1] - lo[1]) * scale, (hi[2] - lo[2]) * scale,
+                 scale, t);
+    if (topo.boundary_edges || topo.nonmanifold_edges || topo.misoriented_edges)
+        ohm_log_warn(&s->log,
+                     "%s is not closed: %zu open (boundary) edges, %zu non-manifold edges, %zu flipped edges in %zu "
+                     "piece(s); the inside is decided by the generalized winding number, which closes small holes",
+                     path, topo.boundary_edges, topo.nonmanifold_edges, topo.misoriented_edges, topo.components);
+    if (topo.degenerate_tris) ohm_log_info(&s->log, "%s: %zu degenerate triangles (ignored by the inside test)",
+                                           path, topo.degenerate_tris);
+
+    ohm_stats_set_str(&s->stats, "mesh_file", path);
+    ohm_stats_set_int(&s->stats, "mesh_vertices", (long long)m.nverts);
+    ohm_stats_set_int(&s->stats, "mesh_triangles", (long long)m.ntris);
+    ohm_stats_set_int(&s->stats, "mesh_boundary_edges", (long long)topo.boundary_edges);
+    ohm_stats_set_int(&s->stats, "mesh_nonmanifold_edges", (long long)topo.nonmanifold_edges);
+    ohm_stats_set_int(&s->stats, "mesh_components", (long long)topo.components);
+    ohm_stats_set(&s->stats, "mesh_scale_mm", scale);
+    ohm_stats_set(&s->stats, "mesh_volume_mm3", fabs(ohm_mesh_signed_volume(&s->mesh)));
+    ohm_stats_add(&s->stats, "t_read", t);
+    return OHM_OK;
+}
+
+/* ---- voxelize ------------------------------------------------------------------ */
+
+static const ohm_opt_spec voxelize_opts[] = {
+    {"dim", OHM_OPT_INT, "64", "cells along the longest axis of the bounding box (unless voxel= is given)", NULL, 1,
+     4096, 0},
+    {"voxel", OHM_OPT_REAL, NULL, "voxel size, in units= (overrides dim=)", NULL, 1e-12, 1e12, 0},
+    {"units", OHM_OPT_ENUM, "mm", "unit of voxel=", "mm|cm|m|in", 0, 0, 0},
+    {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
+    {"error", OHM_OPT_REAL, NULL,
+     "pick dim= from an accuracy target: the relative error of the surface exitance (e.g. 0.02); probes the scene "
+     "at dim 16 and 32 and extrapolates (needs -material and -light before -voxelize)",
+     NULL, 1e-4, 0.9, 0},
+    {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
+     1e12, 0},
+    {"threshold", OHM_OPT_REAL, NULL,
+     "with a volume and no mesh: the object is where the density is >= this (its iso-surface)", NULL, -1e300, 1e300,
+     0},
+    {0}};
+
+static double scan_field(void *user, const double world[3]) { return ohm_scan_sample(user, world); }
+
+static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_mesh && !(s->have_scan && ohm_opt_given(inv, "threshold"))) {
+        if (s->have_scan)
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -voxelize: a volume without a mesh needs threshold= (the density of its surface)",
+                            inv->where);
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -voxelize: no mesh yet: put -read file=MESH before it", inv->where);
+    }
+    ohm_voxelize_params p = {0};
+    if (ohm_opt_given(inv, "voxel")) p.voxel = ohm_opt_real(inv, "voxel") * unit_mm(ohm_opt_str(inv, "units"));
+    else p.dim = (int)ohm_opt_int(inv, "dim");
+    if (ohm_opt_given(inv, "error")) {
+        if (ohm_opt_given(inv, "voxel") || ohm_opt_given(inv, "dim"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -voxelize: give error= or dim=/voxel=, not both", inv->where);
+        if (!s->have_mesh)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -voxelize error= needs a mesh (a volume has no exitance to probe)",
+                            inv->where);
+        if (!s->have_material || s->nlights == 0 || s->have_transfer ||
+            s->material.kind == OHM_MATERIAL_RESISTANCE)
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -voxelize error= probes the scene: put -material (optical coefficients) and -light "
+                            "before -voxelize",
+                            inv->where);
+        ohm_resolution_pick pick;
+        double target = ohm_opt_real(inv, "error");
+        int rc = ohm_pick_resolution(&pick, &s->mesh, &s->material, s->lights, s->nlights, target, &s->log, err);
+        if (rc) return rc;
+        p.dim = pick.dim;
+        ohm_stats_set(&s->stats, "error_target", target);
+        ohm_stats_set(&s->stats, "error_predicted", pick.predicted);
+        ohm_stats_set(&s->stats, "error_probe", pick.probe_error);
+        ohm_stats_set_int(&s->stats, "dim_chosen", pick.dim);
+        ohm_stats_add(&s->stats, "t_error_probe", pick.t_probe);
+    }
+    p.band_voxels = (int)ohm_opt_int(inv, "band");
+    if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
+
+    double t0 = ohm_now();
+    ohm_voxel_grid g;
+    ohm_voxelize_report rep;
+    memset(&rep, 0, sizeof rep);
+    int rc;
+    if (s->have_mesh) {
+        rc = ohm_voxelize(&g, &rep, &s->mesh, &p, &s->log, err);
+    } else {
+        double lo[3], hi[3];
+        ohm_scan_bounds(&s->scan, lo, hi);
+        rc = ohm_voxelize_field(&g, scan_field, &s->scan, lo, hi, ohm_opt_real(inv, "threshold"), &p, &s->log, err);
+    }
+    if (rc) {
+        /* name the file the object came from (DESIGN.md §6) */
+        const char *src = s->have_mesh ? s->mesh_path : s->scan_path;
+        if (err && !strstr(err->msg, src)) {
+            char why[OHM_ERROR_MSG_MAX];
+            snprintf(why, sizeof why, "%s", err->msg);
+            ohm_fail(err, rc, "%s: %s", src, why);
+        }
+        return rc;
+    }
+    double t = ohm_now() - t0;
+
+    drop_solution(s);
+    ohm_voxel_grid_free(&s->grid);
+    s->grid = g;
+    s->mesh_flipped = rep.flipped;
+    s->have_grid = 1;
+    double cell_volume = g.h * g.h * g.h;
+    double vol = (double)g.interior_cells * cell_volume;
+    if (rep.flipped)
+        ohm_log_warn(&s->log, "%s is wound inside-out (enclosed volume %.4g mm^3 < 0): reading it reversed",
+                     s->mesh_path, rep.signed_volume);
+    if (rep.ambiguous)
+        ohm_log_info(&s->log, "%zu cells had a winding number between 0.4 and 0.6 (near holes or overlaps)",
+                     rep.ambiguous);
+    if (s->have_mesh)
+        ohm_log_info(&s->log,
+                     "voxelized: %d x %d x %d grid, voxel %.4g mm, %zu interior cells (%.6g mm^3; mesh encloses "
+                     "%.6g mm^3), %.2f s",
+                     g.dims[0], g.dims[1], g.dims[2], g.h, g.interior_cells, vol, fabs(rep.signed_volume), t);
+    else
+        ohm_log_info(&s->log,
+                     "voxelized %s at density >= %g: %d x %d x %d grid, voxel %.4g mm, %zu interior cells (%.6g "
+                     "mm^3), %.2f s",
+                     s->scan_path, ohm_opt_real(inv, "threshold"), g.dims[0], g.dims[1], g.dims[2], g.h,
+                     g.interior_cells, vol, t);
+    if (g.interior_cells == 0)
+        ohm_log_warn(&s->log, "no cell centre lies inside the mesh: use a larger dim= or a smaller voxel=");
+
+    ohm_stats_set(&s->stats, "voxel_mm", g.h);
+    ohm_stats_set_int(&s->stats, "grid_x", g.dims[0]);
+    ohm_stats_set_int(&s->stats, "grid_y", g.dims[1]);
+    ohm_stats_set_int(&s->stats, "grid_z", g.dims[2]);
+    ohm_stats_set_int(&s->stats, "cells", (long long)g.interior_cells);
+    ohm_stats_set(&s->stats, "interior_volume_mm3", vol);
+    ohm_stats_set_int(&s->stats, "mesh_flipped", rep.flipped);
+    ohm_stats_set_int(&s->stats, "winding_evaluations", (long long)rep.winding_exact);
+    ohm_stats_set_int(&s->stats, "winding_ambiguous_cells", (long long)rep.ambiguous);
+    ohm_stats_add(&s->stats, "t_voxelize", t);
+    return OHM_OK;
+}
+
+/* ---- material ------------------------------------------------------------------ */
+
+static const ohm_opt_spec material_opts[] = {
+    {"preset", OHM_OPT_ENUM, NULL, "measured material (Jensen et al. 2001; eta 1.3)",
+     "apple|chicken1|chicken2|cream|ketchup|marble|potato|skimmilk|skin1|skin2|spectralon|wholemilk", 0, 0, 0},
+    {"sigma_a", OHM_OPT_REAL13, NULL, "absorption coefficient, 1/mm", NULL, 0, 1e6, 0},
+    {"sigma_s", OHM_OPT_REAL13, NULL, "reduced scattering coefficient sigma_s', 1/mm", NULL, 1e-9, 1e9, 0},
+    {"sigma_s_full", OHM_OPT_REAL13, NULL,
+     "scattering coefficient sigma_s, 1/mm, instead of sigma_s': with g=, sigma_s' = sigma_s (1 - g)", NULL, 1e-9,
+     1e9, 0},
+    {"g", OHM_OPT_REAL, "0",
+     "scattering anisotropy (mean cosine, Henyey-Greenstein): diffusion uses only sigma_s'; solver=mc traces "
+     "sigma_s = sigma_s' / (1 - g) with this phase function",
+     NULL, -0.99, 0.99, 0},
+    {"eta", OHM_OPT_REAL, "1.3", "relative index of refraction", NULL, 1, 3, 0},
+    {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, 1e-300, 1e300, 0},
+    {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, 1e-300, 1e300, 0},
+    {"transfer", OHM_OPT_STRING, NULL,
+     "transfer function file: the volume's density -> coefficients per cell (see docs/transfer-functions.md)", NULL,
+     0, 0, 0},
+    {0}};
+
+static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_material m;
+    memset(&m, 0, sizeof m);
+    int preset = ohm_opt_given(inv, "preset");
+    int optical = ohm_opt_given(inv, "sigma_a") || ohm_opt_given(inv, "sigma_s") || ohm_opt_given(inv, "sigma_s_full");
+    int paper = ohm_opt_given(inv, "resistance") || ohm_opt_given(inv, "ground");
+    int transfer = ohm_opt_given(inv, "transfer");
+    if (preset + optical + paper + transfer != 1)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "%s: -material: give exactly one of preset=NAME, sigma_a= with sigma_s= (or sigma_s_full=), "
+                        "resistance= with ground=, or transfer=FILE",
+                        inv->where);
+    int rc;
+    ohm_transfer_free(&s->transfer);
+    s->have_transfer = 0;
+    if (transfer) {
+        const char *tp = ohm_opt_str(inv, "transfer");
+        ohm_transfer t;
+        rc = ohm_transfer_read(&t, tp, err);
+        if (rc) return rc;
+        /* the material records the kind and channels; the coefficients come
+         * per cell from the volume at -solve */
+        m.kind = t.resistance_mode ? OHM_MATERIAL_RESISTANCE : OHM_MATERIAL_OPTICAL;
+        m.channels = t.channels;
+        m.eta = t.resistance_mode ? 1.0 : t.eta;
+        m.g = t.resistance_mode ? 0.0 : t.g;
+        ohm_transfer_eval(&t, t.density[0], m.sigma_a, m.sigma_s);
+        if (t.resistance_mode) m.resistance = m.sigma_a[0], m.ground = m.sigma_s[0];
+        const char *base = strrchr(tp, '/');
+        snprintf(m.name, sizeof m.name, "transfer %s", base ? base + 1 : tp);
+        drop_solution(s);
+        s->material = m;
+        s->have_material = 1;
+        s->transfer = t;
+        s->have_transfer = 1;
+        snprintf(s->transfer_path, sizeof s->transfer_path, "%s", tp);
+        ohm_stats_set_str(&s->stats, "material", m.name);
+        ohm_stats_set_str(&s->stats, "transfer", tp);
+        ohm_log_info(&s->log, "material: transfer function %s, %zu points, %d channel(s)%s%s", tp, t.n, t.channels,
+                     t.resistance_mode ? ", resistances" : "",
+                     t.eta_column && t.g_column ? ", an index and an anisotropy per density"
+                     : t.eta_column             ? ", a refractive index per density"
+                     : t.g_column               ? ", an anisotropy per density"
+                                                : "");
+        return OHM_OK;
+    }
+    if (preset) {
+        rc = ohm_material_preset(&m, ohm_opt_str(inv, "preset"), err);
+        if (rc) return rc;
+        if (ohm_opt_given(inv, "eta")) m.eta = ohm_opt_real(inv, "eta");
+        m.g = ohm_opt_real(inv, "g"); /* Jensen's table gives sigma_s' only: 0 unless told */
+    } else if (optical) {
+        int full = ohm_opt_given(inv, "sigma_s_full");
+        if (full && ohm_opt_given(inv, "sigma_s"))
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -material: give sigma_s= (reduced, sigma_s') or sigma_s_full= (sigma_s, with g=), "
+                            "not both",
+                            inv->where);
+        if (!ohm_opt_given(inv, "sigma_a") || !(full || ohm_opt_given(inv, "sigma_s")))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: sigma_a= and sigma_s= (or sigma_s_full=) go together",
+                            inv->where);
+        int ka = ohm_opt_real13(inv, "sigma_a", m.sigma_a);
+        int ks = ohm_opt_real13(inv, full ? "sigma_s_full" : "sigma_s", m.sigma_s);
+        m.g = ohm_opt_real(inv, "g");
+        if (full) /* sigma_s' = sigma_s (1 - g): what diffusion needs (similarity) */
+            for (int c = 0; c < 3; ++c) m.sigma_s[c] *= 1.0 - m.g;
+        m.kind = OHM_MATERIAL_OPTICAL;
+        m.channels = (ka == 3 || ks == 3) ? 3 : 1;
+        m.eta = ohm_opt_real(inv, "eta");
+        snprintf(m.name, sizeof m.name, "custom");
+    } else {
+        if (!ohm_opt_given(inv, "resistance") || !ohm_opt_given(inv, "ground"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -material: resistance= and ground= go together", inv->where);
+        m.kind = OHM_MATERIAL_RESISTANCE;
+        m.channels = 1;
+        m.resistance = ohm_opt_real(inv, "resistance");
+        m.ground = ohm_opt_real(inv, "ground");
+        m.eta = 1.0;
+        snprintf(m.name, sizeof m.name, "resistances %g/%g ohm", m.resistance, m.ground);
+    }
+    rc = ohm_material_check(&m, err);
+    if (rc) return rc;
+    drop_solution(s);
+    s->material = m;
+    s->have_material = 1;
+    if (m.kind == OHM_MATERIAL_OPTICAL) {
+        static const char *cn[3] = {"R", "G", "B"};
+        for (int c = 0; c < m.channels; ++c) {
+            double alb = ohm_material_albedo(&m, c);
+            ohm_log_info(&s->log, "material %s%s%s: sigma_a %.4g, sigma_s' %.4g /mm, albedo %.4f, 1/sigma_t' %.4g mm, "
+                         "1/sigma_tr %.4g mm",
+                         m.name, m.channels == 1 ? "" : " ", m.channels == 1 ? "" : cn[c], m.sigma_a[c],
+                         m.sigma_s[c], alb, 1.0 / (m.sigma_a[c] + m.sigma_s[c]),
+                         m.sigma_a[c] > 0 ? 1.0 / ohm_material_sigma_tr(&m, c) : INFINITY);
+            if (alb < 0.8)
+                ohm_log_warn(&s->log,
+                             "material %s%s%s has albedo %.3f < 0.8: the diffusion approximation is poor there "
+                             "(light is absorbed before it scatters enough); expect errors of tens of percent",
+                             m.name, m.channels == 1 ? "" : " ", m.channels == 1 ? "" : cn[c], alb);
+        }
+    }
+    ohm_stats_set_str(&s->stats, "material", m.name);
+    return OHM_OK;
+}
+
+/* ---- light --------------------------------------------------------------------- */
+
+static const ohm_opt_spec light_opts[] = {
+    {"type", OHM_OPT_ENUM, "directional", "kind of light", "directional|point|spot|area|pencil", 0, 0, 0},
+    {"pos", OHM_OPT_VEC3, NULL, "position in mm (point, spot, area centre, pencil)", NULL, 0, 0, 0},
+    {"dir", OHM_OPT_VEC3, NULL,
+     "direction the light travels (directional, spot axis, area facing, pencil): 0,0,-1 shines down", NULL, 0, 0,
+     0},
+    {"intensity", OHM_OPT_REAL13, "1",
+     "directional: W/mm^2 on a face square to it; point, spot: W/sr; area: total W emitted; pencil: W. One value "
+     "or r,g,b",
+     NULL, 0, 1e30, 0},
+    {"angle", OHM_OPT_REAL, "30", "spot: cone half-angle, degrees", NULL, 0.01, 90, 0},
+    {"falloff", OHM_OPT_REAL, "0", "spot: soft edge inside the cone, degrees", NULL, 0, 90, 0},
+    {"shape", OHM_OPT_ENUM, "rect", "area: rectangle or disk", "rect|disk", 0, 0, 0},
+    {"width", OHM_OPT_REAL, "10", "area: width, or the disk's diameter (mm)", NULL, 1e-9, 1e9, 0},
+    {"height", OHM_OPT_REAL, "10", "area: height of the rectangle (mm)", NULL, 1e-9, 1e9, 0},
+    {"samples", OHM_OPT_INT, "64", "area: sample points (rounded down to a square)", NULL, 1, 4096, 0},
+    {"orbit", OHM_OPT_INT, "0",
+     "N > 0: N frames with the light turned about the object's centre (a .vdb sequence, one factorization)", NULL,
+     0, 100000, 0},
+    {"axis", OHM_OPT_ENUM, "y", "orbit axis through the object's centre", "x|y|z", 0, 0, 0},
+    {0}};
+
+/* Rotate v about the axis (0 x, 1 y, 2 z) by angle a (right-handed). */
+static void rotate_axis(double v[3], int axis, double a)
+{
+    int p = (axis + 1) % 3, q = (axis + 2) % 3;
+    double x = v[p], y = v[q];
+    v[p] = x * cos(a) - y * sin(a);
+    v[q] = x * sin(a) + y * cos(a);
+}
+
+static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_light l;
+    memset(&l, 0, sizeof l);
+    const char *type = ohm_opt_str(inv, "type");
+    l.type = strcmp(type, "point") == 0    ? OHM_LIGHT_POINT
+             : strcmp(type, "pencil") == 0 ? OHM_LIGHT_PENCIL
+             : strcmp(type, "spot") == 0   ? OHM_LIGHT_SPOT
+             : strcmp(type, "area") == 0   ? OHM_LIGHT_AREA
+                                           : OHM_LIGHT_DIRECTIONAL;
+    int need_pos = l.type != OHM_LIGHT_DIRECTIONAL, need_dir = l.type != OHM_LIGHT_POINT;
+    l.angle = ohm_opt_real(inv, "angle");
+    l.falloff = ohm_opt_real(inv, "falloff");
+    if (l.falloff > l.angle)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light falloff=%g is wider than angle=%g", inv->where, l.falloff,
+                        l.angle);
+    l.disk = strcmp(ohm_opt_str(inv, "shape"), "disk") == 0;
+    l.width = ohm_opt_real(inv, "width");
+    l.height = l.disk ? l.width : ohm_opt_real(inv, "height");
+    l.samples = (int)ohm_opt_int(inv, "samples");
+    if (need_pos && !ohm_opt_given(inv, "pos"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", inv->where, type);
+    if (need_dir && !ohm_opt_given(inv, "dir"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs dir=x,y,z", inv->where, type);
+    ohm_opt_vec3(inv, "pos", l.pos);
+    if (need_dir) {
+        ohm_opt_vec3(inv, "dir", l.dir);
+        double len = sqrt(l.dir[0] * l.dir[0] + l.dir[1] * l.dir[1] + l.dir[2] * l.dir[2]);
+        if (!(len > 0)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light dir=0,0,0 has no direction", inv->where);
+        for (int a = 0; a < 3; ++a) l.dir[a] /= len;
+    }
+    l.channels = ohm_opt_real13(inv, "intensity", l.intensity);
+    int orbit = (int)ohm_opt_int(inv, "orbit");
+    size_t add = orbit > 0 ? (size_t)orbit : 1;
+    double centre[3] = {0, 0, 0};
+    if (orbit > 0) {
+        if (!s->have_mesh && !s->have_grid && !s->have_scan)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d turns about the object: -read it first",
+                            inv->where, orbit);
+        for (size_t i = 0; i < s->nlights; ++i)
+            if (s->lights[i].frame != 0)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=: only one orbiting light per run", inv->where);
+        double lo[3], hi[3];
+        if (s->have_mesh) ohm_mesh_bounds(&s->mesh, lo, hi);
+        else if (s->have_grid)
+            for (int a = 0; a < 3; ++a) {
+                lo[a] = s->grid.origin[a];
+                hi[a] = s->grid.origin[a] + s->grid.h * (s->grid.dims[a] - 1);
+            }
+        else ohm_scan_bounds(&s->scan, lo, hi);
+        for (int a = 0; a < 3; ++a) centre[a] = 0.5 * (lo[a] + hi[a]);
+    }
+    int axis = ohm_opt_str(inv, "axis")[0] - 'x';
+    ohm_light *grown = realloc(s->lights, (s->nlights + add) * sizeof *grown);
+    if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    s->lights = grown;
+    for (size_t k = 0; k < add; ++k) {
+        ohm_light lk = l;
+        if (orbit > 0) {
+            double angle = 2.0 * M_PI * (double)k / (double)orbit, rel[3];
+            for (int a = 0; a < 3; ++a) rel[a] = l.pos[a] - centre[a];
+            rotate_axis(rel, axis, angle);
+            for (int a = 0; a < 3; ++a) lk.pos[a] = centre[a] + rel[a];
+            rotate_axis(lk.dir, axis, angle);
+            lk.frame = (int)k + 1;
+        }
+        s->lights[s->nlights++] = lk;
+    }
+    drop_solution(s);
+    return OHM_OK;
+}
+
+/* ---- solve --------------------------------------------------------------------- */
+
+static const ohm_opt_spec solve_opts[] = {
+    {"boundary", OHM_OPT_ENUM, "robin",
+     "robin (partial current, as the dipole assumes) | neumann (zero flux, the paper's) | dirichlet (phi = 0)",
+     "robin|neumann|dirichlet", 0, 0, 0},
+    {"ordering", OHM_OPT_ENUM, "metis", "fill-reducing ordering of the Cholesky factor; best tries metis and amd",
+     "metis|amd|nesdis|best", 0, 0, 0},
+    {"fresnel", OHM_OPT_ENUM, "exact",
+     "robin: the boundary constant A from eta by the exact Fresnel moments, A = (1 + 3 C2)/(1 - 2 C1) "
+     "(Haskell et al. 1994) | polynomial: (1 + F_dr)/(1 - F_dr) with Egan & Hilgeman's fit (3.05 against 2.76 "
+     "at eta 1.37)",
+     "exact|polynomial", 0, 0, 0},
+    {"deposit", OHM_OPT_ENUM, "exponential",
+     "where entering light starts to diffuse: exponential (reduced-intensity profile) | point (at depth "
+     "1/sigma_t', the dipole's) | surface (first cell, the paper's)",
+     "exponential|point|surface", 0, 0, 0},
+    {"fluence", OHM_OPT_ENUM, "diffuse",
+     "what the fluence grid holds: diffuse (the scattered light, diffusion's phi) | total (plus the unscattered "
+     "beam, attenuated by the full sigma_t, what transport codes report)",
+     "diffuse|total", 0, 0, 0},
+    {"shadows", OHM_OPT_ENUM, "auto",
+     "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
+     "there is one",
+     "auto|mesh|grid|none", 0, 0, 0},
+    {"solver", OHM_OPT_ENUM, "direct",
+     "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
+     "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
+     "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
+     "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
+     "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
+     "direct|cg|amg|auto|mc", 0, 0, 0},
+    {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
+     NULL, 16, 1e12, 0},
+    {"seed", OHM_OPT_INT, "1", "solver=mc and hybrid=: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
+     9.007199254740992e15, 0},
+    {"threads", OHM_OPT_INT, "0", "solver=mc and hybrid=: threads (0: every core)", NULL, 0, 1024, 0},
+    {"hybrid", OHM_OPT_STRING, "auto",
+     "trace the light's first N reduced scatterings as Monte Carlo transport (photons= seed= threads=), then "
+     "diffusion from where each photon is: right within a few mean free paths of a pencil beam, where diffusion "
+     "alone is 15-22% off; 0: diffusion only; auto: 10 when a light is a pencil beam, else 0 (docs/transport.md)",
+     NULL, 0, 0, 0},
+    {"petsc_options", OHM_OPT_STRING, NULL,
+     "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
+     "-pc_factor_mat_solver_type mumps\"; an option PETSc does not use is an error",
+     NULL, 0, 0, 0},
+    {"depth_band", OHM_OPT_REAL, "0",
+     "solve only the cells within depth_band / sigma_tr of the surface (light there has decayed by e^-depth_band), "
+     "the core closed as an absorbing half-space; 0 = every cell",
+     NULL, 0, 1e6, 0},
+    {"depth_band_error", OHM_OPT_REAL, NULL,
+     "choose the depth band from an error target: depth_band = ln(1/depth_band_error) / 2, the round trip "
+     "e^(-2 depth_band) of light "
+     "to the band's floor and back bounds the exitance error (measured: docs/accuracy.md)",
+     NULL, 1e-12, 0.5, 0},
+    {"cg_tol", OHM_OPT_REAL, "1e-10", "solver=cg and amg stop when ||b - A x|| <= cg_tol ||b||", NULL, 1e-15, 1e-2, 0},
+    {"batch_mb", OHM_OPT_REAL, "1024", "memory for right-hand sides solved together (frames beyond it: batches)",
+     NULL, 1, 1e7, 0},
+    {"max_memory", OHM_OPT_REAL, NULL,
+     "MB the solver may take, estimated before it starts: the factor from its symbolic analysis, cg and amg "
+     "per cell (amg: per rank), mc its tallies (default: what the machine has available)",
+     NULL, 1e-3, 1e12, 0},
+    {0}};
+
+/* Per-cell coefficients from the volume through the transfer function: the
+ * density at each interior cell (trilinear at its centre, or the mean over
+ * the cell when the grid is coarser than the scan), then the transfer
+ * function.  Arrays in unknown order (interior cells, x fastest). */
+static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, double **eta_cell,
+                              double **g_cell, ohm_error *err)
+{
+    const ohm_voxel_grid *g = &s->grid;
+    const ohm_transfer *t = &s->transfer;
+    size_t n = g->interior_cells;
+    int nc = t->resistance_mode ? 1 : t->channels;
+    for (int q = 0; q < 2 * nc; ++q) {
+        percell[q] = malloc((n ? n : 1) * sizeof(double));
+        if (!percell[q]) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the material");
+    }
+    if (t->eta_column) { /* the index per cell (transfer.h): network.h's interfaces */
+        *eta_cell = malloc((n ? n : 1) * sizeof(double));
+        if (!*eta_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the refractive index");
+    }
+    if (t->g_column) { /* the anisotropy per cell: transport's phase function (mc.h) */
+        *g_cell = malloc((n ? n : 1) * sizeof(double));
+        if (!*g_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the anisotropy");
+    }
+    /* the scan's finest spacing decides between sampling and averaging */
+    double spacing = INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        double col = sqrt(s->scan.index_to_world[0][a] * s->scan.index_to_world[0][a] +
+                          s->scan.index_to_world[1][a] * s->scan.index_to_world[1][a] +
+                          s->scan.index_to_world[2][a] * s->scan.index_to_world[2][a]);
+        if (col < spacing) spacing = col;
+    }
+    int average = g->h > 1.5 * spacing;
+    size_t u = 0;
+    for (int32_t k = 0; k < g->dims[2]; ++k)
+        for (int32_t j = 0; j < g->dims[1]; ++j)
+            for (int32_t i = 0; i < g->dims[0]; ++i) {
+                if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
+                double c[3] = {g->origin[0] + g->h * i, g->origin[1] + g->h * j, g->origin[2] + g->h * k};
+                double density;
+                if (average) {
+                    double lo[3], hi[3];
+                    for (int a = 0; a < 3; ++a) lo[a] = c[a] - 0.5 * g->h, hi[a] = c[a] + 0.5 * g->h;
+                    density = ohm_scan_box_mean(&s->scan, lo, hi);
+                } else {
+                    density = ohm_scan_sample(&s->scan, c);
+                }
+                double sa[OHM_MAX_CHANNELS], ss[OHM_MAX_CHANNELS];
+                ohm_transfer_eval(t, density, sa, ss);
+                for (int ch = 0; ch < nc; ++ch) {
+                    percell[ch][u] = sa[ch];
+                    percell[nc + ch][u] = ss[ch];
+                }
+                if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, density);
+                if (*g_cell) (*g_cell)[u] = ohm_transfer_eval_g(t, density);
+                ++u;
+            }
+    if (t->resistance_mode) {
+        p->resistance_v = percell[0];
+        p->ground_v = percell[1];
+    } else {
+        for (int ch = 0; ch < nc; ++ch) {
+            p->sigma_a[ch] = percell[ch];
+            p->sigma_s[ch] = percell[nc + ch];
+        }
+        p->give_media = 1; /* the solution keeps them for its sigma_a / sigma_s grids: no copies */
+        p->eta_v = *eta_cell;
+        p->g_v = *g_cell;
+    }
+    ohm_log_info(&s->log, "material: %zu cells from %s through %s (%s)", n, s->scan_path, s->transfer_path,
+                 average ? "box-averaged: the grid is coarser than the volume" : "trilinear");
+    return OHM_OK;
+}
+
+/* -solve hybrid=auto|N (solve.h), after p's boundary, solver and band are
+ * set: auto is OHM_HYBRID_PENCIL for a pencil beam where the hybrid applies
+ * (optical media, the Fresnel boundary, every cell), else 0. */
+static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const ohm_solve_params *p, int *handoff,
+                         ohm_error *err)
+{
+    const char *h = ohm_opt_str(inv, "hybrid");
+    if (strcmp(h, "auto") == 0) {
+        *handoff = 0;
+        for (size_t l = 0; l < s->nlights; ++l)
+            if (s->lights[l].type == OHM_LIGHT_PENCIL) *handoff = OHM_HYBRID_PENCIL;
+        if (strcmp(p->solver, "mc") == 0 || p->boundary != OHM_BOUNDARY_ROBIN || p->band_k > 0 ||
+            s->material.kind == OHM_MATERIAL_RESISTANCE)
+            *handoff = 0; /* all transport already, or a scene the tracer does not model */
+        return OHM_OK;
+    }
+    char *end;
+    errno = 0;
+    long k = strtol(h, &end, 10);
+    if (end == h || *end || errno || k < 0 || k > 1000)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: hybrid=%s: expected auto or a whole number 0..1000",
+                        inv->where, h);
+    *handoff = (int)k;
+    return OHM_OK;
+}
+
+static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_grid)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no voxel object: -read and -voxelize first", inv->where);
+    if (!s->have_material)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no material: add -material (e.g. preset=marble) first",
+                        inv->where);
+    if (s->nlights == 0)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no lights: add -light first", inv->where);
+    const char *bname = ohm_opt_str(inv, "boundary"), *dname = ohm_opt_str(inv, "deposit");
+    const char *fname = ohm_opt_str(inv, "fresnel");
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
+                 : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
+                                                   : OHM_BOUNDARY_ROBIN;
+    p.fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
+    p.deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
+                : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
+                                                : OHM_DEPOSIT_EXPONENTIAL;
+    p.ordering = ohm_opt_str(inv, "ordering");
+    p.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
+    p.solver = ohm_opt_str(inv, "solver");
+    if (ohm_opt_given(inv, "petsc_options")) p.petsc_options = ohm_opt_str(inv, "petsc_options");
+    p.cg_tol = ohm_opt_real(inv, "cg_tol");
+    p.mc.photons = (int64_t)ohm_opt_real(inv, "photons");
+    p.mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
+    p.mc.threads = (int)ohm_opt_int(inv, "threads");
+    p.mc.log = &s->log;
+    p.band_k = ohm_opt_real(inv, "depth_band");
+    if (ohm_opt_given(inv, "depth_band_error")) {
+        if (ohm_opt_given(inv, "depth_band"))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give depth_band= or depth_band_error=, not both",
+                            inv->where);
+        p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
+    }
+    int rc_h = hybrid_option(s, inv, &p, &p.mc.handoff, err);
+    if (rc_h) return rc_h;
+    const char *sh = ohm_opt_str(inv, "shadows");
+    p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
+                : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
+                : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
+                : s->have_mesh            ? OHM_SHADOWS_MESH
+                                          : OHM_SHADOWS_GRID;
+    p.mesh = s->have_mesh ? &s->mesh : NULL;
+    p.orientation = s->mesh_flipped ? -1 : 1;
+    p.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
+    if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
+    drop_solution(s);
+    double t0 = ohm_now();
+    double *percell[2 * OHM_MAX_CHANNELS] = {NULL}, *eta_cell = NULL, *g_cell = NULL;
+    int rc = OHM_OK;
+    if (s->have_transfer) {
+        if (!s->have_scan)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
+                            inv->where);
+        rc = material_from_scan(s, &p, percell, &eta_cell, &g_cell, err);
+    }
+    if (!rc) {
+        rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
+        if (p.give_media) memset(percell, 0, sizeof percell); /* ohm_solve took them (solve.h) */
+    }
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
+    free(eta_cell);
+    free(g_cell);
+    if (rc) return rc;
+    s->have_solution = 1;
+    const ohm_solution *sol = &s->solution;
+    snprintf(s->solution_desc, sizeof s->solution_desc,
+             "boundary=%s fresnel=%s deposit=%s fluence=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s "
+             "band=%g hybrid=%d",
+             bname, fname, dname, ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows), s->nlights, sol->frames,
+             sol->solver, sol->ordering, p.band_k, p.mc.handoff);
+    double cons = ohm_solution_conservation_error(sol);
+    ohm_log_info(&s->log,
+                 "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
+                 "%.2g, power in %.6g W = absorbed %.6g + out %.6g (conservation error %.2g)",
+                 (long long)sol->n, sol->channels, sol->factors, s->nlights, ohm_now() - t0, sol->residual,
+                 sol->power_in, sol->power_absorbed, sol->power_out, cons);
+    if (strcmp(sol->solver, "mc") == 0)
+        ohm_log_info(&s->log,
+                     "monte carlo: %lld photons (g=%g, seed=%llu, %d threads) at %.4g photons/ms, %.4g path "
+                     "segments each%s",
+                     (long long)sol->mc_photons, s->material.g, (unsigned long long)p.mc.seed, sol->mc_threads,
+                     sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0.0,
+                     sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0.0,
+                     sol->mc_truncated ? "; some photons hit the event cap (a medium that keeps light in)" : "");
+    else if (sol->mc_photons > 0)
+        ohm_log_info(&s->log,
+                     "hybrid: the first %d reduced scatterings of %lld photons traced as transport (g=%g%s, seed=%llu), "
+                     "diffusion from there",
+                     p.mc.handoff, (long long)sol->mc_photons, s->material.g, p.g_v ? " at the first point, per cell" : "",
+                     (unsigned long long)p.mc.seed);
+    if (p.boundary == OHM_BOUNDARY_NEUMANN)
+        ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
+    if (sol->mode_corrections)
+        ohm_log_info(&s->log,
+                     "solve: %lld nearly singular piece(s) (almost no absorption or leak): their constant mode was "
+                     "shifted by %.2g of the fluence to conserve power exactly",
+                     (long long)sol->mode_corrections, sol->mode_shift);
+    if (sol->band_depth > 0)
+        ohm_log_info(&s->log, "solve: depth band %.4g mm: %lld interior cells below it not solved", sol->band_depth,
+                     (long long)sol->band_dropped);
+    /* a grid coarser than the diffusion length cannot resolve the spread of
+     * light (the error grows like (h sigma_tr)^p: docs/accuracy.md) */
+    if (s->material.kind != OHM_MATERIAL_RESISTANCE && !s->have_transfer)
+        for (int c = 0; c < s->material.channels; ++c) {
+            double sa = s->material.sigma_a[c], st = sa + s->material.sigma_s[c], str = sqrt(3.0 * sa * st);
+            if (str * s->grid.h > 1.0)
+                ohm_log_warn(&s->log,
+                             "voxel %.4g mm is larger than the diffusion length 1/sigma_tr = %.4g mm%s%s: the grid "
+                             "cannot resolve how light spreads, expect large errors (use a smaller voxel, or "
+                             "-voxelize error=)",
+                             s->grid.h, 1.0 / str, s->material.channels > 1 ? " of channel " : "",
+                             s->material.channels > 1 ? (const char *[]){"R", "G", "B"}[c] : "");
+        }
+    ohm_stats *st = &s->stats;
+    ohm_stats_set_int(st, "cells", (long long)sol->n);
+    ohm_stats_set_int(st, "channels", sol->channels);
+    ohm_stats_set_int(st, "factors", sol->factors);
+    ohm_stats_set_int(st, "analyses", sol->analyses);
+    ohm_stats_set_int(st, "lights", (long long)s->nlights);
+    ohm_stats_set_int(st, "frames", sol->frames);
+    ohm_stats_set_int(st, "solves", (long long)sol->solves);
+    ohm_stats_set_int(st, "solves_skipped", (long long)sol->solves_skipped);
+    ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.shadows));
+    ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
+    ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
+    ohm_stats_set_str(st, "boundary", bname);
+    ohm_stats_set_str(st, "deposit", dname);
+    ohm_stats_set_str(st, "fresnel", fname);
+    ohm_stats_set_str(st, "fluence", ohm_opt_str(inv, "fluence"));
+    ohm_stats_set_str(st, "ordering", sol->ordering);
+    ohm_stats_set_str(st, "solver", sol->solver);
+    ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
+    ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
+    ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
+    ohm_stats_set_int(st, "ranks", sol->ranks);
+    ohm_stats_set(st, "solver_bytes", sol->solver_bytes);
+    ohm_stats_set(st, "depth_band", p.band_k);
+    ohm_stats_set(st, "depth_band_mm", sol->band_depth);
+    ohm_stats_set_int(st, "depth_band_dropped", (long long)sol->band_dropped);
+    ohm_stats_set_int(st, "mode_corrections", (long long)sol->mode_corrections);
+    ohm_stats_set(st, "mode_shift", sol->mode_shift);
+    ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
+    ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
+    ohm_stats_set(st, "flops", sol->flops);
+    ohm_stats_add(st, "t_network", sol->t_network);
+    ohm_stats_add(st, "t_assemble", sol->t_assemble);
+    ohm_stats_add(st, "t_analyze", sol->t_analyze);
+    ohm_stats_add(st, "t_factor", sol->t_factor);
+    ohm_stats_add(st, "t_source", sol->t_source);
+    ohm_stats_add(st, "t_solve", sol->t_solve);
+    ohm_stats_set(st, "residual", sol->residual);
+    ohm_stats_set(st, "power_incident", sol->power_incident);
+    ohm_stats_set(st, "power_entered", sol->power_entered);
+    ohm_stats_set(st, "power_in", sol->power_in);
+    ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
+    ohm_stats_set(st, "power_out", sol->power_out);
+    ohm_stats_set(st, "conservation_error", cons);
+    if (strcmp(sol->solver, "mc") == 0) {
+        ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
+        ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
+        ohm_stats_set(st, "mc_g", s->material.g);
+        ohm_stats_set_int(st, "mc_threads", sol->mc_threads);
+        ohm_stats_set_int(st, "mc_truncated", (long long)sol->mc_truncated);
+        ohm_stats_set(st, "mc_photons_per_ms", sol->t_solve > 0 ? 1e-3 * (double)sol->mc_photons / sol->t_solve : 0);
+        ohm_stats_set(st, "mc_events_per_photon",
+                      sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
+    } else {
+        ohm_stats_set_int(st, "hybrid", p.mc.handoff);
+        if (p.mc.handoff > 0) {
+            ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
+            ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
+            ohm_stats_set(st, "mc_events_per_photon",
+                          sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
+        }
+    }
+    return OHM_OK;
+}
+
+/* ---- place ---------------------------------------------------------------------- */
+
+static const ohm_opt_spec place_opts[] = {
+    {"fit", OHM_OPT_ENUM, "1", "1: stretch the volume's box onto the mesh's bounding box", "0|1", 0, 0, 0},
+    {"scale", OHM_OPT_REAL, "1", "then scale the volume about its centre", NULL, 1e-9, 1e9, 0},
+    {"offset", OHM_OPT_VEC3, "0,0,0", "then move it by this many mm", NULL, 0, 0, 0},
+    {0}};
+
+static int run_place(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_scan)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -place: no volume to place: -read one first", inv->where);
+    double (*M)[4] = s->scan.index_to_world;
+    double lo[3], hi[3];
+    if (strcmp(ohm_opt_str(inv, "fit"), "1") == 0) {
+        if (!s->have_mesh)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -place fit=1: no mesh to fit the volume into", inv->where);
+        double mlo[3], mhi[3];
+        ohm_mesh_bounds(&s->mesh, mlo, mhi);
+        ohm_scan_bounds(&s->scan, lo, hi);
+        for (int a = 0; a < 3; ++a) {
+            double k = hi[a] > lo[a] ? (mhi[a] - mlo[a]) / (hi[a] - lo[a]) : 1.0;
+            for (int b = 0; b < 3; ++b) M[a][b] *= k;
+            M[a][3] = k * (M[a][3] - lo[a]) + mlo[a];
+        }
+    }
+    double k = ohm_opt_real(inv, "scale"), off[3];
+    ohm_opt_vec3(inv, "offset", off);
+    ohm_scan_bounds(&s->scan, lo, hi);
+    for (int a = 0; a < 3; ++a) {
+        double c = 0.5 * (lo[a] + hi[a]);
+        for (int b = 0; b < 3; ++b) M[a][b] *= k;
+        M[a][3] = k * (M[a][3] - c) + c + off[a];
+    }
+    drop_solution(s);
+    ohm_scan_bounds(&s->scan, lo, hi);
+    ohm_log_info(&s->log, "placed %s at %.4g..%.4g, %.4g..%.4g, %.4g..%.4g mm", s->scan_path, lo[0], hi[0], lo[1],
+                 hi[1], lo[2], hi[2]);
+    return OHM_OK;
+}
+
+/* ---- write --------------------------------------------------------------------- */
+
+static const ohm_opt_spec write_opts[] = {
+    {"file", OHM_OPT_STRING, NULL, "output .vdb (written to a temporary file, then renamed)", NULL, 0, 0, 1},
+    {0}};
+
+static int has_suffix(const char *s, const char *suffix)
+{
+    size_t ls = strlen(s), lx = strlen(suffix);
+    return ls >= lx && strcasecmp(s + ls - lx, suffix) == 0;
+}
+
+static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    const char *path = ohm_opt_str(inv, "file");
+    if (!has_suffix(path, ".vdb"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -write file=%s: only .vdb is written here", inv->where, path);
+    if (!s->have_grid)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -write: nothing to write yet: put -voxelize before it", inv->where);
+    double t0 = ohm_now();
+    ohm_vdb_provenance prov = {s->mesh_path, s->mesh_scale_mm, s->have_solution ? s->material.name : NULL,
+                               s->have_solution ? s->solution_desc : NULL};
+    const ohm_solution *sol = s->have_solution ? &s->solution : NULL;
+    int frames = sol ? sol->frames : 1;
+    int rc = OHM_OK;
+    /* Several frames: a numbered sequence NAME_0001.vdb ... (Blender's volume
+     * sequences start at frame 1 and read trailing digits). */
+    size_t stem = strlen(path) - 4;
+    for (int f = 0; f < frames && !rc; ++f) {
+        char framepath[OHM_PATH_MAX];
+        if (frames == 1) snprintf(framepath, sizeof framepath, "%s", path);
+        else snprintf(framepath, sizeof framepath, "%.*s_%04d.vdb", (int)stem, path, f + 1);
+        rc = ohm_export_vdb(framepath, &s->grid, sol, f, &prov, err);
+    }
+    if (rc) return rc;
+    double t = ohm_now() - t0;
+    /* the grids ohm_export_vdb wrote, for the log */
+    char grids[160] = "";
+    if (sol) {
+        const char *rgb = sol->channels == 1 ? "" : "_r/g/b";
+        snprintf(grids, sizeof grids, ", fluence%s, exitance%s%s%s%s%s%s%s%s%s", rgb, rgb,
+                 sol->fluence_se[0] ? ", fluence_se" : "", sol->fluence_se[0] ? rgb : "",
+                 sol->fluence_se[0] ? ", exitance_se" : "", sol->fluence_se[0] ? rgb : "",
+                 sol->medium_sa[0] ? ", sigma_a" : "", sol->medium_sa[0] ? rgb : "",
+                 sol->medium_sa[0] ? ", sigma_s" : "", sol->medium_sa[0] ? rgb : "");
+    }
+    if (frames == 1) ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path, grids, t);
+    else
+        ohm_log_info(&s->log, "wrote %.*s_0001.vdb .. _%04d.vdb (%d frames; grids: surface, density%s), %.2f s",
+                     (int)stem, path, frames, frames, grids, t);
+    ohm_stats_add(&s->stats, "t_write", t);
+    return OHM_OK;
+}
+
+/* ---- stats --------------------------------------------------------------------- */
+
+static const ohm_opt_spec stats_opts[] = {
+    {"file", OHM_OPT_STRING, NULL, "write the JSON here; without it, to stdout", NULL, 0, 0, 0},
+    {0}};
+
+static int run_stats(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!ohm_opt_given(inv, "file")) {
+        ohm_stats_write_json(&s->stats, stdout);
+        fflush(stdout);
+        return OHM_OK;
+    }
+    const char *path = ohm_opt_str(inv, "file");
+    ohm_output out;
+    int rc = ohm_output_begin(&out, path, err);
+    if (rc) return rc;
+    if (ohm_stats_write_json(&s->stats, out.stream) != 0) {
+        ohm_output_abort(&out);
+        return ohm_fail(err, OHM_ERR_IO, "cannot write '%s'", path);
+    }
+    rc = ohm_output_commit(&out, err);
+    if (!rc) ohm_log_info(&s->log, "wrote %s", path);
+    return rc;
+}
+
+/* ---- the table ----------------------------------------------------------------- */
+
+const ohm_action ohm_actions[] = {
+    {"read", "read a mesh (OBJ, PLY, STL, OFF; .gz too) and scale it to millimetres",
+     "Reads a triangle mesh; polygons are split into triangles.  Reports open and non-manifold edges.\n"
+     "Meshes come in arbitrary units: units= says what one unit is, size= scales the longest axis to a length.",
+     read_opts, run_read},
+    {"voxelize", "find the cells inside the mesh (or above a volume's threshold) on a regular grid",
+     "Classifies cell centres with the generalized winding number (robust to holes, open rims, overlapping\n"
+     "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
+     "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
+     voxelize_opts, run_voxelize},
+    {"place", "put a density volume where the mesh is (fit its box, scale, offset)",
+     "For a mesh whose material comes from a scan: fit=1 stretches the volume's box onto the mesh's, then\n"
+     "scale= and offset= adjust it.  A NIfTI volume already carries its world placement (sform/qform).",
+     place_opts, run_place},
+    {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
+     "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
+     "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
+     "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
+     material_opts, run_material},
+    {"light", "add a light (directional, point, or a pencil beam)",
+     "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
+     "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
+     "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
+     light_opts, run_light},
+    {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
+     "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
+     "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
+     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
+     "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
+     "solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells) memory, iterations that do not grow with the\n"
+     "grid; under `mpirun -np N ohm ...` every rank solves a slab: README, docs/scale.md); solver=auto picks\n"
+     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.\n"
+     "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
+     "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
+     "validate transport`, docs/transport.md).",
+     solve_opts, run_solve},
+    {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
+     "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
+     "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
+     "the 99th percentile maps to 1; recorded as 'comment ohm exposure').  df3=BASE writes one POV-Ray\n"
+     "density file per channel (BASE_r.df3 ..., BASE.df3 for grey; the grid padded by one zero voxel,\n"
+     "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.",
+     ohm_export_opts, ohm_run_export},
+    {"write", "write the voxel object (and any solution) as a .vdb",
+     "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
+     "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
+     "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
+     write_opts, run_write},
+    {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
+     "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
+     "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
+     "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
+     "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
+     ohm_render_opts, ohm_run_render},
+    {"stats", "write the run's figures as one JSON object",
+     "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats},
+    {NULL, NULL, NULL, NULL, NULL}};

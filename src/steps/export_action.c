@@ -1,0 +1,80 @@
+/* export_action.c — see export_action.h. */
+#include "steps/export_action.h"
+
+#include <math.h>
+#include <string.h>
+
+#include "outputs/export_df3.h"
+#include "outputs/export_ply.h"
+
+const ohm_opt_spec ohm_export_opts[] = {
+    {"ply", OHM_OPT_STRING, NULL, "write the mesh with per-vertex exitance and sRGB colours (binary PLY)", NULL, 0,
+     0, 0},
+    {"df3", OHM_OPT_STRING, NULL,
+     "write POV-Ray density files BASE_r/_g/_b.df3 (BASE.df3 for grey) and the scene BASE.pov", NULL, 0, 0, 0},
+    {"quantity", OHM_OPT_ENUM, "fluence", "df3: what the density files hold", "fluence|exitance", 0, 0, 0},
+    {"exposure", OHM_OPT_REAL, NULL,
+     "ply: colour = sRGB(exitance * exposure); default: the 99th percentile of the vertex exitance maps to 1",
+     NULL, 1e-300, 1e300, 0},
+    {"frame", OHM_OPT_INT, "1", "which frame of an orbit sequence (1 = the first)", NULL, 1, 1000000, 0},
+    {0}};
+
+/* Direction from the object towards the lights of a frame (unit sum). */
+static void toward_light(const ohm_state *s, int frame, double out[3])
+{
+    double centre[3] = {0, 0, 0};
+    const ohm_voxel_grid *g = &s->grid;
+    for (int a = 0; a < 3; ++a) centre[a] = g->origin[a] + 0.5 * (g->dims[a] - 1) * g->h;
+    out[0] = out[1] = out[2] = 0;
+    for (size_t i = 0; i < s->nlights; ++i) {
+        const ohm_light *l = &s->lights[i];
+        if (l->frame != 0 && l->frame != frame + 1) continue;
+        double v[3];
+        for (int a = 0; a < 3; ++a) v[a] = l->type == OHM_LIGHT_POINT ? l->pos[a] - centre[a] : -l->dir[a];
+        double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
+        if (!(len > 0)) continue;
+        for (int a = 0; a < 3; ++a) out[a] += v[a] / len;
+    }
+}
+
+int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    int want_ply = ohm_opt_given(inv, "ply"), want_df3 = ohm_opt_given(inv, "df3");
+    if (!want_ply && !want_df3)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -export: give ply=FILE and/or df3=BASE", inv->where);
+    if (!s->have_solution || !s->have_grid)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -export: nothing to export: run -solve first", inv->where);
+    int frame = (int)ohm_opt_int(inv, "frame") - 1;
+    if (frame >= s->solution.frames)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -export frame=%d: the solution has %d frame(s)", inv->where,
+                        frame + 1, s->solution.frames);
+    double t0 = ohm_now();
+    int rc;
+    if (want_ply) {
+        const char *path = ohm_opt_str(inv, "ply");
+        if (!s->have_mesh)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -export ply=: no mesh to export", inv->where);
+        double exposure = ohm_opt_given(inv, "exposure") ? ohm_opt_real(inv, "exposure") : 0, used = 0;
+        rc = ohm_export_ply(path, &s->mesh, &s->grid, &s->solution, frame, exposure, &used, err);
+        if (rc) return rc;
+        ohm_log_info(&s->log, "wrote %s (%zu vertices with exitance, frame %d, exposure %.6g%s)", path,
+                     s->mesh.nverts, frame + 1, used, ohm_opt_given(inv, "exposure") ? "" : ", auto");
+        ohm_stats_set(&s->stats, "export_ply_exposure", used);
+    }
+    if (want_df3) {
+        ohm_df3_params p;
+        memset(&p, 0, sizeof p);
+        p.frame = frame;
+        p.exitance = strcmp(ohm_opt_str(inv, "quantity"), "exitance") == 0;
+        toward_light(s, frame, p.toward_light);
+        ohm_df3_report rep;
+        rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, &s->solution, &p, &rep, err);
+        if (rc) return rc;
+        ohm_log_info(&s->log, "wrote %s and %d density file(s) from %s (%s, frame %d, scale %.6g per W/mm^2)",
+                     rep.pov, s->solution.channels, rep.first, p.exitance ? "exitance" : "fluence", frame + 1,
+                     rep.scale);
+        ohm_stats_set(&s->stats, "export_df3_scale", rep.scale);
+    }
+    ohm_stats_add(&s->stats, "t_export", ohm_now() - t0);
+    return OHM_OK;
+}

@@ -1,0 +1,12 @@
+/* export_action.h — the -export action (issue 5): the solution as a coloured
+ * PLY mesh (export_ply.h) and/or POV-Ray density files with a scene
+ * (export_df3.h). */
+#ifndef OHM_EXPORT_ACTION_H
+#define OHM_EXPORT_ACTION_H
+
+#include "steps/pipeline.h"
+
+extern const ohm_opt_spec ohm_export_opts[];
+int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
+
+#endif

@@ -1,0 +1,520 @@
+/* pipeline.c — parse, validate, document and run chains of actions. */
+#include "steps/pipeline.h"
+#include "base/suggest.h"
+
+#include <ctype.h>
+#include <errno.h>
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+#include <sys/stat.h>
+
+#define PIPELINE_MAGIC "ohm-pipeline"
+#define PIPELINE_VERSION 1
+/* A pipeline file is a short text; refuse anything that is clearly not one. */
+#define PIPELINE_MAX_BYTES (4u << 20)
+
+/* ---- lookup and suggestions ---------------------------------------------- */
+
+const ohm_action *ohm_action_find(const char *name)
+{
+    for (const ohm_action *a = ohm_actions; a->name; ++a)
+        if (strcmp(a->name, name) == 0) return a;
+    return NULL;
+}
+
+static int spec_index(const ohm_action *a, const char *name)
+{
+    for (int i = 0; a->opts[i].name; ++i)
+        if (strcmp(a->opts[i].name, name) == 0) return i;
+    return -1;
+}
+
+static const char *suggest_action(const char *word)
+{
+    const char *names[64];
+    size_t n = 0;
+    for (const ohm_action *a = ohm_actions; a->name && n < 64; ++a) names[n++] = a->name;
+    return ohm_suggest(word, names, n);
+}
+
+static const char *suggest_option(const ohm_action *a, const char *word)
+{
+    const char *names[OHM_MAX_OPTS];
+    size_t n = 0;
+    for (int i = 0; a->opts[i].name && n < OHM_MAX_OPTS; ++i) names[n++] = a->opts[i].name;
+    return ohm_suggest(word, names, n);
+}
+
+/* ---- value validation ------------------------------------------------------ */
+
+static int parse_real(const char *s, double *out)
+{
+    if (!*s || isspace((unsigned char)*s)) return -1;
+    char *end;
+    errno = 0;
+    double v = strtod(s, &end);
+    if (*end || errno == ERANGE || !isfinite(v)) return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_int(const char *s, long long *out)
+{
+    if (!*s || isspace((unsigned char)*s)) return -1;
+    char *end;
+    errno = 0;
+    long long v = strtoll(s, &end, 10);
+    if (*end || errno == ERANGE) return -1;
+    *out = v;
+    return 0;
+}
+
+static int parse_vec3(const char *s, double out[3])
+{
+    char buf[256];
+    if (strlen(s) >= sizeof buf) return -1;
+    strcpy(buf, s);
+    char *p = buf;
+    for (int i = 0; i < 3; ++i) {
+        char *comma = strchr(p, ',');
+        if (i < 2 && !comma) return -1;
+        if (i == 2 && comma) return -1;
+        if (comma) *comma = '\0';
+        if (parse_real(p, &out[i])) return -1;
+        p = comma ? comma + 1 : p;
+    }
+    return 0;
+}
+
+/* "x" or "r,g,b" */
+static int parse_real13(const char *s, double out[3])
+{
+    if (!strchr(s, ',')) {
+        if (parse_real(s, &out[0])) return 0;
+        out[1] = out[2] = out[0];
+        return 1;
+    }
+    return parse_vec3(s, out) ? 0 : 3;
+}
+
+static int enum_has(const char *choices, const char *v)
+{
+    size_t lv = strlen(v);
+    for (const char *p = choices; *p;) {
+        const char *bar = strchr(p, '|');
+        size_t l = bar ? (size_t)(bar - p) : strlen(p);
+        if (l == lv && strncmp(p, v, l) == 0) return 1;
+        if (!bar) break;
+        p = bar + 1;
+    }
+    return 0;
+}
+
+static int validate_value(const ohm_action *a, const ohm_opt_spec *o, const char *v, const char *where,
+                          ohm_error *err)
+{
+    int has_range = o->min != o->max;
+    switch (o->type) {
+    case OHM_OPT_INT: {
+        long long x;
+        if (parse_int(v, &x) || (has_range && (x < o->min || x > o->max))) {
+            if (has_range)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number from %.0f to %.0f", where,
+                                a->name, o->name, v, o->min, o->max);
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number", where, a->name, o->name, v);
+        }
+        return OHM_OK;
+    }
+    case OHM_OPT_REAL: {
+        double x;
+        if (parse_real(v, &x) || (has_range && (x < o->min || x > o->max))) {
+            if (has_range)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a number from %g to %g", where, a->name,
+                                o->name, v, o->min, o->max);
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a finite number", where, a->name, o->name,
+                            v);
+        }
+        return OHM_OK;
+    }
+    case OHM_OPT_VEC3: {
+        double x[3];
+        if (parse_vec3(v, x))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected three numbers x,y,z", where, a->name, o->name,
+                            v);
+        return OHM_OK;
+    }
+    case OHM_OPT_REAL13: {
+        double x[3];
+        int k = parse_real13(v, x);
+        int bad = k == 0;
+        for (int i = 0; i < k && !bad; ++i) bad = has_range && (x[i] < o->min || x[i] > o->max);
+        if (bad) {
+            if (has_range)
+                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b), each "
+                                "from %g to %g", where, a->name, o->name, v, o->min, o->max);
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b)", where,
+                            a->name, o->name, v);
+        }
+        return OHM_OK;
+    }
+    case OHM_OPT_ENUM:
+        if (!enum_has(o->choices, v))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one of %s", where, a->name, o->name, v,
+                            o->choices);
+        return OHM_OK;
+    case OHM_OPT_STRING:
+        if (!*v) return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=: the value is empty", where, a->name, o->name);
+        return OHM_OK;
+    }
+    return OHM_OK;
+}
+
+/* ---- building chains ------------------------------------------------------- */
+
+void ohm_chain_free(ohm_chain *c)
+{
+    if (!c) return;
+    for (size_t i = 0; i < c->n; ++i)
+        for (int j = 0; j < OHM_MAX_OPTS; ++j) free(c->items[i].values[j]);
+    free(c->items);
+    memset(c, 0, sizeof *c);
+}
+
+static int begin_action(ohm_chain *c, const char *name, const char *where, ohm_error *err)
+{
+    const ohm_action *a = ohm_action_find(name);
+    if (!a) {
+        const char *s = suggest_action(name);
+        if (s)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown action '-%s'; did you mean '-%s'? (see 'ohm help')",
+                            where, name, s);
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown action '-%s' (see 'ohm help' for the list)", where, name);
+    }
+    if (c->n == c->cap) {
+        size_t cap = c->cap ? 2 * c->cap : 8;
+        ohm_invocation *items = realloc(c->items, cap * sizeof *items);
+        if (!items) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+        c->items = items;
+        c->cap = cap;
+    }
+    ohm_invocation *inv = &c->items[c->n++];
+    memset(inv, 0, sizeof *inv);
+    inv->action = a;
+    snprintf(inv->where, sizeof inv->where, "%s", where);
+    return OHM_OK;
+}
+
+static int add_option(ohm_chain *c, const char *token, const char *where, ohm_error *err)
+{
+    ohm_invocation *inv = &c->items[c->n - 1];
+    const ohm_action *a = inv->action;
+    const char *eq = strchr(token, '=');
+    if (!eq || eq == token)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: '%s' is not key=value (see 'ohm help %s')", where, a->name,
+                        token, a->name);
+    char key[64];
+    size_t kl = (size_t)(eq - token);
+    if (kl >= sizeof key)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: option name '%.*s...' is too long", where, a->name, 32, token);
+    memcpy(key, token, kl);
+    key[kl] = '\0';
+    int idx = spec_index(a, key);
+    if (idx < 0) {
+        const char *s = suggest_option(a, key);
+        if (s)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: unknown option '%s'; did you mean '%s'? (see 'ohm help %s')",
+                            where, a->name, key, s, a->name);
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: unknown option '%s' (see 'ohm help %s')", where, a->name, key,
+                        a->name);
+    }
+    if (inv->values[idx])
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: option '%s' is given twice", where, a->name, key);
+    int rc = validate_value(a, &a->opts[idx], eq + 1, where, err);
+    if (rc) return rc;
+    inv->values[idx] = strdup(eq + 1);
+    if (!inv->values[idx]) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    return OHM_OK;
+}
+
+static int finish_action(const ohm_chain *c, ohm_error *err)
+{
+    if (c->n == 0) return OHM_OK;
+    const ohm_invocation *inv = &c->items[c->n - 1];
+    const ohm_action *a = inv->action;
+    for (int i = 0; a->opts[i].name; ++i)
+        if (a->opts[i].required && !inv->values[i])
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s needs %s= (%s)", inv->where, a->name, a->opts[i].name,
+                            a->opts[i].doc);
+    return OHM_OK;
+}
+
+int ohm_chain_parse_args(ohm_chain *c, int argc, char **argv, ohm_error *err)
+{
+    memset(c, 0, sizeof *c);
+    for (int i = 0; i < argc; ++i) {
+        char where[64];
+        snprintf(where, sizeof where, "argument %d", i + 1);
+        const char *t = argv[i];
+        int rc;
+        if (t[0] == '-' && t[1] && !strchr(t, '=')) {
+            rc = finish_action(c, err);
+            if (!rc) rc = begin_action(c, t + (t[1] == '-' ? 2 : 1), where, err);
+        } else if (c->n == 0) {
+            rc = ohm_fail(err, OHM_ERR_USAGE, "%s: '%s' comes before any action; actions start with '-' (see 'ohm help')",
+                          where, t);
+        } else {
+            rc = add_option(c, t, where, err);
+        }
+        if (rc) {
+            ohm_chain_free(c);
+            return rc;
+        }
+    }
+    int rc = finish_action(c, err);
+    if (!rc && c->n == 0) rc = ohm_fail(err, OHM_ERR_USAGE, "no actions given (see 'ohm help')");
+    if (rc) ohm_chain_free(c);
+    return rc;
+}
+
+/* Split one line into tokens: whitespace-separated, "double quotes" group
+ * (key="a b" -> key=a b), '#' outside quotes ends the line. */
+static int tokenize(char *line, char **tokens, int max_tokens, int *ntokens, const char *where, ohm_error *err)
+{
+    int n = 0;
+    char *r = line, *w = line;
+    while (*r) {
+        while (*r == ' ' || *r == '\t') ++r;
+        if (!*r || *r == '#') break;
+        if (n == max_tokens) return ohm_fail(err, OHM_ERR_USAGE, "%s: too many words on one line", where);
+        tokens[n++] = w;
+        int quoted = 0;
+        while (*r && (quoted || (*r != ' ' && *r != '\t' && *r != '#'))) {
+            if (*r == '"') {
+                quoted = !quoted;
+                ++r;
+                continue;
+            }
+            *w++ = *r++;
+        }
+        if (quoted) return ohm_fail(err, OHM_ERR_USAGE, "%s: unterminated \"quote\"", where);
+        char *next = r;
+        if (*r == ' ' || *r == '\t') next = r + 1;
+        *w = '\0';
+        w = r = next;
+        if (*r == '#') break;
+    }
+    *ntokens = n;
+    return OHM_OK;
+}
+
+int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err)
+{
+    memset(c, 0, sizeof *c);
+    size_t lineno = 0, pos = 0;
+    int header_seen = 0, rc = OHM_OK;
+    char line[4096];
+    while (pos < len && !rc) {
+        size_t end = pos;
+        while (end < len && text[end] != '\n') ++end;
+        ++lineno;
+        size_t l = end - pos;
+        if (l && text[pos + l - 1] == '\r') --l;
+        char where[OHM_PATH_MAX + 32];
+        snprintf(where, sizeof where, "%s:%zu", name, lineno);
+        if (l >= sizeof line) {
+            rc = ohm_fail(err, OHM_ERR_USAGE, "%s: line is longer than %zu characters", where, sizeof line - 1);
+            break;
+        }
+        memcpy(line, text + pos, l);
+        line[l] = '\0';
+        pos = end + 1;
+        if (memchr(line, '\0', l)) {
+            rc = ohm_fail(err, OHM_ERR_USAGE, "%s: NUL byte: this is not a text pipeline file", where);
+            break;
+        }
+        char *tokens[64];
+        int nt = 0;
+        rc = tokenize(line, tokens, 64, &nt, where, err);
+        if (rc || nt == 0) continue;
+        if (!header_seen) {
+            long v = 0;
+            if (strcmp(tokens[0], PIPELINE_MAGIC) != 0 || nt != 2 || (v = strtol(tokens[1], NULL, 10)) < 1) {
+                rc = ohm_fail(err, OHM_ERR_USAGE, "%s: expected the header line '%s %d'", where, PIPELINE_MAGIC,
+                              PIPELINE_VERSION);
+            } else if (v > PIPELINE_VERSION) {
+                rc = ohm_fail(err, OHM_ERR_USAGE, "%s: pipeline format version %ld is newer than this ohm reads (%d)",
+                              where, v, PIPELINE_VERSION);
+            }
+            header_seen = 1;
+            continue;
+        }
+        rc = finish_action(c, err);
+        const char *an = tokens[0][0] == '-' ? tokens[0] + 1 : tokens[0];
+        if (!rc) rc = begin_action(c, an, where, err);
+        for (int i = 1; i < nt && !rc; ++i) rc = add_option(c, tokens[i], where, err);
+    }
+    if (!rc) rc = finish_action(c, err);
+    if (!rc && !header_seen)
+        rc = ohm_fail(err, OHM_ERR_USAGE, "%s: empty: expected the header line '%s %d' and actions", name,
+                      PIPELINE_MAGIC, PIPELINE_VERSION);
+    if (!rc && c->n == 0) rc = ohm_fail(err, OHM_ERR_USAGE, "%s: no actions after the header", name);
+    if (rc) ohm_chain_free(c);
+    return rc;
+}
+
+int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err)
+{
+    memset(c, 0, sizeof *c);
+    struct stat st;
+    if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    if (S_ISDIR(st.st_mode)) return ohm_fail(err, OHM_ERR_IO, "%s: is a directory, expected a pipeline file", path);
+    if (!S_ISREG(st.st_mode)) return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a pipeline file", path);
+    if ((unsigned long long)st.st_size > PIPELINE_MAX_BYTES)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: %lld bytes is too large for a pipeline file", path,
+                        (long long)st.st_size);
+    FILE *f = fopen(path, "rb");
+    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    char *buf = malloc((size_t)st.st_size + 1);
+    if (!buf) {
+        fclose(f);
+        return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    }
+    size_t got = fread(buf, 1, (size_t)st.st_size, f);
+    int read_err = ferror(f);
+    fclose(f);
+    if (read_err) {
+        free(buf);
+        return ohm_fail(err, OHM_ERR_IO, "%s: read error", path);
+    }
+    int rc = ohm_chain_parse_text(c, buf, got, path, err);
+    free(buf);
+    return rc;
+}
+
+/* ---- option access ------------------------------------------------------------ */
+
+static const char *value_or_default(const ohm_invocation *inv, const char *name)
+{
+    int i = spec_index(inv->action, name);
+    if (i < 0) return NULL;
+    return inv->values[i] ? inv->values[i] : inv->action->opts[i].def;
+}
+
+int ohm_opt_given(const ohm_invocation *inv, const char *name)
+{
+    int i = spec_index(inv->action, name);
+    return i >= 0 && inv->values[i] != NULL;
+}
+
+const char *ohm_opt_str(const ohm_invocation *inv, const char *name)
+{
+    const char *v = value_or_default(inv, name);
+    return v ? v : "";
+}
+
+long long ohm_opt_int(const ohm_invocation *inv, const char *name)
+{
+    const char *v = value_or_default(inv, name);
+    long long x = 0;
+    if (v) parse_int(v, &x);
+    return x;
+}
+
+double ohm_opt_real(const ohm_invocation *inv, const char *name)
+{
+    const char *v = value_or_default(inv, name);
+    double x = 0;
+    if (v) parse_real(v, &x);
+    return x;
+}
+
+void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3])
+{
+    const char *v = value_or_default(inv, name);
+    out[0] = out[1] = out[2] = 0;
+    if (v) parse_vec3(v, out);
+}
+
+int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
+{
+    const char *v = value_or_default(inv, name);
+    out[0] = out[1] = out[2] = 0;
+    return v ? parse_real13(v, out) : 0;
+}
+
+/* ---- running ------------------------------------------------------------------- */
+
+int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
+{
+    for (size_t i = 0; i < c->n; ++i) {
+        const ohm_invocation *inv = &c->items[i];
+        int rc = inv->action->run(s, inv, err);
+        if (rc) return rc;
+    }
+    return OHM_OK;
+}
+
+/* ---- help ---------------------------------------------------------------------- */
+
+static const char *type_name(const ohm_opt_spec *o)
+{
+    switch (o->type) {
+    case OHM_OPT_INT: return "integer";
+    case OHM_OPT_REAL: return "number";
+    case OHM_OPT_STRING: return "text";
+    case OHM_OPT_ENUM: return o->choices;
+    case OHM_OPT_VEC3: return "x,y,z";
+    case OHM_OPT_REAL13: return "v|r,g,b";
+    }
+    return "";
+}
+
+void ohm_help_overview(FILE *f)
+{
+    fputs("ohm — subsurface light scattering in voxel volumes\n\n"
+          "usage:\n"
+          "  ohm [--quiet|--verbose] -ACTION key=value ... -ACTION key=value ...\n"
+          "  ohm run PIPELINE_FILE        the same actions, one per line, after 'ohm-pipeline 1'\n"
+          "  ohm help [ACTION]            this overview, or one action's options\n"
+          "  ohm validate                 the solver against exact references: a table, exit 1 on failure\n"
+          "  ohm bench [key=value ...]    the paper's Table 2 for a mesh, with this machine's limits (bench help)\n"
+          "  ohm accuracy [key=value ...] error against resolution and solver, measured (accuracy help)\n"
+          "  ohm --version\n\n"
+          "Actions run left to right on one shared state (mesh, voxel grid, ...).\n\n"
+          "actions:\n",
+          f);
+    for (const ohm_action *a = ohm_actions; a->name; ++a) fprintf(f, "  -%-12s %s\n", a->name, a->summary);
+    fputs("\nexample:\n"
+          "  ohm -read file=samples/spot.obj size=50 -voxelize dim=64 -write file=spot.vdb -stats file=spot.json\n\n"
+          "Logs and progress go to stderr.  Exit codes: 0 ok, 1 the run failed, 2 usage error.\n",
+          f);
+}
+
+int ohm_help_action(FILE *f, const char *name, ohm_error *err)
+{
+    const char *n = name[0] == '-' ? name + 1 : name;
+    const ohm_action *a = ohm_action_find(n);
+    if (!a) {
+        const char *s = suggest_action(n);
+        if (s) return ohm_fail(err, OHM_ERR_USAGE, "help: unknown action '%s'; did you mean '%s'?", n, s);
+        return ohm_fail(err, OHM_ERR_USAGE, "help: unknown action '%s' (see 'ohm help')", n);
+    }
+    fprintf(f, "-%s: %s\n\n", a->name, a->summary);
+    if (a->doc) fprintf(f, "%s\n\n", a->doc);
+    fputs("options:\n", f);
+    if (!a->opts[0].name) fputs("  (none)\n", f);
+    for (int i = 0; a->opts[i].name; ++i) {
+        const ohm_opt_spec *o = &a->opts[i];
+        char left[96];
+        snprintf(left, sizeof left, "%s=<%s>", o->name, type_name(o));
+        fprintf(f, "  %-28s %s", left, o->doc);
+        if (o->required) fputs(" (required)", f);
+        else if (o->def) fprintf(f, " (default %s)", o->def);
+        if ((o->type == OHM_OPT_INT || o->type == OHM_OPT_REAL || o->type == OHM_OPT_REAL13) && o->min != o->max)
+            fprintf(f, " [%g .. %g]", o->min, o->max);
+        fputc('\n', f);
+    }
+    return OHM_OK;
+}

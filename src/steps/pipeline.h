@@ -1,0 +1,101 @@
+/* pipeline.h — actions declared as data, and chains of them.
+ *
+ * After OpenVDB's vdb_tool: a run is a chain of actions, each with key=value
+ * options, executed left to right on one ohm_state.  The table in actions.c is
+ * the single source of truth: parsing, validation, `ohm help` and the pipeline
+ * file format are all driven by it, so the docs cannot drift from the code.
+ *
+ * A chain comes from the command line (`ohm -read file=a.obj -voxelize dim=64`)
+ * or from a pipeline file (`ohm run FILE`): first line "ohm-pipeline 1", then
+ * one action per line ("read file=a.obj", a leading '-' is optional), '#'
+ * starts a comment, values may be "double quoted".  Both go through the same
+ * validation and the same executor, so they produce identical results.
+ * The whole chain is validated before anything runs: a typo fails at once
+ * with exit 2, not after a long solve. */
+#ifndef OHM_PIPELINE_H
+#define OHM_PIPELINE_H
+
+#include <stddef.h>
+
+#include "base/ohm_error.h"
+#include "steps/state.h"
+
+typedef enum ohm_opt_type {
+    OHM_OPT_INT,    /* integer in [min, max]                                */
+    OHM_OPT_REAL,   /* finite real in [min, max]                            */
+    OHM_OPT_STRING, /* any text (file names)                                */
+    OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
+    OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
+    OHM_OPT_REAL13  /* one finite real (grey) or three (r,g,b), each in [min, max] */
+} ohm_opt_type;
+
+typedef struct ohm_opt_spec {
+    const char *name;
+    ohm_opt_type type;
+    const char *def;      /* default as text, NULL = none                   */
+    const char *doc;
+    const char *choices;  /* ENUM: "mm|cm|m|in"                             */
+    double min, max;      /* INT, REAL: inclusive range (min == max: none)  */
+    int required;
+} ohm_opt_spec;
+
+enum { OHM_MAX_OPTS = 24 };
+
+typedef struct ohm_action ohm_action;
+
+/* One action with its parsed option values (text, validated). */
+typedef struct ohm_invocation {
+    const ohm_action *action;
+    char *values[OHM_MAX_OPTS]; /* by spec index; NULL = not given         */
+    char where[256];            /* "command line argument 3" / "x.ohm:12"   */
+} ohm_invocation;
+
+typedef int (*ohm_action_fn)(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
+
+struct ohm_action {
+    const char *name;
+    const char *summary;
+    const char *doc;             /* a paragraph for `ohm help NAME`          */
+    const ohm_opt_spec *opts;    /* terminated by {0}                        */
+    ohm_action_fn run;
+};
+
+/* The table (actions.c), terminated by an entry with name NULL. */
+extern const ohm_action ohm_actions[];
+const ohm_action *ohm_action_find(const char *name);
+
+/* Option access for run functions.  Values were validated when parsed, so
+ * these only fall back to the default (or 0 / "" when there is none). */
+int ohm_opt_given(const ohm_invocation *inv, const char *name);
+const char *ohm_opt_str(const ohm_invocation *inv, const char *name);
+long long ohm_opt_int(const ohm_invocation *inv, const char *name);
+double ohm_opt_real(const ohm_invocation *inv, const char *name);
+void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3]);
+/* REAL13: returns how many values (1 or 3) and fills out[0..2] (one value is
+ * copied to all three). */
+int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3]);
+
+typedef struct ohm_chain {
+    ohm_invocation *items;
+    size_t n, cap;
+} ohm_chain;
+
+void ohm_chain_free(ohm_chain *c);
+
+/* Parse argv[0..argc) ("-action", "key=value", ...).  OHM_ERR_USAGE with a
+ * message naming the token and suggesting the nearest valid name. */
+int ohm_chain_parse_args(ohm_chain *c, int argc, char **argv, ohm_error *err);
+
+/* Parse a pipeline file (or a buffer, for tests and fuzzing). */
+int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
+int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
+
+/* Run every invocation in order; stops at the first failure, whose message
+ * names the action and where it came from. */
+int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err);
+
+/* Help, generated from the table. */
+void ohm_help_overview(FILE *f);
+int ohm_help_action(FILE *f, const char *name, ohm_error *err);
+
+#endif

@@ -1,0 +1,487 @@
+/* render.c — `-render`: preview images of the solution (see render.h). */
+#include "steps/render.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include <embree3/rtcore.h>
+
+#include "ohm_oiio.h"
+
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
+const ohm_opt_spec ohm_render_opts[] = {
+    {"file", OHM_OPT_STRING, NULL, "output image: .png (8-bit sRGB) or .exr (half float, linear)", NULL, 0, 0, 1},
+    {"size", OHM_OPT_STRING, "640,480", "W,H in pixels: the whole image (with compare=1, two W/2 x H panels)", NULL,
+     0, 0, 0},
+    {"compare", OHM_OPT_INT, "0", "1: put the same view without scattering (Lambert, shadow rays) on the right",
+     NULL, 0, 1, 0},
+    {"view", OHM_OPT_VEC3, NULL,
+     "direction the camera looks (default: the way the frame's first light travels, else 0,0,-1)", NULL, 0, 0, 0},
+    {"exposure", OHM_OPT_REAL, NULL, "multiplier on exitance (mm^2/W); default: the 99th percentile of what is seen "
+     "maps to 1", NULL, 1e-300, 1e300, 0},
+    {"frame", OHM_OPT_INT, "1", "which frame of an orbit to show", NULL, 1, 1000000, 0},
+    {0}};
+
+enum { SUPERSAMPLE = 2 };        /* SUPERSAMPLE^2 rays per pixel */
+static const float BACKGROUND = 0.03f; /* linear grey: sRGB ~ 48/255 */
+
+typedef struct render_ctx {
+    const ohm_state *s;
+    const ohm_network *net;
+    int frame;                 /* 0-based */
+    int channels;
+    RTCDevice device;
+    RTCScene scene;
+    double eps;                /* offset for shadow rays (mm) */
+    double *vnormal;           /* 3 per vertex: area-weighted, for smooth shading */
+    double *exitance[3];       /* per unknown, this frame, per channel (solve.h) */
+} render_ctx;
+
+static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
+
+static int normalize3(double v[3])
+{
+    double len = sqrt(dot3(v, v));
+    if (!(len > 0) || !isfinite(len)) return 0;
+    for (int a = 0; a < 3; ++a) v[a] /= len;
+    return 1;
+}
+
+static void cross3(const double a[3], const double b[3], double out[3])
+{
+    out[0] = a[1] * b[2] - a[2] * b[1];
+    out[1] = a[2] * b[0] - a[0] * b[2];
+    out[2] = a[0] * b[1] - a[1] * b[0];
+}
+
+static int parse_size(const char *text, int *w, int *h)
+{
+    char *end;
+    long a = strtol(text, &end, 10);
+    if (end == text || *end != ',') return 0;
+    const char *q = end + 1;
+    long b = strtol(q, &end, 10);
+    if (end == q || *end != '\0') return 0;
+    if (a < 1 || b < 1 || a > 16384 || b > 16384) return 0;
+    *w = (int)a;
+    *h = (int)b;
+    return 1;
+}
+
+/* ---- the scene ---------------------------------------------------------------- */
+
+static void scene_free(render_ctx *r)
+{
+    if (r->scene) rtcReleaseScene(r->scene);
+    if (r->device) rtcReleaseDevice(r->device);
+    r->scene = NULL;
+    r->device = NULL;
+}
+
+static int scene_build(render_ctx *r, const ohm_mesh *mesh, ohm_error *err)
+{
+    return ohm_embree_mesh_scene(&r->device, &r->scene, mesh, NULL, NULL, "-render", err);
+}
+
+static int occluded(const render_ctx *r, const double p[3], const double l[3], double tmax)
+{
+    return ohm_embree_occluded(r->scene, p, l, tmax);
+}
+
+/* ---- shading ------------------------------------------------------------------- */
+
+/* Does interior cell (i,j,k) have a boundary face (an outside neighbour)? */
+static int boundary_cell(const ohm_voxel_grid *g, const ohm_network *net, int32_t i, int32_t j, int32_t k)
+{
+    if (i < 0 || j < 0 || k < 0 || i >= g->dims[0] || j >= g->dims[1] || k >= g->dims[2]) return 0;
+    if (ohm_network_unknown(net, ohm_voxel_index(g, i, j, k)) < 0) return 0;
+    for (int d = 0; d < 6; ++d) {
+        int32_t a = i + ohm_face_offset[d][0], b = j + ohm_face_offset[d][1], c = k + ohm_face_offset[d][2];
+        if (a < 0 || b < 0 || c < 0 || a >= g->dims[0] || b >= g->dims[1] || c >= g->dims[2]) return 1;
+        if (!g->inside[ohm_voxel_index(g, a, b, c)]) return 1; /* not: below a depth band */
+    }
+    return 0;
+}
+
+static void cell_exitance(const render_ctx *r, int32_t i, int32_t j, int32_t k, double w, double out[3])
+{
+    int64_t v = ohm_network_unknown(r->net, ohm_voxel_index(&r->s->grid, i, j, k));
+    for (int c = 0; c < 3; ++c) {
+        int cc = r->channels == 1 ? 0 : c;
+        out[c] += w * r->exitance[cc][v];
+    }
+}
+
+/* Exitance (W/mm^2) at a surface point: a tent filter two cells wide over the
+ * boundary cells among the 4 x 4 x 4 around it (the solution is per cell, and
+ * its light enters through axis-aligned faces: a narrower filter shows the
+ * voxel steps), else the nearest boundary cell within two. */
+static void exitance_at(const render_ctx *r, const double p[3], double out[3])
+{
+    const ohm_voxel_grid *g = &r->s->grid;
+    double u[3];
+    int32_t i0[3];
+    for (int a = 0; a < 3; ++a) {
+        u[a] = (p[a] - g->origin[a]) / g->h;
+        i0[a] = (int32_t)floor(u[a]);
+    }
+    out[0] = out[1] = out[2] = 0;
+    double wsum = 0;
+    for (int32_t dk = -1; dk <= 2; ++dk)
+        for (int32_t dj = -1; dj <= 2; ++dj)
+            for (int32_t di = -1; di <= 2; ++di) {
+                int32_t c[3] = {i0[0] + di, i0[1] + dj, i0[2] + dk};
+                double w = 1;
+                for (int a = 0; a < 3; ++a) w *= fmax(0.0, 1.0 - 0.5 * fabs(c[a] - u[a]));
+                if (w <= 0 || !boundary_cell(g, r->net, c[0], c[1], c[2])) continue;
+                cell_exitance(r, c[0], c[1], c[2], w, out);
+                wsum += w;
+            }
+    if (wsum > 0) {
+        for (int a = 0; a < 3; ++a) out[a] /= wsum;
+        return;
+    }
+    double best = INFINITY;
+    int32_t bc[3] = {0, 0, 0};
+    int32_t n0[3];
+    for (int a = 0; a < 3; ++a) n0[a] = (int32_t)lround(u[a]);
+    for (int32_t dk = -2; dk <= 2; ++dk)
+        for (int32_t dj = -2; dj <= 2; ++dj)
+            for (int32_t di = -2; di <= 2; ++di) {
+                int32_t c[3] = {n0[0] + di, n0[1] + dj, n0[2] + dk};
+                if (!boundary_cell(g, r->net, c[0], c[1], c[2])) continue;
+                double d2 = 0;
+                for (int a = 0; a < 3; ++a) d2 += (c[a] - u[a]) * (c[a] - u[a]);
+                if (d2 < best) best = d2, bc[0] = c[0], bc[1] = c[1], bc[2] = c[2];
+            }
+    if (isfinite(best)) cell_exitance(r, bc[0], bc[1], bc[2], 1.0, out);
+}
+
+static int light_in_frame(const ohm_light *l, int frame) { return l->frame == 0 || l->frame == frame + 1; }
+
+/* Irradiance (W/mm^2 per channel) at surface point p with unit normal n, from
+ * every light of the frame, with shadow rays.  Pencil beams enter at a single
+ * point and are left out; an area light counts as a Lambertian point emitter
+ * at its centre. */
+static void irradiance_at(const render_ctx *r, const double p[3], const double n[3], double out[3])
+{
+    out[0] = out[1] = out[2] = 0;
+    const ohm_state *s = r->s;
+    double org[3];
+    for (int a = 0; a < 3; ++a) org[a] = p[a] + r->eps * n[a];
+    for (size_t i = 0; i < s->nlights; ++i) {
+        const ohm_light *L = &s->lights[i];
+        if (!light_in_frame(L, r->frame) || L->type == OHM_LIGHT_PENCIL) continue;
+        double l[3], scale = 1, dist = INFINITY;
+        if (L->type == OHM_LIGHT_DIRECTIONAL) {
+            for (int a = 0; a < 3; ++a) l[a] = -L->dir[a];
+        } else {
+            for (int a = 0; a < 3; ++a) l[a] = L->pos[a] - p[a];
+            double d2 = dot3(l, l);
+            if (!(d2 > 0)) continue;
+            dist = sqrt(d2);
+            for (int a = 0; a < 3; ++a) l[a] /= dist;
+            scale = 1.0 / d2;
+            double ldir = -dot3(l, L->dir); /* cosine off the light's axis */
+            if (L->type == OHM_LIGHT_SPOT) {
+                double outer = cos(L->angle * M_PI / 180.0), inner = cos((L->angle - L->falloff) * M_PI / 180.0);
+                if (ldir <= outer) continue;
+                if (ldir < inner) {
+                    double t = (ldir - outer) / (inner - outer);
+                    scale *= t * t * (3.0 - 2.0 * t);
+                }
+            } else if (L->type == OHM_LIGHT_AREA) {
+                if (ldir <= 0) continue;
+                scale *= ldir / M_PI;
+            }
+        }
+        double cosn = dot3(n, l);
+        if (cosn <= 0) continue;
+        if (occluded(r, org, l, isfinite(dist) ? dist - r->eps : dist)) continue;
+        for (int c = 0; c < 3; ++c) out[c] += L->intensity[L->channels == 1 ? 0 : c] * cosn * scale;
+    }
+}
+
+/* Per-channel reflectance for the no-scattering image: the power the solution
+ * lets out in this frame over the power the lights put on the mesh, so both
+ * images carry the same total power out. */
+static void lambert_albedo(const render_ctx *r, double albedo[3])
+{
+    const ohm_state *s = r->s;
+    const ohm_solution *sol = &s->solution;
+    const ohm_mesh *m = &s->mesh;
+    double out_power[3] = {0, 0, 0}, in_power[3] = {0, 0, 0};
+    double h2 = s->grid.h * s->grid.h;
+    int64_t nf = sol->net.nfaces;
+    for (int c = 0; c < 3; ++c) {
+        int cc = r->channels == 1 ? 0 : c;
+        if (sol->face_exitance[cc])
+            for (int64_t f = 0; f < nf; ++f) out_power[c] += sol->face_exitance[cc][(int64_t)r->frame * nf + f] * h2;
+        else out_power[c] = sol->power_out_channel[cc] / sol->frames;
+    }
+    double orient = s->mesh_flipped ? -1.0 : 1.0;
+    for (size_t t = 0; t < m->ntris; ++t) {
+        const double *a = m->verts + 3 * m->tris[3 * t], *b = m->verts + 3 * m->tris[3 * t + 1],
+                     *c = m->verts + 3 * m->tris[3 * t + 2];
+        double e1[3], e2[3], nn[3], p[3];
+        for (int k = 0; k < 3; ++k) {
+            e1[k] = b[k] - a[k];
+            e2[k] = c[k] - a[k];
+            p[k] = (a[k] + b[k] + c[k]) / 3.0;
+        }
+        cross3(e1, e2, nn);
+        double area = 0.5 * sqrt(dot3(nn, nn));
+        if (!normalize3(nn)) continue;
+        for (int k = 0; k < 3; ++k) nn[k] *= orient;
+        double E[3];
+        irradiance_at(r, p, nn, E);
+        for (int k = 0; k < 3; ++k) in_power[k] += area * E[k];
+    }
+    for (int c = 0; c < 3; ++c) albedo[c] = in_power[c] > 0 ? out_power[c] / in_power[c] : 0.0;
+}
+
+/* Area-weighted vertex normals (orientation as wound), for smooth Lambert shading. */
+static double *vertex_normals(const ohm_mesh *m)
+{
+    double *vn = calloc(3 * (m->nverts ? m->nverts : 1), sizeof *vn);
+    if (!vn) return NULL;
+    for (size_t t = 0; t < m->ntris; ++t) {
+        const int64_t *ti = m->tris + 3 * t;
+        const double *a = m->verts + 3 * ti[0], *b = m->verts + 3 * ti[1], *c = m->verts + 3 * ti[2];
+        double e1[3] = {b[0] - a[0], b[1] - a[1], b[2] - a[2]}, e2[3] = {c[0] - a[0], c[1] - a[1], c[2] - a[2]}, nn[3];
+        cross3(e1, e2, nn);
+        for (int k = 0; k < 3; ++k)
+            for (int q = 0; q < 3; ++q) vn[3 * ti[k] + q] += nn[q];
+    }
+    for (size_t v = 0; v < m->nverts; ++v) normalize3(vn + 3 * v);
+    return vn;
+}
+
+static int cmp_double(const void *a, const void *b)
+{
+    double x = *(const double *)a, y = *(const double *)b;
+    return (x > y) - (x < y);
+}
+
+/* ---- the action ----------------------------------------------------------------- */
+
+int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    const char *path = ohm_opt_str(inv, "file");
+    if (!ohm_image_format_supported(path))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render file=%s: unsupported image format: use .png or .exr",
+                        inv->where, path);
+    int W, H;
+    if (!parse_size(ohm_opt_str(inv, "size"), &W, &H))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render size=%s: expected W,H (integers 1..16384)", inv->where,
+                        ohm_opt_str(inv, "size"));
+    int compare = (int)ohm_opt_int(inv, "compare");
+    if (compare && W < 2)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render compare=1 needs a width of at least 2", inv->where);
+    if (!s->have_solution)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: no solution yet: put -solve before it", inv->where);
+    if (!s->have_mesh || s->mesh.ntris == 0)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: needs the mesh the solution was computed on", inv->where);
+    const ohm_solution *sol = &s->solution;
+    int frame = (int)ohm_opt_int(inv, "frame");
+    if (frame > sol->frames)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render frame=%d: the solution has %d frame(s)", inv->where, frame,
+                        sol->frames);
+    double t0 = ohm_now();
+
+    render_ctx r;
+    memset(&r, 0, sizeof r);
+    r.s = s;
+    r.net = &sol->net;
+    r.frame = frame - 1;
+    r.channels = sol->channels;
+
+    /* camera */
+    double lo[3], hi[3], centre[3], radius = 0;
+    ohm_mesh_bounds(&s->mesh, lo, hi);
+    for (int a = 0; a < 3; ++a) {
+        centre[a] = 0.5 * (lo[a] + hi[a]);
+        radius += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    radius = sqrt(radius);
+    r.eps = 1e-4 * (radius > 0 ? radius : 1.0);
+    double f[3] = {0, 0, -1};
+    if (ohm_opt_given(inv, "view")) {
+        ohm_opt_vec3(inv, "view", f);
+        if (!normalize3(f)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -render view=0,0,0 has no direction", inv->where);
+    } else {
+        for (size_t i = 0; i < s->nlights; ++i) {
+            const ohm_light *L = &s->lights[i];
+            if (!light_in_frame(L, r.frame)) continue;
+            double d[3];
+            if (L->type == OHM_LIGHT_DIRECTIONAL) memcpy(d, L->dir, sizeof d);
+            else
+                for (int a = 0; a < 3; ++a) d[a] = centre[a] - L->pos[a];
+            if (!normalize3(d)) memcpy(d, L->dir, sizeof d);
+            if (normalize3(d)) memcpy(f, d, sizeof f);
+            break;
+        }
+    }
+    double uphint[3] = {0, 1, 0};
+    if (fabs(f[1]) > 0.99) uphint[1] = 0, uphint[2] = f[1] > 0 ? 1 : -1;
+    double right[3], up[3];
+    cross3(f, uphint, right);
+    normalize3(right);
+    cross3(right, f, up);
+    int pw = compare ? W / 2 : W, ph = H;
+    double xr = 0, yr = 0;
+    for (int q = 0; q < 8; ++q) {
+        double c[3] = {(q & 1) ? hi[0] : lo[0], (q & 2) ? hi[1] : lo[1], (q & 4) ? hi[2] : lo[2]};
+        for (int a = 0; a < 3; ++a) c[a] -= centre[a];
+        xr = fmax(xr, fabs(dot3(c, right)));
+        yr = fmax(yr, fabs(dot3(c, up)));
+    }
+    double aspect = (double)pw / ph;
+    double hw = 1.05 * fmax(fmax(xr, yr * aspect), 1e-9), hh = hw / aspect;
+
+    int rc = scene_build(&r, &s->mesh, err);
+    if (rc) return rc;
+    double albedo[3] = {0, 0, 0};
+    if (compare) {
+        lambert_albedo(&r, albedo);
+        r.vnormal = vertex_normals(&s->mesh);
+        if (!r.vnormal) {
+            scene_free(&r);
+            return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for vertex normals");
+        }
+    }
+
+    size_t npx = (size_t)pw * (size_t)ph;
+    double *scat = calloc(npx * 3, sizeof *scat), *lamb = calloc(npx * 3, sizeof *lamb);
+    unsigned char *hits = calloc(npx, 1);
+    float *img = malloc((size_t)W * (size_t)H * 3 * sizeof *img);
+    int no_exitance = 0;
+    for (int c = 0; c < r.channels; ++c) {
+        r.exitance[c] = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *r.exitance[c]);
+        if (r.exitance[c]) ohm_solution_exitance_frame(r.exitance[c], sol, c, r.frame);
+        else no_exitance = 1;
+    }
+    if (!scat || !lamb || !hits || !img || no_exitance) {
+        free(scat), free(lamb), free(hits), free(img), free(r.vnormal);
+        for (int c = 0; c < 3; ++c) free(r.exitance[c]);
+        scene_free(&r);
+        return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for a %d x %d image", W, H);
+    }
+    const int S = SUPERSAMPLE;
+    struct RTCIntersectContext ctx;
+    for (int y = 0; y < ph; ++y)
+        for (int x = 0; x < pw; ++x) {
+            size_t px = (size_t)y * pw + x;
+            for (int sy = 0; sy < S; ++sy)
+                for (int sx = 0; sx < S; ++sx) {
+                    double X = (-1.0 + 2.0 * (x + (sx + 0.5) / S) / pw) * hw;
+                    double Y = (1.0 - 2.0 * (y + (sy + 0.5) / S) / ph) * hh;
+                    double o[3];
+                    for (int a = 0; a < 3; ++a)
+                        o[a] = centre[a] + X * right[a] + Y * up[a] - (2.0 * radius + 1.0) * f[a];
+                    struct RTCRayHit rh;
+                    memset(&rh, 0, sizeof rh);
+                    rh.ray.org_x = (float)o[0];
+                    rh.ray.org_y = (float)o[1];
+                    rh.ray.org_z = (float)o[2];
+                    rh.ray.dir_x = (float)f[0];
+                    rh.ray.dir_y = (float)f[1];
+                    rh.ray.dir_z = (float)f[2];
+                    rh.ray.tnear = 0.0f;
+                    rh.ray.tfar = INFINITY;
+                    rh.ray.mask = 0xFFFFFFFFu;
+                    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+                    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+                    rtcInitIntersectContext(&ctx);
+                    rtcIntersect1(r.scene, &ctx, &rh);
+                    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
+                    double p[3], n[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+                    for (int a = 0; a < 3; ++a) p[a] = o[a] + (double)rh.ray.tfar * f[a];
+                    if (!normalize3(n)) continue;
+                    if (dot3(n, f) > 0)
+                        for (int a = 0; a < 3; ++a) n[a] = -n[a]; /* face the camera */
+                    double e[3];
+                    exitance_at(&r, p, e);
+                    for (int c = 0; c < 3; ++c) scat[3 * px + c] += e[c];
+                    if (compare) {
+                        /* smooth normal (barycentric over the vertices), on the camera's side */
+                        const int64_t *ti = s->mesh.tris + 3 * (size_t)rh.hit.primID;
+                        double bu = rh.hit.u, bv = rh.hit.v, ns[3];
+                        for (int a = 0; a < 3; ++a)
+                            ns[a] = (1 - bu - bv) * r.vnormal[3 * ti[0] + a] + bu * r.vnormal[3 * ti[1] + a] +
+                                    bv * r.vnormal[3 * ti[2] + a];
+                        if (!normalize3(ns)) memcpy(ns, n, sizeof ns);
+                        if (dot3(ns, n) < 0)
+                            for (int a = 0; a < 3; ++a) ns[a] = -ns[a];
+                        double E[3];
+                        irradiance_at(&r, p, ns, E);
+                        for (int c = 0; c < 3; ++c) lamb[3 * px + c] += albedo[c] * E[c];
+                    }
+                    ++hits[px];
+                }
+        }
+    scene_free(&r);
+    free(r.vnormal);
+    for (int c = 0; c < 3; ++c) free(r.exitance[c]);
+
+    /* exposure */
+    double exposure = 1.0, p99 = 0;
+    size_t nhit = 0;
+    for (size_t i = 0; i < npx; ++i) nhit += hits[i] > 0;
+    if (ohm_opt_given(inv, "exposure")) {
+        exposure = ohm_opt_real(inv, "exposure");
+    } else if (nhit > 0) {
+        double *v = malloc(nhit * sizeof *v);
+        if (!v) {
+            free(scat), free(lamb), free(hits), free(img);
+            return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory");
+        }
+        size_t k = 0;
+        for (size_t i = 0; i < npx; ++i)
+            if (hits[i]) {
+                const double *c = scat + 3 * i;
+                v[k++] = fmax(c[0], fmax(c[1], c[2])) / hits[i];
+            }
+        qsort(v, nhit, sizeof *v, cmp_double);
+        p99 = v[(size_t)floor(0.99 * (double)(nhit - 1))];
+        free(v);
+        if (p99 > 0) exposure = 1.0 / p99;
+        else ohm_log_warn(&s->log, "-render: no light leaves the visible surface: the image is black");
+    }
+    if (nhit == 0) ohm_log_warn(&s->log, "-render: the object is not in view");
+
+    for (size_t i = 0; i < (size_t)W * H * 3; ++i) img[i] = BACKGROUND;
+    const double inv_ss = 1.0 / (S * S);
+    for (int y = 0; y < ph; ++y)
+        for (int x = 0; x < pw; ++x) {
+            size_t px = (size_t)y * pw + x;
+            double bgw = (S * S - hits[px]) * inv_ss * BACKGROUND;
+            for (int c = 0; c < 3; ++c) {
+                img[3 * ((size_t)y * W + x) + c] = (float)(exposure * scat[3 * px + c] * inv_ss + bgw);
+                if (compare)
+                    img[3 * ((size_t)y * W + pw + x) + c] = (float)(exposure * lamb[3 * px + c] * inv_ss + bgw);
+            }
+        }
+    free(scat), free(lamb), free(hits);
+
+    ohm_output out;
+    rc = ohm_output_begin(&out, path, err);
+    if (!rc) {
+        rc = ohm_image_write_to(path, ohm_output_tmp_path(&out), img, W, H, 3, err);
+        if (rc) ohm_output_abort(&out);
+        else rc = ohm_output_commit(&out, err);
+    }
+    free(img);
+    if (rc) return rc;
+    double t = ohm_now() - t0;
+    ohm_log_info(&s->log, "rendered %s: %d x %d%s, frame %d, view %.3g,%.3g,%.3g, exposure %.4g mm^2/W%s, %.2f s", path,
+                 W, H, compare ? " (scattering | no scattering)" : "", frame, f[0], f[1], f[2], exposure,
+                 ohm_opt_given(inv, "exposure") ? "" : " (auto)", t);
+    ohm_stats_add(&s->stats, "t_render", t);
+    return OHM_OK;
+}

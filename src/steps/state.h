@@ -1,0 +1,52 @@
+/* state.h — what a run's actions share, left to right (DESIGN.md §7): the
+ * current mesh, the voxel object, the statistics, the log.  One per run, owned
+ * by the caller; no action keeps anything elsewhere. */
+#ifndef OHM_STATE_H
+#define OHM_STATE_H
+
+#include "physics/light.h"
+#include "base/log.h"
+#include "physics/material.h"
+#include "input/mesh.h"
+#include "base/output.h"
+#include "input/scan.h"
+#include "input/transfer.h"
+#include "solvers/solve.h"
+#include "base/stats.h"
+#include "grid/voxelize.h"
+
+typedef struct ohm_state {
+    ohm_log log;
+    ohm_stats stats;
+
+    int have_mesh;
+    ohm_mesh mesh;                  /* in millimetres (scaled by -read)        */
+    char mesh_path[OHM_PATH_MAX];
+    double mesh_scale_mm;           /* millimetres per unit of the file        */
+
+    int have_grid;
+    ohm_voxel_grid grid;
+    int mesh_flipped;               /* the voxelizer read the mesh inside-out  */
+
+    int have_scan;                  /* a density volume (CT / MRI / .vdb)      */
+    ohm_scan scan;
+    char scan_path[OHM_PATH_MAX];
+
+    int have_material;
+    ohm_material material;
+    int have_transfer;              /* the material maps the scan's density    */
+    ohm_transfer transfer;
+    char transfer_path[OHM_PATH_MAX];
+
+    ohm_light *lights;              /* every -light so far, in order           */
+    size_t nlights;
+
+    int have_solution;              /* valid for the current grid and material */
+    ohm_solution solution;
+    char solution_desc[256];        /* boundary, deposit: for metadata         */
+} ohm_state;
+
+void ohm_state_init(ohm_state *s);
+void ohm_state_free(ohm_state *s);
+
+#endif

@@ -1,0 +1,449 @@
+/* validate_transport.c — diffusion against ohm's own Monte Carlo transport
+ * (mc.h) on the scenes of issue 13 (validate.h, ohm_validate_transport).
+ *
+ * The medium is the MCX benchmark's: sigma_a 0.005, sigma_s 1 /mm, g 0.01
+ * (sigma_s' 0.99, one transport mean free path 1/sigma_t' = 1.005 mm,
+ * diffusion length 8.2 mm).  Every scene is a quarter of a box, cut by
+ * symmetry planes through the beam's axis (both solvers mirror there), lit by
+ * a pencil beam entering the face z = 0 at the corner x = y = 0. */
+#include "studies/validate.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "physics/mc.h"
+#include "physics/network.h"
+#include "studies/scene.h"
+#include "solvers/solve.h"
+
+static const double TR_SA = 0.005, TR_SS = 0.99, TR_G = 0.01;
+/* Diffusion cannot be compared within this many transport mean free paths of
+ * the source or of a face (DESIGN.md §3); the Monte Carlo estimate is used
+ * only where its own standard error is below this fraction. */
+static const double NEAR_MFP = 2.0, MC_NOISE = 0.01;
+
+typedef struct transport_scene {
+    const char *name;
+    int nx, ny, nz;           /* cells of the quarter box             */
+    double eta;
+    int inclusion;            /* a sphere of another medium on the axis */
+    double sphere_c, sphere_r;/* its centre's depth and radius (mm)   */
+    double inc_sa, inc_ss;    /* its medium                           */
+    int report_only;          /* a scene diffusion cannot model: rows without tolerances */
+} transport_scene;
+
+/* The inclusion: 4x absorption, 2x scattering; the void: almost clear
+ * (1/sigma_t' 99 mm in a 20 mm sphere), where diffusion's D = 1/(3 sigma_t')
+ * is a model of nothing. */
+static const double INC_SA = 0.02, INC_SS = 2.0, VOID_SA = 0.0001, VOID_SS = 0.01;
+
+/* Per-cell media for the inclusion (unknown order = interior cells in cell
+ * order: the box has no band).  The arrays are given to ohm_solve. */
+static int inclusion_media(double **sa, double **ss, const ohm_voxel_grid *g, const transport_scene *sc, ohm_error *err)
+{
+    size_t n = g->interior_cells;
+    *sa = malloc(n * sizeof **sa);
+    *ss = malloc(n * sizeof **ss);
+    if (!*sa || !*ss) {
+        free(*sa), free(*ss);
+        *sa = *ss = NULL;
+        return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory for the inclusion");
+    }
+    size_t u = 0;
+    for (int k = 0; k < g->dims[2]; ++k)
+        for (int j = 0; j < g->dims[1]; ++j)
+            for (int i = 0; i < g->dims[0]; ++i) {
+                if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
+                double x = (i - 0.5) * g->h, y = (j - 0.5) * g->h, z = (k - 0.5) * g->h - sc->sphere_c;
+                int in = x * x + y * y + z * z < sc->sphere_r * sc->sphere_r;
+                (*sa)[u] = in ? sc->inc_sa : TR_SA;
+                (*ss)[u] = in ? sc->inc_ss : TR_SS;
+                ++u;
+            }
+    return OHM_OK;
+}
+
+/* One solve of the scene: diffusion at the given settings, or (mc != NULL)
+ * Monte Carlo transport. */
+static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transport_scene *sc,
+                       const ohm_transport_config *cfg, const ohm_mc_params *mc, const ohm_log *log, ohm_error *err)
+{
+    ohm_material m = ohm_scene_grey(TR_SA, TR_SS);
+    m.eta = sc->eta;
+    m.g = TR_G;
+    ohm_light beam = ohm_scene_pencil((const double[3]){0, 0, -1.0}, (const double[3]){0, 0, 1.0});
+    ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.mirrors = &mirror;
+    p.fresnel = cfg->fresnel;
+    p.deposit = cfg->deposit;
+    p.solver = mc ? "mc" : "auto";
+    if (mc) p.mc = *mc;
+    if (!mc && cfg->hybrid > 0) { /* the hybrid: its transport part from another stream than the reference's */
+        p.mc.photons = cfg->photons;
+        p.mc.seed = cfg->seed + 1000003;
+        p.mc.threads = cfg->threads;
+        p.mc.handoff = cfg->hybrid;
+    }
+    if (sc->inclusion) {
+        double *sa, *ss;
+        int rc = inclusion_media(&sa, &ss, g, sc, err);
+        if (rc) return rc;
+        p.sigma_a[0] = sa;
+        p.sigma_s[0] = ss;
+        p.give_media = 1;
+    }
+    return ohm_solve(sol, g, &m, &beam, 1, &p, log, err);
+}
+
+/* The power leaving through the lit face z = 0, per unit incident. */
+static double reflectance(const ohm_solution *s)
+{
+    const double area = s->net.grid->h * s->net.grid->h;
+    double out = 0;
+    for (int64_t f = 0; f < s->net.nfaces; ++f)
+        if (s->net.face_dir[f] == 4) out += s->face_exitance[0][f] * area;
+    return out / s->power_incident;
+}
+
+/* Absorbed per unit incident; diffusion books the first collision's
+ * absorption (what entered but was not deposited) outside its solve. */
+static double absorbed_fraction(const ohm_solution *s)
+{
+    return (s->power_absorbed + s->power_entered - s->power_in) / s->power_incident;
+}
+
+typedef struct fluence_error {
+    double mean_abs, rms, bias, mc_noise;
+    int64_t blocks;
+} fluence_error;
+
+/* Cells are compared in blocks of about BLOCK_MM on a side (both fields
+ * averaged over the block): per cell, a Monte Carlo estimate precise to 1%
+ * would take ~10^8 photons, and diffusion varies on the scale of 1/sigma_tr
+ * = 8 mm, not of a cell. */
+static const double BLOCK_MM = 3.0;
+
+/* The fluence away from the source and the faces (NEAR_MFP: a block counts
+ * when every cell in it is that far), where the Monte Carlo block mean is
+ * precise (MC_NOISE; its error from the cells', taken as independent). */
+static fluence_error compare_fluence(const ohm_solution *d, const ohm_solution *mc, const transport_scene *sc)
+{
+    const ohm_voxel_grid *g = d->net.grid;
+    const double h = g->h, near = NEAR_MFP / (TR_SA + TR_SS);
+    const double wx = sc->nx * h, wy = sc->ny * h, wz = sc->nz * h;
+    int b = (int)lround(BLOCK_MM / h);
+    if (b < 1) b = 1;
+    fluence_error e = {0};
+    double sum_abs = 0, sum2 = 0, sum = 0, noise2 = 0;
+    for (int k0 = 1; k0 + b - 1 <= sc->nz; k0 += b)
+        for (int j0 = 1; j0 + b - 1 <= sc->ny; j0 += b)
+            for (int i0 = 1; i0 + b - 1 <= sc->nx; i0 += b) {
+                double sd = 0, sm = 0, var = 0;
+                int ok = 1;
+                for (int k = k0; k < k0 + b && ok; ++k)
+                    for (int j = j0; j < j0 + b && ok; ++j)
+                        for (int i = i0; i < i0 + b && ok; ++i) {
+                            double x = (i - 0.5) * h, y = (j - 0.5) * h, z = (k - 0.5) * h;
+                            double to_face = fmin(fmin(wx - x, wy - y), fmin(z, wz - z));
+                            ok = sqrt(x * x + y * y + z * z) > near && to_face > near;
+                            int64_t v = ohm_network_unknown(&d->net, ohm_voxel_index(g, i, j, k));
+                            sd += d->fluence[0][v];
+                            sm += mc->fluence[0][v];
+                            var += mc->fluence_se[0][v] * mc->fluence_se[0][v];
+                        }
+                if (!ok || !(sm > 0) || !(sqrt(var) < MC_NOISE * sm)) continue;
+                double r = sd / sm - 1.0;
+                sum_abs += fabs(r);
+                sum2 += r * r;
+                sum += r;
+                noise2 += var / (sm * sm);
+                e.blocks++;
+            }
+    if (e.blocks) {
+        e.mean_abs = sum_abs / (double)e.blocks;
+        e.rms = sqrt(sum2 / (double)e.blocks);
+        e.bias = sum / (double)e.blocks;
+        e.mc_noise = sqrt(noise2 / (double)e.blocks);
+    } else {
+        e.mean_abs = e.rms = e.bias = e.mc_noise = NAN;
+    }
+    return e;
+}
+
+/* Reflectance against radius on the lit face in 1 mm rings from 2 mm out to
+ * 2 mm short of the box's side, where the Monte Carlo ring's standard error
+ * is below MC_NOISE: the worst relative difference, and where; *beyond is
+ * the inner radius from which every such ring is within tol. */
+static double compare_rings(const ohm_solution *d, const ohm_solution *mc, const transport_scene *sc, double tol,
+                            double *at, int *rings, double *beyond)
+{
+    enum { MAX_RINGS = 512 };
+    double sd[MAX_RINGS] = {0}, sm[MAX_RINGS] = {0}, var[MAX_RINGS] = {0};
+    const ohm_voxel_grid *g = d->net.grid;
+    const double h = g->h, rmax = fmin(sc->nx, sc->ny) * h - 2.0;
+    for (int64_t f = 0; f < d->net.nfaces; ++f) {
+        if (d->net.face_dir[f] != 4) continue;
+        int64_t v = d->net.face_unknown[f];
+        int32_t c[3];
+        ohm_voxel_coords(g, d->net.cell[v], c);
+        double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
+        if (r < 2.0 || r >= rmax) continue;
+        int k = (int)floor(r - 2.0);
+        if (k >= MAX_RINGS) continue;
+        sd[k] += d->face_exitance[0][f];
+        sm[k] += mc->face_exitance[0][f];
+        /* a lit-face cell has this one boundary face: its exitance's error is the face's */
+        var[k] += mc->exitance_se[0][v] * mc->exitance_se[0][v];
+    }
+    double worst = 0;
+    *rings = 0;
+    *at = NAN;
+    *beyond = 2.0;
+    for (int k = 0; k < MAX_RINGS; ++k) {
+        if (!(sm[k] > 0) || !(sqrt(var[k]) < MC_NOISE * sm[k])) continue;
+        double e = fabs(sd[k] / sm[k] - 1.0);
+        ++*rings;
+        if (e > worst) worst = e, *at = 2.5 + k;
+        if (!(e <= tol)) *beyond = 3.0 + k;
+    }
+    return *rings ? worst : NAN;
+}
+
+static void add_rows(ohm_validation *v, const transport_scene *sc, const ohm_solution *d, const ohm_solution *mc,
+                     const ohm_transport_config *given)
+{
+    ohm_transport_config report = *given; /* a scene beyond the model: measured, not judged */
+    report.tol_fluence_mean = report.tol_fluence_rms = report.tol_absorbed = report.tol_reflectance =
+        report.tol_rings = -1;
+    const ohm_transport_config *cfg = sc->report_only ? &report : given;
+    char name[80], ref[64];
+    snprintf(ref, sizeof ref, "ohm mc, %.3g photons", (double)mc->mc_photons);
+    fluence_error fe = compare_fluence(d, mc, sc);
+    snprintf(name, sizeof name, "%s: fluence >2 mfp, mean |err| (%lld blocks)", sc->name, (long long)fe.blocks);
+    ohm_validation_add(v, name, ref, fe.mean_abs, 0, fe.mean_abs, cfg->tol_fluence_mean);
+    snprintf(name, sizeof name, "%s: fluence >2 mfp, rms err (bias %+.3f)", sc->name, fe.bias);
+    ohm_validation_add(v, name, ref, fe.rms, 0, fe.rms, cfg->tol_fluence_rms);
+    snprintf(name, sizeof name, "%s: mc noise there, rms se/phi", sc->name);
+    ohm_validation_add(v, name, "a small part of the tolerance", fe.mc_noise, 0, fe.mc_noise, -1);
+    double ad = absorbed_fraction(d), am = absorbed_fraction(mc);
+    snprintf(name, sizeof name, "%s: absorbed fraction", sc->name);
+    ohm_validation_add(v, name, ref, ad, am, fabs(ad / am - 1.0), cfg->tol_absorbed);
+    double rd = reflectance(d), rm = reflectance(mc);
+    snprintf(name, sizeof name, "%s: total diffuse reflectance", sc->name);
+    ohm_validation_add(v, name, ref, rd, rm, fabs(rd / rm - 1.0), cfg->tol_reflectance);
+    double at;
+    int rings;
+    double beyond;
+    double worst = compare_rings(d, mc, sc, given->tol_rings, &at, &rings, &beyond);
+    snprintf(name, sizeof name, "%s: R(r) beyond 2 mm, worst of %d (r=%.1f)", sc->name, rings, at);
+    ohm_validation_add(v, name, ref, worst, 0, worst, cfg->tol_rings);
+    snprintf(name, sizeof name, "%s: R(r) within tolerance beyond r (mm)", sc->name);
+    ohm_validation_add(v, name, "report", beyond, 2.0, beyond, -1);
+}
+
+void ohm_transport_config_default(ohm_transport_config *cfg)
+{
+    memset(cfg, 0, sizeof *cfg);
+    cfg->h = 1.0;
+    cfg->size = 60.0;
+    cfg->photons = 1000000;
+    cfg->seed = 1;
+    cfg->fresnel = OHM_FRESNEL_EXACT;
+    cfg->deposit = OHM_DEPOSIT_EXPONENTIAL;
+    cfg->hybrid = OHM_HYBRID_PENCIL; /* -solve's default for a pencil beam (hybrid=auto) */
+    /* issue 13's targets */
+    cfg->tol_fluence_mean = 0.02;
+    cfg->tol_fluence_rms = 0.04;
+    cfg->tol_absorbed = 0.02;
+    cfg->tol_reflectance = 0.02;
+    cfg->tol_rings = 0.05;
+}
+
+int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, const ohm_log *log, ohm_error *err)
+{
+    const double h = cfg->h, L = cfg->size;
+    int half = (int)lround(0.5 * L / h), full = (int)lround(L / h);
+    const transport_scene scenes[] = {
+        {"slab n1.0", full, full, half, 1.0, 0, 0, 0, 0, 0, 0},
+        {"slab n1.4", full, full, half, 1.4, 0, 0, 0, 0, 0, 0},
+        {"cube n1.37", half, half, full, 1.37, 0, 0, 0, 0, 0, 0},
+        {"cube n1.37 + sphere", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, INC_SA, INC_SS, 0},
+        {"cube n1.37 + clear void", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, VOID_SA, VOID_SS, 1},
+    };
+    ohm_mc_params mc = {.photons = cfg->photons, .seed = cfg->seed, .threads = cfg->threads, .log = log};
+    int rc = OHM_OK;
+    for (size_t s = 0; s < sizeof scenes / sizeof scenes[0] && !rc; ++s) {
+        const transport_scene *sc = &scenes[s];
+        ohm_voxel_grid g;
+        rc = ohm_scene_box(&g, sc->nx, sc->ny, sc->nz, h, err);
+        if (rc) break;
+        ohm_solution d, t;
+        rc = scene_solve(&d, &g, sc, cfg, NULL, log, err);
+        if (!rc) {
+            rc = scene_solve(&t, &g, sc, cfg, &mc, log, err);
+            if (!rc) {
+                add_rows(v, sc, &d, &t, cfg);
+                char name[80];
+                snprintf(name, sizeof name, "%s: mc speed, photons/ms (%d threads)", sc->name, t.mc_threads);
+                double speed = t.t_solve > 0 ? 1e-3 * (double)t.mc_photons / t.t_solve : 0;
+                ohm_validation_add(v, name, "report", speed, 0, speed, -1);
+                ohm_solution_free(&t);
+            }
+            ohm_solution_free(&d);
+        }
+        ohm_voxel_grid_free(&g);
+    }
+    return rc;
+}
+
+/* ---- the Monte Carlo reference itself against published transport values ---- */
+
+/* A box of cells h lit by a pencil beam of 1 W travelling -z onto its top face
+ * at (x, y), traced directly (ohm_mc_trace: its power booking, including the
+ * time gate, and the standard errors of the totals). */
+typedef struct mc_box {
+    ohm_voxel_grid grid;
+    ohm_network net;
+    ohm_light_entries in;
+    double *fluence, *fluence_se, *face, *exit_se;
+    double *sa, *ss, *eta; /* per cell (a clear top layer), or NULL */
+    ohm_mc_result res;
+} mc_box;
+
+static void mc_box_free(mc_box *b)
+{
+    ohm_light_entries_free(&b->in);
+    ohm_network_free(&b->net);
+    ohm_voxel_grid_free(&b->grid);
+    free(b->fluence), free(b->fluence_se), free(b->exit_se), free(b->face);
+    free(b->sa), free(b->ss), free(b->eta);
+}
+
+/* A box of one medium lit by a pencil beam from +z at (x, y), traced; with
+ * clear_top > 0, its top clear_top cells are a clear (non-absorbing, barely
+ * scattering) layer of index 1 above the medium (eta_v). */
+static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, double ss_reduced, double eta,
+                        double g, double x, double y, int clear_top, const ohm_mc_params *p, ohm_error *err)
+{
+    memset(b, 0, sizeof *b);
+    int rc = ohm_scene_box(&b->grid, nx, ny, nz, h, err);
+    if (!rc) rc = ohm_network_build(&b->net, &b->grid, NULL, err);
+    size_t n = (size_t)b->net.n, nf = (size_t)b->net.nfaces;
+    if (!rc && clear_top > 0) {
+        b->sa = malloc(n * sizeof(double));
+        b->ss = malloc(n * sizeof(double));
+        b->eta = malloc(n * sizeof(double));
+        if (!b->sa || !b->ss || !b->eta) rc = ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+        for (size_t u = 0; u < n && !rc; ++u) { /* x-fastest: z index u / (nx ny) */
+            int clear = (int)(u / ((size_t)nx * (size_t)ny)) >= nz - clear_top;
+            b->sa[u] = clear ? 0.0 : sa;
+            b->ss[u] = clear ? 1e-6 : ss_reduced; /* a scattering every 1e6 mm: clear */
+            b->eta[u] = clear ? 1.0 : eta;
+        }
+    }
+    ohm_light l = ohm_scene_pencil((const double[3]){x, y, nz * h + 1.0}, (const double[3]){0, 0, -1.0});
+    if (!rc) rc = ohm_light_entries_add(&b->in, &b->net, &l, 1, eta, b->eta, NULL, err);
+    if (rc) {
+        mc_box_free(b);
+        return rc;
+    }
+    b->fluence = calloc(n, sizeof(double));
+    b->fluence_se = calloc(n, sizeof(double));
+    b->exit_se = calloc(n, sizeof(double));
+    b->face = calloc(nf, sizeof(double));
+    if (!b->fluence || !b->fluence_se || !b->exit_se || !b->face) {
+        mc_box_free(b);
+        return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
+    }
+    b->res = (ohm_mc_result){.fluence = b->fluence, .fluence_se = b->fluence_se, .face_exitance = b->face,
+                             .exitance_se = b->exit_se};
+    ohm_channel_medium med;
+    memset(&med, 0, sizeof med);
+    med.sigma_a0 = sa;
+    med.sigma_s0 = ss_reduced;
+    med.sigma_a = b->sa;
+    med.sigma_s = b->ss;
+    med.eta = eta;
+    med.eta_v = b->eta;
+    med.g = g;
+    rc = ohm_mc_trace(&b->res, &b->net, &med, b->in.entry, b->in.count, 0, p, err);
+    if (rc) mc_box_free(b);
+    return rc;
+}
+
+/* Power leaving through faces of direction d (0..5: -x +x -y +y -z +z). */
+static double mc_box_out(const mc_box *b, int d)
+{
+    double sum = 0, area = b->grid.h * b->grid.h;
+    for (int64_t f = 0; f < b->net.nfaces; ++f)
+        if (b->net.face_dir[f] == d) sum += b->face[f] * area;
+    return sum;
+}
+
+/* A row against a published value: pass within 4 combined standard errors
+ * (absolute: error and tolerance in the quantity's own units). */
+static void published_row(ohm_validation *v, const char *name, const char *ref, double measured, double expected,
+                          double se_ours, double se_theirs)
+{
+    double tol = 4.0 * sqrt(se_ours * se_ours + se_theirs * se_theirs);
+    ohm_validation_add(v, name, ref, measured, expected, fabs(measured - expected), tol);
+}
+
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const ohm_log *log, ohm_error *err)
+{
+    ohm_mc_params p = {.photons = photons, .seed = seed, .threads = threads, .log = log};
+    double N = (double)((photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES * OHM_MC_BATCHES);
+    mc_box b;
+    /* van de Hulst's matched slab (mu_a 1, mu_s 9 /mm, g 0.75, 0.2 mm), the
+     * check of MCML (Wang, Jacques & Zheng 1995): with n = 1 every photon
+     * leaves whole, so each total's error is binomial */
+    int rc = mc_box_trace(&b, 100, 100, 2, 0.1, 1.0, 9.0 * (1 - 0.75), 1.0, 0.75, 5.0, 5.0, 0, &p, err);
+    if (rc) return rc;
+    double Rd = mc_box_out(&b, 5), Tt = mc_box_out(&b, 4);
+    published_row(v, "mc: matched slab, diffuse reflectance (abs)", "van de Hulst 0.09739 (MCML)", Rd, 0.09739,
+                  sqrt(0.09739 * (1 - 0.09739) / N), 0);
+    published_row(v, "mc: matched slab, total transmittance (abs)", "van de Hulst 0.66096 (MCML)", Tt, 0.66096,
+                  sqrt(0.66096 * (1 - 0.66096) / N), 0);
+    mc_box_free(&b);
+    /* MCML 2.0's semi-infinite medium under air (sample1.mci, run 2: n 1.5,
+     * mu_a 1, mu_s 9 /mm, g 0): Rd 0.220348 +- 0.000916, specular 0.04 apart */
+    rc = mc_box_trace(&b, 40, 40, 40, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, 0, &p, err);
+    if (rc) return rc;
+    double incident = b.in.entry[0].incident[0];
+    published_row(v, "mc: half-space n1.5, diffuse reflectance (abs)", "MCML 0.220348 +- 0.000916",
+                  mc_box_out(&b, 5) / incident, 0.220348, b.res.power_out_se / incident, 0.000916);
+    mc_box_free(&b);
+    /* The same half-space under 0.3 mm of a clear layer of index 1 (a per-cell
+     * index): the air interface is now inside the object, between cells, so
+     * the beam's specular 0.04 = ((1.5 - 1)/(1.5 + 1))^2 and every photon's
+     * Fresnel reflection or refraction on its way out happen at an internal
+     * change of index.  What leaves is the specular part plus MCML's diffuse
+     * reflectance: through the top, and through the clear layer's sides (a
+     * photon refracted out at a grazing angle crosses the 4 mm box's edge
+     * before it rises 0.3 mm; the medium's own sides and bottom, 11 and 22
+     * diffusion lengths away, lose nothing measurable). */
+    rc = mc_box_trace(&b, 40, 40, 43, 0.1, 1.0, 9.0, 1.5, 0.0, 2.0, 2.0, 3, &p, err);
+    if (rc) return rc;
+    incident = b.in.entry[0].incident[0];
+    published_row(v, "mc: half-space n1.5 under a clear n1.0 layer, out (abs)", "0.04 + MCML 0.220348 +- 0.000916",
+                  b.res.power_out / incident, 0.04 + 0.220348, b.res.power_out_se / incident, 0.000916);
+    mc_box_free(&b);
+    /* MCX's cube60 (fangq/mcx src/mcx_bench.c): 60 mm of 1 mm voxels, mu_a
+     * 0.005, mu_s 1 /mm, g 0.01, no reflection at the faces (DoMismatch 0),
+     * the beam at grid point (29, 29), absorbed within 5 ns at c / 1.37:
+     * 17.69708% (1e8 photons, mcx PR #267) */
+    p.max_path = 5.0 * 299.792458 / 1.37;
+    rc = mc_box_trace(&b, 60, 60, 60, 1.0, 0.005, 1.0 * (1 - 0.01), 1.0, 0.01, 29.0, 29.0, 0, &p, err);
+    if (rc) return rc;
+    published_row(v, "mc: cube60, absorbed fraction (abs)", "MCX 17.69708% (1e8 photons)",
+                  b.res.power_absorbed / b.res.power_in, 0.1769708, b.res.power_absorbed_se / b.res.power_in, 0);
+    double speed = 1e-3 * (double)b.res.photons / b.res.seconds;
+    char name[80];
+    snprintf(name, sizeof name, "mc: cube60 speed, photons/ms (%d threads)", b.res.threads);
+    ohm_validation_add(v, name, "issue 13: >= 100", speed, 100, speed, -1);
+    mc_box_free(&b);
+    return OHM_OK;
+}
