@@ -1,4 +1,4 @@
-/* test_scan.c — the density-volume readers (src/scan.h): NIfTI (.nii and
+/* test_scan.c — the density-volume readers (src/input/scan.h): NIfTI (.nii and
  * .nii.gz, written here with libnifti, non-identity sform, scl_slope/inter)
  * against the same data as raw (.raw and .raw.gz); one-line errors naming the
  * file for truncated / wrongly-sized raw, unsupported NIfTI datatypes and NaN

@@ -2,7 +2,7 @@
  * the vdb harness (scripts/fuzz.sh vdb).  Build (not part of the fuzz run):
  *   clang -c -Isrc -Iwrappers/vdb tests/fuzz/make_vdb_seeds.c -o /tmp/m.o
  *   clang++ -std=c++17 -c -Isrc -Iwrappers/vdb wrappers/vdb/ohm_vdb.cpp -o /tmp/v.o
- *   clang -c -Isrc src/ohm_error.c -o /tmp/e.o
+ *   clang -c -Isrc src/base/ohm_error.c -o /tmp/e.o
  *   clang++ /tmp/m.o /tmp/v.o /tmp/e.o -lopenvdb -ltbb -lImath-3_1 -o /tmp/make_vdb_seeds
  *   /tmp/make_vdb_seeds tests/fuzz/seeds/vdb */
 #include "ohm_vdb.h"

@@ -6,7 +6,7 @@
  *
  * Grids are float grids.  Index (i,j,k) is the centre of a cell; its world
  * position (mm) is  origin + (i,j,k) * voxel_size  — the OpenVDB convention.
- * ohm_vdb_write writes exactly the path it is given: the caller (src/output.c)
+ * ohm_vdb_write writes exactly the path it is given: the caller (src/base/output.c)
  * gives it a temporary name and renames it once the write succeeded. */
 #ifndef OHM_VDB_H
 #define OHM_VDB_H

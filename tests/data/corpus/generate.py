@@ -275,7 +275,7 @@ add("junk.vdb", b"\x20\x42\x44\x56" + bytes(200), "vdb", 1, r"junk\.vdb: file fo
     note="VDB magic then zeros: refused by the .vdb checker (file format version 0)")
 add("text.vdb", "this is not a vdb\n", "vdb", 1, r"text\.vdb", whole=True)
 
-# ---- .vdb files that lie about sizes: the checker (src/scan_check.c) refuses
+# ---- .vdb files that lie about sizes: the checker (src/input/scan_check.c) refuses
 # them before OpenVDB 10 would trust them.  Each is the fuzz seed
 # tests/fuzz/seeds/vdb/density-fog-4x4x4.vdb (one 4^3 float grid, blosc) with
 # one field changed; vdb_fields() finds the fields the way OpenVDB reads them.
