@@ -57,10 +57,10 @@ static int64_t cg_iterations_for_box(int nx, double L)
 {
     ohm_voxel_grid g;
     if (make_box(&g, nx, L / nx)) return -1;
-    ohm_solver s;
+    ohm_cholesky s;
     ohm_error err;
     ohm_error_clear(&err);
-    ohm_solver_start(&s, &err);
+    ohm_cholesky_start(&s, &err);
     ohm_network net;
     cholmod_sparse *A = assemble(&net, &g, NULL, &s.cc);
     int64_t n = net.n, its = -1;
@@ -74,7 +74,7 @@ static int64_t cg_iterations_for_box(int nx, double L)
     free(b), free(x);
     cholmod_l_free_sparse(&A, &s.cc);
     ohm_network_free(&net);
-    ohm_solver_finish(&s);
+    ohm_cholesky_finish(&s);
     ohm_voxel_grid_free(&g);
     return its;
 }
@@ -84,10 +84,10 @@ int main(void)
     /* --- CG = the factor, on a 1e4-contrast medium ------------------------- */
     ohm_voxel_grid g;
     CHECK(make_box(&g, 20, 0.5) == 0);
-    ohm_solver s;
+    ohm_cholesky s;
     ohm_error err;
     ohm_error_clear(&err);
-    CHECK(ohm_solver_start(&s, &err) == 0);
+    CHECK(ohm_cholesky_start(&s, &err) == 0);
     int64_t n = (int64_t)g.interior_cells;
     double *ss = malloc((size_t)n * sizeof *ss);
     for (int64_t v = 0; v < n; ++v) ss[v] = v < n / 2 ? 1.0 : 1e4;
@@ -100,9 +100,9 @@ int main(void)
     for (int64_t v = 0; v < n; ++v) b[v] = lcg(&seed);
     cholmod_factor *L = NULL;
     double berr = 0;
-    CHECK(ohm_solver_analyze(&s, A, "metis", &err) == 0);
-    CHECK(ohm_solver_factorize(&L, &s, A, NULL, &err) == 0);
-    CHECK(ohm_solver_solve(xd, &s, L, A, b, 1, &berr, NULL, &err) == 0);
+    CHECK(ohm_cholesky_analyze(&s, A, "metis", &err) == 0);
+    CHECK(ohm_cholesky_factorize(&L, &s, A, NULL, &err) == 0);
+    CHECK(ohm_cholesky_solve(xd, &s, L, A, b, 1, &berr, NULL, &err) == 0);
     ohm_cg cg;
     CHECK(ohm_cg_setup(&cg, A, &err) == 0);
     int64_t its_cold = 0, its = 0;
@@ -130,10 +130,10 @@ int main(void)
     CHECK(ohm_cg_solve(&cg, xc, b, 1e-12, 2, &its, &relres, &err) == OHM_ERR_NUMERIC);
     CHECK(strstr(err.msg, "did not converge") != NULL);
     ohm_cg_free(&cg);
-    ohm_factor_free(&L, &s);
+    ohm_cholesky_factor_free(&L, &s);
     cholmod_l_free_sparse(&A, &s.cc);
     ohm_network_free(&net);
-    ohm_solver_finish(&s);
+    ohm_cholesky_finish(&s);
     ohm_voxel_grid_free(&g);
     free(ss), free(b), free(xd), free(xc), free(b2);
     fprintf(stderr, "cg: 1e4 contrast, 8000 cells: %lld iterations cold; a 1%% change: %lld warm, %lld cold\n",

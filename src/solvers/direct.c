@@ -15,7 +15,7 @@
 static const double BERR_REFINE = 1e-12;
 static const double BERR_FAIL = 1e-10;
 
-int ohm_solver_start(ohm_solver *s, ohm_error *err)
+int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err)
 {
     memset(s, 0, sizeof *s);
     if (!cholmod_l_start(&s->cc)) return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
@@ -25,7 +25,7 @@ int ohm_solver_start(ohm_solver *s, ohm_error *err)
     return OHM_OK;
 }
 
-void ohm_solver_finish(ohm_solver *s)
+void ohm_cholesky_finish(ohm_cholesky *s)
 {
     if (!s || !s->started) return;
     cholmod_l_free_factor(&s->symbolic, &s->cc);
@@ -33,13 +33,13 @@ void ohm_solver_finish(ohm_solver *s)
     s->started = 0;
 }
 
-void ohm_factor_free(cholmod_factor **L, ohm_solver *s)
+void ohm_cholesky_factor_free(cholmod_factor **L, ohm_cholesky *s)
 {
     if (L && *L) cholmod_l_free_factor(L, &s->cc);
 }
 
 /* One analysis with one ordering; the factor and its statistics in *out. */
-static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_solver *s, cholmod_sparse *A, int ordering,
+static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_cholesky *s, cholmod_sparse *A, int ordering,
                        const char *name, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
@@ -61,7 +61,7 @@ static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_solver
     return OHM_OK;
 }
 
-int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, ohm_error *err)
+int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     cholmod_l_free_factor(&s->symbolic, cc);
@@ -99,7 +99,7 @@ int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, o
     return OHM_OK;
 }
 
-int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, double *t, ohm_error *err)
+int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     if (!s->symbolic) return ohm_fail(err, OHM_ERR_INTERNAL, "factorize before analyze");
@@ -127,7 +127,7 @@ int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, d
     return OHM_OK;
 }
 
-int ohm_solver_solve(double *Xout, ohm_solver *s, cholmod_factor *L, cholmod_sparse *A, const double *Bin,
+int ohm_cholesky_solve(double *Xout, ohm_cholesky *s, cholmod_factor *L, cholmod_sparse *A, const double *Bin,
                      size_t ncols, double *berr, int *refined, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
@@ -182,7 +182,7 @@ done:
 /* ---- the direct backend (backend.h) ---------------------------------------------- */
 
 typedef struct direct_state {
-    ohm_solver solver;       /* one analysis for the grid, shared by every setup */
+    ohm_cholesky solver;       /* one analysis for the grid, shared by every setup */
     cholmod_factor *L;       /* the latest material's factor                      */
     ohm_backend_config cfg;
 } direct_state;
@@ -191,8 +191,8 @@ static void direct_destroy(void *state)
 {
     direct_state *d = state;
     if (!d) return;
-    ohm_factor_free(&d->L, &d->solver);
-    ohm_solver_finish(&d->solver);
+    ohm_cholesky_factor_free(&d->L, &d->solver);
+    ohm_cholesky_finish(&d->solver);
     free(d);
 }
 
@@ -201,7 +201,7 @@ static int direct_create(void **state, const ohm_backend_config *cfg, ohm_error 
     direct_state *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     d->cfg = *cfg;
-    int rc = ohm_solver_start(&d->solver, err);
+    int rc = ohm_cholesky_start(&d->solver, err);
     if (rc) {
         free(d);
         return rc;
@@ -213,7 +213,7 @@ static int direct_create(void **state, const ohm_backend_config *cfg, ohm_error 
 /* Bytes the factor will take, known from the symbolic analysis before
  * factorizing: its values (supernodal: xsize, with amalgamation zeros) and
  * row indices, the symbolic copy kept beside it, and a batch of B and X. */
-static double factor_bytes(const ohm_solver *s, size_t batch)
+static double factor_bytes(const ohm_cholesky *s, size_t batch)
 {
     const cholmod_factor *F = s->symbolic;
     double values = F->is_super ? fmax((double)F->xsize, s->nnz_L) : s->nnz_L;
@@ -224,12 +224,12 @@ static double factor_bytes(const ohm_solver *s, size_t batch)
 static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
 {
     direct_state *d = state;
-    ohm_solver *s = &d->solver;
+    ohm_cholesky *s = &d->solver;
     const char *ordering = d->cfg.ordering ? d->cfg.ordering : "metis";
     if (!s->symbolic) {
         ohm_log_info(d->cfg.log, "solve: %lld unknowns, %lld matrix entries; analysing (%s)", (long long)A->nrow,
                      (long long)A->nzmax, ordering);
-        int rc = ohm_solver_analyze(s, A, ordering, err);
+        int rc = ohm_cholesky_analyze(s, A, ordering, err);
         if (rc) return rc;
         rep->t_analyze += s->t_analyze;
         rep->analyses++;
@@ -252,7 +252,7 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
     /* the next material refactorizes into the same L: same pattern, and its
      * memory is already mapped */
     double tf = 0;
-    rc = ohm_solver_factorize(&d->L, s, A, &tf, err);
+    rc = ohm_cholesky_factorize(&d->L, s, A, &tf, err);
     if (rc) return rc;
     rep->t_factor += tf;
     rep->factors++;
@@ -267,7 +267,7 @@ static int direct_solve(void *state, cholmod_sparse *A, const double *B, double 
 {
     direct_state *d = state;
     int refined = 0;
-    int rc = ohm_solver_solve(X, &d->solver, d->L, A, B, ncols, berr, &refined, err);
+    int rc = ohm_cholesky_solve(X, &d->solver, d->L, A, B, ncols, berr, &refined, err);
     rep->refined += refined;
     return rc;
 }

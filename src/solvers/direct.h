@@ -18,7 +18,7 @@
 #include "base/ohm_error.h"
 #include "solvers/backend.h"
 
-typedef struct ohm_solver {
+typedef struct ohm_cholesky {
     cholmod_common cc;
     int started;
     cholmod_factor *symbolic;   /* from analyze; copied for each factorization */
@@ -28,26 +28,26 @@ typedef struct ohm_solver {
     double flops;               /* floating-point operations of one factorization */
     double nnz_A;               /* entries of A (upper triangle)                */
     double norm_A;              /* ||A||_inf of the last factorized matrix      */
-} ohm_solver;
+} ohm_cholesky;
 
-int ohm_solver_start(ohm_solver *s, ohm_error *err);
-void ohm_solver_finish(ohm_solver *s); /* frees everything; fine on a zeroed solver */
+int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err);
+void ohm_cholesky_finish(ohm_cholesky *s); /* frees everything; fine on a zeroed solver */
 
 /* ordering: "metis" | "amd" | "nesdis" | "best" (tries METIS and AMD, keeps the
  * one with the smaller factor). */
-int ohm_solver_analyze(ohm_solver *s, cholmod_sparse *A, const char *ordering, ohm_error *err);
+int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, ohm_error *err);
 
 /* Numeric factor of A (same pattern as analysed): into *L when it holds an
  * earlier factor of this analysis (refactorized in place), else into a new
  * copy of the symbolic factor.  t: seconds.  On failure *L is freed. */
-int ohm_solver_factorize(cholmod_factor **L, ohm_solver *s, cholmod_sparse *A, double *t, ohm_error *err);
+int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, ohm_error *err);
 
 /* Solve A X = B for ncols columns (column-major, n rows each).  *berr gets the
  * largest scaled backward error over the columns, *refined whether a step of
  * iterative refinement was taken. */
-int ohm_solver_solve(double *X, ohm_solver *s, cholmod_factor *L, cholmod_sparse *A, const double *B, size_t ncols,
+int ohm_cholesky_solve(double *X, ohm_cholesky *s, cholmod_factor *L, cholmod_sparse *A, const double *B, size_t ncols,
                      double *berr, int *refined, ohm_error *err);
 
-void ohm_factor_free(cholmod_factor **L, ohm_solver *s);
+void ohm_cholesky_factor_free(cholmod_factor **L, ohm_cholesky *s);
 
 #endif

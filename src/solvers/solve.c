@@ -709,203 +709,374 @@ static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params 
     return OHM_OK;
 }
 
-int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
-              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
-{
-    memset(sol, 0, sizeof *sol);
-    take_media(sol, params);
-    int rc_optics = check_cell_optics(grid, params, err);
-    if (rc_optics) {
-        ohm_solution_free(sol);
-        return rc_optics;
-    }
-    if (nlights == 0 && !params->custom_source) {
-        ohm_solution_free(sol);
-        return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
-    }
-    int channels = mat->channels, frames = 1;
-    for (size_t l = 0; l < nlights && lights; ++l) {
-        if (lights[l].channels > channels) channels = lights[l].channels;
-        if (lights[l].frame > frames) frames = lights[l].frame;
-    }
-    sol->channels = channels;
-    sol->frames = frames;
+/* One distinct channel material's matrix and its set-up backend (a factor,
+ * or a preconditioner): what a change of light reuses. */
+typedef struct medium_slot {
+    void *state;            /* the backend's, or NULL                     */
+    cholmod_sparse *A;      /* the network's matrix for this medium        */
+    double *ga, *gb;        /* ground per unknown, boundary per face       */
+    int ready;              /* A holds this medium's values, set up        */
+} medium_slot;
 
+struct ohm_solver {
+    ohm_solution sol;            /* topology, media, statistics; then results */
+    ohm_solve_params params;     /* the caller's, with the band's arrays       */
+    ohm_material mat;
+    const ohm_voxel_grid *grid;
+    const ohm_log *log;
+    int keep;                    /* keep every medium's setup between solves   */
+    ohm_occluder *occ;
+    cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
+    int cc_started;
+    const ohm_backend_ops *backend;
+    ohm_backend_report rep;      /* summed over the solver's life             */
+    medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
+    int held;                    /* keep = 0: the one slot holding resources, or -1 */
+};
+
+static void slot_release(ohm_solver *s, medium_slot *m)
+{
+    if (m->state) s->backend->destroy(m->state);
+    cholmod_l_free_sparse(&m->A, &s->cc);
+    free(m->ga);
+    free(m->gb);
+    memset(m, 0, sizeof *m);
+}
+
+void ohm_solver_free(ohm_solver *s)
+{
+    if (!s) return;
+    for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
+    if (s->cc_started) cholmod_l_finish(&s->cc);
+    ohm_occluder_free(s->occ);
+    ohm_solution_free(&s->sol);
+    free(s);
+}
+
+/* The topology and the media of a solve (solve.h): the depth band, the
+ * network, the media kept for the outputs, the occluder. */
+static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    int rc = check_cell_optics(s->grid, params, err);
+    if (rc) return rc;
     double t0 = ohm_now();
     /* per-cell media compacted to the band's unknowns (when there is one) */
     double *compact[2 * OHM_MAX_CHANNELS] = {NULL};
-    ohm_solve_params band_params;
-    int rc = setup_band(sol, &band_params, compact, grid, mat, params, log, err);
-    if (rc) {
-        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
-        ohm_solution_free(sol);
-        return rc;
+    rc = setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
+    if (!rc) rc = ohm_network_build_band(&sol->net, s->grid, s->params.mirrors, sol->band_active, err);
+    if (!rc) {
+        sol->n = sol->net.n;
+        sol->t_network = ohm_now() - t0;
+        rc = keep_media(sol, &s->params, compact, err);
     }
-    params = &band_params;
-    rc = ohm_network_build_band(&sol->net, grid, params->mirrors, sol->band_active, err);
-    if (rc) {
-        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
-        ohm_solution_free(sol);
-        return rc;
-    }
-    const ohm_network *net = &sol->net;
-    int64_t n = net->n;
-    sol->n = n;
-    sol->t_network = ohm_now() - t0;
-    rc = keep_media(sol, params, compact, err);
-    if (rc) {
-        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
-        ohm_solution_free(sol);
-        return rc;
-    }
-
-    /* Frames per batch: B and X together within the memory cap. */
-    double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
-    /* the hybrid keeps its transport part's fluence and faces per column too */
-    double per_column = params->mc.handoff > 0 ? 3.0 * (double)n + (double)net->nfaces : 2.0 * (double)n;
-    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
-    if (batch < 1) batch = 1;
-    if (batch > (size_t)frames) batch = (size_t)frames;
-
-    ohm_occluder *occ = NULL;
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+    if (rc) return rc;
     t0 = ohm_now();
-    rc = ohm_occluder_create(&occ, params->shadows, grid, params->mesh, params->orientation, err);
+    rc = ohm_occluder_create(&s->occ, s->params.shadows, s->grid, s->params.mesh, s->params.orientation, err);
     sol->t_shadow_setup = ohm_now() - t0;
+    if (rc) return rc;
+    if (!cholmod_l_start(&s->cc)) return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
+    s->cc_started = 1;
+    s->cc.print = 0;
+    s->cc.error_handler = NULL;
+    const char *name = s->params.solver ? s->params.solver : "direct";
+    if (strcmp(name, "mc") == 0) return OHM_OK;
+    s->backend = ohm_backend_find(name);
+    if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
+    snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
+    return OHM_OK;
+}
+
+int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_material *mat,
+                      const ohm_solve_params *params, int keep, const ohm_log *log, ohm_error *err)
+{
+    *out = NULL;
+    ohm_solver *s = calloc(1, sizeof *s);
+    if (!s) {
+        ohm_solution taken; /* give_media: freed whether it succeeds or fails */
+        memset(&taken, 0, sizeof taken);
+        take_media(&taken, params);
+        ohm_solution_free(&taken);
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
+    }
+    take_media(&s->sol, params);
+    s->mat = *mat;
+    s->grid = grid;
+    s->log = log;
+    s->keep = keep;
+    s->held = -1;
+    int rc = solver_prepare(s, params, err);
     if (rc) {
-        ohm_solution_free(sol);
+        ohm_solver_free(s);
         return rc;
     }
-    if (params->solver && strcmp(params->solver, "mc") == 0) {
-        rc = alloc_solution(sol, err);
-        if (!rc) rc = solve_mc(sol, mat, lights, nlights, params, occ, err);
-        ohm_occluder_free(occ);
-        if (rc) ohm_solution_free(sol);
-        return rc;
+    *out = s;
+    return OHM_OK;
+}
+
+/* Medium k's slot assembled and set up: kept from an earlier solve, or (keep
+ * = 0) the resources of the slot that held them, refilled (same pattern: the
+ * direct backend keeps its symbolic analysis), or new. */
+static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, ohm_error *err)
+{
+    medium_slot *m = &s->slot[k];
+    if (m->ready) return OHM_OK;
+    if (!s->keep && s->held >= 0 && s->held != k) {
+        *m = s->slot[s->held];
+        m->ready = 0;
+        memset(&s->slot[s->held], 0, sizeof *m);
     }
-    cholmod_common cc; /* for assembling A in CHOLMOD's form */
-    if (!cholmod_l_start(&cc)) {
-        ohm_occluder_free(occ);
-        ohm_solution_free(sol);
-        return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
-    }
-    cc.print = 0;
-    cc.error_handler = NULL;
+    s->held = k;
+    const ohm_network *net = &s->sol.net;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    /* X, the solution, is no array of its own: each batch is solved in place
-     * in its frames' columns of sol->fluence (-8 B per cell and column) */
-    double *B = malloc((size_t)n * batch * sizeof *B);
-    double *ga = malloc((size_t)n * sizeof *ga);
-    double *gb = malloc(nf * sizeof *gb);
-    size_t *col_of = malloc(batch * sizeof *col_of); /* batch column -> distinct column */
-    /* the last frame's right-hand side, for a later batch to compare with */
-    double *prev_b = batch < (size_t)frames ? malloc((size_t)n * sizeof *prev_b) : NULL;
-    cholmod_sparse *A = NULL;
-    const ohm_backend_ops *backend = NULL;
-    const int hybrid = params->mc.handoff > 0 && !params->custom_source;
-    hybrid_part hy;
-    memset(&hy, 0, sizeof hy);
-    void *bstate = NULL;
-    /* per-face powers per frame, shared by the channels (below); declared
-     * before the first goto so `done:` may free them */
-    double *fp_enter[OHM_MAX_CHANNELS] = {NULL}, *fp_arrive[OHM_MAX_CHANNELS] = {NULL};
-    double *fp_enter_mu[OHM_MAX_CHANNELS] = {NULL}; /* entering power x the refracted ray's cosine */
-    if (!B || !ga || !gb || !col_of || (batch < (size_t)frames && !prev_b)) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %lld unknowns", batch,
-                      (long long)n);
-        goto done;
-    }
-    rc = alloc_solution(sol, err);
-    if (!rc && hybrid) rc = hybrid_alloc(&hy, (size_t)n, nf, batch, err);
-    if (!rc && hybrid && (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v))
-        rc = ohm_fail(err, OHM_ERR_USAGE,
-                      "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
-    if (!rc && hybrid && params->boundary != OHM_BOUNDARY_ROBIN)
-        rc = ohm_fail(err, OHM_ERR_USAGE,
-                      "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
-                      ohm_boundary_name(params->boundary));
-    if (!rc && hybrid && sol->band_active)
-        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
-    if (rc) goto done;
+    if (!m->ga) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
+    if (!m->gb) m->gb = malloc(nf * sizeof *m->gb);
+    if (!m->ga || !m->gb) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
+    int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
+    if (rc) return rc;
+    ohm_channel_medium med;
+    medium_for(&med, &s->mat, &s->params, k);
+    double t0 = ohm_now();
+    /* a refilled A keeps its pattern: the backend's setup sees the new values */
+    rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
+              : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.boundary, &s->cc, err);
+    s->sol.t_assemble += ohm_now() - t0;
+    if (!rc) rc = s->backend->setup(m->state, m->A, &s->rep, err);
+    m->ready = !rc;
+    return rc;
+}
 
-    /* Shadow rays and Fresnel do not depend on the channel: trace every
-     * frame's lights once, keep the per-face powers for all channels (when
-     * they fit in the batch budget), deposit them per channel below. */
-    int cached = 0;
+/* The results of the solve before, and its per-solve statistics, cleared;
+ * what the solver keeps (topology, media, setup statistics) stays. */
+static void solution_reset(ohm_solution *sol, ohm_backend_report *rep)
+{
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(sol->fluence[c]);
+        free(sol->face_exitance[c]);
+        free(sol->fluence_se[c]);
+        free(sol->exitance_se[c]);
+        sol->fluence[c] = sol->face_exitance[c] = sol->fluence_se[c] = sol->exitance_se[c] = NULL;
+        sol->power_out_channel[c] = sol->power_in_channel[c] = 0;
+    }
+    sol->solves = sol->solves_skipped = 0;
+    sol->mc_photons = sol->mc_events = sol->mc_truncated = 0;
+    sol->mc_threads = 0;
+    sol->t_source = sol->t_solve = 0;
+    sol->residual = 0;
+    sol->mode_corrections = 0;
+    sol->mode_shift = 0;
+    sol->power_incident = sol->power_entered = sol->power_in = sol->power_absorbed = sol->power_out = 0;
+    rep->iterations = 0;
+    rep->relres = 0;
+    rep->refined = 0;
+}
+
+/* Shadow rays and Fresnel do not depend on the channel: every frame's lights
+ * traced once into per-face powers for all channels (when they fit in the
+ * budget, else *cached = 0 and fill_sources traces per channel). */
+typedef struct face_powers {
+    double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
+    double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
+    int cached;
+} face_powers;
+
+static void face_powers_free(face_powers *fp)
+{
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+        free(fp->enter[c]);
+        free(fp->enter_mu[c]);
+        free(fp->arrive[c]);
+    }
+}
+
+static int face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
+                             ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    const ohm_solve_params *params = &s->params;
+    const ohm_material *mat = &s->mat;
+    size_t nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1);
+    int channels = sol->channels, frames = sol->frames;
+    memset(fp, 0, sizeof *fp);
     const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
-    if (!params->custom_source && !hybrid &&
-        3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels <= face_cache_cap) {
-        cached = 1;
-        for (int c = 0; c < channels && cached; ++c) {
-            fp_enter[c] = calloc(nf * (size_t)frames, sizeof(double));
-            fp_arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
-            fp_enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
-            if (!fp_enter[c] || !fp_arrive[c] || !fp_enter_mu[c]) cached = 0; /* fall back to tracing per channel */
-        }
-        t0 = ohm_now();
-        double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
-        for (int fr = 0; fr < frames && cached && !rc; ++fr) {
-            double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
-            for (int c = 0; c < channels; ++c) {
-                en[c] = fp_enter[c] + (size_t)fr * nf;
-                emu[c] = fp_enter_mu[c] + (size_t)fr * nf;
-                ar[c] = fp_arrive[c] + (size_t)fr * nf;
-            }
-            for (size_t l = 0; l < nlights && !rc; ++l) {
-                if (lights[l].type == OHM_LIGHT_PENCIL) continue;
-                if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
-                rc = ohm_light_face_powers(en, emu, ar, channels, net, &lights[l], eta,
-                                           mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v, occ, err);
-            }
-        }
-        sol->t_source += ohm_now() - t0;
-        if (rc) goto done;
+    if (3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels > face_cache_cap) return OHM_OK;
+    fp->cached = 1;
+    for (int c = 0; c < channels && fp->cached; ++c) {
+        fp->enter[c] = calloc(nf * (size_t)frames, sizeof(double));
+        fp->arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
+        fp->enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
+        if (!fp->enter[c] || !fp->arrive[c] || !fp->enter_mu[c]) fp->cached = 0; /* trace per channel */
     }
+    double t0 = ohm_now();
+    double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
+    const double *eta_v = mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v;
+    int rc = OHM_OK;
+    for (int fr = 0; fr < frames && fp->cached && !rc; ++fr) {
+        double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
+        for (int c = 0; c < channels; ++c) {
+            en[c] = fp->enter[c] + (size_t)fr * nf;
+            emu[c] = fp->enter_mu[c] + (size_t)fr * nf;
+            ar[c] = fp->arrive[c] + (size_t)fr * nf;
+        }
+        for (size_t l = 0; l < nlights && !rc; ++l) {
+            if (lights[l].type == OHM_LIGHT_PENCIL) continue;
+            if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
+            rc = ohm_light_face_powers(en, emu, ar, channels, &sol->net, &lights[l], eta, eta_v, s->occ, err);
+        }
+    }
+    sol->t_source += ohm_now() - t0;
+    return rc;
+}
 
-    /* Group channels by medium: each distinct medium is assembled and set up
-     * once (one factorization, or one preconditioner), and all its channels'
-     * frames are solved with it.  Grey materials with grey lights have one
-     * channel. */
-    int cls[OHM_MAX_CHANNELS];
+/* The hybrid (solve.h, mc.handoff) applies to optical media under the
+ * Fresnel boundary, every cell kept. */
+static int hybrid_applies(const ohm_solver *s, ohm_error *err)
+{
+    const ohm_solve_params *params = &s->params;
+    if (s->mat.kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
+    if (params->boundary != OHM_BOUNDARY_ROBIN)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
+                        ohm_boundary_name(params->boundary));
+    if (s->sol.band_active)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
+    return OHM_OK;
+}
+
+/* What one solve call allocates: the right-hand sides of a batch, and the
+ * bookkeeping of frames whose light did not change. */
+typedef struct batch_work {
+    size_t batch;     /* frames per batch                                  */
+    double *B;        /* n x batch                                         */
+    size_t *col_of;   /* batch column -> distinct column                   */
+    double *prev_b;   /* the last frame's right-hand side, for a later batch */
+    hybrid_part hy;
+    face_powers fp;
+} batch_work;
+
+static void batch_work_free(batch_work *w)
+{
+    free(w->B);
+    free(w->col_of);
+    free(w->prev_b);
+    hybrid_free(&w->hy);
+    face_powers_free(&w->fp);
+}
+
+static int batch_work_alloc(batch_work *w, const ohm_solver *s, int hybrid, ohm_error *err)
+{
+    const ohm_solution *sol = &s->sol;
+    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
+    /* Frames per batch: B and X together within the memory cap (X, the
+     * solution, is no array of its own: each batch is solved in place in
+     * its frames' columns of sol->fluence, -8 B per cell and column); the
+     * hybrid keeps its transport part's fluence and faces per column too. */
+    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
+    double per_column = hybrid ? 3.0 * (double)n + (double)nf : 2.0 * (double)n;
+    w->batch = (size_t)(cap / (sizeof(double) * per_column));
+    if (w->batch < 1) w->batch = 1;
+    if (w->batch > frames) w->batch = frames;
+    w->B = malloc((n ? n : 1) * w->batch * sizeof *w->B);
+    w->col_of = malloc(w->batch * sizeof *w->col_of);
+    w->prev_b = w->batch < frames ? malloc((n ? n : 1) * sizeof *w->prev_b) : NULL;
+    if (!w->B || !w->col_of || (w->batch < frames && !w->prev_b))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", w->batch, n);
+    return hybrid ? hybrid_alloc(&w->hy, n, nf, w->batch, err) : OHM_OK;
+}
+
+/* Every frame of channel c solved with medium k's setup, batch by batch:
+ * sources, distinct columns, the backend, exact conservation, booking, and
+ * what is added after the solve (the hybrid's part, the unscattered beam). */
+static int solve_channel(ohm_solver *s, batch_work *w, int c, int k, int warm_from, const ohm_light *lights,
+                         size_t nlights, int hybrid, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    const ohm_solve_params *params = &s->params;
+    medium_slot *m = &s->slot[k];
+    ohm_channel_medium med;
+    medium_for(&med, &s->mat, params, k);
+    size_t n = (size_t)sol->n, frames = (size_t)sol->frames;
+    ohm_backend_report *rep = &s->rep;
+    int rc = OHM_OK;
+    for (size_t f0 = 0; f0 < frames && !rc; f0 += w->batch) {
+        size_t nb = frames - f0 < w->batch ? frames - f0 : w->batch;
+        double t0 = ohm_now();
+        const face_powers *fp = &w->fp;
+        rc = hybrid ? hybrid_sources(sol, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights, params, s->occ, err)
+                    : fill_sources(sol, w->B, f0, nb, c, &med, lights, nlights, params, fp->cached ? fp->enter : NULL,
+                                   fp->enter_mu, fp->cached ? fp->arrive : NULL, s->occ, err);
+        sol->t_source += ohm_now() - t0;
+        if (rc) break;
+        double *X = sol->fluence[c] + f0 * n;
+        /* (the hybrid and fluence=total add to each frame after the solve: a
+         * frame is not taken whole from the batch before, whose fluence
+         * already holds that part) */
+        size_t nu = distinct_columns(sol, w->B, w->col_of, nb,
+                                     f0 > 0 && !hybrid && !params->total_fluence ? w->prev_b : NULL, n);
+        warm_start(X, sol, f0, c, warm_from, n);
+        scale_unknowns(X, 1, n, &med, 0);
+        t0 = ohm_now();
+        double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
+        double berr = 0;
+        if (nu > 0) rc = s->backend->solve(m->state, m->A, w->B, X, nu, &berr, rep, err);
+        if (!rc && nu > 0) rc = conserve_exactly(sol, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
+        scale_unknowns(X, nu, n, &med, 1);
+        /* a backend that set up inside solve (auto switching) books that as
+         * analysis / factor / preconditioner, not as solve */
+        sol->t_solve += ohm_now() - t0 - (rep->t_analyze + rep->t_factor + rep->t_precond - t_setups);
+        if (rc) break;
+        if (berr > sol->residual) sol->residual = berr;
+        sol->solves += (int64_t)nu;
+        expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
+        book_power(sol, X, w->B, m->ga, m->gb, f0, nb, c);
+        if (hybrid) hybrid_add(sol, X, &w->hy, f0, nb, c);
+        else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
+            rc = add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
+    }
+    return rc;
+}
+
+/* The diffusion solve of every channel: channels grouped by medium, each
+ * distinct medium assembled and set up once (one factorization, or one
+ * preconditioner) and all its channels' frames solved with it.  Grey
+ * materials with grey lights have one channel. */
+static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    const ohm_solve_params *params = &s->params;
+    const int hybrid = params->mc.handoff > 0 && !params->custom_source;
+    int rc = hybrid ? hybrid_applies(s, err) : OHM_OK;
+    if (rc) return rc;
+    batch_work w;
+    memset(&w, 0, sizeof w);
+    rc = batch_work_alloc(&w, s, hybrid, err);
+    double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
+    if (!rc && !params->custom_source && !hybrid) rc = face_powers_trace(&w.fp, s, lights, nlights, cap, err);
+    int channels = sol->channels, cls[OHM_MAX_CHANNELS], nclasses = 0;
     for (int c = 0; c < channels; ++c) {
         cls[c] = c;
         for (int e = 0; e < c; ++e)
-            if (same_medium(mat, params, c, e)) {
+            if (same_medium(&s->mat, params, c, e)) {
                 cls[c] = cls[e];
                 break;
             }
+        nclasses += cls[c] == c;
     }
-    int nclasses = 0;
-    for (int c = 0; c < channels; ++c) nclasses += cls[c] == c;
     ohm_backend_config bcfg = {.ordering = params->ordering,
                                .tol = params->cg_tol,
                                .petsc_options = params->petsc_options,
                                .max_memory = params->max_memory,
-                               .batch = batch,
-                               .columns = (double)frames * (double)channels,
+                               .batch = w.batch,
+                               .columns = (double)sol->frames * (double)channels,
                                .materials = nclasses,
-                               .log = log};
-    backend = ohm_backend_find(params->solver ? params->solver : "direct");
-    if (!backend) {
-        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", params->solver);
-        goto done;
-    }
-    rc = backend->create(&bstate, &bcfg, err);
-    if (rc) goto done;
-    ohm_backend_report rep;
-    memset(&rep, 0, sizeof rep);
-    snprintf(rep.reason, sizeof rep.reason, "asked for");
+                               .log = s->log};
     int solved[OHM_MAX_CHANNELS] = {0};
     for (int k = 0; k < channels && !rc; ++k) {
         if (cls[k] != k) continue; /* not the first channel of its class */
-        ohm_channel_medium med;
-        medium_for(&med, mat, params, k);
-        t0 = ohm_now();
-        /* the first class allocates A, later ones refill it (same pattern):
-         * the backend's setup below sees the new values */
-        rc = A ? ohm_network_assemble_into(A, ga, gb, net, &med, params->boundary, err)
-               : ohm_network_assemble(&A, ga, gb, net, &med, params->boundary, &cc, err);
-        sol->t_assemble += ohm_now() - t0;
-        if (!rc) rc = backend->setup(bstate, A, &rep, err);
+        rc = slot_acquire(s, k, &bcfg, err);
         for (int c = k; c < channels && !rc; ++c) {
             if (cls[c] != k) continue;
             /* warm start for iterative backends: this frame of a channel
@@ -913,62 +1084,54 @@ int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material 
             int warm_from = -1;
             for (int q = 0; q < channels; ++q)
                 if (solved[q]) warm_from = q;
-            for (size_t f0 = 0; f0 < (size_t)frames && !rc; f0 += batch) {
-                size_t nb = (size_t)frames - f0 < batch ? (size_t)frames - f0 : batch;
-                t0 = ohm_now();
-                rc = hybrid ? hybrid_sources(sol, B, &hy, f0, nb, c, &med, mat, lights, nlights, params, occ, err)
-                            : fill_sources(sol, B, f0, nb, c, &med, lights, nlights, params, cached ? fp_enter : NULL,
-                                           fp_enter_mu, cached ? fp_arrive : NULL, occ, err);
-                sol->t_source += ohm_now() - t0;
-                if (rc) break;
-                double *X = sol->fluence[c] + f0 * (size_t)n;
-                /* (the hybrid and fluence=total add to each frame after the
-                 * solve: a frame is not taken whole from the batch before,
-                 * whose fluence already holds that part) */
-                size_t nu = distinct_columns(sol, B, col_of, nb,
-                                             f0 > 0 && !hybrid && !params->total_fluence ? prev_b : NULL, (size_t)n);
-                warm_start(X, sol, f0, c, warm_from, (size_t)n);
-                scale_unknowns(X, 1, (size_t)n, &med, 0);
-                t0 = ohm_now();
-                double t_setups = rep.t_analyze + rep.t_factor + rep.t_precond;
-                double berr = 0;
-                if (nu > 0) rc = backend->solve(bstate, A, B, X, nu, &berr, &rep, err);
-                if (!rc && nu > 0) rc = conserve_exactly(sol, X, B, nu, ga, gb, A, &med, &berr, err);
-                scale_unknowns(X, nu, (size_t)n, &med, 1);
-                /* a backend that set up inside solve (auto switching) books
-                 * that as analysis / factor / preconditioner, not as solve */
-                sol->t_solve += ohm_now() - t0 - (rep.t_analyze + rep.t_factor + rep.t_precond - t_setups);
-                if (rc) break;
-                if (berr > sol->residual) sol->residual = berr;
-                sol->solves += (int64_t)nu;
-                expand_columns(X, B, sol, col_of, nb, f0, c, prev_b, (size_t)n);
-                book_power(sol, X, B, ga, gb, f0, nb, c);
-                if (hybrid) hybrid_add(sol, X, &hy, f0, nb, c);
-                else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
-                    rc = add_unscattered(sol, X, f0, nb, c, &med, mat, lights, nlights, occ, err);
-            }
+            rc = solve_channel(s, &w, c, k, warm_from, lights, nlights, hybrid, err);
             solved[c] = 1;
         }
     }
-    report_backend(sol, &rep);
+    report_backend(sol, &s->rep);
+    batch_work_free(&w);
+    return rc;
+}
 
-done:
-    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(fp_enter[c]);
-        free(fp_enter_mu[c]);
-        free(fp_arrive[c]);
+int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    const ohm_solve_params *params = &s->params;
+    solution_reset(sol, &s->rep);
+    if (nlights == 0 && !params->custom_source)
+        return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
+    int channels = s->mat.channels, frames = 1;
+    for (size_t l = 0; l < nlights && lights; ++l) {
+        if (lights[l].channels > channels) channels = lights[l].channels;
+        if (lights[l].frame > frames) frames = lights[l].frame;
     }
-    ohm_occluder_free(occ);
-    hybrid_free(&hy);
-    if (backend) backend->destroy(bstate);
-    free(col_of);
-    free(prev_b);
-    cholmod_l_free_sparse(&A, &cc);
-    cholmod_l_finish(&cc);
-    free(B);
-    free(ga);
-    free(gb);
-    if (rc) ohm_solution_free(sol);
+    sol->channels = channels;
+    sol->frames = frames;
+    int rc = alloc_solution(sol, err);
+    if (rc) return rc;
+    if (!s->backend) return solve_mc(sol, &s->mat, lights, nlights, params, s->occ, err);
+    rc = solve_diffusion(s, lights, nlights, err);
+    if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
+        for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
+    return rc;
+}
+
+const ohm_solution *ohm_solver_solution(const ohm_solver *s)
+{
+    return &s->sol;
+}
+
+int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
+              size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err)
+{
+    memset(sol, 0, sizeof *sol);
+    ohm_solver *s = NULL;
+    int rc = ohm_solver_create(&s, grid, mat, params, 0, log, err);
+    if (!rc) rc = ohm_solver_solve(s, lights, nlights, err);
+    if (!rc) { /* the solution moves out; the solver's setup goes */
+        *sol = s->sol;
+        memset(&s->sol, 0, sizeof s->sol);
+    }
+    ohm_solver_free(s);
     return rc;
 }

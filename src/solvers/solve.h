@@ -137,10 +137,38 @@ typedef struct ohm_solution {
     double power_out_channel[OHM_MAX_CHANNELS], power_in_channel[OHM_MAX_CHANNELS];
 } ohm_solution;
 
+/* One solve from scratch: a solver with keep = 0, its solution moved into
+ * *sol (freed with ohm_solution_free). */
 int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,
               size_t nlights, const ohm_solve_params *params, const ohm_log *log, ohm_error *err);
 
 void ohm_solution_free(ohm_solution *sol);
+
+/* A solver: the network, media and occluder of one grid and material, and
+ * (keep = 1) every distinct channel material's assembled matrix and set-up
+ * backend kept between solves, so a change of light never sets up again —
+ * the paper's relighting (a factor-once direct solve: two triangular solves
+ * per light).  The grid, the material's per-cell arrays and every pointer in
+ * params must outlive the solver (it keeps params; give_media arrays are
+ * taken as by ohm_solve, whether create succeeds or fails).  keep = 0 sets
+ * up each medium in turn and releases it after one solve: ohm_solve's
+ * memory. */
+typedef struct ohm_solver ohm_solver;
+
+int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_material *mat,
+                      const ohm_solve_params *params, int keep, const ohm_log *log, ohm_error *err);
+
+/* Solve for these lights (frames as for ohm_solve), replacing the solver's
+ * solution: its results and per-solve statistics are this call's, its setup
+ * statistics (factors, analyses, setup times) summed over the solver's life.
+ * After a failure the solution holds no valid result until the next solve
+ * succeeds. */
+int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err);
+
+/* The latest solve's solution, owned by the solver. */
+const ohm_solution *ohm_solver_solution(const ohm_solver *s);
+
+void ohm_solver_free(ohm_solver *s); /* NULL is fine */
 
 /* Every cell's exitance in one channel and frame, into out[n]: the power
  * leaving through its boundary faces per unit area, the mean of their

@@ -564,8 +564,8 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     ohm_network net;
     int rc = ohm_network_build(&net, g, NULL, err);
     if (rc) return rc;
-    ohm_solver s;
-    rc = ohm_solver_start(&s, err);
+    ohm_cholesky s;
+    rc = ohm_cholesky_start(&s, err);
     if (rc) {
         ohm_network_free(&net);
         return rc;
@@ -577,7 +577,7 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     med.eta = mat->eta;
     cholmod_sparse *A = NULL;
     rc = ohm_network_assemble(&A, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &s.cc, err);
-    if (!rc) rc = ohm_solver_analyze(&s, A, o->ordering, err);
+    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, err);
     if (!rc) {
         const cholmod_factor *F = s.symbolic;
         plan->nnz_L = s.nnz_L;
@@ -601,7 +601,7 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
         plan->bytes = plan->factor_bytes + solution + rhs + network;
     }
     cholmod_l_free_sparse(&A, &s.cc);
-    ohm_solver_finish(&s);
+    ohm_cholesky_finish(&s);
     ohm_network_free(&net);
     return rc;
 }
