@@ -148,7 +148,7 @@ int main(void)
     CHECK_MSG(growth < 0.8, "iterations grow as h^-%.2f", growth);
 
     /* --- the half-space reference, met equally by both ------------------------ */
-    const ohm_log quiet = {NULL, 0};
+    const ohm_log quiet = {.verbosity = 0};
     ohm_halfspace_result rd, rc;
     CHECK(ohm_halfspace_accuracy(&rd, 0.5, 0, &quiet, &err) == 0);
     CHECK(ohm_halfspace_accuracy(&rc, 0.5, 1, &quiet, &err) == 0);

@@ -40,7 +40,7 @@
 #include "solvers/solve.h"
 #include "input/transfer.h"
 
-static const ohm_log quiet = {NULL, 0};
+static const ohm_log quiet = {.verbosity = 0};
 
 static int make_box(ohm_voxel_grid *g, int nx, int ny, int nz, double h)
 {

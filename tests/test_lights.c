@@ -23,7 +23,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
-static const ohm_log quiet = {NULL, 0};
+static const ohm_log quiet = {.verbosity = 0};
 
 static int load_voxelize(ohm_mesh *m, ohm_voxel_grid *g, ohm_voxelize_report *rep, const char *path, double size,
                          int dim)

@@ -23,7 +23,7 @@ static void test_published(void)
 {
     ohm_validation v;
     memset(&v, 0, sizeof v);
-    ohm_log quiet = {NULL, 0};
+    ohm_log quiet = {.verbosity = 0};
     ohm_error err = {0};
     CHECK(ohm_validate_mc(&v, 100000, 7, 0, &quiet, &err) == 0);
     ohm_validation_print(stdout, &v);
@@ -47,7 +47,7 @@ static int solve_box(ohm_solution *sol, ohm_voxel_grid *g, const char *solver, u
     p.solver = solver;
     p.total_fluence = total;
     p.mc = (ohm_mc_params){.photons = 32000, .seed = seed, .threads = 2, .handoff = handoff};
-    ohm_log quiet = {NULL, 0};
+    ohm_log quiet = {.verbosity = 0};
     int rc = ohm_solve(sol, g, &m, &l, 1, &p, &quiet, &err);
     if (rc) fprintf(stderr, "ohm_solve: %s\n", err.msg);
     return rc;
@@ -149,7 +149,7 @@ static int slab_run(ohm_solution *sol, ohm_voxel_grid *g, int per_cell, double *
     p.solver = "mc";
     p.g_v = per_cell ? gv : NULL;
     p.mc = (ohm_mc_params){.photons = 100000, .seed = 9, .threads = 2};
-    ohm_log quiet = {NULL, 0};
+    ohm_log quiet = {.verbosity = 0};
     int rc = ohm_solve(sol, g, &m, &l, 1, &p, &quiet, &err);
     if (rc) fprintf(stderr, "ohm_solve: %s\n", err.msg);
     free(gv);
@@ -198,7 +198,7 @@ static void test_total_repeated_frames(void)
     p.total_fluence = 1;
     p.max_rhs_bytes = 1; /* one frame per batch */
     ohm_solution s;
-    ohm_log quiet = {NULL, 0};
+    ohm_log quiet = {.verbosity = 0};
     CHECK(ohm_solve(&s, &g, &m, l, 2, &p, &quiet, &err) == 0);
     CHECK(s.frames == 2);
     size_t n = (size_t)s.n;

@@ -9,7 +9,7 @@
 #include "physics/network.h"
 #include "solvers/solve.h"
 
-static const ohm_log quiet = {NULL, 0};
+static const ohm_log quiet = {.verbosity = 0};
 
 static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double *sa, const double *ss, double eta)
 {

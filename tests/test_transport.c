@@ -20,7 +20,7 @@ int main(void)
     cfg.photons = 200000;
     ohm_validation v;
     memset(&v, 0, sizeof v);
-    ohm_log log = {NULL, 0};
+    ohm_log log = {.verbosity = 0};
     ohm_error err = {0};
     CHECK(ohm_validate_transport(&v, &cfg, &log, &err) == 0);
     ohm_validation_print(stdout, &v);

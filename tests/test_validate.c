@@ -8,7 +8,7 @@
 
 int main(void)
 {
-    ohm_log quiet = {NULL, 0};
+    ohm_log quiet = {.verbosity = 0};
     ohm_validation v;
     memset(&v, 0, sizeof v);
     ohm_error err;

@@ -8,7 +8,7 @@
 #include "input/mesh.h"
 #include "grid/voxelize.h"
 
-static const ohm_log quiet = {NULL, 0};
+static const ohm_log quiet = {.verbosity = 0};
 
 static int load(ohm_mesh *m, const char *path)
 {

@@ -5,26 +5,34 @@
 
 static FILE *log_stream(const ohm_log *log) { return (log && log->stream) ? log->stream : stderr; }
 
+static void log_emit(const ohm_log *log, int level, const char *fmt, va_list ap)
+{
+    if (log && log->message) {
+        char text[2048];
+        vsnprintf(text, sizeof text, fmt, ap);
+        log->message(log->user, level, text);
+        return;
+    }
+    FILE *f = log_stream(log);
+    fputs(level == OHM_LOG_WARNING ? "ohm: warning: " : "ohm: ", f);
+    vfprintf(f, fmt, ap);
+    fputc('\n', f);
+}
+
 void ohm_log_info(const ohm_log *log, const char *fmt, ...)
 {
     if (log && log->verbosity < 1) return;
-    FILE *f = log_stream(log);
     va_list ap;
     va_start(ap, fmt);
-    fputs("ohm: ", f);
-    vfprintf(f, fmt, ap);
-    fputc('\n', f);
+    log_emit(log, OHM_LOG_INFO, fmt, ap);
     va_end(ap);
 }
 
 void ohm_log_warn(const ohm_log *log, const char *fmt, ...)
 {
-    FILE *f = log_stream(log);
     va_list ap;
     va_start(ap, fmt);
-    fputs("ohm: warning: ", f);
-    vfprintf(f, fmt, ap);
-    fputc('\n', f);
+    log_emit(log, OHM_LOG_WARNING, fmt, ap);
     va_end(ap);
 }
 
@@ -45,6 +53,10 @@ void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what)
 
 void ohm_progress_update(ohm_progress *p, double fraction)
 {
+    if (p && p->log && p->log->progress) {
+        p->log->progress(p->log->user, p->what, fraction);
+        return;
+    }
     if (!p || (p->log && p->log->verbosity < 1)) return;
     double t = ohm_now();
     if (t - p->t_begin < 1.0 || t - p->t_last < 1.0) return;
@@ -55,6 +67,10 @@ void ohm_progress_update(ohm_progress *p, double fraction)
 
 void ohm_progress_end(ohm_progress *p)
 {
+    if (p && p->log && p->log->progress) {
+        p->log->progress(p->log->user, p->what, 1.0);
+        return;
+    }
     if (!p || !p->printed) return;
     fprintf(log_stream(p->log), "ohm: %s: done (%.1f s)\n", p->what, ohm_now() - p->t_begin);
 }

@@ -1,16 +1,26 @@
-/* log.h — messages and progress on stderr (data goes to stdout or files).
+/* log.h — messages and progress on stderr (data goes to stdout or files),
+ * or to the caller's callbacks (the public API's context: include/ohm.h).
  *
  * A run owns one ohm_log (no global logger).  Progress lines appear only for a
  * step that has already taken more than a second, at most once a second, so
- * short runs stay quiet and long ones show they are alive. */
+ * short runs stay quiet and long ones show they are alive; a progress
+ * callback is told every update (it decides how often to redraw). */
 #ifndef OHM_LOG_H
 #define OHM_LOG_H
 
 #include <stdio.h>
 
+enum { OHM_LOG_WARNING = 1, OHM_LOG_INFO = 2 }; /* a message's level */
+
 typedef struct ohm_log {
     FILE *stream;    /* where messages go; NULL = stderr                  */
     int verbosity;   /* 0 errors and warnings only, 1 normal, 2 verbose    */
+    /* When set, messages go here instead (one line, no "ohm: " prefix and
+     * no newline), and progress: what, the fraction done in [0, 1] (1 at
+     * the end). */
+    void (*message)(void *user, int level, const char *text);
+    void (*progress)(void *user, const char *what, double fraction);
+    void *user;
 } ohm_log;
 
 void ohm_log_info(const ohm_log *log, const char *fmt, ...)

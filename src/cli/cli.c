@@ -98,7 +98,7 @@ int ohm_cli_main(int argc, char **argv)
     if (strcmp(cmd, "validate") == 0) {
         /* the solver against exact references; the table goes to stdout.
          * `ohm validate figure1 FILE.csv`: the paper's Figure 1 profiles. */
-        ohm_log log = {NULL, verbosity > 1 ? 1 : 0};
+        ohm_log log = {.verbosity = verbosity > 1 ? 1 : 0};
         ohm_validation v;
         memset(&v, 0, sizeof v);
         if (first + 1 < argc && strcmp(argv[first + 1], "figure1") == 0) {

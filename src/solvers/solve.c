@@ -720,7 +720,10 @@ typedef struct medium_slot {
 
 struct ohm_solver {
     ohm_solution sol;            /* topology, media, statistics; then results */
-    ohm_solve_params params;     /* the caller's, with the band's arrays       */
+    ohm_solve_params params;     /* the caller's, with the band's arrays and
+                                    the solver's own copies of its strings    */
+    char solver_name[16], ordering[16];
+    char *petsc_options;
     ohm_material mat;
     const ohm_voxel_grid *grid;
     const ohm_log *log;
@@ -749,6 +752,7 @@ void ohm_solver_free(ohm_solver *s)
     for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
     if (s->cc_started) cholmod_l_finish(&s->cc);
     ohm_occluder_free(s->occ);
+    free(s->petsc_options);
     ohm_solution_free(&s->sol);
     free(s);
 }
@@ -764,6 +768,12 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     /* per-cell media compacted to the band's unknowns (when there is one) */
     double *compact[2 * OHM_MAX_CHANNELS] = {NULL};
     rc = setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
+    snprintf(s->solver_name, sizeof s->solver_name, "%s", params->solver ? params->solver : "direct");
+    snprintf(s->ordering, sizeof s->ordering, "%s", params->ordering ? params->ordering : "metis");
+    s->params.solver = s->solver_name;
+    s->params.ordering = s->ordering;
+    if (params->petsc_options && !(s->params.petsc_options = s->petsc_options = strdup(params->petsc_options)))
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     if (!rc) rc = ohm_network_build_band(&sol->net, s->grid, s->params.mirrors, sol->band_active, err);
     if (!rc) {
         sol->n = sol->net.n;
@@ -780,7 +790,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    const char *name = s->params.solver ? s->params.solver : "direct";
+    const char *name = s->params.solver;
     if (strcmp(name, "mc") == 0) return OHM_OK;
     s->backend = ohm_backend_find(name);
     if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
@@ -1119,6 +1129,11 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 const ohm_solution *ohm_solver_solution(const ohm_solver *s)
 {
     return &s->sol;
+}
+
+const ohm_solve_params *ohm_solver_params(const ohm_solver *s)
+{
+    return &s->params;
 }
 
 int ohm_solve(ohm_solution *sol, const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_light *lights,

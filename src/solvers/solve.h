@@ -148,9 +148,10 @@ void ohm_solution_free(ohm_solution *sol);
  * (keep = 1) every distinct channel material's assembled matrix and set-up
  * backend kept between solves, so a change of light never sets up again —
  * the paper's relighting (a factor-once direct solve: two triangular solves
- * per light).  The grid, the material's per-cell arrays and every pointer in
- * params must outlive the solver (it keeps params; give_media arrays are
- * taken as by ohm_solve, whether create succeeds or fails).  keep = 0 sets
+ * per light).  The grid and every array and object params points to must
+ * outlive the solver (it keeps a copy of params, and copies of its strings;
+ * give_media arrays are taken as by ohm_solve, whether create succeeds or
+ * fails).  keep = 0 sets
  * up each medium in turn and releases it after one solve: ohm_solve's
  * memory. */
 typedef struct ohm_solver ohm_solver;
@@ -167,6 +168,10 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 
 /* The latest solve's solution, owned by the solver. */
 const ohm_solution *ohm_solver_solution(const ohm_solver *s);
+
+/* The parameters it solves with (the solver's copy: its strings and the
+ * band's compacted arrays are the solver's own). */
+const ohm_solve_params *ohm_solver_params(const ohm_solver *s);
 
 void ohm_solver_free(ohm_solver *s); /* NULL is fine */
 

@@ -33,17 +33,29 @@ void ohm_state_free(ohm_state *s)
 {
     ohm_mesh_free(&s->mesh);
     ohm_voxel_grid_free(&s->grid);
-    ohm_solution_free(&s->solution);
+    ohm_solver_free(s->solver);
+    free(s->solver_eta);
+    free(s->solver_g);
     free(s->lights);
     ohm_scan_free(&s->scan);
     ohm_transfer_free(&s->transfer);
 }
 
-/* A new mesh, grid or material makes an earlier solution stale. */
+/* A new mesh, grid, volume or material makes an earlier solve stale, its
+ * setup with it. */
 static void drop_solution(ohm_state *s)
 {
-    ohm_solution_free(&s->solution);
+    ohm_solver_free(s->solver);
+    free(s->solver_eta);
+    free(s->solver_g);
+    s->solver = NULL;
+    s->solver_eta = s->solver_g = NULL;
     s->have_solution = 0;
+}
+
+const ohm_solution *ohm_state_solution(const ohm_state *s)
+{
+    return s->have_solution && s->solver ? ohm_solver_solution(s->solver) : NULL;
 }
 
 /* millimetres per unit */
@@ -536,7 +548,7 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         }
         s->lights[s->nlights++] = lk;
     }
-    drop_solution(s);
+    s->have_solution = 0; /* stale; the setup stays, for ohm_state_relight */
     return OHM_OK;
 }
 
@@ -602,6 +614,11 @@ static const ohm_opt_spec solve_opts[] = {
      "MB the solver may take, estimated before it starts: the factor from its symbolic analysis, cg and amg "
      "per cell (amg: per rank), mc its tallies (default: what the machine has available)",
      NULL, 1e-3, 1e12, 0},
+    {"keep", OHM_OPT_ENUM, "0",
+     "1: keep every channel material's factor (or preconditioner) after the solve, so that new lights are solved "
+     "without setting up again (the library's ohm_scene_relight, include/ohm.h); 0: release each once its "
+     "channels are solved",
+     "0|1", 0, 0, 0},
     {0}};
 
 /* Per-cell coefficients from the volume through the transfer function: the
@@ -703,79 +720,64 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
     return OHM_OK;
 }
 
-static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+/* -solve's options into p (strings point into inv). */
+static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
-    if (!s->have_grid)
-        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no voxel object: -read and -voxelize first", inv->where);
-    if (!s->have_material)
-        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no material: add -material (e.g. preset=marble) first",
-                        inv->where);
-    if (s->nlights == 0)
-        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no lights: add -light first", inv->where);
     const char *bname = ohm_opt_str(inv, "boundary"), *dname = ohm_opt_str(inv, "deposit");
     const char *fname = ohm_opt_str(inv, "fresnel");
-    ohm_solve_params p;
-    memset(&p, 0, sizeof p);
-    p.boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
-                 : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
-                                                   : OHM_BOUNDARY_ROBIN;
-    p.fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
-    p.deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
-                : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
-                                                : OHM_DEPOSIT_EXPONENTIAL;
-    p.ordering = ohm_opt_str(inv, "ordering");
-    p.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
-    p.solver = ohm_opt_str(inv, "solver");
-    if (ohm_opt_given(inv, "petsc_options")) p.petsc_options = ohm_opt_str(inv, "petsc_options");
-    p.cg_tol = ohm_opt_real(inv, "cg_tol");
-    p.mc.photons = (int64_t)ohm_opt_real(inv, "photons");
-    p.mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
-    p.mc.threads = (int)ohm_opt_int(inv, "threads");
-    p.mc.log = &s->log;
-    p.band_k = ohm_opt_real(inv, "depth_band");
+    memset(p, 0, sizeof *p);
+    p->boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
+                  : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
+                                                    : OHM_BOUNDARY_ROBIN;
+    p->fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
+    p->deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
+                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
+                                                 : OHM_DEPOSIT_EXPONENTIAL;
+    p->ordering = ohm_opt_str(inv, "ordering");
+    p->total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
+    p->solver = ohm_opt_str(inv, "solver");
+    if (ohm_opt_given(inv, "petsc_options")) p->petsc_options = ohm_opt_str(inv, "petsc_options");
+    p->cg_tol = ohm_opt_real(inv, "cg_tol");
+    p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
+    p->mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
+    p->mc.threads = (int)ohm_opt_int(inv, "threads");
+    p->mc.log = &s->log;
+    p->band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
         if (ohm_opt_given(inv, "depth_band"))
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give depth_band= or depth_band_error=, not both",
                             inv->where);
-        p.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
+        p->band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
     }
-    int rc_h = hybrid_option(s, inv, &p, &p.mc.handoff, err);
+    int rc_h = hybrid_option(s, inv, p, &p->mc.handoff, err);
     if (rc_h) return rc_h;
     const char *sh = ohm_opt_str(inv, "shadows");
-    p.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
-                : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
-                : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
-                : s->have_mesh            ? OHM_SHADOWS_MESH
-                                          : OHM_SHADOWS_GRID;
-    p.mesh = s->have_mesh ? &s->mesh : NULL;
-    p.orientation = s->mesh_flipped ? -1 : 1;
-    p.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
-    if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
-    drop_solution(s);
-    double t0 = ohm_now();
-    double *percell[2 * OHM_MAX_CHANNELS] = {NULL}, *eta_cell = NULL, *g_cell = NULL;
-    int rc = OHM_OK;
-    if (s->have_transfer) {
-        if (!s->have_scan)
-            return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
-                            inv->where);
-        rc = material_from_scan(s, &p, percell, &eta_cell, &g_cell, err);
-    }
-    if (!rc) {
-        rc = ohm_solve(&s->solution, &s->grid, &s->material, s->lights, s->nlights, &p, &s->log, err);
-        if (p.give_media) memset(percell, 0, sizeof percell); /* ohm_solve took them (solve.h) */
-    }
-    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
-    free(eta_cell);
-    free(g_cell);
-    if (rc) return rc;
-    s->have_solution = 1;
-    const ohm_solution *sol = &s->solution;
-    snprintf(s->solution_desc, sizeof s->solution_desc,
-             "boundary=%s fresnel=%s deposit=%s fluence=%s shadows=%s lights=%zu frames=%d solver=%s ordering=%s "
-             "band=%g hybrid=%d",
-             bname, fname, dname, ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows), s->nlights, sol->frames,
-             sol->solver, sol->ordering, p.band_k, p.mc.handoff);
+    p->shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
+                 : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
+                 : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
+                 : s->have_mesh            ? OHM_SHADOWS_MESH
+                                           : OHM_SHADOWS_GRID;
+    p->mesh = s->have_mesh ? &s->mesh : NULL;
+    p->orientation = s->mesh_flipped ? -1 : 1;
+    p->max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
+    if (ohm_opt_given(inv, "max_memory")) p->max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
+    return OHM_OK;
+}
+
+static const char *deposit_name(ohm_deposit d)
+{
+    return d == OHM_DEPOSIT_POINT ? "point" : d == OHM_DEPOSIT_SURFACE ? "surface" : "exponential";
+}
+
+/* The solver's latest solve logged and booked in the statistics (-solve and
+ * ohm_state_relight): t0 is when the solve began. */
+static void report_solve(ohm_state *s, double t0)
+{
+    const ohm_solve_params *pp = ohm_solver_params(s->solver);
+    const ohm_solve_params p = *pp;
+    const ohm_solution *sol = ohm_solver_solution(s->solver);
+    snprintf(s->solution_desc, sizeof s->solution_desc, "%s lights=%zu frames=%d solver=%s ordering=%s band=%g hybrid=%d",
+             s->solve_options, s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k, p.mc.handoff);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -831,10 +833,10 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.shadows));
     ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
     ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
-    ohm_stats_set_str(st, "boundary", bname);
-    ohm_stats_set_str(st, "deposit", dname);
-    ohm_stats_set_str(st, "fresnel", fname);
-    ohm_stats_set_str(st, "fluence", ohm_opt_str(inv, "fluence"));
+    ohm_stats_set_str(st, "boundary", ohm_boundary_name(p.boundary));
+    ohm_stats_set_str(st, "deposit", deposit_name(p.deposit));
+    ohm_stats_set_str(st, "fresnel", ohm_fresnel_name(p.fresnel));
+    ohm_stats_set_str(st, "fluence", p.total_fluence ? "total" : "diffuse");
     ohm_stats_set_str(st, "ordering", sol->ordering);
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
@@ -881,6 +883,60 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                           sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
         }
     }
+}
+
+static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    if (!s->have_grid)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no voxel object: -read and -voxelize first", inv->where);
+    if (!s->have_material)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no material: add -material (e.g. preset=marble) first",
+                        inv->where);
+    if (s->nlights == 0)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no lights: add -light first", inv->where);
+    ohm_solve_params p;
+    int rc = solve_params(&p, s, inv, err);
+    if (rc) return rc;
+    drop_solution(s);
+    snprintf(s->solve_options, sizeof s->solve_options, "boundary=%s fresnel=%s deposit=%s fluence=%s shadows=%s",
+             ohm_opt_str(inv, "boundary"), ohm_opt_str(inv, "fresnel"), ohm_opt_str(inv, "deposit"),
+             ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows));
+    double t0 = ohm_now();
+    double *percell[2 * OHM_MAX_CHANNELS] = {NULL};
+    if (s->have_transfer) {
+        if (!s->have_scan)
+            return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
+                            inv->where);
+        /* the index and anisotropy per cell stay the state's for the solver's life (solve.h) */
+        rc = material_from_scan(s, &p, percell, &s->solver_eta, &s->solver_g, err);
+    }
+    if (!rc) {
+        int keep = strcmp(ohm_opt_str(inv, "keep"), "1") == 0;
+        rc = ohm_solver_create(&s->solver, &s->grid, &s->material, &p, keep, &s->log, err);
+        if (p.give_media) memset(percell, 0, sizeof percell); /* the solver took them (solve.h) */
+    }
+    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
+    if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
+    if (rc) {
+        drop_solution(s);
+        return rc;
+    }
+    s->have_solution = 1;
+    report_solve(s, t0);
+    return OHM_OK;
+}
+
+int ohm_state_relight(ohm_state *s, ohm_error *err)
+{
+    if (!s->solver)
+        return ohm_fail(err, OHM_ERR_INVALID, "relight: nothing to relight: solve first (with keep=1 to keep its factor)");
+    if (s->nlights == 0) return ohm_fail(err, OHM_ERR_INVALID, "relight: no lights: add one first");
+    double t0 = ohm_now();
+    s->have_solution = 0;
+    int rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
+    if (rc) return rc;
+    s->have_solution = 1;
+    report_solve(s, t0);
     return OHM_OK;
 }
 
@@ -947,7 +1003,7 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     double t0 = ohm_now();
     ohm_vdb_provenance prov = {s->mesh_path, s->mesh_scale_mm, s->have_solution ? s->material.name : NULL,
                                s->have_solution ? s->solution_desc : NULL};
-    const ohm_solution *sol = s->have_solution ? &s->solution : NULL;
+    const ohm_solution *sol = ohm_state_solution(s);
     int frames = sol ? sol->frames : 1;
     int rc = OHM_OK;
     /* Several frames: a numbered sequence NAME_0001.vdb ... (Blender's volume

@@ -45,9 +45,9 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (!s->have_solution || !s->have_grid)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -export: nothing to export: run -solve first", inv->where);
     int frame = (int)ohm_opt_int(inv, "frame") - 1;
-    if (frame >= s->solution.frames)
+    if (frame >= ohm_state_solution(s)->frames)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -export frame=%d: the solution has %d frame(s)", inv->where,
-                        frame + 1, s->solution.frames);
+                        frame + 1, ohm_state_solution(s)->frames);
     double t0 = ohm_now();
     int rc;
     if (want_ply) {
@@ -55,7 +55,7 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         if (!s->have_mesh)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -export ply=: no mesh to export", inv->where);
         double exposure = ohm_opt_given(inv, "exposure") ? ohm_opt_real(inv, "exposure") : 0, used = 0;
-        rc = ohm_export_ply(path, &s->mesh, &s->grid, &s->solution, frame, exposure, &used, err);
+        rc = ohm_export_ply(path, &s->mesh, &s->grid, ohm_state_solution(s), frame, exposure, &used, err);
         if (rc) return rc;
         ohm_log_info(&s->log, "wrote %s (%zu vertices with exitance, frame %d, exposure %.6g%s)", path,
                      s->mesh.nverts, frame + 1, used, ohm_opt_given(inv, "exposure") ? "" : ", auto");
@@ -68,10 +68,10 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         p.exitance = strcmp(ohm_opt_str(inv, "quantity"), "exitance") == 0;
         toward_light(s, frame, p.toward_light);
         ohm_df3_report rep;
-        rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, &s->solution, &p, &rep, err);
+        rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, ohm_state_solution(s), &p, &rep, err);
         if (rc) return rc;
         ohm_log_info(&s->log, "wrote %s and %d density file(s) from %s (%s, frame %d, scale %.6g per W/mm^2)",
-                     rep.pov, s->solution.channels, rep.first, p.exitance ? "exitance" : "fluence", frame + 1,
+                     rep.pov, ohm_state_solution(s)->channels, rep.first, p.exitance ? "exitance" : "fluence", frame + 1,
                      rep.scale);
         ohm_stats_set(&s->stats, "export_df3_scale", rep.scale);
     }

@@ -213,7 +213,7 @@ static void irradiance_at(const render_ctx *r, const double p[3], const double n
 static void lambert_albedo(const render_ctx *r, double albedo[3])
 {
     const ohm_state *s = r->s;
-    const ohm_solution *sol = &s->solution;
+    const ohm_solution *sol = ohm_state_solution(s);
     const ohm_mesh *m = &s->mesh;
     double out_power[3] = {0, 0, 0}, in_power[3] = {0, 0, 0};
     double h2 = s->grid.h * s->grid.h;
@@ -287,7 +287,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: no solution yet: put -solve before it", inv->where);
     if (!s->have_mesh || s->mesh.ntris == 0)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: needs the mesh the solution was computed on", inv->where);
-    const ohm_solution *sol = &s->solution;
+    const ohm_solution *sol = ohm_state_solution(s);
     int frame = (int)ohm_opt_int(inv, "frame");
     if (frame > sol->frames)
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -render frame=%d: the solution has %d frame(s)", inv->where, frame,

@@ -41,12 +41,25 @@ typedef struct ohm_state {
     ohm_light *lights;              /* every -light so far, in order           */
     size_t nlights;
 
-    int have_solution;              /* valid for the current grid and material */
-    ohm_solution solution;
-    char solution_desc[256];        /* boundary, deposit: for metadata         */
+    /* The latest -solve: its network, media and solution, and with keep=1
+     * every channel material's factor, for relighting (ohm_state_relight).
+     * A new mesh, grid, volume or material frees it; a new light only makes
+     * the solution stale (have_solution = 0). */
+    ohm_solver *solver;
+    double *solver_eta, *solver_g;  /* per-cell index and anisotropy it reads  */
+    int have_solution;              /* the solver's solution is for these lights */
+    char solve_options[160];        /* boundary=... fluence=...: for metadata  */
+    char solution_desc[320];        /* those, the lights and the solver        */
 } ohm_state;
 
 void ohm_state_init(ohm_state *s);
 void ohm_state_free(ohm_state *s);
+
+/* The current solution, or NULL when there is none (or it is stale). */
+const ohm_solution *ohm_state_solution(const ohm_state *s);
+
+/* Solve the state's lights again with the kept setup of the last -solve
+ * (keep=1: no factorization), as -solve would log and book them. */
+int ohm_state_relight(ohm_state *s, ohm_error *err);
 
 #endif

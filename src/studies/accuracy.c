@@ -360,7 +360,7 @@ static int solve_scene(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, 
                        const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver,
                        double band, int64_t photons, ohm_error *err)
 {
-    static const ohm_log quiet = {NULL, 0};
+    static const ohm_log quiet = {.verbosity = 0};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.boundary = OHM_BOUNDARY_ROBIN;
@@ -384,7 +384,7 @@ static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_vo
                               const ohm_mesh *mesh, const ohm_material *mat, const ohm_light *lights, size_t nlights,
                               int dim, int use_cg, double band, ohm_error *err)
 {
-    static const ohm_log quiet = {NULL, 0};
+    static const ohm_log quiet = {.verbosity = 0};
     ohm_voxelize_params vp;
     memset(&vp, 0, sizeof vp);
     vp.dim = dim;
@@ -708,7 +708,7 @@ static int run(const acc_options *o, const ohm_log *log, ohm_error *err)
     for (int i = 0; i < o->nslab && !rc; ++i) {
         acc_row *r;
         if ((rc = push(&rows, &n, &cap, &r, err))) break;
-        static const ohm_log quiet = {NULL, 0};
+        static const ohm_log quiet = {.verbosity = 0};
         ohm_halfspace_result hs;
         ohm_log_info(log, "accuracy: half-space at h = %g mm", o->slab_h[i]);
         rc = ohm_halfspace_accuracy(&hs, o->slab_h[i], 1, &quiet, err);
@@ -750,7 +750,7 @@ int ohm_accuracy_main(int argc, char **argv)
     ohm_error err;
     ohm_error_clear(&err);
     acc_options o;
-    const ohm_log log = {NULL, 1};
+    const ohm_log log = {.verbosity = 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
     return ohm_subcommand_exit(rc, &err, "accuracy failed");

@@ -466,7 +466,7 @@ static int distinct_channels(const ohm_material *mat)
 static int voxelize_fit(ohm_voxel_grid *g, double *t, int *flipped, const ohm_mesh *mesh, const int fit[3],
                         ohm_error *err)
 {
-    static const ohm_log quiet = {NULL, 0};
+    static const ohm_log quiet = {.verbosity = 0};
     ohm_voxelize_params vp;
     memset(&vp, 0, sizeof vp);
     memcpy(vp.fit, fit, sizeof vp.fit);
@@ -482,7 +482,7 @@ static int voxelize_fit(ohm_voxel_grid *g, double *t, int *flipped, const ohm_me
 static int solve_grid(bench_row *row, const ohm_voxel_grid *g, const ohm_mesh *mesh, const ohm_material *mat,
                       const bench_options *o, const ohm_log *log, ohm_error *err)
 {
-    static const ohm_log quiet = {NULL, 0};
+    static const ohm_log quiet = {.verbosity = 0};
     ohm_light *lights = calloc((size_t)o->frames, sizeof *lights);
     if (!lights) return ohm_fail(err, OHM_ERR_NOMEM, "bench: out of memory for %d lights", o->frames);
     for (int f = 0; f < o->frames; ++f) {
@@ -935,7 +935,7 @@ int ohm_bench_main(int argc, char **argv)
     ohm_error err;
     ohm_error_clear(&err);
     bench_options o;
-    const ohm_log log = {NULL, 1};
+    const ohm_log log = {.verbosity = 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
     return ohm_subcommand_exit(rc, &err, "bench failed");
