@@ -3,15 +3,18 @@
 by stage, and a file may include headers of its own stage or of an earlier
 one, never of a later one ("nothing below reaching up").  Includes of ohm's
 own headers name the folder ("grid/voxelize.h"); the C++ shims in wrappers/
-(ohm_vdb.h, ohm_oiio.h) and the generated ohm_version.h are below every stage.
-The public API (include/ohm.h) is above them all but the command line.
+(ohm_vdb.h, ohm_oiio.h), the generated ohm_version.h and the public
+vocabulary include/ohm/common.h (status codes) are below every stage.  The
+public API (include/ohm.h, implemented in src/api/) is above them all but the
+command line, and the command line is its client: src/cli/ includes ohm.h and
+nothing else of ohm's.
 Prints each offending include as FILE:LINE and exits 1."""
 import os
 import re
 import sys
 
 STAGES = ["base", "input", "grid", "physics", "solvers", "outputs", "studies", "steps", "api", "cli"]
-BELOW_ALL = {"ohm_vdb.h", "ohm_oiio.h", "ohm_version.h"}
+BELOW_ALL = {"ohm_vdb.h", "ohm_oiio.h", "ohm_version.h", "ohm/common.h"}
 
 root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 src = os.path.join(root, "src")
@@ -40,6 +43,9 @@ for stage in folders:
             checked += 1
             header = m.group(1)
             where = "src/%s/%s:%d" % (stage, name, lineno)
+            if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
+                bad.append('%s: #include "%s": the command line uses the public API (ohm.h) only' % (where, header))
+                continue
             if header in BELOW_ALL:
                 continue
             if header == "ohm.h":

@@ -54,7 +54,7 @@ void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what)
 void ohm_progress_update(ohm_progress *p, double fraction)
 {
     if (p && p->log && p->log->progress) {
-        p->log->progress(p->log->user, p->what, fraction);
+        p->log->progress(p->log->progress_user, p->what, fraction);
         return;
     }
     if (!p || (p->log && p->log->verbosity < 1)) return;
@@ -68,7 +68,7 @@ void ohm_progress_update(ohm_progress *p, double fraction)
 void ohm_progress_end(ohm_progress *p)
 {
     if (p && p->log && p->log->progress) {
-        p->log->progress(p->log->user, p->what, 1.0);
+        p->log->progress(p->log->progress_user, p->what, 1.0);
         return;
     }
     if (!p || !p->printed) return;

@@ -10,7 +10,7 @@
 
 #include <stdio.h>
 
-enum { OHM_LOG_WARNING = 1, OHM_LOG_INFO = 2 }; /* a message's level */
+#include "ohm/common.h" /* OHM_LOG_WARNING, OHM_LOG_INFO */
 
 typedef struct ohm_log {
     FILE *stream;    /* where messages go; NULL = stderr                  */
@@ -20,7 +20,7 @@ typedef struct ohm_log {
      * the end). */
     void (*message)(void *user, int level, const char *text);
     void (*progress)(void *user, const char *what, double fraction);
-    void *user;
+    void *user, *progress_user; /* passed to message and to progress */
 } ohm_log;
 
 void ohm_log_info(const ohm_log *log, const char *fmt, ...)

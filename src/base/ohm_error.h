@@ -11,20 +11,11 @@
 
 #include <stddef.h>
 
+#include "ohm/common.h" /* the status codes */
+
 #ifdef __cplusplus
 extern "C" {
 #endif
-
-enum {
-    OHM_OK = 0,
-    OHM_ERR_IO = -1,       /* a file could not be opened, read or written   */
-    OHM_ERR_PARSE = -2,    /* a file's contents are malformed               */
-    OHM_ERR_INVALID = -3,  /* a value is out of range / inconsistent        */
-    OHM_ERR_NOMEM = -4,    /* an allocation failed or would be too large    */
-    OHM_ERR_USAGE = -5,    /* bad action, option or value (exit code 2)     */
-    OHM_ERR_NUMERIC = -6,  /* singular matrix, residual too large, NaN      */
-    OHM_ERR_INTERNAL = -7  /* a library threw, or a bug                     */
-};
 
 #define OHM_ERROR_MSG_MAX 1024
 

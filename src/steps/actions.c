@@ -116,23 +116,30 @@ static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path
     ohm_scan scan;
     int rc = ohm_scan_read(&scan, path, &p, err);
     if (rc) return rc;
+    ohm_state_set_scan(s, &scan, path, t0);
+    return OHM_OK;
+}
+
+void ohm_state_set_scan(ohm_state *s, ohm_scan *scan_in, const char *name, double t0)
+{
+    ohm_scan scan = *scan_in;
+    memset(scan_in, 0, sizeof *scan_in);
     ohm_scan_free(&s->scan);
     s->scan = scan;
     s->have_scan = 1;
-    snprintf(s->scan_path, sizeof s->scan_path, "%s", path);
+    snprintf(s->scan_path, sizeof s->scan_path, "%s", name);
     drop_solution(s);
     double lo[3], hi[3];
     ohm_scan_bounds(&scan, lo, hi);
     double t = ohm_now() - t0;
-    ohm_log_info(&s->log, "read %s: %d x %d x %d voxels, values %.6g .. %.6g, %.4g x %.4g x %.4g mm, %.2f s", path,
+    ohm_log_info(&s->log, "read %s: %d x %d x %d voxels, values %.6g .. %.6g, %.4g x %.4g x %.4g mm, %.2f s", name,
                  scan.dims[0], scan.dims[1], scan.dims[2], scan.min, scan.max, hi[0] - lo[0], hi[1] - lo[1],
                  hi[2] - lo[2], t);
-    ohm_stats_set_str(&s->stats, "scan_file", path);
+    ohm_stats_set_str(&s->stats, "scan_file", name);
     ohm_stats_set_int(&s->stats, "scan_x", scan.dims[0]);
     ohm_stats_set_int(&s->stats, "scan_y", scan.dims[1]);
     ohm_stats_set_int(&s->stats, "scan_z", scan.dims[2]);
     ohm_stats_add(&s->stats, "t_read", t);
-    return OHM_OK;
 }
 
 static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
@@ -143,13 +150,6 @@ static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_mesh m;
     int rc = ohm_mesh_read(&m, path, err);
     if (rc) return rc;
-
-    ohm_mesh_topology topo;
-    rc = ohm_mesh_topology_compute(&topo, &m, err);
-    if (rc) {
-        ohm_mesh_free(&m);
-        return rc;
-    }
     double lo[3], hi[3];
     ohm_mesh_bounds(&m, lo, hi);
     double extent = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
@@ -162,7 +162,19 @@ static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         scale = ohm_opt_real(inv, "size") / extent;
     }
     ohm_mesh_scale(&m, scale);
+    return ohm_state_set_mesh(s, &m, path, scale, t0, err);
+}
 
+int ohm_state_set_mesh(ohm_state *s, ohm_mesh *m_in, const char *name, double scale, double t0, ohm_error *err)
+{
+    ohm_mesh m = *m_in;
+    memset(m_in, 0, sizeof *m_in);
+    ohm_mesh_topology topo;
+    int rc = ohm_mesh_topology_compute(&topo, &m, err);
+    if (rc) {
+        ohm_mesh_free(&m);
+        return rc;
+    }
     ohm_mesh_free(&s->mesh);
     drop_solution(s);
     ohm_voxel_grid_free(&s->grid); /* a new mesh makes the old grid stale */
@@ -170,21 +182,22 @@ static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->mesh = m;
     s->have_mesh = 1;
     s->mesh_scale_mm = scale;
-    snprintf(s->mesh_path, sizeof s->mesh_path, "%s", path);
+    snprintf(s->mesh_path, sizeof s->mesh_path, "%s", name);
 
+    double lo[3], hi[3];
+    ohm_mesh_bounds(&m, lo, hi);
     double t = ohm_now() - t0;
     ohm_log_info(&s->log, "read %s: %zu vertices, %zu triangles, %.4g x %.4g x %.4g mm (%.6g mm per unit), %.2f s",
-                 path, m.nverts, m.ntris, (hi[0] - lo[0]) * scale, (hi[1] - lo[1]) * scale, (hi[2] - lo[2]) * scale,
-                 scale, t);
+                 name, m.nverts, m.ntris, hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2], scale, t);
     if (topo.boundary_edges || topo.nonmanifold_edges || topo.misoriented_edges)
         ohm_log_warn(&s->log,
                      "%s is not closed: %zu open (boundary) edges, %zu non-manifold edges, %zu flipped edges in %zu "
                      "piece(s); the inside is decided by the generalized winding number, which closes small holes",
-                     path, topo.boundary_edges, topo.nonmanifold_edges, topo.misoriented_edges, topo.components);
+                     name, topo.boundary_edges, topo.nonmanifold_edges, topo.misoriented_edges, topo.components);
     if (topo.degenerate_tris) ohm_log_info(&s->log, "%s: %zu degenerate triangles (ignored by the inside test)",
-                                           path, topo.degenerate_tris);
+                                           name, topo.degenerate_tris);
 
-    ohm_stats_set_str(&s->stats, "mesh_file", path);
+    ohm_stats_set_str(&s->stats, "mesh_file", name);
     ohm_stats_set_int(&s->stats, "mesh_vertices", (long long)m.nverts);
     ohm_stats_set_int(&s->stats, "mesh_triangles", (long long)m.ntris);
     ohm_stats_set_int(&s->stats, "mesh_boundary_edges", (long long)topo.boundary_edges);
@@ -770,8 +783,9 @@ static const char *deposit_name(ohm_deposit d)
 }
 
 /* The solver's latest solve logged and booked in the statistics (-solve and
- * ohm_state_relight): t0 is when the solve began. */
-static void report_solve(ohm_state *s, double t0)
+ * ohm_state_relight): t0 is when the solve began; a relight does not repeat
+ * the notes about the grid and the boundary, which have not changed. */
+static void report_solve(ohm_state *s, double t0, int relit)
 {
     const ohm_solve_params *pp = ohm_solver_params(s->solver);
     const ohm_solve_params p = *pp;
@@ -798,7 +812,7 @@ static void report_solve(ohm_state *s, double t0)
                      "diffusion from there",
                      p.mc.handoff, (long long)sol->mc_photons, s->material.g, p.g_v ? " at the first point, per cell" : "",
                      (unsigned long long)p.mc.seed);
-    if (p.boundary == OHM_BOUNDARY_NEUMANN)
+    if (p.boundary == OHM_BOUNDARY_NEUMANN && !relit)
         ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
     if (sol->mode_corrections)
         ohm_log_info(&s->log,
@@ -810,7 +824,7 @@ static void report_solve(ohm_state *s, double t0)
                      (long long)sol->band_dropped);
     /* a grid coarser than the diffusion length cannot resolve the spread of
      * light (the error grows like (h sigma_tr)^p: docs/accuracy.md) */
-    if (s->material.kind != OHM_MATERIAL_RESISTANCE && !s->have_transfer)
+    if (s->material.kind != OHM_MATERIAL_RESISTANCE && !s->have_transfer && !relit)
         for (int c = 0; c < s->material.channels; ++c) {
             double sa = s->material.sigma_a[c], st = sa + s->material.sigma_s[c], str = sqrt(3.0 * sa * st);
             if (str * s->grid.h > 1.0)
@@ -922,7 +936,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         return rc;
     }
     s->have_solution = 1;
-    report_solve(s, t0);
+    report_solve(s, t0, 0);
     return OHM_OK;
 }
 
@@ -936,7 +950,7 @@ int ohm_state_relight(ohm_state *s, ohm_error *err)
     int rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
     if (rc) return rc;
     s->have_solution = 1;
-    report_solve(s, t0);
+    report_solve(s, t0, 1);
     return OHM_OK;
 }
 

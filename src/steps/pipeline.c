@@ -250,9 +250,22 @@ static int finish_action(const ohm_chain *c, ohm_error *err)
     return OHM_OK;
 }
 
-int ohm_chain_parse_args(ohm_chain *c, int argc, char **argv, ohm_error *err)
+/* A first word that is no action: a misspelled command of `ohm`, or an
+ * action without its '-'. */
+static int not_an_action(const char *t, ohm_error *err)
+{
+    static const char *const commands[] = {"help", "run", "version", "validate", "bench", "accuracy"};
+    if (ohm_action_find(t))
+        return ohm_fail(err, OHM_ERR_USAGE, "unknown command '%s'; actions start with '-': did you mean '-%s'?", t, t);
+    const char *s = ohm_suggest(t, commands, sizeof commands / sizeof *commands);
+    if (s) return ohm_fail(err, OHM_ERR_USAGE, "unknown command '%s'; did you mean '%s'? (see 'ohm help')", t, s);
+    return ohm_fail(err, OHM_ERR_USAGE, "unknown command '%s' (see 'ohm help')", t);
+}
+
+int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_error *err)
 {
     memset(c, 0, sizeof *c);
+    if (argc > 0 && argv[0][0] != '-') return not_an_action(argv[0], err);
     for (int i = 0; i < argc; ++i) {
         char where[64];
         snprintf(where, sizeof where, "argument %d", i + 1);

@@ -83,8 +83,9 @@ typedef struct ohm_chain {
 void ohm_chain_free(ohm_chain *c);
 
 /* Parse argv[0..argc) ("-action", "key=value", ...).  OHM_ERR_USAGE with a
- * message naming the token and suggesting the nearest valid name. */
-int ohm_chain_parse_args(ohm_chain *c, int argc, char **argv, ohm_error *err);
+ * message naming the token and suggesting the nearest valid name (a first
+ * word without '-': the nearest of `ohm`'s commands, or the action). */
+int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_error *err);
 
 /* Parse a pipeline file (or a buffer, for tests and fuzzing). */
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);

@@ -55,6 +55,14 @@ typedef struct ohm_state {
 void ohm_state_init(ohm_state *s);
 void ohm_state_free(ohm_state *s);
 
+/* Take *m (millimetres, `scale` mm per unit of its source) or *scan as the
+ * state's mesh or volume, as -read does with a file (logged, booked in the
+ * statistics, later stages dropped); `name` stands for the file in messages
+ * and metadata, t0 is when reading began.  *m / *scan is moved (zeroed),
+ * and freed when set_mesh fails. */
+int ohm_state_set_mesh(ohm_state *s, ohm_mesh *m, const char *name, double scale, double t0, ohm_error *err);
+void ohm_state_set_scan(ohm_state *s, ohm_scan *scan, const char *name, double t0);
+
 /* The current solution, or NULL when there is none (or it is stale). */
 const ohm_solution *ohm_state_solution(const ohm_state *s);
 

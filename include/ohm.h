@@ -1,0 +1,263 @@
+/* ohm.h — ohm's public C API: subsurface light scattering in voxel volumes.
+ *
+ * This header is the manual.  ohm turns a closed mesh (or a density volume
+ * from a CT/MRI scan) into a grid of voxel cells, gives them a material,
+ * lights them, and solves the diffusion of light inside as a resistor
+ * network whose matrix is factored once and reused for every light (Sharp &
+ * Machiraju, "Accelerating Subsurface Scattering Using Cholesky
+ * Factorization").  The results are fluence and exitance per cell, exitance
+ * per mesh vertex, the power balance, and files: .vdb volumes for Blender,
+ * PLY meshes, POV-Ray df3, preview images, JSON statistics.
+ *
+ * Objects (opaque handles, after Embree and libgit2):
+ *
+ *   ohm_context  what a caller's runs share: verbosity, the log and progress
+ *                callbacks.  A context may serve many scenes; it must outlive
+ *                them.  Use one context per thread, or serialise calls.
+ *   ohm_scene    one object and its light: the mesh or volume, the voxel
+ *                grid, the material, the lights, and the solver set up for
+ *                them (the factor, kept for relighting), plus the scene's
+ *                statistics.  Not thread-safe: one thread at a time.
+ *
+ * Conventions:
+ *   - Every call that can fail returns int: OHM_OK (0) or a negative
+ *     OHM_ERR_* (ohm/common.h).  The message of the calling thread's latest
+ *     failure is ohm_error_last(), which never returns NULL (libgit2's
+ *     git_error_last).  Messages name the file, line, action or option that
+ *     is wrong and what was expected.
+ *   - Output parameters come first; a handle's free function accepts NULL.
+ *   - No global state: everything lives in the context and the scene (the
+ *     last-error message is per thread).  No C++ exception crosses this API.
+ *   - Lengths are in millimetres, powers in watts, fluence and exitance in
+ *     W/mm^2.  Arrays over the grid are x fastest: cell (i, j, k) is at
+ *     i + dims[0] * (j + dims[1] * k), its centre at origin + voxel * (i, j, k).
+ *
+ * The steps of a scene are ohm's pipeline actions (`ohm help` lists them,
+ * `ohm help ACTION` gives every option): read, voxelize, material, light,
+ * solve, place, write, export, render, stats.  ohm_scene_run runs one with
+ * "key=value" options, exactly as the command line's `-ACTION key=value`;
+ * the typed calls below hand over and read back arrays.  A minimal program:
+ *
+ *     ohm_context *ctx = NULL;
+ *     ohm_scene *scene = NULL;
+ *     const char *read[] = {"file=bunny.obj", "size=50", NULL};
+ *     const char *vox[] = {"dim=64", NULL}, *mat[] = {"preset=marble", NULL};
+ *     const char *light[] = {"type=directional", "dir=0,-1,0", NULL};
+ *     if (ohm_context_new(&ctx) || ohm_scene_new(&scene, ctx) ||
+ *         ohm_scene_run(scene, "read", read) || ohm_scene_run(scene, "voxelize", vox) ||
+ *         ohm_scene_run(scene, "material", mat) || ohm_scene_add_light(scene, light) ||
+ *         ohm_scene_solve(scene, NULL))
+ *         fprintf(stderr, "%s\n", ohm_error_last());
+ *     ohm_scene_free(scene);
+ *     ohm_context_free(ctx);
+ *
+ * Relighting: ohm_scene_solve keeps the factor; ohm_scene_clear_lights,
+ * ohm_scene_add_light and ohm_scene_relight then solve new lights with two
+ * triangular solves each, never factoring again.
+ *
+ * Linking: pkg-config --cflags --libs ohm, or CMake's find_package(ohm)
+ * and target ohm::ohm. */
+#ifndef OHM_H
+#define OHM_H
+
+#include <stddef.h>
+#include <stdint.h>
+#include <stdio.h>
+
+#include "ohm/common.h"
+
+/* The version of this header; ohm_version() gives the library's. */
+#define OHM_VERSION_MAJOR 0
+#define OHM_VERSION_MINOR 2
+#define OHM_VERSION_PATCH 0
+
+#if defined(__GNUC__) || defined(__clang__)
+#define OHM_API __attribute__((visibility("default")))
+#else
+#define OHM_API
+#endif
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+/* ---- version and errors -------------------------------------------------- */
+
+/* "MAJOR.MINOR.PATCH" of the library linked; major, minor, patch (each may
+ * be NULL) get its numbers. */
+OHM_API const char *ohm_version(int *major, int *minor, int *patch);
+
+/* The message of this thread's latest failed call ("" when none failed);
+ * never NULL.  Valid until this thread's next failing call. */
+OHM_API const char *ohm_error_last(void);
+
+/* The status of this thread's latest failed call, OHM_OK when none. */
+OHM_API int ohm_error_last_code(void);
+
+/* ---- context ------------------------------------------------------------- */
+
+typedef struct ohm_context ohm_context;
+
+/* A message: level OHM_LOG_WARNING or OHM_LOG_INFO, one line of text with
+ * no trailing newline. */
+typedef void (*ohm_log_callback)(void *user, int level, const char *text);
+
+/* Progress of a long step: what it is ("voxelize", "solve", ...) and the
+ * fraction done, in [0, 1]; 1 when it ends.  Called from the thread that
+ * called into ohm; it should return quickly. */
+typedef void (*ohm_progress_callback)(void *user, const char *what, double fraction);
+
+OHM_API int ohm_context_new(ohm_context **out);
+OHM_API void ohm_context_free(ohm_context *ctx);
+
+/* 0: warnings only, 1: normal (the default), 2: verbose. */
+OHM_API void ohm_context_set_verbosity(ohm_context *ctx, int verbosity);
+
+/* Where messages go; fn NULL: stderr, as "ohm: TEXT" lines (the default). */
+OHM_API void ohm_context_set_log(ohm_context *ctx, ohm_log_callback fn, void *user);
+
+/* fn NULL: progress lines on stderr for steps longer than a second. */
+OHM_API void ohm_context_set_progress(ohm_context *ctx, ohm_progress_callback fn, void *user);
+
+/* ---- scene: steps --------------------------------------------------------- */
+
+typedef struct ohm_scene ohm_scene;
+
+OHM_API int ohm_scene_new(ohm_scene **out, ohm_context *ctx);
+OHM_API void ohm_scene_free(ohm_scene *scene);
+
+/* Run one action ("read", "voxelize", "material", "light", "solve", "place",
+ * "write", "export", "render", "stats") with options, a NULL-terminated
+ * array of "key=value" strings (NULL: none), as `ohm -ACTION key=value ...`
+ * does.  Unknown actions and options fail with OHM_ERR_USAGE naming them. */
+OHM_API int ohm_scene_run(ohm_scene *scene, const char *action, const char *const *options);
+
+/* Run a chain of actions given as command-line words ("-read", "file=a.obj",
+ * "-voxelize", ...), validated whole before any runs. */
+OHM_API int ohm_scene_run_args(ohm_scene *scene, int argc, const char *const *argv);
+
+/* Run a pipeline file (first line "ohm-pipeline 1", then one action per
+ * line; `ohm help` describes the format), validated whole before any runs. */
+OHM_API int ohm_scene_run_file(ohm_scene *scene, const char *path);
+
+/* Hand over a triangle mesh, in millimetres: positions[3 * v + a] for
+ * vertex v, axis a; triangles[3 * t + q] the q-th vertex of triangle t,
+ * 0-based.  Copied; replaces the scene's mesh and drops its grid and
+ * solution, as -read of a mesh file does.  `name` (may be NULL) stands for
+ * the file in messages and metadata. */
+OHM_API int ohm_scene_set_mesh(ohm_scene *scene, const double *positions, size_t nvertices,
+                               const int64_t *triangles, size_t ntriangles, const char *name);
+
+/* Hand over a density volume (CT/MRI intensities, or any scalar):
+ * values[i + dims[0] * (j + dims[1] * k)], and the map from voxel index to
+ * world millimetres, world = M (i, j, k, 1)^T with M row-major 3 x 4
+ * (index_to_world[4 * row + col]), at voxel centres.  Copied; replaces the
+ * scene's volume, as -read of a volume file does.  A transfer function
+ * (-material transfer=FILE) maps it to optical coefficients; alone,
+ * -voxelize threshold= makes the object from it. */
+OHM_API int ohm_scene_set_density(ohm_scene *scene, const float *values, const int64_t dims[3],
+                                  const double index_to_world[12], const char *name);
+
+/* Add one light: options as for the "light" action (type=directional |
+ * point | spot | area | pencil, and its position, direction, power, colour,
+ * orbit=). */
+OHM_API int ohm_scene_add_light(ohm_scene *scene, const char *const *options);
+
+/* Remove every light (the setup of the last solve stays, for relighting). */
+OHM_API int ohm_scene_clear_lights(ohm_scene *scene);
+
+/* Solve the scene's lights: options as for the "solve" action; unless
+ * options say keep=0, the factor (or preconditioner) of every channel
+ * material is kept for ohm_scene_relight. */
+OHM_API int ohm_scene_solve(ohm_scene *scene, const char *const *options);
+
+/* Solve the scene's current lights again with the setup of the last
+ * ohm_scene_solve: no new factorization.  A new mesh, grid, volume or
+ * material needs ohm_scene_solve again (OHM_ERR_INVALID says so). */
+OHM_API int ohm_scene_relight(ohm_scene *scene);
+
+/* ---- scene: results ------------------------------------------------------ */
+
+typedef struct ohm_grid_info {
+    int32_t dims[3];        /* cells per axis                                  */
+    double origin[3];       /* centre of cell (0, 0, 0), mm                    */
+    double voxel;           /* cell edge, mm                                   */
+    int64_t cells;          /* dims[0] * dims[1] * dims[2]                     */
+    int64_t interior_cells; /* cells inside the object                         */
+} ohm_grid_info;
+
+/* The scene's voxel grid (OHM_ERR_INVALID before voxelize). */
+OHM_API int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene);
+
+/* inside[cell] = 1 for the object's cells, 0 elsewhere; count must be the
+ * grid's cells. */
+OHM_API int ohm_scene_inside(uint8_t *inside, size_t count, const ohm_scene *scene);
+
+typedef struct ohm_result_info {
+    int channels;            /* 1 (grey) or 3 (r, g, b)                         */
+    int frames;              /* lights' frames solved (1 without orbits)        */
+    int64_t unknowns;        /* cells solved                                    */
+    int factorizations;      /* over the scene's solver's life                  */
+    int64_t solves;          /* right-hand sides of the latest solve            */
+    double residual;         /* largest scaled backward error                   */
+    double power_incident;   /* W arriving on the surface                       */
+    double power_entered;    /* W through it, after Fresnel reflection          */
+    double power_in;         /* W deposited in the medium (the source)          */
+    double power_absorbed;   /* W absorbed inside                               */
+    double power_out;        /* W leaving: power_in = absorbed + out           */
+    double seconds_setup;    /* analysis + factorization (or preconditioner)    */
+    double seconds_solve;    /* the latest solve's sources and solves           */
+} ohm_result_info;
+
+/* The latest solve's figures (OHM_ERR_INVALID when there is no current
+ * solution: none yet, or lights changed since). */
+OHM_API int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene);
+
+/* Per grid cell (count = the grid's cells, 0 outside the object or below a
+ * depth band) for one channel and frame (0-based): the fluence rate, or the
+ * exitance (W/mm^2 leaving the cell's boundary faces, 0 for a cell with
+ * none). */
+OHM_API int ohm_scene_fluence(double *out, size_t count, const ohm_scene *scene, int channel, int frame);
+OHM_API int ohm_scene_exitance(double *out, size_t count, const ohm_scene *scene, int channel, int frame);
+
+/* Exitance at each mesh vertex, out[v * channels + c] (count = vertices x
+ * channels), as `-export ply=` colours it. */
+OHM_API int ohm_scene_vertex_exitance(float *out, size_t count, const ohm_scene *scene, int frame);
+
+/* A figure of the scene's statistics (the keys of `-stats`: "cells",
+ * "t_factor", "power_out", ...): a number into *out, or a text into *text
+ * (the scene's, valid until its next call); OHM_ERR_INVALID for a key it
+ * does not hold. */
+OHM_API int ohm_scene_stat(double *out, const ohm_scene *scene, const char *key);
+OHM_API int ohm_scene_stat_text(const char **text, const ohm_scene *scene, const char *key);
+
+/* ---- the command line's other entry points --------------------------------- */
+
+/* `ohm help` (action NULL) or `ohm help ACTION`, generated from the action
+ * table, written to stream. */
+OHM_API int ohm_help(FILE *stream, const char *action);
+
+/* The studies: `ohm validate|bench|accuracy ARGS` (argv[0] is the study's
+ * name).  Tables go to stdout, messages to stderr at ctx's verbosity (ctx
+ * may be NULL: normal).  Returns the command line's exit code: 0 done (and
+ * every check passed), 1 failed, 2 bad usage. */
+OHM_API int ohm_study(ohm_context *ctx, int argc, char **argv);
+
+/* Distributed solves (solver=amg under mpirun).  ohm_parallel_start, first
+ * thing in main: 0 on the rank that runs the program, positive on a rank
+ * that serves the others' solves (call ohm_parallel_serve, then exit with
+ * its status), negative when MPI could not start (it said why on stderr);
+ * ohm_parallel_finish at the end releases the serving ranks.
+ * Without MPI (or outside mpirun) every call is a no-op returning 0. */
+OHM_API int ohm_parallel_start(void);
+OHM_API int ohm_parallel_serve(void);
+OHM_API void ohm_parallel_finish(void);
+
+/* Remove half-written output files when the process is interrupted (SIGINT,
+ * SIGTERM): for programs, not for libraries that own their signals. */
+OHM_API void ohm_cleanup_outputs_on_signal(void);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

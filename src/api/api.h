@@ -1,0 +1,35 @@
+/* api/api.h — what the public API's files share (include/ohm.h): the
+ * context and scene behind the opaque handles, and the per-thread last
+ * error every exported call sets when it fails. */
+#ifndef OHM_API_INTERNAL_H
+#define OHM_API_INTERNAL_H
+
+#include "ohm.h"
+
+#include "base/ohm_error.h"
+#include "steps/state.h"
+
+struct ohm_context {
+    ohm_log log;            /* verbosity and the caller's callbacks */
+};
+
+struct ohm_scene {
+    ohm_context *ctx;
+    ohm_state state;        /* the chain's state: mesh, grid, material, lights, solver */
+};
+
+/* Record err as this thread's last error and return its code (OHM_OK: the
+ * last error is left as it was). */
+int ohm_api_return(int rc, const ohm_error *err);
+
+/* Record a message as this thread's last error and return code. */
+int ohm_api_fail(int code, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* The scene's log follows its context's (set before every step). */
+void ohm_api_sync_log(ohm_scene *scene);
+
+#endif
