@@ -46,6 +46,14 @@ for k in ("power_in", "power_absorbed", "power_out"):
     bad += not (b > 0 and rel <= 1e-12)
 sys.exit(bad)
 PYEOF
+# the Python package from the prefix alone: it finds the prefix's library
+PYDIR=$(find "$P" -type d -name ohm -path '*-packages/ohm' -print -quit)
+PYENV=(env -u OHM_LIBRARY PYTHONPATH="$(dirname "$PYDIR")")
+if [ "$SANITIZED" = 1 ]; then
+  PYENV+=(LD_PRELOAD="$(cc -print-file-name=libasan.so):$(cc -print-file-name=libubsan.so)" ASAN_OPTIONS=detect_leaks=0)
+fi
+check "python package installed under the prefix" test -f "$PYDIR/__init__.py" -a -f "$PYDIR/_location.py"
+check "import ohm from the prefix" bash -c "cd '$T' && $(printf '%q ' "${PYENV[@]}") $PY -c 'import ohm, sys; assert ohm.__file__.startswith(\"$P\"), ohm.__file__; print(ohm.version())' | grep -q '^0\.'"
 out=$("$T/relight" samples/cow.obj 4 20)
 check "relight: four frames" test "$(grep -c '^frame' <<<"$out")" = 3
 check "relight: no factorization after the first solve" grep -q "3 factorizations in all" <<<"$out"

@@ -1,0 +1,287 @@
+"""ohm — subsurface light scattering in voxel volumes, from Python.
+
+A thin layer over libohm's C API (include/ohm.h, whose comments are the
+manual): a Context holds verbosity and the log and progress callbacks; a
+Scene holds one object and its light — mesh or density volume, voxel grid,
+material, lights — and the solver set up for them, whose factor is kept so
+that relight() solves new lights without factoring again.
+
+    import ohm
+    with ohm.Context() as ctx, ohm.Scene(ctx) as scene:
+        scene.run("read", file="samples/spot.obj", size=50)
+        scene.run("voxelize", dim=64)
+        scene.run("material", preset="marble")
+        scene.add_light(type="directional", dir=(0, -1, -1))
+        scene.solve()
+        phi = scene.fluence(channel=0)           # numpy, shape (nz, ny, nx)
+        scene.clear_lights()
+        scene.add_light(type="point", pos=(0, 80, 40), intensity=5000)
+        scene.relight()                          # no new factorization
+
+Steps are ohm's pipeline actions (`ohm help`, `ohm help ACTION`), their
+options keyword arguments (a tuple or list becomes "x,y,z").  Arrays over
+the grid are indexed [k, j, i] (x fastest in memory, as ohm stores them);
+lengths are millimetres.  A failing call raises ohm.Error (UsageError for a
+bad action, option or value) carrying ohm's one-line message.
+"""
+import ctypes
+
+import numpy as np
+
+from . import _library
+
+_lib = _library.load()
+
+__all__ = ["Context", "Scene", "Error", "UsageError", "version"]
+
+OK, ERR_IO, ERR_PARSE, ERR_INVALID, ERR_NOMEM, ERR_USAGE, ERR_NUMERIC, ERR_INTERNAL = 0, -1, -2, -3, -4, -5, -6, -7
+LOG_WARNING, LOG_INFO = 1, 2
+
+
+class Error(Exception):
+    """A failed ohm call: .code is its OHM_ERR_* status, str() its message."""
+
+    def __init__(self, code, message):
+        super().__init__(message)
+        self.code = code
+
+
+class UsageError(Error, ValueError):
+    """A bad action, option or value (the command line's exit code 2)."""
+
+
+def _check(rc):
+    if rc != OK:
+        message = _lib.ohm_error_last().decode("utf-8", "replace")
+        raise (UsageError if rc == ERR_USAGE else Error)(rc, message)
+
+
+def version():
+    """The library's version, "MAJOR.MINOR.PATCH"."""
+    return _lib.ohm_version(None, None, None).decode()
+
+
+def _word(key, value):
+    if isinstance(value, bool):
+        value = int(value)
+    if isinstance(value, (tuple, list, np.ndarray)):
+        value = ",".join(repr(float(v)) if not isinstance(v, str) else v for v in value)
+    return "%s=%s" % (key, value)
+
+
+def _words(options):
+    """kwargs as a NULL-terminated char*[] (kept alive by the returned list)."""
+    encoded = [_word(k, v).encode() for k, v in options.items()]
+    array = (ctypes.c_char_p * (len(encoded) + 1))(*encoded, None)
+    return array, encoded
+
+
+class Context:
+    """Verbosity (0 warnings only, 1 normal, 2 verbose) and where messages
+    and progress go: log(level, text) and progress(what, fraction) are
+    called from the thread that called into ohm; an exception raised in
+    them is dropped (it cannot cross the C library)."""
+
+    def __init__(self, verbosity=1, log=None, progress=None):
+        handle = ctypes.c_void_p()
+        _check(_lib.ohm_context_new(ctypes.byref(handle)))
+        self._handle = handle
+        self._log = self._progress = None
+        self.verbosity = verbosity
+        if log is not None:
+            self.set_log(log)
+        if progress is not None:
+            self.set_progress(progress)
+
+    @property
+    def verbosity(self):
+        return self._verbosity
+
+    @verbosity.setter
+    def verbosity(self, value):
+        self._verbosity = int(value)
+        _lib.ohm_context_set_verbosity(self._live(), self._verbosity)
+
+    def set_log(self, fn):
+        def call(_user, level, text):
+            try:
+                fn(level, text.decode("utf-8", "replace"))
+            except Exception:  # noqa: BLE001 -- must not cross into C
+                pass
+        self._log = _library.LOG_CALLBACK(call) if fn else _library.LOG_CALLBACK()
+        _lib.ohm_context_set_log(self._live(), self._log, None)
+
+    def set_progress(self, fn):
+        def call(_user, what, fraction):
+            try:
+                fn(what.decode("utf-8", "replace"), fraction)
+            except Exception:  # noqa: BLE001
+                pass
+        self._progress = _library.PROGRESS_CALLBACK(call) if fn else _library.PROGRESS_CALLBACK()
+        _lib.ohm_context_set_progress(self._live(), self._progress, None)
+
+    def _live(self):
+        if not self._handle:
+            raise Error(ERR_USAGE, "ohm.Context: used after close()")
+        return self._handle
+
+    def close(self):
+        if getattr(self, "_handle", None):
+            _lib.ohm_context_free(self._handle)
+            self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+
+class Scene:
+    """One object and its light (ohm_scene).  The context must outlive it."""
+
+    def __init__(self, context):
+        handle = ctypes.c_void_p()
+        _check(_lib.ohm_scene_new(ctypes.byref(handle), context._live()))
+        self._handle = handle
+        self._context = context  # keeps it (and its callbacks) alive
+
+    def _live(self):
+        if not self._handle:
+            raise Error(ERR_USAGE, "ohm.Scene: used after close()")
+        return self._handle
+
+    def close(self):
+        if getattr(self, "_handle", None):
+            _lib.ohm_scene_free(self._handle)
+            self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+    # ---- steps ------------------------------------------------------------
+
+    def run(self, action, **options):
+        """Run one action with its options: run("voxelize", dim=64)."""
+        array, _keep = _words(options)
+        _check(_lib.ohm_scene_run(self._live(), action.encode(), array))
+
+    def run_args(self, words):
+        """Run a chain of command-line words: ["-read", "file=a.obj", ...]."""
+        encoded = [w.encode() for w in words]
+        array = (ctypes.c_char_p * (len(encoded) + 1))(*encoded, None)
+        _check(_lib.ohm_scene_run_args(self._live(), len(encoded), array))
+
+    def run_file(self, path):
+        """Run a pipeline file."""
+        _check(_lib.ohm_scene_run_file(self._live(), str(path).encode()))
+
+    def set_mesh(self, vertices, triangles, name=None):
+        """A triangle mesh in mm: vertices (n, 3), triangles (m, 3) 0-based."""
+        v = np.ascontiguousarray(vertices, dtype=np.float64)
+        t = np.ascontiguousarray(triangles, dtype=np.int64)
+        if v.ndim != 2 or v.shape[1] != 3 or t.ndim != 2 or t.shape[1] != 3:
+            raise UsageError(ERR_USAGE, "ohm.Scene.set_mesh: vertices and triangles must be (n, 3) arrays")
+        _check(_lib.ohm_scene_set_mesh(self._live(), v.ctypes.data_as(_library.c_double_p), v.shape[0],
+                                       t.ctypes.data_as(_library.c_int64_p), t.shape[0],
+                                       name.encode() if name else None))
+
+    def set_density(self, values, index_to_world=None, name=None):
+        """A density volume indexed [k, j, i] and its voxel-to-world map in
+        mm, a (3, 4) matrix at voxel centres (None: 1 mm voxels at 0)."""
+        a = np.ascontiguousarray(values, dtype=np.float32)
+        if a.ndim != 3:
+            raise UsageError(ERR_USAGE, "ohm.Scene.set_density: values must be a 3-D array [k, j, i]")
+        m = np.eye(3, 4) if index_to_world is None else np.asarray(index_to_world, dtype=np.float64)
+        if m.shape != (3, 4):
+            raise UsageError(ERR_USAGE, "ohm.Scene.set_density: index_to_world must be 3 x 4")
+        m = np.ascontiguousarray(m)
+        dims = (ctypes.c_int64 * 3)(a.shape[2], a.shape[1], a.shape[0])
+        _check(_lib.ohm_scene_set_density(self._live(), a.ctypes.data_as(_library.c_float_p), dims,
+                                          m.ctypes.data_as(_library.c_double_p), name.encode() if name else None))
+
+    def add_light(self, **options):
+        """Add a light: add_light(type="point", pos=(0, 80, 0), intensity=1000)."""
+        array, _keep = _words(options)
+        _check(_lib.ohm_scene_add_light(self._live(), array))
+
+    def clear_lights(self):
+        _check(_lib.ohm_scene_clear_lights(self._live()))
+
+    def solve(self, **options):
+        """Solve the lights, keeping the factor for relight() (keep=0 does not)."""
+        array, _keep = _words(options)
+        _check(_lib.ohm_scene_solve(self._live(), array))
+
+    def relight(self):
+        """Solve the current lights with the last solve's factor."""
+        _check(_lib.ohm_scene_relight(self._live()))
+
+    # ---- results ----------------------------------------------------------
+
+    @property
+    def grid(self):
+        """dims (nx, ny, nz), origin (mm, centre of cell 0), voxel (mm), cells, interior_cells."""
+        g = _library.GridInfo()
+        _check(_lib.ohm_scene_grid(ctypes.byref(g), self._live()))
+        return {"dims": tuple(g.dims), "origin": tuple(g.origin), "voxel": g.voxel, "cells": g.cells,
+                "interior_cells": g.interior_cells}
+
+    def _shape(self):
+        nx, ny, nz = self.grid["dims"]
+        return (nz, ny, nx)
+
+    def inside(self):
+        """The object's cells, a bool array [k, j, i]."""
+        out = np.zeros(self._shape(), dtype=np.uint8)
+        _check(_lib.ohm_scene_inside(out.ctypes.data_as(ctypes.POINTER(ctypes.c_uint8)), out.size, self._live()))
+        return out.astype(bool)
+
+    def result(self):
+        """The latest solve's figures: channels, frames, unknowns, factorizations, solves, residual,
+        power_incident/entered/in/absorbed/out (W), seconds_setup, seconds_solve."""
+        r = _library.ResultInfo()
+        _check(_lib.ohm_scene_result(ctypes.byref(r), self._live()))
+        return {name: getattr(r, name) for name, _ in r._fields_}
+
+    def _cells(self, fn, channel, frame):
+        out = np.zeros(self._shape(), dtype=np.float64)
+        _check(fn(out.ctypes.data_as(_library.c_double_p), out.size, self._live(), int(channel), int(frame)))
+        return out
+
+    def fluence(self, channel=0, frame=0):
+        """The fluence rate (W/mm^2) per cell [k, j, i], 0 outside."""
+        return self._cells(_lib.ohm_scene_fluence, channel, frame)
+
+    def exitance(self, channel=0, frame=0):
+        """The exitance (W/mm^2) leaving each cell's boundary faces [k, j, i]."""
+        return self._cells(_lib.ohm_scene_exitance, channel, frame)
+
+    def vertex_exitance(self, frame=0):
+        """Exitance at each mesh vertex, (vertices, channels) float32."""
+        channels = self.result()["channels"]
+        vertices = int(self.stat("mesh_vertices"))
+        out = np.zeros((vertices, channels), dtype=np.float32)
+        _check(_lib.ohm_scene_vertex_exitance(out.ctypes.data_as(_library.c_float_p), out.size, self._live(),
+                                              int(frame)))
+        return out
+
+    def stat(self, key):
+        """A figure of the statistics (the keys -stats writes): a float or a str."""
+        number = ctypes.c_double()
+        rc = _lib.ohm_scene_stat(ctypes.byref(number), self._live(), key.encode())
+        if rc == OK:
+            return number.value
+        text = ctypes.c_char_p()
+        if _lib.ohm_scene_stat_text(ctypes.byref(text), self._live(), key.encode()) == OK:
+            return text.value.decode()
+        _check(rc)
