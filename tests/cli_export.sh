@@ -156,7 +156,7 @@ expect_exit 1 "export before solve" -- "$OHM" -read file=samples/cow.obj -voxeli
 expect_error_line "export before solve" "-export: nothing to export: run -solve first"
 expect_exit 2 "export without outputs" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
   -material preset=marble -light dir=0,-1,0 -solve -export
-expect_error_line "export without outputs" "give ply=FILE and/or df3=BASE"
+expect_error_line "export without outputs" "give ply=FILE, df3=BASE and/or csv=FILE"
 expect_exit 1 "unwritable ply" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
   -material preset=marble -light dir=0,-1,0 -solve -export ply="$T/no/such/dir/x.ply"
 expect_error_line "unwritable ply" "$T/no/such/dir/x.ply"

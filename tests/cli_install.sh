@@ -54,7 +54,32 @@ if [ "$SANITIZED" = 1 ]; then
 fi
 check "python package installed under the prefix" test -f "$PYDIR/__init__.py" -a -f "$PYDIR/_location.py"
 check "import ohm from the prefix" bash -c "cd '$T' && $(printf '%q ' "${PYENV[@]}") $PY -c 'import ohm, sys; assert ohm.__file__.startswith(\"$P\"), ohm.__file__; print(ohm.version())' | grep -q '^0\.'"
-out=$("$T/relight" samples/cow.obj 4 20)
-check "relight: four frames" test "$(grep -c '^frame' <<<"$out")" = 3
-check "relight: no factorization after the first solve" grep -q "3 factorizations in all" <<<"$out"
+# spot in marble, two lights, one factorization per channel: each frame's
+# per-cell fluence from the API equals the command's (-export csv=) to 1e-12
+out=$("$T/relight" samples/spot.obj 2 32 "$T/relight.txt")
+check "relight: two frames" test "$(grep -c '^frame' <<<"$out")" = 2
+check "relight: no factorization after the first solve" grep -q "frame 2: .*3 factorizations in all" <<<"$out"
+for f in 1 2; do
+  dir=$(grep "^frame $f:" <<<"$out" | sed 's/^frame [0-9]*: dir=\([^:]*\):.*/\1/')
+  "$P/bin/ohm" -q -read file=samples/spot.obj size=50 -voxelize dim=32 -material preset=marble \
+    -light type=directional dir="$dir" -solve -export csv="$T/cli_$f.csv"
+done
+check "relit fluence = the command's, cell by cell, to 1e-12" $PY - "$T/relight.txt" "$T/cli_1.csv" "$T/cli_2.csv" <<'PYEOF'
+import csv, sys
+api = {}
+for line in open(sys.argv[1]):
+    w = line.split()
+    api[(int(w[0]), int(w[1]), int(w[2]), int(w[3]))] = [float(x) for x in w[4:]]
+worst, cells = 0.0, 0
+for frame, path in enumerate(sys.argv[2:], 1):
+    rows = list(csv.DictReader(open(path)))
+    scale = max(abs(float(r["fluence_r"])) for r in rows)
+    for r in rows:
+        a = api[(frame, int(r["i"]), int(r["j"]), int(r["k"]))]
+        for c, ch in enumerate("rgb"):
+            worst = max(worst, abs(a[c] - float(r["fluence_" + ch])) / scale)
+        cells += 1
+print("%d cells in 2 frames, largest difference %.3g of the maximum" % (cells, worst))
+sys.exit(0 if cells > 1000 and worst <= 1e-12 and len(api) == cells else 1)
+PYEOF
 finish

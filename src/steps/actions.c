@@ -1113,12 +1113,14 @@ const ohm_action ohm_actions[] = {
      "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
      "validate transport`, docs/transport.md).",
      solve_opts, run_solve},
-    {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files",
+    {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files, CSV",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
      "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
      "the 99th percentile maps to 1; recorded as 'comment ohm exposure').  df3=BASE writes one POV-Ray\n"
      "density file per channel (BASE_r.df3 ..., BASE.df3 for grey; the grid padded by one zero voxel,\n"
-     "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.",
+     "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.  csv=FILE\n"
+     "writes one line per solved cell (i,j,k, centre in mm, fluence and exitance per channel) with 17\n"
+     "significant digits: doubles read back exactly.",
      ohm_export_opts, ohm_run_export},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"

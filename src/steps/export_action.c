@@ -4,6 +4,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "outputs/export_csv.h"
 #include "outputs/export_df3.h"
 #include "outputs/export_ply.h"
 
@@ -12,6 +13,9 @@ const ohm_opt_spec ohm_export_opts[] = {
      0, 0},
     {"df3", OHM_OPT_STRING, NULL,
      "write POV-Ray density files BASE_r/_g/_b.df3 (BASE.df3 for grey) and the scene BASE.pov", NULL, 0, 0, 0},
+    {"csv", OHM_OPT_STRING, NULL,
+     "write every solved cell as a line: i,j,k, its centre x,y,z (mm), fluence and exitance per channel, 17 digits",
+     NULL, 0, 0, 0},
     {"quantity", OHM_OPT_ENUM, "fluence", "df3: what the density files hold", "fluence|exitance", 0, 0, 0},
     {"exposure", OHM_OPT_REAL, NULL,
      "ply: colour = sRGB(exitance * exposure); default: the 99th percentile of the vertex exitance maps to 1",
@@ -40,8 +44,9 @@ static void toward_light(const ohm_state *s, int frame, double out[3])
 int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     int want_ply = ohm_opt_given(inv, "ply"), want_df3 = ohm_opt_given(inv, "df3");
-    if (!want_ply && !want_df3)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -export: give ply=FILE and/or df3=BASE", inv->where);
+    int want_csv = ohm_opt_given(inv, "csv");
+    if (!want_ply && !want_df3 && !want_csv)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -export: give ply=FILE, df3=BASE and/or csv=FILE", inv->where);
     if (!s->have_solution || !s->have_grid)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -export: nothing to export: run -solve first", inv->where);
     int frame = (int)ohm_opt_int(inv, "frame") - 1;
@@ -74,6 +79,12 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                      rep.pov, ohm_state_solution(s)->channels, rep.first, p.exitance ? "exitance" : "fluence", frame + 1,
                      rep.scale);
         ohm_stats_set(&s->stats, "export_df3_scale", rep.scale);
+    }
+    if (want_csv) {
+        const char *path = ohm_opt_str(inv, "csv");
+        rc = ohm_export_csv(path, &s->grid, ohm_state_solution(s), frame, err);
+        if (rc) return rc;
+        ohm_log_info(&s->log, "wrote %s (%lld cells, frame %d)", path, (long long)ohm_state_solution(s)->n, frame + 1);
     }
     ohm_stats_add(&s->stats, "t_export", ohm_now() - t0);
     return OHM_OK;
