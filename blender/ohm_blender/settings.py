@@ -1,0 +1,47 @@
+"""What the panel sets, per object (bpy.types.Object.ohm)."""
+import bpy
+
+PRESETS = ("apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk", "skin1", "skin2",
+           "spectralon", "wholemilk")
+
+
+class OhmSettings(bpy.types.PropertyGroup):
+    material: bpy.props.EnumProperty(
+        name="Material", default="PRESET",
+        items=[("PRESET", "Measured preset", "Jensen et al. 2001's measured materials"),
+               ("COEFFICIENTS", "Coefficients", "sigma_a, sigma_s' per R, G, B and the index"),
+               ("VOLUME", "Density volume", "a CT/MRI volume through a transfer function")])
+    preset: bpy.props.EnumProperty(name="Preset", default="marble", items=[(p, p, "") for p in PRESETS])
+    sigma_a: bpy.props.FloatVectorProperty(name="σa (1/mm)", size=3, min=0.0, default=(0.0021, 0.0041, 0.0071),
+                                           precision=5)
+    sigma_s: bpy.props.FloatVectorProperty(name="σs′ (1/mm)", size=3, min=1e-9, default=(2.19, 2.62, 3.00),
+                                           precision=4)
+    eta: bpy.props.FloatProperty(name="Index η", min=1.0, max=3.0, default=1.3)
+    volume_path: bpy.props.StringProperty(name="Volume", subtype="FILE_PATH",
+                                          description=".vdb, .nii(.gz) or .raw(.gz) density volume")
+    transfer_path: bpy.props.StringProperty(name="Transfer function", subtype="FILE_PATH",
+                                            description="density -> coefficients (docs/transfer-functions.md)")
+    grid: bpy.props.EnumProperty(name="Grid", default="DIM",
+                                 items=[("DIM", "Cells across", "cells along the longest axis"),
+                                        ("ERROR", "Accuracy target", "the relative exitance error ohm aims for")])
+    dim: bpy.props.IntProperty(name="Cells", min=4, max=1024, default=48)
+    error: bpy.props.FloatProperty(name="Error", min=0.001, max=0.5, default=0.05)
+    boundary: bpy.props.EnumProperty(name="Boundary", default="robin",
+                                     items=[("robin", "Fresnel (robin)", "light leaves through the surface"),
+                                            ("neumann", "Closed (neumann)", "the paper's: no light leaves"),
+                                            ("dirichlet", "Zero (dirichlet)", "fluence 0 at the surface")])
+    solver: bpy.props.EnumProperty(name="Solver", default="direct",
+                                   items=[("direct", "Direct (factor once)", "Cholesky factor reused for every light"),
+                                          ("auto", "Auto", "ohm chooses by memory and time"),
+                                          ("cg", "Conjugate gradients", "low memory"),
+                                          ("amg", "Multigrid", "PETSc + hypre, for large grids")])
+    shadows: bpy.props.BoolProperty(name="Shadows", default=True, description="shadow rays against the mesh")
+    exposure: bpy.props.FloatProperty(name="Exposure", min=0.0, default=0.0,
+                                      description="colour = exitance (W/mm²) × exposure; 0: automatic")
+    attribute: bpy.props.StringProperty(name="Attribute", default="ohm_exitance")
+    make_volume: bpy.props.BoolProperty(name="Volume object", default=False,
+                                        description="also write a .vdb and add it as an emitting volume")
+    directory: bpy.props.StringProperty(name="Output", subtype="DIR_PATH", default="//ohm/")
+    updates_per_second: bpy.props.FloatProperty(name="Updates/s", default=0.0)
+    factorizations: bpy.props.IntProperty(name="Factorizations", default=0)
+    status: bpy.props.StringProperty(name="Status", default="")

@@ -1,0 +1,201 @@
+"""blender_addon.py — the Blender add-on, headless (tests/cli_blender_addon.sh):
+
+  blender -b --factory-startup --python-exit-code 1 -P tests/blender_addon.py -- \
+      ZIP MESH OUTDIR REPORT.json MODE [DIM] [MOVES]
+
+MODE live: installs the add-on from its zip, builds the mesh (50 mm, 1
+Blender unit = 1 mm) and a point light, runs bpy.ops.ohm.solve, checks the
+colour attribute and that the side facing the light is brighter; then moves
+the light around the object through Live relight's update (as its timer
+calls it): the bright side follows the light, and no factorization is made
+after the first solve; a change of material refactors once.  It reports
+the updates per second and their parts.  MODE bake: a light animated over 4
+frames, bpy.ops.ohm.bake: 4 .vdb files, 4 per-frame attributes, one setup;
+and Solve's volume object, placed half a voxel back over the mesh.
+Any failed check raises, so Blender exits 1."""
+import json
+import math
+import os
+import sys
+import time
+
+import bpy
+import numpy as np
+
+args = sys.argv[sys.argv.index("--") + 1:]
+ZIP, MESH, OUT, REPORT, MODE = args[:5]
+DIM = int(args[5]) if len(args) > 5 else 32
+MOVES = int(args[6]) if len(args) > 6 else 24
+report = {"mode": MODE, "dim": DIM, "problems": []}
+
+
+def problem(text):
+    report["problems"].append(text)
+    print("PROBLEM:", text)
+
+
+def read_obj(path):
+    verts, faces = [], []
+    for line in open(path):
+        t = line.split()
+        if not t:
+            continue
+        if t[0] == "v":
+            verts.append(tuple(float(x) for x in t[1:4]))
+        elif t[0] == "f":
+            faces.append(tuple(int(w.split("/")[0]) - 1 for w in t[1:]))
+    return np.array(verts), faces
+
+
+bpy.ops.preferences.addon_install(filepath=os.path.abspath(ZIP), overwrite=True)
+bpy.ops.preferences.addon_enable(module="ohm_blender")
+from ohm_blender import operators, session  # noqa: E402  (installed just now)
+
+for o in list(bpy.data.objects):
+    bpy.data.objects.remove(o)
+sc = bpy.context.scene
+sc.unit_settings.scale_length = 0.001  # 1 Blender unit = 1 mm
+verts, faces = read_obj(MESH)
+verts = (verts - verts.mean(axis=0)) * (50.0 / np.ptp(verts, axis=0).max())
+me = bpy.data.meshes.new("spot")
+me.from_pydata([tuple(v) for v in verts], [], faces)
+me.update()
+obj = bpy.data.objects.new("spot", me)
+sc.collection.objects.link(obj)
+bpy.context.view_layer.objects.active = obj
+obj.select_set(True)
+lamp_data = bpy.data.lights.new("lamp", "POINT")
+lamp_data.energy = 2.0e4  # W: about 1.3 mW/mm^2 at 110 mm
+lamp = bpy.data.objects.new("lamp", lamp_data)
+sc.collection.objects.link(lamp)
+obj.ohm.preset = "marble"
+obj.ohm.dim = DIM
+
+
+def place_light(direction, distance=110.0):
+    d = np.asarray(direction, dtype=float)
+    lamp.location = tuple(d / np.linalg.norm(d) * distance)
+    bpy.context.view_layer.update()
+
+
+def luminance():
+    c = np.empty(4 * len(me.vertices), dtype=np.float32)
+    me.attributes[obj.ohm.attribute].data.foreach_get("color", c)
+    c = c.reshape(-1, 4)
+    return 0.2126 * c[:, 0] + 0.7152 * c[:, 1] + 0.0722 * c[:, 2]
+
+
+def facing_contrast(direction):
+    """Mean brightness of the vertices on the light's side over the far side's."""
+    d = np.asarray(direction, dtype=float)
+    side = verts @ (d / np.linalg.norm(d))
+    lum = luminance()
+    near, far = lum[side > 0.3 * side.max()], lum[side < 0.3 * side.min()]
+    return float(near.mean() / max(far.mean(), 1e-30))
+
+
+if MODE == "live":
+    place_light((1, 0.3, 0))
+    if bpy.ops.ohm.solve() != {"FINISHED"}:
+        raise SystemExit("ohm.solve did not finish: " + obj.ohm.status)
+    if obj.ohm.attribute not in me.attributes:
+        problem("no colour attribute %s after Solve" % obj.ohm.attribute)
+    s = session.get(obj)
+    report["cells"] = int(s.result["unknowns"])
+    report["factorizations_after_solve"] = obj.ohm.factorizations
+    report["contrast_after_solve"] = facing_contrast((1, 0.3, 0))
+    if not report["contrast_after_solve"] > 2:
+        problem("lit side only %.3g x the far side after Solve" % report["contrast_after_solve"])
+    # the light around the object: the bright side follows
+    follows = []
+    for d in [(-1, 0.3, 0), (0, 0.3, 1), (0, 0.3, -1), (1, 0.3, 0)]:
+        place_light(d)
+        what = operators.live_step(bpy.context, obj)
+        if what != "relight":
+            problem("moving the light gave %r, expected a relight" % what)
+        follows.append(facing_contrast(d))
+    report["contrast_following"] = follows
+    if not min(follows) > 2:
+        problem("the bright side did not follow the light: contrasts %s" % follows)
+    # many small moves, as a user dragging the light: updates per second
+    parts = {}
+    t0 = time.perf_counter()
+    for k in range(MOVES):
+        a = 2 * math.pi * k / MOVES
+        place_light((math.cos(a), 0.3, math.sin(a)))
+        operators.live_step(bpy.context, obj)
+        for key, v in s.last.items():
+            parts[key] = parts.get(key, 0.0) + v
+    elapsed = time.perf_counter() - t0
+    report["updates_per_second"] = MOVES / elapsed
+    report["update_parts_ms"] = {k: 1e3 * v / MOVES for k, v in parts.items()}
+    report["factorizations_after_live"] = obj.ohm.factorizations
+    if obj.ohm.factorizations != report["factorizations_after_solve"] or s.setups != 1:
+        problem("live relight factored again: %d factorizations, %d setups" % (obj.ohm.factorizations, s.setups))
+    # a change of material refactors once, then relights again
+    obj.ohm.preset = "skin1"
+    what = operators.live_step(bpy.context, obj)
+    what2 = operators.live_step(bpy.context, obj)
+    if what != "setup" or what2 is not None or s.setups != 2:
+        problem("a new material gave %r then %r (%d setups), expected one setup" % (what, what2, s.setups))
+    print("ohm live: %d cells, %.1f updates/s, parts (ms) %s" % (report["cells"], report["updates_per_second"],
+                                                              report["update_parts_ms"]))
+elif MODE == "bake":
+    sc.frame_start, sc.frame_end = 1, 4
+    for f, d in zip(range(1, 5), [(1, 0.3, 0), (0, 0.3, 1), (-1, 0.3, 0), (0, 0.3, -1)]):
+        place_light(d)
+        lamp.keyframe_insert("location", frame=f)
+    obj.ohm.directory = os.path.join(OUT, "")
+    sc.frame_set(1)
+    if bpy.ops.ohm.bake() != {"FINISHED"}:
+        raise SystemExit("ohm.bake did not finish: " + obj.ohm.status)
+    s = session.get(obj)
+    files = [os.path.join(OUT, "spot_%04d.vdb" % f) for f in range(1, 5)]
+    report["files"] = [os.path.basename(f) for f in files if os.path.getsize(f) > 0]
+    if len(report["files"]) != 4:
+        problem("bake wrote %s" % report["files"])
+    names = ["%s_%04d" % (obj.ohm.attribute, f) for f in range(1, 5)]
+    missing = [n for n in names if n not in me.attributes]
+    if missing:
+        problem("bake left no attributes %s" % missing)
+    report["setups"] = s.setups
+    report["relights"] = s.relights
+    report["factorizations"] = obj.ohm.factorizations
+    if s.setups != 1 or s.relights != 3:
+        problem("bake made %d setups and %d relights, expected 1 and 3" % (s.setups, s.relights))
+    # frame 1 lit from +x, frame 3 from -x: their attributes say so
+    def side_mean(name, sign):
+        c = np.empty(4 * len(me.vertices), dtype=np.float32)
+        me.attributes[name].data.foreach_get("color", c)
+        lum = c.reshape(-1, 4)[:, :3].mean(axis=1)
+        return float(lum[sign * verts[:, 0] > 10].mean())
+    if not missing:
+        f1 = side_mean(names[0], 1) / side_mean(names[0], -1)
+        f3 = side_mean(names[2], -1) / side_mean(names[2], 1)
+        report["frame_contrasts"] = [f1, f3]
+        if not (f1 > 2 and f3 > 2):
+            problem("baked frames do not follow the light: %s" % [f1, f3])
+    # Solve with a volume object: placed over the mesh, half a voxel back
+    obj.ohm.make_volume = True
+    sc.frame_set(1)
+    if bpy.ops.ohm.solve() != {"FINISHED"}:
+        raise SystemExit("ohm.solve (volume) did not finish: " + obj.ohm.status)
+    vol = bpy.data.objects.get("spot_ohm")
+    if vol is None or vol.type != "VOLUME":
+        problem("no volume object after Solve with Volume object")
+    else:
+        h = session.get(obj).scene.grid["voxel"]
+        report["volume_location"] = list(vol.location)
+        # (Blender keeps the unit scale 0.001 in single precision: 1 unit is 1.00000005 mm)
+        if max(abs(x + 0.5 * h) for x in vol.location) > 1e-6 * h:
+            problem("volume at %s, expected half a voxel (%g mm) back" % (list(vol.location), h))
+        vol.data.grids.load()
+        grids = [g.name for g in vol.data.grids]
+        report["volume_grids"] = grids
+        if not {"fluence_r", "density"} <= set(grids):
+            problem("volume grids %s" % grids)
+
+json.dump(report, open(REPORT, "w"), indent=1)
+if report["problems"]:
+    raise SystemExit("blender_addon: %d problem(s)" % len(report["problems"]))
+print("blender_addon %s: ok" % MODE)

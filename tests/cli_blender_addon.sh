@@ -1,0 +1,34 @@
+#!/usr/bin/env bash
+# cli_blender_addon.sh — the Blender add-on (blender/ohm_blender, installed
+# from the build's ohm_blender.zip) in a headless Blender: Solve and Live
+# relight (tests/blender_addon.py live), then Bake sequence and Solve's volume
+# object (bake).  Skipped without Blender as cli_blender.sh is, and under the
+# sanitizers (Blender's own process is not ours to instrument; the library
+# code it calls is covered there by api_scene and api_python).
+set -eu
+source "$(dirname "$0")/lib.sh" "$1"
+BLENDER=${OHM_BLENDER:-blender}
+ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
+if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
+if ! command -v "$BLENDER" >/dev/null 2>&1; then
+  if [ "${CI:-}" = true ] || { [ -n "${OHM_REQUIRE_BLENDER:-}" ] && [ "$OHM_REQUIRE_BLENDER" != 0 ]; }; then
+    bad "blender not installed ('$BLENDER' not found), but CI=true or OHM_REQUIRE_BLENDER is set"
+    finish
+  fi
+  echo "SKIP: blender not installed"
+  exit 0
+fi
+check "the build made ohm_blender.zip" test -s "$ZIP"
+# Blender keeps installed add-ons in its user folder: a fresh one per run
+export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
+for mode in live bake; do
+  mkdir -p "$T/$mode"
+  expect_exit 0 "blender add-on: $mode" -- "$BLENDER" -b --factory-startup --python-exit-code 1 \
+    -P tests/blender_addon.py -- "$ZIP" samples/spot.obj "$T/$mode" "$T/$mode.json" "$mode"
+  if [ -s "$T/$mode.json" ]; then
+    $PY -c 'import json,sys; r=json.load(open(sys.argv[1])); print(sys.argv[2]+":", {k: r[k] for k in r if k != "problems"}); [print("PROBLEM:", p) for p in r["problems"]]' "$T/$mode.json" "$mode"
+  else
+    tail -20 "$T/stderr" >&2 || true; tail -20 "$T/stdout" >&2 || true
+  fi
+done
+finish
