@@ -94,6 +94,32 @@ def facing_contrast(direction):
     return float(near.mean() / max(far.mean(), 1e-30))
 
 
+def screenshot(path, light_dir):
+    """The colour attribute as Blender's viewport shows it (Workbench,
+    colour by attribute), lit from light_dir, for the README."""
+    obj.ohm.preset = "skin1"
+    place_light(light_dir)
+    operators.live_step(bpy.context, obj)
+    obj.ohm.exposure = 0.5 / float(np.percentile(session.get(obj).scene.vertex_exitance()[:, 0], 99))
+    session.get(obj).recolour(obj)  # the exposure is no setting of the solve: the colours only
+    me.color_attributes.active_color = me.color_attributes[obj.ohm.attribute]
+    cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
+    sc.collection.objects.link(cam)
+    d = np.array([0.5, 0.25, 1.0])
+    cam.location = tuple(d / np.linalg.norm(d) * 120)
+    look = -np.array(cam.location)
+    import mathutils
+    cam.rotation_euler = mathutils.Vector(tuple(look)).to_track_quat("-Z", "Y").to_euler()
+    cam.data.clip_end = 1000
+    sc.camera = cam
+    sc.render.engine = "BLENDER_WORKBENCH"
+    sc.display.shading.light = "FLAT"
+    sc.display.shading.color_type = "VERTEX"
+    sc.render.resolution_x, sc.render.resolution_y = 480, 360
+    sc.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+
+
 if MODE == "live":
     place_light((1, 0.3, 0))
     if bpy.ops.ohm.solve() != {"FINISHED"}:
@@ -138,6 +164,8 @@ if MODE == "live":
     what2 = operators.live_step(bpy.context, obj)
     if what != "setup" or what2 is not None or s.setups != 2:
         problem("a new material gave %r then %r (%d setups), expected one setup" % (what, what2, s.setups))
+    if os.environ.get("OHM_SCREENSHOT"):
+        screenshot(os.environ["OHM_SCREENSHOT"], (1, 0.3, 0.4))
     print("ohm live: %d cells, %.1f updates/s, parts (ms) %s" % (report["cells"], report["updates_per_second"],
                                                               report["update_parts_ms"]))
 elif MODE == "bake":

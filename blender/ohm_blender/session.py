@@ -139,6 +139,11 @@ class Session:
             return "relight"
         return None
 
+    def recolour(self, obj):
+        """The colour attribute again from the current solution (after a
+        change of exposure or attribute name: no solve)."""
+        self._write(obj)
+
     def _write(self, obj):
         t0 = time.perf_counter()
         exitance = self.scene.vertex_exitance()
