@@ -7,17 +7,9 @@
 # code it calls is covered there by api_scene and api_python).
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
-BLENDER=${OHM_BLENDER:-blender}
 ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
 if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
-if ! command -v "$BLENDER" >/dev/null 2>&1; then
-  if [ "${CI:-}" = true ] || { [ -n "${OHM_REQUIRE_BLENDER:-}" ] && [ "$OHM_REQUIRE_BLENDER" != 0 ]; }; then
-    bad "blender not installed ('$BLENDER' not found), but CI=true or OHM_REQUIRE_BLENDER is set"
-    finish
-  fi
-  echo "SKIP: blender not installed"
-  exit 0
-fi
+require_blender
 check "the build made ohm_blender.zip" test -s "$ZIP"
 # Blender keeps installed add-ons in its user folder: a fresh one per run
 export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"

@@ -13,15 +13,7 @@
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 
-BLENDER=${OHM_BLENDER:-blender}
-if ! command -v "$BLENDER" >/dev/null 2>&1; then
-  if [ "${CI:-}" = true ] || { [ -n "${OHM_REQUIRE_BLENDER:-}" ] && [ "$OHM_REQUIRE_BLENDER" != 0 ]; }; then
-    bad "blender not installed ('$BLENDER' not found), but CI=true or OHM_REQUIRE_BLENDER is set"
-    finish
-  fi
-  echo "SKIP: blender not installed"
-  exit 0
-fi
+require_blender
 
 GRIDS=surface,density,fluence_r,fluence_g,fluence_b,exitance_r,exitance_g,exitance_b
 expect_exit 0 "write spot lit from +x" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=32 \

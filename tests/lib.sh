@@ -37,4 +37,19 @@ expect_error_line() {
   fi
   ok
 }
+# require_blender: BLENDER (OHM_BLENDER, default blender on PATH) is there,
+# or the test prints "SKIP: blender not installed" and passes, unless CI=true
+# or OHM_REQUIRE_BLENDER is set (to anything but 0), when it fails.
+require_blender() {
+  BLENDER=${OHM_BLENDER:-blender}
+  if ! command -v "$BLENDER" >/dev/null 2>&1; then
+    if [ "${CI:-}" = true ] || { [ -n "${OHM_REQUIRE_BLENDER:-}" ] && [ "$OHM_REQUIRE_BLENDER" != 0 ]; }; then
+      bad "blender not installed ('$BLENDER' not found), but CI=true or OHM_REQUIRE_BLENDER is set"
+      finish
+      exit 1
+    fi
+    echo "SKIP: blender not installed"
+    exit 0
+  fi
+}
 finish() { echo "$passed passed, $failed failed"; [ "$failed" = 0 ]; }

@@ -76,11 +76,39 @@ def _words(options):
     return array, encoded
 
 
-class Context:
+class _Handle:
+    """An ohm handle's lifetime: close() frees it once (also on leaving a
+    with block, and when collected); a closed one refuses to be used."""
+
+    _free = None  # the C function that frees this kind of handle
+
+    def _live(self):
+        if not getattr(self, "_handle", None):
+            raise Error(ERR_USAGE, "ohm.%s: used after close()" % type(self).__name__)
+        return self._handle
+
+    def close(self):
+        if getattr(self, "_handle", None):
+            type(self)._free(self._handle)
+            self._handle = None
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
+
+    def __del__(self):
+        self.close()
+
+
+class Context(_Handle):
     """Verbosity (0 warnings only, 1 normal, 2 verbose) and where messages
     and progress go: log(level, text) and progress(what, fraction) are
     called from the thread that called into ohm; an exception raised in
     them is dropped (it cannot cross the C library)."""
+
+    _free = staticmethod(_lib.ohm_context_free)
 
     def __init__(self, verbosity=1, log=None, progress=None):
         handle = ctypes.c_void_p()
@@ -120,28 +148,12 @@ class Context:
         self._progress = _library.PROGRESS_CALLBACK(call) if fn else _library.PROGRESS_CALLBACK()
         _lib.ohm_context_set_progress(self._live(), self._progress, None)
 
-    def _live(self):
-        if not self._handle:
-            raise Error(ERR_USAGE, "ohm.Context: used after close()")
-        return self._handle
-
-    def close(self):
-        if getattr(self, "_handle", None):
-            _lib.ohm_context_free(self._handle)
-            self._handle = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def __del__(self):
-        self.close()
 
 
-class Scene:
+class Scene(_Handle):
     """One object and its light (ohm_scene).  The context must outlive it."""
+
+    _free = staticmethod(_lib.ohm_scene_free)
 
     def __init__(self, context):
         handle = ctypes.c_void_p()
@@ -149,24 +161,6 @@ class Scene:
         self._handle = handle
         self._context = context  # keeps it (and its callbacks) alive
 
-    def _live(self):
-        if not self._handle:
-            raise Error(ERR_USAGE, "ohm.Scene: used after close()")
-        return self._handle
-
-    def close(self):
-        if getattr(self, "_handle", None):
-            _lib.ohm_scene_free(self._handle)
-            self._handle = None
-
-    def __enter__(self):
-        return self
-
-    def __exit__(self, *exc):
-        self.close()
-
-    def __del__(self):
-        self.close()
 
     # ---- steps ------------------------------------------------------------
 
