@@ -107,7 +107,11 @@ typedef void (*ohm_log_callback)(void *user, int level, const char *text);
  * called into ohm; it should return quickly. */
 typedef void (*ohm_progress_callback)(void *user, const char *what, double fraction);
 
+/* A new context into *out: verbosity 1, messages and progress on stderr.
+ * OHM_ERR_NOMEM when out of memory (*out is then NULL). */
 OHM_API int ohm_context_new(ohm_context **out);
+
+/* Release a context; NULL is accepted.  Free its scenes first. */
 OHM_API void ohm_context_free(ohm_context *ctx);
 
 /* 0: warnings only, 1: normal (the default), 2: verbose. */
@@ -123,7 +127,12 @@ OHM_API void ohm_context_set_progress(ohm_context *ctx, ohm_progress_callback fn
 
 typedef struct ohm_scene ohm_scene;
 
+/* A new, empty scene into *out (no mesh, grid, material or lights), which
+ * reports through ctx (not NULL; it must outlive the scene). */
 OHM_API int ohm_scene_new(ohm_scene **out, ohm_context *ctx);
+
+/* Release a scene with its mesh, grid, solver and factor; NULL is
+ * accepted.  Files it wrote stay. */
 OHM_API void ohm_scene_free(ohm_scene *scene);
 
 /* Run one action ("read", "voxelize", "material", "light", "solve", "place",
@@ -213,22 +222,28 @@ typedef struct ohm_result_info {
  * solution: none yet, or lights changed since). */
 OHM_API int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene);
 
-/* Per grid cell (count = the grid's cells, 0 outside the object or below a
- * depth band) for one channel and frame (0-based): the fluence rate, or the
- * exitance (W/mm^2 leaving the cell's boundary faces, 0 for a cell with
- * none). */
+/* The fluence rate per grid cell (W/mm^2) for one channel and frame
+ * (0-based); count = the grid's cells; 0 outside the object or below a
+ * depth band. */
 OHM_API int ohm_scene_fluence(double *out, size_t count, const ohm_scene *scene, int channel, int frame);
+
+/* The exitance per grid cell (W/mm^2 leaving the cell's boundary faces; 0
+ * for a cell with none), for one channel and frame, laid out as
+ * ohm_scene_fluence. */
 OHM_API int ohm_scene_exitance(double *out, size_t count, const ohm_scene *scene, int channel, int frame);
 
 /* Exitance at each mesh vertex, out[v * channels + c] (count = vertices x
  * channels), as `-export ply=` colours it. */
 OHM_API int ohm_scene_vertex_exitance(float *out, size_t count, const ohm_scene *scene, int frame);
 
-/* A figure of the scene's statistics (the keys of `-stats`: "cells",
- * "t_factor", "power_out", ...): a number into *out, or a text into *text
- * (the scene's, valid until its next call); OHM_ERR_INVALID for a key it
- * does not hold. */
+/* A numeric figure of the scene's statistics (the keys of `-stats`:
+ * "cells", "t_factor", "power_out", "factors", ...) into *out;
+ * OHM_ERR_INVALID for a key it does not hold or that holds a text. */
 OHM_API int ohm_scene_stat(double *out, const ohm_scene *scene, const char *key);
+
+/* A text figure of the scene's statistics ("solver", "material", ...) into
+ * *text, the scene's own string, valid until the scene's next call;
+ * OHM_ERR_INVALID for a key it does not hold or that holds a number. */
 OHM_API int ohm_scene_stat_text(const char **text, const ohm_scene *scene, const char *key);
 
 /* ---- the command line's other entry points --------------------------------- */
@@ -243,14 +258,18 @@ OHM_API int ohm_help(FILE *stream, const char *action);
  * every check passed), 1 failed, 2 bad usage. */
 OHM_API int ohm_study(ohm_context *ctx, int argc, char **argv);
 
-/* Distributed solves (solver=amg under mpirun).  ohm_parallel_start, first
- * thing in main: 0 on the rank that runs the program, positive on a rank
- * that serves the others' solves (call ohm_parallel_serve, then exit with
- * its status), negative when MPI could not start (it said why on stderr);
- * ohm_parallel_finish at the end releases the serving ranks.
- * Without MPI (or outside mpirun) every call is a no-op returning 0. */
+/* Distributed solves (solver=amg under mpirun): first thing in main.
+ * Returns 0 on the rank that runs the program, positive on a rank that
+ * serves the others' solves (it calls ohm_parallel_serve, then exits with
+ * its status), negative when MPI could not start (it said why on stderr).
+ * Without MPI (or outside mpirun) a no-op returning 0. */
 OHM_API int ohm_parallel_start(void);
+
+/* On a serving rank: take part in the program rank's solves until it calls
+ * ohm_parallel_finish; returns the exit status for that rank. */
 OHM_API int ohm_parallel_serve(void);
+
+/* On the program rank, at the end: release the serving ranks. */
 OHM_API void ohm_parallel_finish(void);
 
 /* Remove half-written output files when the process is interrupted (SIGINT,
