@@ -10,6 +10,7 @@
 #include "base/log.h"
 #include "base/memory.h"
 #include "solvers/cg.h"
+#include "solvers/substitute.h"
 
 /* Thresholds on the scaled backward error (issue 3 / DESIGN.md §3). */
 static const double BERR_REFINE = 1e-12;
@@ -30,6 +31,9 @@ void ohm_cholesky_finish(ohm_cholesky *s)
     if (!s || !s->started) return;
     cholmod_l_free_factor(&s->symbolic, &s->cc);
     cholmod_l_finish(&s->cc);
+    free(s->work);
+    s->work = NULL;
+    s->work_size = 0;
     s->started = 0;
 }
 
@@ -127,56 +131,71 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     return OHM_OK;
 }
 
-int ohm_cholesky_solve(double *Xout, ohm_cholesky *s, cholmod_factor *L, cholmod_sparse *A, const double *Bin,
-                     size_t ncols, double *berr, int *refined, ohm_error *err)
+/* Up to this many columns a solve substitutes column by column over the
+ * factor's arrays (substitute.h); more go to cholmod_solve, whose dense
+ * BLAS-3 blocks then win (measured: ohm bench batch=). */
+static const size_t SUBSTITUTE_MAX_COLUMNS = 4;
+
+/* X = A^-1 B for ncols columns of n rows, from the factor L. */
+static int apply_inverse(double *X, ohm_cholesky *s, cholmod_factor *L, const double *B, size_t n, size_t ncols,
+                         ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
-    size_t n = A->nrow;
-    int rc = OHM_OK;
-    cholmod_dense *B = cholmod_l_allocate_dense(n, ncols, n, CHOLMOD_REAL, cc);
-    cholmod_dense *X = NULL, *dX = NULL;
-    if (refined) *refined = 0;
-    if (!B) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory for %zu right-hand sides of %zu unknowns", ncols, n);
-    memcpy(B->x, Bin, n * ncols * sizeof(double));
-    X = cholmod_l_solve(CHOLMOD_A, L, B, cc);
-    if (!X) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "CHOLMOD solve failed (status %d)", cc->status);
-        goto done;
+    if (ncols <= SUBSTITUTE_MAX_COLUMNS && ohm_substitute_supports(L)) {
+        size_t need = ohm_substitute_work_size(L);
+        if (need > s->work_size) {
+            free(s->work);
+            s->work = malloc(need * sizeof(double));
+            s->work_size = s->work ? need : 0;
+            if (!s->work) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory for a solve of %zu unknowns", n);
+        }
+        for (size_t c = 0; c < ncols; ++c) ohm_substitute(X + c * n, L, B + c * n, s->work);
+        s->substituted += ncols;
+        return OHM_OK;
     }
+    /* a header over the caller's B: cholmod_solve only reads it */
+    cholmod_dense Bd = {.nrow = n, .ncol = ncols, .nzmax = n * ncols, .d = n, .x = (void *)B,
+                        .xtype = CHOLMOD_REAL, .dtype = CHOLMOD_DOUBLE};
+    cholmod_dense *Xd = cholmod_l_solve(CHOLMOD_A, L, &Bd, cc);
+    if (!Xd) return ohm_fail(err, OHM_ERR_NOMEM, "CHOLMOD solve failed (status %d)", cc->status);
+    memcpy(X, Xd->x, n * ncols * sizeof(double));
+    cholmod_l_free_dense(&Xd, cc);
+    return OHM_OK;
+}
+
+int ohm_cholesky_solve(double *X, ohm_cholesky *s, cholmod_factor *L, cholmod_sparse *A, const double *B,
+                       size_t ncols, double *berr, int *refined, ohm_error *err)
+{
+    size_t n = A->nrow;
+    if (refined) *refined = 0;
+    int rc = apply_inverse(X, s, L, B, n, ncols, err);
+    if (rc) return rc;
     double normA = s->norm_A > 0 ? s->norm_A : ohm_sym_upper_norm_inf(A);
-    double e = ohm_backward_error(A, Bin, X->x, ncols, normA);
+    double e = ohm_backward_error(A, B, X, ncols, normA);
     if (!(e <= BERR_REFINE)) {
-        /* one step of iterative refinement: x += A^-1 (b - A x); B becomes
-         * the residual */
-        double *x = X->x, *r = B->x;
+        /* one step of iterative refinement: x += A^-1 (b - A x) */
+        double *r = malloc(2 * n * ncols * sizeof(double));
+        if (!r) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory refining %zu solves of %zu unknowns", ncols, n);
+        double *dx = r + n * ncols;
         for (size_t c = 0; c < ncols; ++c) {
-            ohm_sym_upper_mult(A, x + c * n, r + c * n);
-            for (size_t i = 0; i < n; ++i) r[c * n + i] = Bin[c * n + i] - r[c * n + i];
+            ohm_sym_upper_mult(A, X + c * n, r + c * n);
+            for (size_t i = 0; i < n; ++i) r[c * n + i] = B[c * n + i] - r[c * n + i];
         }
-        dX = cholmod_l_solve(CHOLMOD_A, L, B, cc);
-        if (!dX) {
-            rc = ohm_fail(err, OHM_ERR_NOMEM, "CHOLMOD solve failed (status %d)", cc->status);
-            goto done;
-        }
-        const double *dx = dX->x;
-        for (size_t i = 0; i < n * ncols; ++i) x[i] += dx[i];
-        e = ohm_backward_error(A, Bin, X->x, ncols, normA);
+        rc = apply_inverse(dx, s, L, r, n, ncols, err);
+        if (!rc)
+            for (size_t i = 0; i < n * ncols; ++i) X[i] += dx[i];
+        free(r);
+        if (rc) return rc;
+        e = ohm_backward_error(A, B, X, ncols, normA);
         if (refined) *refined = 1;
     }
     if (berr) *berr = e;
-    if (!(e <= BERR_FAIL)) {
-        rc = ohm_fail(err, OHM_ERR_NUMERIC,
-                      "the solve is not accurate: scaled backward error %.3g after refinement (limit %.0e); the "
-                      "matrix is singular or too ill-conditioned",
-                      e, BERR_FAIL);
-        goto done;
-    }
-    memcpy(Xout, X->x, n * ncols * sizeof(double));
-done:
-    cholmod_l_free_dense(&B, cc);
-    cholmod_l_free_dense(&X, cc);
-    cholmod_l_free_dense(&dX, cc);
-    return rc;
+    if (!(e <= BERR_FAIL))
+        return ohm_fail(err, OHM_ERR_NUMERIC,
+                        "the solve is not accurate: scaled backward error %.3g after refinement (limit %.0e); the "
+                        "matrix is singular or too ill-conditioned",
+                        e, BERR_FAIL);
+    return OHM_OK;
 }
 
 /* ---- the direct backend (backend.h) ---------------------------------------------- */

@@ -28,6 +28,9 @@ typedef struct ohm_cholesky {
     double flops;               /* floating-point operations of one factorization */
     double nnz_A;               /* entries of A (upper triangle)                */
     double norm_A;              /* ||A||_inf of the last factorized matrix      */
+    double *work;               /* substitution's work space (substitute.h)     */
+    size_t work_size;           /* its doubles                                  */
+    long long substituted;      /* columns solved by substitution, not CHOLMOD  */
 } ohm_cholesky;
 
 int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err);
@@ -42,7 +45,9 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
  * copy of the symbolic factor.  t: seconds.  On failure *L is freed. */
 int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, ohm_error *err);
 
-/* Solve A X = B for ncols columns (column-major, n rows each).  *berr gets the
+/* Solve A X = B for ncols columns (column-major, n rows each): by
+ * substitution over a supernodal factor for a few columns (substitute.h),
+ * by cholmod_solve otherwise.  *berr gets the
  * largest scaled backward error over the columns, *refined whether a step of
  * iterative refinement was taken. */
 int ohm_cholesky_solve(double *X, ohm_cholesky *s, cholmod_factor *L, cholmod_sparse *A, const double *B, size_t ncols,
