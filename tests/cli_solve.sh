@@ -89,16 +89,33 @@ expect_exit 2 "bad rgb" -- "$OHM" -material sigma_a=1,2 sigma_s=1
 expect_exit 0 "ohm validate" -- "$OHM" validate
 check "validate prints the summary" grep -q " 0 failed" "$T/stdout"
 
-# ordering=best keeps the smaller of the METIS and AMD factors
-for o in metis amd best; do
+# ordering=best keeps the smallest of the METIS, AMD and grid factors
+for o in metis amd grid best; do
   "$OHM" --quiet -read file=samples/spot.obj size=50 -voxelize dim=28 -material sigma_a=0.01 sigma_s=1 \
-    -light dir=0,-1,0 -solve ordering=$o -stats file="$T/o_$o.json"
+    -light dir=0,-1,0 -solve ordering=$o -stats file="$T/o_$o.json" -export csv="$T/o_$o.csv"
 done
-check "ordering=best picks the smaller factor" $PY -c "
+check "ordering=best picks the smallest factor" $PY -c "
 import json
-L = {o: json.load(open('$T/o_%s.json' % o)) for o in ('metis', 'amd', 'best')}
-assert L['best']['nnz_L'] == min(L['metis']['nnz_L'], L['amd']['nnz_L']), L
-assert L['best']['ordering'] in ('metis', 'amd')"
+L = {o: json.load(open('$T/o_%s.json' % o)) for o in ('metis', 'amd', 'grid', 'best')}
+assert L['best']['nnz_L'] == min(L[o]['nnz_L'] for o in ('metis', 'amd', 'grid')), L
+assert L['best']['ordering'] in ('metis', 'amd', 'grid')"
+# ordering=grid (geometric nested dissection) solves to METIS's fluence, cell
+# by cell, on a mesh and on a scan
+"$OHM" --quiet -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize dim=24 threshold=5000 \
+  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve ordering=grid -export csv="$T/w_grid.csv"
+"$OHM" --quiet -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize dim=24 threshold=5000 \
+  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve ordering=metis -export csv="$T/w_metis.csv"
+for pair in "o_grid o_metis" "w_grid w_metis"; do
+  set -- $pair
+  check "ordering=grid = metis to 1e-12 ($1)" $PY - "$T/$1.csv" "$T/$2.csv" <<'PYEOF'
+import csv, sys
+a, b = (list(csv.DictReader(open(p))) for p in sys.argv[1:])
+assert len(a) == len(b) > 0, (len(a), len(b))
+scale = max(abs(float(r[k])) for r in b for k in r if k.startswith("fluence"))
+worst = max(abs(float(x[k]) - float(y[k])) for x, y in zip(a, b) for k in x if k.startswith("fluence"))
+assert worst <= 1e-12 * scale, worst / scale
+PYEOF
+done
 
 # relighting: a 16-frame orbit is one factorization per distinct channel and a
 # numbered .vdb sequence

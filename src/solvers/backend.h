@@ -34,6 +34,7 @@
 
 #include "base/log.h"
 #include "base/ohm_error.h"
+#include "solvers/grid_order.h"
 
 /* What a backend did, summed over its setups and solves (the driver copies it
  * into the run's statistics). */
@@ -47,7 +48,7 @@ typedef struct ohm_backend_report {
     double t_factor;            /* seconds: numeric factorizations             */
     double t_precond;           /* seconds: preconditioner setups              */
     double nnz_A, nnz_L, flops; /* direct: the factor's size and cost          */
-    char ordering[16];          /* direct: metis | amd | nesdis                */
+    char ordering[16];          /* direct: metis | amd | nesdis | grid         */
     int64_t iterations;         /* iterative backends: summed over columns     */
     double relres;              /* iterative backends: largest final ||r||/||b|| */
     int refined;                /* direct: solves that took a refinement step  */
@@ -57,7 +58,8 @@ typedef struct ohm_backend_report {
 
 /* Parameters of every backend; zero means the default. */
 typedef struct ohm_backend_config {
-    const char *ordering;      /* direct: metis | amd | nesdis | best            */
+    const char *ordering;      /* direct: metis | amd | nesdis | grid | best     */
+    const ohm_grid_layout *layout; /* direct: the unknowns' grid cells (ordering=grid); may be NULL */
     double tol;                /* iterative: stop at ||b - A x|| <= tol ||b||; 0: 1e-10 */
     int64_t max_iter;          /* iterative: 0: 20000                            */
     const char *petsc_options; /* amg: passed to PETSc's options database         */

@@ -42,15 +42,16 @@ void ohm_cholesky_factor_free(cholmod_factor **L, ohm_cholesky *s)
     if (L && *L) cholmod_l_free_factor(L, &s->cc);
 }
 
-/* One analysis with one ordering; the factor and its statistics in *out. */
+/* One analysis with one ordering (perm: a given ordering, CHOLMOD_GIVEN);
+ * the factor and its statistics in *out. */
 static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_cholesky *s, cholmod_sparse *A, int ordering,
-                       const char *name, ohm_error *err)
+                       int64_t *perm, const char *name, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     cc->nmethods = 1;
     cc->postorder = 1;
     cc->method[0].ordering = ordering;
-    *out = cholmod_l_analyze(A, cc);
+    *out = perm ? cholmod_l_analyze_p(A, perm, NULL, 0, cc) : cholmod_l_analyze(A, cc);
     if (!*out || cc->status < CHOLMOD_OK) {
         cholmod_l_free_factor(out, cc);
         if (cc->status == CHOLMOD_NOT_INSTALLED)
@@ -65,24 +66,43 @@ static int analyze_one(cholmod_factor **out, double *lnz, double *fl, ohm_choles
     return OHM_OK;
 }
 
-int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, ohm_error *err)
+/* The analysis with the geometric ordering of grid_order.h. */
+static int analyze_grid(cholmod_factor **out, double *lnz, double *fl, ohm_cholesky *s, cholmod_sparse *A,
+                        const ohm_grid_layout *layout, ohm_error *err)
+{
+    if (!layout || layout->n != (int64_t)A->nrow)
+        return ohm_fail(err, OHM_ERR_USAGE, "ordering=grid needs the unknowns' grid positions, which this caller "
+                                            "does not give: use metis, amd or nesdis");
+    int64_t *perm = malloc((size_t)(layout->n ? layout->n : 1) * sizeof *perm);
+    if (!perm) return ohm_fail(err, OHM_ERR_NOMEM, "ordering=grid: out of memory");
+    int rc = ohm_grid_order(perm, layout, err);
+    if (!rc) rc = analyze_one(out, lnz, fl, s, A, CHOLMOD_GIVEN, perm, "grid", err);
+    free(perm);
+    return rc;
+}
+
+int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, const ohm_grid_layout *layout,
+                         ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     cholmod_l_free_factor(&s->symbolic, cc);
     static const struct {
         const char *name;
-        int id;
-    } orders[] = {{"metis", CHOLMOD_METIS}, {"amd", CHOLMOD_AMD}, {"nesdis", CHOLMOD_NESDIS}};
+        int id; /* CHOLMOD's; -1: grid_order.h */
+    } orders[] = {{"metis", CHOLMOD_METIS}, {"amd", CHOLMOD_AMD}, {"nesdis", CHOLMOD_NESDIS}, {"grid", -1}};
     int best = strcmp(ordering, "best") == 0;
     double t0 = ohm_now();
     int found = 0;
-    for (int i = 0; i < 3; ++i) {
-        /* best: METIS and AMD, keep the smaller factor */
-        if (best ? orders[i].id == CHOLMOD_NESDIS : strcmp(ordering, orders[i].name) != 0) continue;
+    for (int i = 0; i < 4; ++i) {
+        /* best: METIS, AMD and (given the grid) grid; keep the smaller factor */
+        if (best ? orders[i].id == CHOLMOD_NESDIS || (orders[i].id < 0 && !layout)
+                 : strcmp(ordering, orders[i].name) != 0)
+            continue;
         found = 1;
         cholmod_factor *F = NULL;
         double lnz = 0, fl = 0;
-        int rc = analyze_one(&F, &lnz, &fl, s, A, orders[i].id, orders[i].name, err);
+        int rc = orders[i].id < 0 ? analyze_grid(&F, &lnz, &fl, s, A, layout, err)
+                                  : analyze_one(&F, &lnz, &fl, s, A, orders[i].id, NULL, orders[i].name, err);
         if (rc) {
             cholmod_l_free_factor(&s->symbolic, cc);
             return rc;
@@ -97,7 +117,7 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
             cholmod_l_free_factor(&F, cc);
         }
     }
-    if (!found) return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected metis, amd, nesdis or best", ordering);
+    if (!found) return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected metis, amd, nesdis, grid or best", ordering);
     s->t_analyze = ohm_now() - t0;
     s->nnz_A = (double)cholmod_l_nnz(A, cc);
     return OHM_OK;
@@ -248,7 +268,7 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
     if (!s->symbolic) {
         ohm_log_info(d->cfg.log, "solve: %lld unknowns, %lld matrix entries; analysing (%s)", (long long)A->nrow,
                      (long long)A->nzmax, ordering);
-        int rc = ohm_cholesky_analyze(s, A, ordering, err);
+        int rc = ohm_cholesky_analyze(s, A, ordering, d->cfg.layout, err);
         if (rc) return rc;
         rep->t_analyze += s->t_analyze;
         rep->analyses++;

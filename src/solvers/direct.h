@@ -17,12 +17,13 @@
 
 #include "base/ohm_error.h"
 #include "solvers/backend.h"
+#include "solvers/grid_order.h"
 
 typedef struct ohm_cholesky {
     cholmod_common cc;
     int started;
     cholmod_factor *symbolic;   /* from analyze; copied for each factorization */
-    char ordering[16];          /* the ordering used: metis, amd, nesdis        */
+    char ordering[16];          /* the ordering used: metis, amd, nesdis, grid  */
     double t_analyze;           /* seconds                                      */
     double nnz_L;               /* entries of L (from the analysis)             */
     double flops;               /* floating-point operations of one factorization */
@@ -36,9 +37,11 @@ typedef struct ohm_cholesky {
 int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err);
 void ohm_cholesky_finish(ohm_cholesky *s); /* frees everything; fine on a zeroed solver */
 
-/* ordering: "metis" | "amd" | "nesdis" | "best" (tries METIS and AMD, keeps the
- * one with the smaller factor). */
-int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, ohm_error *err);
+/* ordering: "metis" | "amd" | "nesdis" | "grid" (grid_order.h: needs the
+ * unknowns' layout) | "best" (tries METIS, AMD and, given the layout, grid;
+ * keeps the one with the smaller factor).  layout may be NULL. */
+int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, const ohm_grid_layout *layout,
+                         ohm_error *err);
 
 /* Numeric factor of A (same pattern as analysed): into *L when it holds an
  * earlier factor of this analysis (refactorized in place), else into a new

@@ -732,6 +732,7 @@ struct ohm_solver {
     cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
     int cc_started;
     const ohm_backend_ops *backend;
+    ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
     ohm_backend_report rep;      /* summed over the solver's life             */
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
     int held;                    /* keep = 0: the one slot holding resources, or -1 */
@@ -778,6 +779,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     if (!rc) {
         sol->n = sol->net.n;
         sol->t_network = ohm_now() - t0;
+        s->layout = (ohm_grid_layout){sol->net.cell, sol->net.n, {s->grid->dims[0], s->grid->dims[1], s->grid->dims[2]}};
         rc = keep_media(sol, &s->params, compact, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
@@ -1076,6 +1078,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
         nclasses += cls[c] == c;
     }
     ohm_backend_config bcfg = {.ordering = params->ordering,
+                               .layout = &s->layout,
                                .tol = params->cg_tol,
                                .petsc_options = params->petsc_options,
                                .max_memory = params->max_memory,

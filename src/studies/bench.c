@@ -146,7 +146,7 @@ static void usage(FILE *f)
             "                   (default 0: no limit)\n"
             "  frames=N         lights, one per frame (default 16)\n"
             "  batch=N|all      frames per solve: 1 solves one light at a time, the interactive case (default 1)\n"
-            "  ordering=NAME    metis|amd|nesdis|best (default metis)\n"
+            "  ordering=NAME    metis|amd|nesdis|grid|best (default metis)\n"
             "  shadows=MODE     shadow rays in the source: mesh (Embree, as -solve does) | grid | none (default mesh)\n"
             "  csv=FILE         every raw figure, one row per grid\n"
             "  md=FILE          the Markdown table\n",
@@ -285,8 +285,8 @@ static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err
                 return usage_error(err, "batch=%s: expected 'all' or an integer from 1 to 100000", v);
             else o->batch = (int)n;
         } else if (strcmp(key, "ordering") == 0) {
-            if (strcmp(v, "metis") && strcmp(v, "amd") && strcmp(v, "nesdis") && strcmp(v, "best"))
-                return usage_error(err, "ordering=%s: expected metis, amd, nesdis or best", v);
+            if (strcmp(v, "metis") && strcmp(v, "amd") && strcmp(v, "nesdis") && strcmp(v, "grid") && strcmp(v, "best"))
+                return usage_error(err, "ordering=%s: expected metis, amd, nesdis, grid or best", v);
             o->ordering = v;
         } else if (strcmp(key, "shadows") == 0) {
             if (strcmp(v, "mesh") == 0) o->shadows = OHM_SHADOWS_MESH;
@@ -577,7 +577,7 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     med.eta = mat->eta;
     cholmod_sparse *A = NULL;
     rc = ohm_network_assemble(&A, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &s.cc, err);
-    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, err);
+    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &(ohm_grid_layout){net.cell, net.n, {g->dims[0], g->dims[1], g->dims[2]}}, err);
     if (!rc) {
         const cholmod_factor *F = s.symbolic;
         plan->nnz_L = s.nnz_L;

@@ -1,0 +1,55 @@
+#!/usr/bin/env bash
+# The fill-reducing orderings compared on every sample mesh and on the two
+# scans (issue 15, item 1): for each object and ordering, nnz(L), the
+# factorization's flops, the analysis time (ordering + CHOLMOD's symbolic
+# analysis) and one channel's numeric factorization time.  Writes
+# docs/ordering.md (a Markdown table and the machine it ran on).
+#   scripts/ordering-table.sh [build/ohm] [dim]      (default dim 64)
+set -euo pipefail
+cd "$(dirname "$0")/.."
+OHM=${1:-build/ohm}; dim=${2:-64}
+out=docs/ordering.md
+tmp=$(mktemp -d); trap 'rm -rf "$tmp"' EXIT
+objects=(
+  "spot|-read file=samples/spot.obj size=50"
+  "cow|-read file=samples/cow.obj size=50"
+  "teapot|-read file=samples/teapot.obj size=50"
+  "bunny|-read file=samples/stanford-bunny.obj.gz size=50"
+  "dragon|-read file=samples/ChineseDragon-10kv.off.gz size=50"
+  "knot|-read file=samples/knot1.off size=50"
+  "head (mesh)|-read file=samples/head.off size=50"
+  "walnut CT|-read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize threshold=5000 -material transfer=samples/walnut.transfer"
+  "Colin27 MRI, 2 mm|-read file=samples/ch2_2mm.nii.gz -voxelize threshold=40 -material transfer=samples/mri-head.transfer"
+)
+{
+  echo "# Orderings for the Cholesky factor, on every sample"
+  echo
+  echo "\`scripts/ordering-table.sh $OHM $dim\`, $(date -u +%Y-%m-%d), $(nproc) threads, $(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2 | xargs)."
+  echo "Meshes voxelized at dim=$dim (50 mm) in marble; the scans by threshold at ohm's default grid, with"
+  echo "their transfer functions (samples/walnut.transfer, samples/mri-head.transfer).  analyse: ordering + CHOLMOD's symbolic analysis; factor: one numeric"
+  echo "factorization (the mean of the run's channels); ratio: analyse / factor.  Times vary by ±20% on this VM."
+  echo
+  echo "| object | cells | ordering | nnz(L) | of METIS's | flops | of METIS's | analyse (s) | factor (s) | analyse / factor |"
+  echo "|---|---:|---|---:|---:|---:|---:|---:|---:|---:|"
+  for entry in "${objects[@]}"; do
+    name=${entry%%|*}; read -r -a words <<<"${entry#*|}"
+    vox=(-voxelize dim="$dim"); mat=(-material preset=marble)
+    [[ " ${words[*]} " == *" -voxelize "* ]] && vox=() && mat=()
+    for o in metis grid amd nesdis; do
+      "$OHM" --quiet "${words[@]}" "${vox[@]}" "${mat[@]}" -light type=directional dir=0,-1,-1 \
+        -solve ordering=$o -stats file="$tmp/$o.json"
+    done
+    /usr/bin/python3 - "$name" "$tmp" <<'PY'
+import json, sys
+name, tmp = sys.argv[1], sys.argv[2]
+ref = json.load(open(f"{tmp}/metis.json"))
+for o in ["metis", "grid", "amd", "nesdis"]:
+    s = json.load(open(f"{tmp}/{o}.json"))
+    fac = s["t_factor"] / s["factors"]
+    print(f"| {name} | {s['cells']} | {o} | {s['nnz_L']:.3g} | {s['nnz_L'] / ref['nnz_L']:.2f} | {s['flops']:.3g} | "
+          f"{s['flops'] / ref['flops']:.2f} | {s['t_analyze']:.3f} | {fac:.3f} | {s['t_analyze'] / fac:.2f} |")
+PY
+  done
+} >"$out.tmp"
+mv "$out.tmp" "$out"
+cat "$out"
