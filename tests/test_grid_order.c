@@ -124,7 +124,7 @@ static void check_shape(enum shape shape, int d)
     CHECK(A != NULL);
     if (!A) return;
     int64_t n = net.n;
-    ohm_grid_layout layout = {net.cell, n, {g.dims[0], g.dims[1], g.dims[2]}};
+    ohm_grid_layout layout = {net.cell, n, {g.dims[0], g.dims[1], g.dims[2]}, net.piece, net.npieces};
     int64_t *perm = malloc((size_t)n * sizeof *perm);
     ohm_error err;
     ohm_error_clear(&err);

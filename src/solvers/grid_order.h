@@ -22,11 +22,17 @@
 #include "base/ohm_error.h"
 
 /* Where the unknowns sit: unknown u is dense grid cell cell[u] of a grid
- * of dims[0] x dims[1] x dims[2] cells, x fastest. */
+ * of dims[0] x dims[1] x dims[2] cells, x fastest; piece[u] its connected
+ * piece, 0 .. npieces-1 (NULL: one piece).  Pieces share no face, so each
+ * is dissected on its own and none needs a separator from another: a scan
+ * is often a shell and a core or a cloud of specks, which planes cut
+ * needlessly. */
 typedef struct ohm_grid_layout {
     const int64_t *cell;
     int64_t n;
     int64_t dims[3];
+    const int64_t *piece;
+    int64_t npieces;
 } ohm_grid_layout;
 
 /* perm[k] = the unknown eliminated k-th (n entries, CHOLMOD's Perm). */

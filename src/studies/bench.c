@@ -146,7 +146,7 @@ static void usage(FILE *f)
             "                   (default 0: no limit)\n"
             "  frames=N         lights, one per frame (default 16)\n"
             "  batch=N|all      frames per solve: 1 solves one light at a time, the interactive case (default 1)\n"
-            "  ordering=NAME    metis|amd|nesdis|grid|best (default metis)\n"
+            "  ordering=NAME    metis|amd|nesdis|grid|best (default grid, what -solve picks for a mesh)\n"
             "  shadows=MODE     shadow rays in the source: mesh (Embree, as -solve does) | grid | none (default mesh)\n"
             "  csv=FILE         every raw figure, one row per grid\n"
             "  md=FILE          the Markdown table\n",
@@ -229,7 +229,7 @@ static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err
     o->mem = 0.6;
     o->frames = 16;
     o->batch = 1;
-    o->ordering = "metis";
+    o->ordering = "grid"; /* what -solve's ordering=auto picks for a mesh */
     o->shadows = OHM_SHADOWS_MESH;
     int seen[NOPTIONS] = {0};
     for (int i = 0; i < argc; ++i) {
@@ -577,7 +577,7 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     med.eta = mat->eta;
     cholmod_sparse *A = NULL;
     rc = ohm_network_assemble(&A, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &s.cc, err);
-    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &(ohm_grid_layout){net.cell, net.n, {g->dims[0], g->dims[1], g->dims[2]}}, err);
+    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &(ohm_grid_layout){net.cell, net.n, {g->dims[0], g->dims[1], g->dims[2]}, net.piece, net.npieces}, err);
     if (!rc) {
         const cholmod_factor *F = s.symbolic;
         plan->nnz_L = s.nnz_L;
