@@ -17,9 +17,6 @@ typedef struct order_work {
     int64_t *scratch;   /* n: partition buffer                               */
     int64_t *histogram; /* max dim + 1: cells per plane along one axis       */
     int64_t *perm;      /* the output                                        */
-    int64_t *neighbour; /* 6 n: each unknown's face neighbours, -1 for none  */
-    int64_t *mark;      /* n: stamps for the pieces' search                  */
-    int64_t stamp;
 } order_work;
 
 /* Separator planes d . (i, j, k) = p with every entry of d in {-1, 0, 1}:
@@ -77,53 +74,9 @@ static void best_plane(split *best, const order_work *w, const int64_t *list, in
  * (left, right, separator); recursion depth is O(log count) because each
  * side keeps at most MAX_SIDE of the cells.  A block no plane splits within
  * that balance (a few cells, or a thin sliver) is numbered as it comes. */
-static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos);
-
-/* When the cells list[0..count) fall apart into pieces (a separator cut
- * them off from each other), each piece is dissected on its own, one after
- * another, and 1 is returned; 0 when they hang together.  Pieces come from
- * a breadth-first search over face neighbours within the list, into the
- * scratch buffer; the list is then rearranged piece by piece. */
-static int dissect_pieces(order_work *w, int64_t *list, int64_t count, int64_t pos)
-{
-    const int64_t inside = ++w->stamp, seen = ++w->stamp;
-    for (int64_t q = 0; q < count; ++q) w->mark[list[q]] = inside;
-    int64_t *queue = w->scratch, tail = 0, first_end = 0, pieces = 0;
-    for (int64_t q = 0; q < count; ++q) {
-        if (w->mark[list[q]] != inside) continue;
-        w->mark[list[q]] = seen;
-        queue[tail++] = list[q];
-        for (int64_t head = tail - 1; head < tail; ++head)
-            for (int f = 0; f < 6; ++f) {
-                int64_t v = w->neighbour[6 * queue[head] + f];
-                if (v >= 0 && w->mark[v] == inside) w->mark[v] = seen, queue[tail++] = v;
-            }
-        if (++pieces == 1) first_end = tail;
-        if (first_end == count) return 0; /* one piece */
-    }
-    /* pieces in the queue's order; their bounds found again by stamping */
-    memcpy(list, queue, (size_t)count * sizeof *list);
-    int64_t begin = 0;
-    while (begin < count) {
-        /* the piece starting at list[begin]: search it again, marking done */
-        const int64_t piece = ++w->stamp;
-        int64_t end = begin + 1;
-        w->mark[list[begin]] = piece;
-        for (int64_t head = begin; head < end; ++head)
-            for (int f = 0; f < 6; ++f) {
-                int64_t v = w->neighbour[6 * list[head] + f];
-                if (v >= 0 && w->mark[v] == seen) w->mark[v] = piece, list[end++] = v;
-            }
-        dissect(w, list + begin, end - begin, pos + begin);
-        begin = end;
-    }
-    return 1;
-}
-
 static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos)
 {
     split best = {0, 0, -1, 0};
-    if (count > LEAF_CELLS && w->neighbour && dissect_pieces(w, list, count, pos)) return;
     if (count > LEAF_CELLS)
         for (int d = 0; d < 13; ++d) best_plane(&best, w, list, count, d);
     if (best.separator < 0) {
@@ -152,52 +105,19 @@ static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos)
     memcpy(w->perm + pos + nl + nr, list + nl + nr, (size_t)ns * sizeof *list);
 }
 
-/* The unknown at dense cell c, or -1: a binary search of the unknowns'
- * cells, which ascend (unknowns are numbered in cell order). */
-static int64_t unknown_at(const ohm_grid_layout *layout, int64_t c)
-{
-    int64_t lo = 0, hi = layout->n;
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (layout->cell[mid] < c)
-            lo = mid + 1;
-        else
-            hi = mid;
-    }
-    return lo < layout->n && layout->cell[lo] == c ? lo : -1;
-}
-
-/* neighbour[6 u + f]: the unknowns sharing a face with u (-1: none), or 0
- * when the cells do not ascend (then pieces are not searched). */
-static int find_neighbours(int64_t *neighbour, const ohm_grid_layout *layout, int32_t *const coord[3])
-{
-    for (int64_t u = 1; u < layout->n; ++u)
-        if (layout->cell[u] <= layout->cell[u - 1]) return 0;
-    const int64_t stride[3] = {1, layout->dims[0], layout->dims[0] * layout->dims[1]};
-    for (int64_t u = 0; u < layout->n; ++u)
-        for (int a = 0; a < 3; ++a) {
-            int32_t x = coord[a][u];
-            neighbour[6 * u + 2 * a] = x > 0 ? unknown_at(layout, layout->cell[u] - stride[a]) : -1;
-            neighbour[6 * u + 2 * a + 1] = x + 1 < layout->dims[a] ? unknown_at(layout, layout->cell[u] + stride[a]) : -1;
-        }
-    return 1;
-}
-
 int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
 {
     const int64_t n = layout->n, nx = layout->dims[0], ny = layout->dims[1];
     int64_t maxdim = layout->dims[0];
     for (int a = 1; a < 3; ++a)
         if (layout->dims[a] > maxdim) maxdim = layout->dims[a];
-    order_work w = {{NULL, NULL, NULL}, NULL, NULL, perm, NULL, NULL, 0};
+    order_work w = {{NULL, NULL, NULL}, NULL, NULL, perm};
     int64_t *list = malloc((size_t)(n ? n : 1) * sizeof *list);
     int32_t *coords = malloc((size_t)(n ? n : 1) * 3 * sizeof *coords);
     w.scratch = malloc((size_t)(n ? n : 1) * sizeof *w.scratch);
     w.histogram = malloc((size_t)(3 * maxdim + 1) * sizeof *w.histogram); /* body diagonals span 3 x */
-    w.neighbour = malloc((size_t)(n ? n : 1) * 6 * sizeof *w.neighbour);
-    w.mark = calloc((size_t)(n ? n : 1), sizeof *w.mark);
-    if (!list || !coords || !w.scratch || !w.histogram || !w.neighbour || !w.mark) {
-        free(list), free(coords), free(w.scratch), free(w.histogram), free(w.neighbour), free(w.mark);
+    if (!list || !coords || !w.scratch || !w.histogram) {
+        free(list), free(coords), free(w.scratch), free(w.histogram);
         return ohm_fail(err, OHM_ERR_NOMEM, "ordering=grid: out of memory for %lld unknowns", (long long)n);
     }
     for (int a = 0; a < 3; ++a) w.coord[a] = coords + a * n;
@@ -208,15 +128,11 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
         w.coord[2][u] = (int32_t)(cell / nx / ny);
         list[u] = u;
     }
-    if (!find_neighbours(w.neighbour, layout, w.coord)) {
-        free(w.neighbour);
-        w.neighbour = NULL;
-    }
     if (layout->piece && layout->npieces > 1) {
         /* the pieces one after another (a counting sort, stable in cell order) */
         int64_t *start = calloc((size_t)layout->npieces + 1, sizeof *start);
         if (!start) {
-            free(list), free(coords), free(w.scratch), free(w.histogram), free(w.neighbour), free(w.mark);
+            free(list), free(coords), free(w.scratch), free(w.histogram);
             return ohm_fail(err, OHM_ERR_NOMEM, "ordering=grid: out of memory for %lld pieces",
                             (long long)layout->npieces);
         }
@@ -231,6 +147,6 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
     } else if (n) {
         dissect(&w, list, n, 0);
     }
-    free(list), free(coords), free(w.scratch), free(w.histogram), free(w.neighbour), free(w.mark);
+    free(list), free(coords), free(w.scratch), free(w.histogram);
     return OHM_OK;
 }
