@@ -1,6 +1,7 @@
 #!/usr/bin/env python3
 """api_python.py — the Python module (python/ohm) over libohm:
-  - errors raise ohm.UsageError / ohm.Error with ohm's message;
+  - errors raise ohm.UsageError / ohm.Error with ohm's message, the very
+    line the command line prints after "ohm: error: " (OHM_CLI names it);
   - spot (samples/spot.obj) in marble solves with exact conservation, and
     the log callback hears the run; relight() for new lights reuses the
     factor (the stats' factorization count stays at one per channel),
@@ -11,6 +12,7 @@
     same values read from a raw file.
 Run from the repository root with PYTHONPATH naming the built package."""
 import os
+import subprocess
 import sys
 import tempfile
 
@@ -74,6 +76,25 @@ def main():
             check(False, "a closed scene raised nothing")
         except ohm.Error as e:
             check("after close" in str(e), "closed scene: %s" % e)
+
+        # the same failures through the command line: the same message
+        cli = os.environ.get("OHM_CLI")
+        check(cli is not None, "OHM_CLI names no command line")
+        for args, action, opts in [(["-read", "file=nonexist.obj"], "read", dict(file="nonexist.obj")),
+                                   (["-voxelize", "dimm=8"], "voxelize", dict(dimm=8)),
+                                   (["-read", "file=samples/spot.obj", "-light", "type=spotlight"], None, None)]:
+            if not cli:
+                break
+            printed = subprocess.run([cli] + args, capture_output=True, text=True).stderr.strip().splitlines()[-1]
+            with ohm.Scene(ctx) as sc:
+                try:
+                    if action:
+                        sc.run(action, **opts)
+                    else:
+                        sc.run_args(args)
+                    check(False, "%s raised nothing" % args)
+                except ohm.Error as e:
+                    check(printed == "ohm: error: " + str(e), "API %r, command line %r" % (str(e), printed))
 
         lights = [dict(type="point", pos=(0, 70, 10), intensity=2000), dict(type="directional", dir=(1, 0, -0.5)),
                   dict(type="point", pos=(-60, 5, 20), intensity=2000)]
