@@ -2,6 +2,7 @@
  * (grid_order.h). */
 #include "solvers/grid_order.h"
 
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -15,7 +16,7 @@ static const double MAX_SIDE = 0.55;
 typedef struct order_work {
     int32_t *coord[3];  /* n each: the unknowns' cell coordinates            */
     int64_t *scratch;   /* n: partition buffer                               */
-    int64_t *histogram; /* max dim + 1: cells per plane along one axis       */
+    int64_t *histogram; /* 3 max dim + 1: cells per plane across a direction */
     int64_t *perm;      /* the output                                        */
 } order_work;
 
@@ -111,6 +112,9 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
     int64_t maxdim = layout->dims[0];
     for (int a = 1; a < 3; ++a)
         if (layout->dims[a] > maxdim) maxdim = layout->dims[a];
+    if (maxdim > INT32_MAX / 3) /* projections d . x must fit an int32_t */
+        return ohm_fail(err, OHM_ERR_INVALID, "ordering=grid: a grid of %lld cells along an axis is too long",
+                        (long long)maxdim);
     order_work w = {{NULL, NULL, NULL}, NULL, NULL, perm};
     int64_t *list = malloc((size_t)(n ? n : 1) * sizeof *list);
     int32_t *coords = malloc((size_t)(n ? n : 1) * 3 * sizeof *coords);
