@@ -1,12 +1,11 @@
 /* test_grid_order.c — the geometric nested dissection (solvers/grid_order.h)
  * on a box, a concave frame, a scan-like blob of random density and a
  * one-cell-thick plate: a valid permutation of the unknowns; the factor it
- * orders solves the network to the same solution as METIS's to 1e-12; every
- * separator it made really separates (no face between the two sides
- * numbered before it — checked through the factor: nnz(L) no larger than a
- * bound that holds only when dissection worked, here within 10% of METIS's
- * on the box, the grid graph's own case).  Fill counts are deterministic, so
- * they may be asserted; times are not. */
+ * orders solves the network to the same solution as METIS's to 1e-12; and
+ * its fill stays within 10% of METIS's on the box (the grid graph itself,
+ * where plane separators must do as well as a graph partitioner) and within
+ * 1.5x on the other shapes.  Fill counts are deterministic, so they may be
+ * asserted; times are not. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -124,7 +123,7 @@ static void check_shape(enum shape shape, int d)
     CHECK(A != NULL);
     if (!A) return;
     int64_t n = net.n;
-    ohm_grid_layout layout = {net.cell, n, {g.dims[0], g.dims[1], g.dims[2]}, net.piece, net.npieces};
+    ohm_grid_layout layout = ohm_grid_layout_of(&net);
     int64_t *perm = malloc((size_t)n * sizeof *perm);
     ohm_error err;
     ohm_error_clear(&err);

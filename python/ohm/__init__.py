@@ -149,7 +149,6 @@ class Context(_Handle):
         _lib.ohm_context_set_progress(self._live(), self._progress, None)
 
 
-
 class Scene(_Handle):
     """One object and its light (ohm_scene).  The context must outlive it."""
 
@@ -160,7 +159,6 @@ class Scene(_Handle):
         _check(_lib.ohm_scene_new(ctypes.byref(handle), context._live()))
         self._handle = handle
         self._context = context  # keeps it (and its callbacks) alive
-
 
     # ---- steps ------------------------------------------------------------
 

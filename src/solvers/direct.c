@@ -179,7 +179,6 @@ static int apply_inverse(double *X, ohm_cholesky *s, cholmod_factor *L, const do
             if (!s->work) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory for a solve of %zu unknowns", n);
         }
         for (size_t c = 0; c < ncols; ++c) ohm_substitute(X + c * n, L, B + c * n, s->work);
-        s->substituted += ncols;
         return OHM_OK;
     }
     /* a header over the caller's B: cholmod_solve only reads it */

@@ -31,7 +31,6 @@ typedef struct ohm_cholesky {
     double norm_A;              /* ||A||_inf of the last factorized matrix      */
     double *work;               /* substitution's work space (substitute.h)     */
     size_t work_size;           /* its doubles                                  */
-    long long substituted;      /* columns solved by substitution, not CHOLMOD  */
 } ohm_cholesky;
 
 int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err);

@@ -106,6 +106,12 @@ static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos)
     memcpy(w->perm + pos + nl + nr, list + nl + nr, (size_t)ns * sizeof *list);
 }
 
+ohm_grid_layout ohm_grid_layout_of(const ohm_network *net)
+{
+    const int32_t *d = net->grid->dims;
+    return (ohm_grid_layout){net->cell, net->n, {d[0], d[1], d[2]}, net->piece, net->npieces};
+}
+
 int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
 {
     const int64_t n = layout->n, nx = layout->dims[0], ny = layout->dims[1];

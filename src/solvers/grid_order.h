@@ -24,6 +24,7 @@
 #include <stdint.h>
 
 #include "base/ohm_error.h"
+#include "physics/network.h"
 
 /* Where the unknowns sit: unknown u is dense grid cell cell[u] of a grid
  * of dims[0] x dims[1] x dims[2] cells, x fastest; piece[u] its connected
@@ -38,6 +39,10 @@ typedef struct ohm_grid_layout {
     const int64_t *piece;
     int64_t npieces;
 } ohm_grid_layout;
+
+/* The layout of a network's unknowns (its cells, its grid's dims, its
+ * pieces); it points into the network. */
+ohm_grid_layout ohm_grid_layout_of(const ohm_network *net);
 
 /* perm[k] = the unknown eliminated k-th (n entries, CHOLMOD's Perm). */
 int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err);

@@ -779,8 +779,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     if (!rc) {
         sol->n = sol->net.n;
         sol->t_network = ohm_now() - t0;
-        s->layout = (ohm_grid_layout){sol->net.cell, sol->net.n, {s->grid->dims[0], s->grid->dims[1], s->grid->dims[2]},
-                                      sol->net.piece, sol->net.npieces};
+        s->layout = ohm_grid_layout_of(&sol->net);
         rc = keep_media(sol, &s->params, compact, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);

@@ -739,7 +739,7 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
 /* ordering=auto by what made the object, from docs/ordering.md: for the
  * sample meshes the grid ordering's factor was within 0.89-1.09 of METIS's
  * fill at a fifth of its analysis time; for the scans' thin shells and
- * convoluted surfaces its fill was 1.2-1.6x METIS's, so they keep METIS. */
+ * convoluted surfaces its fill was 1.2-1.7x METIS's, so they keep METIS. */
 static const char *auto_ordering(const ohm_state *s, const char *asked)
 {
     if (strcmp(asked, "auto") != 0) return asked;

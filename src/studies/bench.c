@@ -577,7 +577,8 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     med.eta = mat->eta;
     cholmod_sparse *A = NULL;
     rc = ohm_network_assemble(&A, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &s.cc, err);
-    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &(ohm_grid_layout){net.cell, net.n, {g->dims[0], g->dims[1], g->dims[2]}, net.piece, net.npieces}, err);
+    ohm_grid_layout layout = ohm_grid_layout_of(&net);
+    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &layout, err);
     if (!rc) {
         const cholmod_factor *F = s.symbolic;
         plan->nnz_L = s.nnz_L;
