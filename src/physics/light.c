@@ -1,8 +1,10 @@
 #include "physics/light.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
+#include <unistd.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -127,15 +129,24 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
      * share in the second cell (moment exact again), clamped so that no
      * cell's source turns negative. */
     double tau = 0.0, pending_up = 0.0; /* weight the previous cell owes the cell above it */
+    double above = 1.0;                 /* e^-tau: the share still travelling at the cell's top */
+    double x_last = -1.0, absorbed_last = 0.0, centroid_last = 0.5; /* the last cell's x and its terms */
     int64_t prev = -1, first = v0;
     for (int64_t q = 0;; ++q) {
         int64_t u = column_unknown(&col, q);
         if (u < 0) break; /* the rest passes through a thin part unscattered */
         double x = med_sigma_t(med, u) * h / mu, t1 = tau + x; /* optical depth of the cell along the ray */
-        double w = med_albedo(med, u) * P * (exp(-tau) - exp(-t1));
-        /* the centroid of e^-sigma z over the cell, from its top, in cells:
-         * 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0) */
-        double centroid = x > 1e-6 ? 1.0 / x - exp(-x) / -expm1(-x) : 0.5 - x / 12.0;
+        if (x != x_last) {
+            /* 1 - e^-x, and the centroid of e^-sigma z over the cell from its
+             * top, in cells: 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0).  A
+             * uniform column repeats x, so this runs once per face there: the
+             * live update paid three transcendental calls per cell (issue 15). */
+            absorbed_last = -expm1(-x);
+            centroid_last = x > 1e-6 ? 1.0 / x - (1.0 - absorbed_last) / absorbed_last : 0.5 - x / 12.0;
+            x_last = x;
+        }
+        double w = med_albedo(med, u) * P * above * absorbed_last, centroid = centroid_last;
+        above *= 1.0 - absorbed_last;
         double up = w * (0.5 - centroid); /* to move one cell up */
         if (q == 0) {
             b[u] += w;
@@ -410,6 +421,55 @@ static void unit_travel(const double l_mean[3], double travel[3])
     for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
 }
 
+/* One worker's share of ohm_light_face_powers: the blocks of
+ * FACE_POWERS_BLOCK faces numbered worker, worker + workers, ... (interleaved:
+ * a light reaches one side of the object, and faces are numbered by cell, so
+ * halves would not balance).  Faces own their entries of enter / enter_mu /
+ * arrive, so workers never share a write. */
+typedef struct face_powers_job {
+    double *const *enter, *const *enter_mu, *const *arrive;
+    int channels;
+    const ohm_network *net;
+    const ohm_light *light;
+    const emitters *em;
+    double eta;
+    const double *eta_v;
+    const ohm_occluder *occ;
+    int worker, workers;
+} face_powers_job;
+
+enum { FACE_POWERS_BLOCK = 64 };
+
+static void *face_powers_range(void *arg)
+{
+    const face_powers_job *job = arg;
+    const ohm_network *net = job->net;
+    const ohm_light *light = job->light;
+    const double area = net->grid->h * net->grid->h;
+    for (int64_t f = (int64_t)job->worker * FACE_POWERS_BLOCK; f < net->nfaces; ++f) {
+        if (f % FACE_POWERS_BLOCK == 0 && f / FACE_POWERS_BLOCK % job->workers != job->worker) {
+            f += FACE_POWERS_BLOCK - 1; /* another worker's block */
+            continue;
+        }
+        double l_mean[3], travel[3];
+        double E = face_irradiance(net, f, light, job->em, job->occ, l_mean);
+        if (!(E > 0)) continue;
+        /* Fresnel for the irradiance-weighted direction */
+        unit_travel(l_mean, travel);
+        double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
+        for (int c = 0; c < job->channels; ++c) {
+            double I = light->intensity[light->channels == 1 ? 0 : c];
+            job->arrive[c][f] += I * E * area;
+            job->enter[c][f] += I * T * E * area;
+            if (job->enter_mu) job->enter_mu[c][f] += I * T * E * area * mu;
+        }
+    }
+    return NULL;
+}
+
+/* Below this many boundary faces a second thread costs more than it saves. */
+enum { FACE_POWERS_THREAD_MIN = 2048 };
+
 int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
                           const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
                           const ohm_occluder *occ, ohm_error *err)
@@ -417,21 +477,22 @@ int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double 
     emitters em;
     int rc = emitters_init(&em, light, err);
     if (rc) return rc;
-    const double area = net->grid->h * net->grid->h;
-    for (int64_t f = 0; f < net->nfaces; ++f) {
-        double l_mean[3], travel[3];
-        double E = face_irradiance(net, f, light, &em, occ, l_mean);
-        if (!(E > 0)) continue;
-        /* Fresnel for the irradiance-weighted direction */
-        unit_travel(l_mean, travel);
-        double mu, T = face_transmittance(net, f, travel, face_eta(net, f, eta, eta_v), &mu);
-        for (int c = 0; c < channels; ++c) {
-            double I = light->intensity[light->channels == 1 ? 0 : c];
-            arrive[c][f] += I * E * area;
-            enter[c][f] += I * T * E * area;
-            if (enter_mu) enter_mu[c][f] += I * T * E * area * mu;
-        }
+    /* The shadow rays are most of a live update's source (issue 15): the
+     * faces are shared with a second thread when the machine has a second
+     * core.  Same sums either way: each face is computed whole by one thread. */
+    face_powers_job job[2];
+    job[0] = (face_powers_job){enter, enter_mu, arrive, channels, net, light, &em, eta, eta_v, occ, 0, 1};
+    job[1] = job[0];
+    pthread_t helper;
+    int split = net->nfaces >= FACE_POWERS_THREAD_MIN && sysconf(_SC_NPROCESSORS_ONLN) > 1;
+    if (split) {
+        job[0].workers = job[1].workers = 2;
+        job[1].worker = 1;
+        split = pthread_create(&helper, NULL, face_powers_range, &job[1]) == 0;
+        if (!split) job[0].workers = 1; /* no thread: trace it all here */
     }
+    face_powers_range(&job[0]);
+    if (split) pthread_join(helper, NULL);
     emitters_free(&em);
     return OHM_OK;
 }
