@@ -1,10 +1,11 @@
 #include "physics/light.h"
 
+#include "base/memory.h"
+
 #include <math.h>
 #include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -440,29 +441,33 @@ typedef struct face_powers_job {
 
 enum { FACE_POWERS_BLOCK = 64 };
 
-static void *face_powers_range(void *arg)
+/* Face f's arriving and entering power, added for every channel. */
+static void face_power(const face_powers_job *job, int64_t f)
 {
-    const face_powers_job *job = arg;
     const ohm_network *net = job->net;
     const ohm_light *light = job->light;
     const double area = net->grid->h * net->grid->h;
-    for (int64_t f = (int64_t)job->worker * FACE_POWERS_BLOCK; f < net->nfaces; ++f) {
-        if (f % FACE_POWERS_BLOCK == 0 && f / FACE_POWERS_BLOCK % job->workers != job->worker) {
-            f += FACE_POWERS_BLOCK - 1; /* another worker's block */
-            continue;
-        }
-        double l_mean[3], travel[3];
-        double E = face_irradiance(net, f, light, job->em, job->occ, l_mean);
-        if (!(E > 0)) continue;
-        /* Fresnel for the irradiance-weighted direction */
-        unit_travel(l_mean, travel);
-        double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
-        for (int c = 0; c < job->channels; ++c) {
-            double I = light->intensity[light->channels == 1 ? 0 : c];
-            job->arrive[c][f] += I * E * area;
-            job->enter[c][f] += I * T * E * area;
-            if (job->enter_mu) job->enter_mu[c][f] += I * T * E * area * mu;
-        }
+    double l_mean[3], travel[3];
+    double E = face_irradiance(net, f, light, job->em, job->occ, l_mean);
+    if (!(E > 0)) return;
+    /* Fresnel for the irradiance-weighted direction */
+    unit_travel(l_mean, travel);
+    double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
+    for (int c = 0; c < job->channels; ++c) {
+        double I = light->intensity[light->channels == 1 ? 0 : c];
+        job->arrive[c][f] += I * E * area;
+        job->enter[c][f] += I * T * E * area;
+        if (job->enter_mu) job->enter_mu[c][f] += I * T * E * area * mu;
+    }
+}
+
+static void *face_powers_blocks(void *arg)
+{
+    const face_powers_job *job = arg;
+    const int64_t nfaces = job->net->nfaces, stride = (int64_t)job->workers * FACE_POWERS_BLOCK;
+    for (int64_t b = (int64_t)job->worker * FACE_POWERS_BLOCK; b < nfaces; b += stride) {
+        int64_t end = b + FACE_POWERS_BLOCK < nfaces ? b + FACE_POWERS_BLOCK : nfaces;
+        for (int64_t f = b; f < end; ++f) face_power(job, f);
     }
     return NULL;
 }
@@ -484,14 +489,14 @@ int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double 
     job[0] = (face_powers_job){enter, enter_mu, arrive, channels, net, light, &em, eta, eta_v, occ, 0, 1};
     job[1] = job[0];
     pthread_t helper;
-    int split = net->nfaces >= FACE_POWERS_THREAD_MIN && sysconf(_SC_NPROCESSORS_ONLN) > 1;
+    int split = net->nfaces >= FACE_POWERS_THREAD_MIN && ohm_usable_cores() > 1;
     if (split) {
         job[0].workers = job[1].workers = 2;
         job[1].worker = 1;
-        split = pthread_create(&helper, NULL, face_powers_range, &job[1]) == 0;
+        split = pthread_create(&helper, NULL, face_powers_blocks, &job[1]) == 0;
         if (!split) job[0].workers = 1; /* no thread: trace it all here */
     }
-    face_powers_range(&job[0]);
+    face_powers_blocks(&job[0]);
     if (split) pthread_join(helper, NULL);
     emitters_free(&em);
     return OHM_OK;

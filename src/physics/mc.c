@@ -9,7 +9,6 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-#include <unistd.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -497,12 +496,6 @@ static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *
     res->events = t->events;
 }
 
-static int usable_cores(void)
-{
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (int)n : 1;
-}
-
 int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
                  const ohm_light_entry *entries, size_t nentries, int channel, const ohm_mc_params *params,
                  ohm_error *err)
@@ -528,7 +521,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     sc.per_batch = (photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES;
     snprintf(sc.what, sizeof sc.what, "monte carlo, channel %d, %lld photons", channel,
              (long long)(sc.per_batch * OHM_MC_BATCHES));
-    int nthreads = params->threads > 0 ? params->threads : usable_cores();
+    int nthreads = params->threads > 0 ? params->threads : ohm_usable_cores();
     if (nthreads > OHM_MC_BATCHES) nthreads = OHM_MC_BATCHES;
     sc.nthreads = nthreads;
     res->threads = nthreads;
