@@ -45,7 +45,7 @@ def read_obj(path):
 def scene_with(ctx, light):
     s = ohm.Scene(ctx)
     s.run("read", file="samples/spot.obj", size=50)
-    s.run("voxelize", dim=24)
+    s.run("voxelize", dim=36)  # 6 500 cells: enough for a relight to solve its media on two threads
     s.run("material", preset="marble")
     s.add_light(**light)
     s.solve()
@@ -124,6 +124,24 @@ def main():
                         a, b = s.fluence(c), fresh.fluence(c)
                         diff = np.abs(a - b).max() / np.abs(b).max()
                         check(diff <= 1e-12, "relight channel %d differs from a fresh solve by %.3g" % (c, diff))
+            # the three media solved at once (keep=1, more than one core) give
+            # the same bits as one after another (one core allowed)
+            cores = os.sched_getaffinity(0)
+            if len(cores) > 1:
+                check(s.stat("solve_threads") == 2, "relight on %d cores: solve_threads %s" %
+                      (len(cores), s.stat("solve_threads")))
+                together = [s.fluence(c) for c in range(3)]
+                os.sched_setaffinity(0, {min(cores)})
+                try:
+                    s.relight()
+                finally:
+                    os.sched_setaffinity(0, cores)
+                check(s.stat("solve_threads") == 1, "relight on one core: solve_threads %s" % s.stat("solve_threads"))
+                for c in range(3):
+                    check(np.array_equal(s.fluence(c), together[c]),
+                          "channel %d solved with the others differs from solved alone" % c)
+            else:
+                print("api_python: one core: the media are never solved together here")
 
         # a mesh as arrays: the same object and solution as the file
         verts, tris = read_obj("samples/spot.obj")

@@ -8,7 +8,6 @@
 #include <string.h>
 #if defined(__linux__)
 #include <sys/mman.h>
-#include <unistd.h>
 #endif
 
 double ohm_memory_available(void)
@@ -64,8 +63,3 @@ void ohm_memory_advise_huge(void *p, size_t bytes)
 #endif
 }
 
-int ohm_usable_cores(void)
-{
-    long n = sysconf(_SC_NPROCESSORS_ONLN);
-    return n > 0 ? (int)n : 1;
-}

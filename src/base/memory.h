@@ -25,9 +25,6 @@ double ohm_memory_limit(double user_bytes);
  * per byte (measured, docs/serial-stages.md).  Memory use is unchanged. */
 void ohm_memory_advise_huge(void *p, size_t bytes);
 
-/* Cores online (at least 1): how many threads a step may keep busy. */
-int ohm_usable_cores(void);
-
 /* "12.3 GiB" style, into buf. */
 const char *ohm_format_bytes(double bytes, char *buf, int len);
 

@@ -1,9 +1,8 @@
 #include "physics/light.h"
 
-#include "base/memory.h"
+#include "base/parallel.h"
 
 #include <math.h>
-#include <pthread.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -422,11 +421,12 @@ static void unit_travel(const double l_mean[3], double travel[3])
     for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
 }
 
-/* One worker's share of ohm_light_face_powers: the blocks of
- * FACE_POWERS_BLOCK faces numbered worker, worker + workers, ... (interleaved:
- * a light reaches one side of the object, and faces are numbered by cell, so
- * halves would not balance).  Faces own their entries of enter / enter_mu /
- * arrive, so workers never share a write. */
+/* What ohm_light_face_powers shares between threads: the faces in blocks
+ * of FACE_POWERS_BLOCK, each block taken whole by one thread
+ * (ohm_parallel_for's counter: a light reaches one side of the object, and
+ * faces are numbered by cell, so fixed halves would not balance).  Faces
+ * own their entries of enter / enter_mu / arrive, so threads never share a
+ * write. */
 typedef struct face_powers_job {
     double *const *enter, *const *enter_mu, *const *arrive;
     int channels;
@@ -436,7 +436,6 @@ typedef struct face_powers_job {
     double eta;
     const double *eta_v;
     const ohm_occluder *occ;
-    int worker, workers;
 } face_powers_job;
 
 enum { FACE_POWERS_BLOCK = 64 };
@@ -461,15 +460,12 @@ static void face_power(const face_powers_job *job, int64_t f)
     }
 }
 
-static void *face_powers_blocks(void *arg)
+static void face_powers_block(void *arg, int64_t block)
 {
     const face_powers_job *job = arg;
-    const int64_t nfaces = job->net->nfaces, stride = (int64_t)job->workers * FACE_POWERS_BLOCK;
-    for (int64_t b = (int64_t)job->worker * FACE_POWERS_BLOCK; b < nfaces; b += stride) {
-        int64_t end = b + FACE_POWERS_BLOCK < nfaces ? b + FACE_POWERS_BLOCK : nfaces;
-        for (int64_t f = b; f < end; ++f) face_power(job, f);
-    }
-    return NULL;
+    const int64_t nfaces = job->net->nfaces, begin = block * FACE_POWERS_BLOCK;
+    const int64_t end = begin + FACE_POWERS_BLOCK < nfaces ? begin + FACE_POWERS_BLOCK : nfaces;
+    for (int64_t f = begin; f < end; ++f) face_power(job, f);
 }
 
 /* Below this many boundary faces a second thread costs more than it saves. */
@@ -483,21 +479,11 @@ int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double 
     int rc = emitters_init(&em, light, err);
     if (rc) return rc;
     /* The shadow rays are most of a live update's source (issue 15): the
-     * faces are shared with a second thread when the machine has a second
-     * core.  Same sums either way: each face is computed whole by one thread. */
-    face_powers_job job[2];
-    job[0] = (face_powers_job){enter, enter_mu, arrive, channels, net, light, &em, eta, eta_v, occ, 0, 1};
-    job[1] = job[0];
-    pthread_t helper;
-    int split = net->nfaces >= FACE_POWERS_THREAD_MIN && ohm_usable_cores() > 1;
-    if (split) {
-        job[0].workers = job[1].workers = 2;
-        job[1].worker = 1;
-        split = pthread_create(&helper, NULL, face_powers_blocks, &job[1]) == 0;
-        if (!split) job[0].workers = 1; /* no thread: trace it all here */
-    }
-    face_powers_blocks(&job[0]);
-    if (split) pthread_join(helper, NULL);
+     * faces are shared between the machine's cores.  Same sums on any
+     * number of threads: each face is computed whole by one. */
+    face_powers_job job = {enter, enter_mu, arrive, channels, net, light, &em, eta, eta_v, occ};
+    int threads = net->nfaces >= FACE_POWERS_THREAD_MIN ? ohm_usable_cores() : 1;
+    ohm_parallel_for((net->nfaces + FACE_POWERS_BLOCK - 1) / FACE_POWERS_BLOCK, threads, face_powers_block, &job);
     emitters_free(&em);
     return OHM_OK;
 }

@@ -3,6 +3,7 @@
 #include "physics/fresnel.h"
 #include "base/log.h"
 #include "base/memory.h"
+#include "base/parallel.h"
 
 #include <math.h>
 #include <pthread.h>

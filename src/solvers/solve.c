@@ -4,6 +4,7 @@
 #include "solvers/backend.h"
 #include "solvers/cg.h"
 #include "base/memory.h"
+#include "base/parallel.h"
 
 #include <math.h>
 #include <stdint.h>
@@ -20,10 +21,41 @@
  * and the backward error is checked again afterwards. */
 static const double NEAR_SINGULAR = 1e-5;
 
-static int correct_constant_modes(ohm_solution *sol, double *X, const double *B, size_t ncols, const double *ga,
-                                  const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med)
+/* What solving one channel adds to the solution's sums and counts.  Each
+ * channel books into its own tally, added to the solution in channel order
+ * afterwards (tally_add), so that channels solved on separate threads give
+ * the same sums, to the bit, as one after the other. */
+typedef struct channel_tally {
+    double power_incident, power_entered;         /* the sources' light        */
+    double power_in, power_absorbed, power_out;   /* the solved fluence's      */
+    double t_source, t_solve;                     /* seconds, this channel's   */
+    double residual;                              /* largest backward error    */
+    double mode_shift;                            /* largest constant-mode shift */
+    int64_t solves, solves_skipped, mode_corrections;
+} channel_tally;
+
+static void tally_add(ohm_solution *sol, const channel_tally *t, int c)
 {
-    const ohm_network *net = &sol->net;
+    sol->power_incident += t->power_incident;
+    sol->power_entered += t->power_entered;
+    sol->power_in += t->power_in;
+    sol->power_absorbed += t->power_absorbed;
+    sol->power_out += t->power_out;
+    sol->power_in_channel[c] += t->power_in;
+    sol->power_out_channel[c] += t->power_out;
+    sol->t_source += t->t_source;
+    sol->t_solve += t->t_solve;
+    if (t->residual > sol->residual) sol->residual = t->residual;
+    if (t->mode_shift > sol->mode_shift) sol->mode_shift = t->mode_shift;
+    sol->solves += t->solves;
+    sol->solves_skipped += t->solves_skipped;
+    sol->mode_corrections += t->mode_corrections;
+}
+
+static int correct_constant_modes(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t ncols,
+                                  const double *ga, const double *gb, const cholmod_sparse *A,
+                                  const ohm_channel_medium *med)
+{
     int64_t n = net->n, np = net->npieces;
     double *sink = calloc((size_t)np, sizeof *sink), *diag = calloc((size_t)np, sizeof *diag);
     double *defect = malloc((size_t)np * sizeof *defect), *vsink = malloc((size_t)n * sizeof *vsink);
@@ -57,8 +89,8 @@ static int correct_constant_modes(ohm_solution *sol, double *X, const double *B,
             double c = defect[p] / sink[p];
             for (int64_t v = 0; v < n; ++v)
                 if (!piece || piece[v] == p) x[v] += c;
-            sol->mode_corrections++;
-            if (xmax > 0 && fabs(c) / xmax > sol->mode_shift) sol->mode_shift = fabs(c) / xmax;
+            t->mode_corrections++;
+            if (xmax > 0 && fabs(c) / xmax > t->mode_shift) t->mode_shift = fabs(c) / xmax;
         }
     }
     free(sink), free(diag), free(defect), free(vsink);
@@ -288,7 +320,8 @@ static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c
 /* Column j of B (zeroed first) gets frame f0 + j's sources for channel c:
  * the cached per-face powers (traced once for every channel) or, for pencil
  * beams and when the cache did not fit, the lights themselves. */
-static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+static int fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
+                        const ohm_channel_medium *med,
                         const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
                         double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
                         const ohm_occluder *occ, ohm_error *err)
@@ -305,8 +338,8 @@ static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int 
         const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
         ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, params->deposit);
         for (int64_t f = 0; f < net->nfaces; ++f) {
-            sol->power_incident += ar[f];
-            sol->power_entered += en[f];
+            t->power_incident += ar[f];
+            t->power_entered += en[f];
         }
     }
     for (size_t l = 0; l < nlights; ++l) {
@@ -317,8 +350,8 @@ static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int 
             ohm_source_power pw = {0, 0, 0};
             int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
             if (rc) return rc;
-            sol->power_incident += pw.incident;
-            sol->power_entered += pw.entered;
+            t->power_incident += pw.incident;
+            t->power_entered += pw.entered;
         }
     }
     return OHM_OK;
@@ -329,7 +362,7 @@ static int fill_sources(ohm_solution *sol, double *B, size_t f0, size_t nb, int 
  * ones, in order; col_of[j] is the distinct column frame j takes, or SIZE_MAX
  * for "the previous batch's last frame" (prev_b, NULL in the first batch).
  * Returns how many are distinct. */
-static size_t distinct_columns(ohm_solution *sol, double *B, size_t *col_of, size_t nb, const double *prev_b,
+static size_t distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
                                size_t n)
 {
     size_t nu = 0;
@@ -338,7 +371,7 @@ static size_t distinct_columns(ohm_solution *sol, double *B, size_t *col_of, siz
         const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * n : prev_b;
         if (bp && !memcmp(bj, bp, n * sizeof *B)) {
             col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
-            sol->solves_skipped++;
+            t->solves_skipped++;
             continue;
         }
         if (nu != j) memcpy(B + nu * n, bj, n * sizeof *B);
@@ -381,8 +414,8 @@ static void expand_columns(double *X, double *B, const ohm_solution *sol, const 
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
  * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
  * derived from its faces' when read: ohm_solution_exitance_frame). */
-static void book_power(ohm_solution *sol, const double *X, const double *B, const double *ga, const double *gb,
-                       size_t f0, size_t nb, int c)
+static void book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
+                       const double *gb, size_t f0, size_t nb, int c)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -402,11 +435,9 @@ static void book_power(ohm_solution *sol, const double *X, const double *B, cons
             fx[f] = p / area;
         }
     }
-    sol->power_in += in;
-    sol->power_absorbed += absorbed;
-    sol->power_out += out;
-    sol->power_in_channel[c] += in;
-    sol->power_out_channel[c] += out;
+    t->power_in += in;
+    t->power_absorbed += absorbed;
+    t->power_out += out;
 }
 
 /* in = the entries (light.h) of every light of frame fr (0-based). */
@@ -442,11 +473,11 @@ static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, i
 
 /* The constant-mode correction of nearly singular pieces, then the backward
  * error again (it must stay within the direct solver's limit). */
-static int conserve_exactly(ohm_solution *sol, double *X, const double *B, size_t nu, const double *ga,
-                            const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med, double *berr,
-                            ohm_error *err)
+static int conserve_exactly(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t nu,
+                            const double *ga, const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med,
+                            double *berr, ohm_error *err)
 {
-    int corrected = correct_constant_modes(sol, X, B, nu, ga, gb, A, med);
+    int corrected = correct_constant_modes(t, net, X, B, nu, ga, gb, A, med);
     if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     if (corrected == 0) return OHM_OK;
     *berr = ohm_backward_error(A, B, X, nu, 0);
@@ -501,11 +532,11 @@ static int alloc_solution(ohm_solution *sol, ohm_error *err)
 }
 
 /* The light arriving and entering in channel c, booked from a frame's entries. */
-static void book_entries(ohm_solution *sol, const ohm_light_entries *in, int c)
+static void book_entries(double *incident, double *entered, const ohm_light_entries *in, int c)
 {
     for (size_t k = 0; k < in->count; ++k) {
-        sol->power_incident += in->entry[k].incident[c];
-        sol->power_entered += in->entry[k].power[c];
+        *incident += in->entry[k].incident[c];
+        *entered += in->entry[k].power[c];
     }
 }
 
@@ -555,7 +586,7 @@ static void hybrid_free(hybrid_part *h)
 /* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
  * channel c: the frame's light entries traced to their handoff (mc.h); the
  * photons' own fluence, exitance and power go to h for hybrid_add. */
-static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
+static int hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
                           const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
                           size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
 {
@@ -566,7 +597,7 @@ static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f
     for (size_t j = 0; j < nb && !rc; ++j) {
         rc = frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
         if (rc) break;
-        book_entries(sol, &in, c);
+        book_entries(&t->power_incident, &t->power_entered, &in, c);
         ohm_mc_result r = {.fluence = h->fluence + j * n,
                            .fluence_se = h->fluence_se,
                            .face_exitance = h->face + j * nf,
@@ -585,7 +616,8 @@ static int hybrid_sources(ohm_solution *sol, double *B, hybrid_part *h, size_t f
 /* After book_power: the hybrid's transport part added to frames f0..f0+nb of
  * channel c (X their fluence).  book_power counted the handed-off weight as
  * in; the photons' absorption and escape before it complete in = entered. */
-static void hybrid_add(ohm_solution *sol, double *X, const hybrid_part *h, size_t f0, size_t nb, int c)
+static void hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
+                       int c)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -594,11 +626,9 @@ static void hybrid_add(ohm_solution *sol, double *X, const hybrid_part *h, size_
         double *fx = sol->face_exitance[c] + (f0 + j) * nf;
         for (int64_t f = 0; f < net->nfaces; ++f) fx[f] += h->face[j * nf + (size_t)f];
         double absorbed = h->power[3 * j + 1], out = h->power[3 * j + 2];
-        sol->power_in += absorbed + out;
-        sol->power_absorbed += absorbed;
-        sol->power_out += out;
-        sol->power_in_channel[c] += absorbed + out;
-        sol->power_out_channel[c] += out;
+        t->power_in += absorbed + out;
+        t->power_absorbed += absorbed;
+        t->power_out += out;
     }
 }
 
@@ -663,7 +693,7 @@ static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light 
                                  .fluence_se = sol->fluence_se[c] + fr * n,
                                  .face_exitance = sol->face_exitance[c] + fr * nf,
                                  .exitance_se = sol->exitance_se[c] + fr * n};
-            book_entries(sol, &in, c);
+            book_entries(&sol->power_incident, &sol->power_entered, &in, c);
             int e = 0;
             while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
             if (e < c) { /* the same photons would be traced again: take channel e's */
@@ -958,15 +988,28 @@ static int hybrid_applies(const ohm_solver *s, ohm_error *err)
     return OHM_OK;
 }
 
-/* What one solve call allocates: the right-hand sides of a batch, and the
- * bookkeeping of frames whose light did not change. */
+/* Frames per batch: B and X together within the memory cap (X, the
+ * solution, is no array of its own: each batch is solved in place in its
+ * frames' columns of sol->fluence, -8 B per cell and column); the hybrid
+ * keeps its transport part's fluence and faces per column too. */
+static size_t batch_frames(const ohm_solver *s, int hybrid)
+{
+    const ohm_solution *sol = &s->sol;
+    double n = (double)sol->n, nf = (double)(sol->net.nfaces ? sol->net.nfaces : 1);
+    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
+    double per_column = hybrid ? 3.0 * n + nf : 2.0 * n;
+    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
+    if (batch < 1) batch = 1;
+    return batch > (size_t)sol->frames ? (size_t)sol->frames : batch;
+}
+
+/* What solving a medium's channels allocates: the right-hand sides of a
+ * batch, and the bookkeeping of frames whose light did not change. */
 typedef struct batch_work {
-    size_t batch;     /* frames per batch                                  */
     double *B;        /* n x batch                                         */
     size_t *col_of;   /* batch column -> distinct column                   */
     double *prev_b;   /* the last frame's right-hand side, for a later batch */
     hybrid_part hy;
-    face_powers fp;
 } batch_work;
 
 static void batch_work_free(batch_work *w)
@@ -975,78 +1018,193 @@ static void batch_work_free(batch_work *w)
     free(w->col_of);
     free(w->prev_b);
     hybrid_free(&w->hy);
-    face_powers_free(&w->fp);
 }
 
-static int batch_work_alloc(batch_work *w, const ohm_solver *s, int hybrid, ohm_error *err)
+static int batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err)
 {
-    const ohm_solution *sol = &s->sol;
     size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
-    /* Frames per batch: B and X together within the memory cap (X, the
-     * solution, is no array of its own: each batch is solved in place in
-     * its frames' columns of sol->fluence, -8 B per cell and column); the
-     * hybrid keeps its transport part's fluence and faces per column too. */
-    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
-    double per_column = hybrid ? 3.0 * (double)n + (double)nf : 2.0 * (double)n;
-    w->batch = (size_t)(cap / (sizeof(double) * per_column));
-    if (w->batch < 1) w->batch = 1;
-    if (w->batch > frames) w->batch = frames;
-    w->B = malloc((n ? n : 1) * w->batch * sizeof *w->B);
-    w->col_of = malloc(w->batch * sizeof *w->col_of);
-    w->prev_b = w->batch < frames ? malloc((n ? n : 1) * sizeof *w->prev_b) : NULL;
-    if (!w->B || !w->col_of || (w->batch < frames && !w->prev_b))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", w->batch, n);
-    return hybrid ? hybrid_alloc(&w->hy, n, nf, w->batch, err) : OHM_OK;
+    memset(w, 0, sizeof *w);
+    w->B = malloc((n ? n : 1) * batch * sizeof *w->B);
+    w->col_of = malloc(batch * sizeof *w->col_of);
+    w->prev_b = batch < frames ? malloc((n ? n : 1) * sizeof *w->prev_b) : NULL;
+    if (!w->B || !w->col_of || (batch < frames && !w->prev_b))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", batch, n);
+    return hybrid ? hybrid_alloc(&w->hy, n, nf, batch, err) : OHM_OK;
 }
+
+/* What every channel's diffusion solve reads: the lights, the batching, the
+ * face powers traced for all channels, and the channels' media classes
+ * (cls[c]: the first channel with c's medium, whose slot it solves with). */
+typedef struct diffusion_run {
+    ohm_solver *s;
+    const ohm_light *lights;
+    size_t nlights;
+    int hybrid;
+    size_t batch;
+    face_powers fp;
+    int channels, cls[OHM_MAX_CHANNELS];
+} diffusion_run;
 
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and
- * what is added after the solve (the hybrid's part, the unscattered beam). */
-static int solve_channel(ohm_solver *s, batch_work *w, int c, int k, int warm_from, const ohm_light *lights,
-                         size_t nlights, int hybrid, ohm_error *err)
+ * what is added after the solve (the hybrid's part, the unscattered beam).
+ * Writes channel c's arrays of the solution, *t and *rep only. */
+static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally *t, ohm_backend_report *rep, int c,
+                         int k, int warm_from, ohm_error *err)
 {
+    ohm_solver *s = run->s;
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
+    const ohm_light *lights = run->lights;
+    size_t nlights = run->nlights;
     medium_slot *m = &s->slot[k];
     ohm_channel_medium med;
     medium_for(&med, &s->mat, params, k);
     size_t n = (size_t)sol->n, frames = (size_t)sol->frames;
-    ohm_backend_report *rep = &s->rep;
     int rc = OHM_OK;
-    for (size_t f0 = 0; f0 < frames && !rc; f0 += w->batch) {
-        size_t nb = frames - f0 < w->batch ? frames - f0 : w->batch;
+    for (size_t f0 = 0; f0 < frames && !rc; f0 += run->batch) {
+        size_t nb = frames - f0 < run->batch ? frames - f0 : run->batch;
         double t0 = ohm_now();
-        const face_powers *fp = &w->fp;
-        rc = hybrid ? hybrid_sources(sol, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights, params, s->occ, err)
-                    : fill_sources(sol, w->B, f0, nb, c, &med, lights, nlights, params, fp->cached ? fp->enter : NULL,
-                                   fp->enter_mu, fp->cached ? fp->arrive : NULL, s->occ, err);
-        sol->t_source += ohm_now() - t0;
+        const face_powers *fp = &run->fp;
+        rc = run->hybrid ? hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights, params,
+                                          s->occ, err)
+                         : fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, params,
+                                        fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
+                                        s->occ, err);
+        t->t_source += ohm_now() - t0;
         if (rc) break;
         double *X = sol->fluence[c] + f0 * n;
         /* (the hybrid and fluence=total add to each frame after the solve: a
          * frame is not taken whole from the batch before, whose fluence
          * already holds that part) */
-        size_t nu = distinct_columns(sol, w->B, w->col_of, nb,
-                                     f0 > 0 && !hybrid && !params->total_fluence ? w->prev_b : NULL, n);
+        size_t nu = distinct_columns(t, w->B, w->col_of, nb,
+                                     f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
         warm_start(X, sol, f0, c, warm_from, n);
         scale_unknowns(X, 1, n, &med, 0);
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
         double berr = 0;
         if (nu > 0) rc = s->backend->solve(m->state, m->A, w->B, X, nu, &berr, rep, err);
-        if (!rc && nu > 0) rc = conserve_exactly(sol, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
+        if (!rc && nu > 0) rc = conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
         scale_unknowns(X, nu, n, &med, 1);
         /* a backend that set up inside solve (auto switching) books that as
          * analysis / factor / preconditioner, not as solve */
-        sol->t_solve += ohm_now() - t0 - (rep->t_analyze + rep->t_factor + rep->t_precond - t_setups);
+        t->t_solve += ohm_now() - t0 - (rep->t_analyze + rep->t_factor + rep->t_precond - t_setups);
         if (rc) break;
-        if (berr > sol->residual) sol->residual = berr;
-        sol->solves += (int64_t)nu;
+        if (berr > t->residual) t->residual = berr;
+        t->solves += (int64_t)nu;
         expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
-        book_power(sol, X, w->B, m->ga, m->gb, f0, nb, c);
-        if (hybrid) hybrid_add(sol, X, &w->hy, f0, nb, c);
+        book_power(sol, t, X, w->B, m->ga, m->gb, f0, nb, c);
+        if (run->hybrid) hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
             rc = add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
+    }
+    return rc;
+}
+
+/* One medium after another: each assembled and set up (slot_acquire) and
+ * all its channels' frames solved with it before the next (keep=0 holds one
+ * setup at a time). */
+static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, const ohm_backend_config *bcfg,
+                               ohm_error *err)
+{
+    ohm_solver *s = run->s;
+    batch_work w;
+    int rc = batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
+    int solved[OHM_MAX_CHANNELS] = {0};
+    for (int k = 0; k < run->channels && !rc; ++k) {
+        if (run->cls[k] != k) continue; /* not the first channel of its class */
+        rc = slot_acquire(s, k, bcfg, err);
+        for (int c = k; c < run->channels && !rc; ++c) {
+            if (run->cls[c] != k) continue;
+            /* warm start for iterative backends: this frame of a channel
+             * solved before (same light, another colour or medium) */
+            int warm_from = -1;
+            for (int q = 0; q < run->channels; ++q)
+                if (solved[q]) warm_from = q;
+            rc = solve_channel(run, &w, &tally[c], &s->rep, c, k, warm_from, err);
+            solved[c] = 1;
+        }
+    }
+    batch_work_free(&w);
+    return rc;
+}
+
+/* One medium's channels solved by one thread of solve_media_together. */
+typedef struct medium_job {
+    const diffusion_run *run;
+    channel_tally *tally;       /* the run's, by channel                      */
+    int k;                      /* the medium's first channel                 */
+    ohm_backend_report rep;     /* what this medium's solves report           */
+    ohm_error err;
+    int rc;
+} medium_job;
+
+static void solve_medium_job(void *arg, int64_t i)
+{
+    medium_job *job = (medium_job *)arg + i;
+    const diffusion_run *run = job->run;
+    batch_work w;
+    job->rc = batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
+    for (int c = job->k; c < run->channels && !job->rc; ++c)
+        if (run->cls[c] == job->k) job->rc = solve_channel(run, &w, &job->tally[c], &job->rep, c, job->k, -1, &job->err);
+    batch_work_free(&w);
+}
+
+/* Below this many unknowns a medium's solve takes too little time to pay
+ * for a thread; the right-hand sides a second thread may allocate. */
+enum { MEDIA_TOGETHER_MIN_UNKNOWNS = 4096 };
+static const double MEDIA_TOGETHER_MAX_RHS_BYTES = 64.0 * 1048576.0;
+
+/* Whether the media are solved on several threads at once: each must hold
+ * its own setup (keep=1, what a relight reuses), the backend must be the
+ * factor (a medium's solves then touch only its own factor and work space;
+ * cg warm-starts from other channels, and amg's PETSc is not thread-safe),
+ * no solve may call back into the caller (custom_source) or start threads
+ * of its own (the hybrid's Monte Carlo), and the machine must have a core to
+ * spare. */
+static int media_together(const diffusion_run *run, int nclasses)
+{
+    const ohm_solver *s = run->s;
+    double extra_rhs = (double)(nclasses - 1) * (double)run->batch * (double)s->sol.n * sizeof(double);
+    return nclasses > 1 && s->keep && s->backend == &ohm_backend_direct && !run->hybrid &&
+           !s->params.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
+           extra_rhs <= MEDIA_TOGETHER_MAX_RHS_BYTES && ohm_usable_cores() > 1;
+}
+
+/* Every medium set up first (one after another: the factorizations use the
+ * BLAS's own threads), then the media's channels solved on the cores at
+ * once, one medium per thread at a time: the paper's relight, three colours
+ * for the wall time of about two (issue 15, item 3). */
+static int solve_media_together(const diffusion_run *run, channel_tally *tally, int nclasses,
+                                const ohm_backend_config *bcfg, ohm_error *err)
+{
+    ohm_solver *s = run->s;
+    medium_job job[OHM_MAX_CHANNELS];
+    int njobs = 0, rc = OHM_OK;
+    for (int k = 0; k < run->channels && !rc; ++k)
+        if (run->cls[k] == k) {
+            rc = slot_acquire(s, k, bcfg, err);
+            job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
+        }
+    if (rc) return rc;
+    double t0 = ohm_now();
+    int threads = ohm_usable_cores() < nclasses ? ohm_usable_cores() : nclasses;
+    s->sol.solve_threads = ohm_parallel_for(njobs, threads, solve_medium_job, job);
+    double wall = ohm_now() - t0, busy = 0;
+    for (int c = 0; c < run->channels; ++c) busy += tally[c].t_source + tally[c].t_solve;
+    /* the statistics' times add up to the wall clock: the threads' seconds
+     * scaled to it, source and solve in their measured proportion */
+    for (int c = 0; c < run->channels && busy > wall; ++c) {
+        tally[c].t_source *= wall / busy;
+        tally[c].t_solve *= wall / busy;
+    }
+    for (int j = 0; j < njobs; ++j) {
+        s->rep.refined += job[j].rep.refined; /* all the direct backend's solve reports */
+        if (job[j].rc && !rc) {
+            rc = job[j].rc;
+            if (err) *err = job[j].err;
+        }
     }
     return rc;
 }
@@ -1059,50 +1217,41 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
-    const int hybrid = params->mc.handoff > 0 && !params->custom_source;
-    int rc = hybrid ? hybrid_applies(s, err) : OHM_OK;
+    diffusion_run run = {.s = s, .lights = lights, .nlights = nlights, .channels = sol->channels};
+    run.hybrid = params->mc.handoff > 0 && !params->custom_source;
+    int rc = run.hybrid ? hybrid_applies(s, err) : OHM_OK;
     if (rc) return rc;
-    batch_work w;
-    memset(&w, 0, sizeof w);
-    rc = batch_work_alloc(&w, s, hybrid, err);
+    run.batch = batch_frames(s, run.hybrid);
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
-    if (!rc && !params->custom_source && !hybrid) rc = face_powers_trace(&w.fp, s, lights, nlights, cap, err);
-    int channels = sol->channels, cls[OHM_MAX_CHANNELS], nclasses = 0;
-    for (int c = 0; c < channels; ++c) {
-        cls[c] = c;
+    if (!params->custom_source && !run.hybrid) rc = face_powers_trace(&run.fp, s, lights, nlights, cap, err);
+    int nclasses = 0;
+    for (int c = 0; c < run.channels; ++c) {
+        run.cls[c] = c;
         for (int e = 0; e < c; ++e)
             if (same_medium(&s->mat, params, c, e)) {
-                cls[c] = cls[e];
+                run.cls[c] = run.cls[e];
                 break;
             }
-        nclasses += cls[c] == c;
+        nclasses += run.cls[c] == c;
     }
     ohm_backend_config bcfg = {.ordering = params->ordering,
                                .layout = &s->layout,
                                .tol = params->cg_tol,
                                .petsc_options = params->petsc_options,
                                .max_memory = params->max_memory,
-                               .batch = w.batch,
-                               .columns = (double)sol->frames * (double)channels,
+                               .batch = run.batch,
+                               .columns = (double)sol->frames * (double)run.channels,
                                .materials = nclasses,
                                .log = s->log};
-    int solved[OHM_MAX_CHANNELS] = {0};
-    for (int k = 0; k < channels && !rc; ++k) {
-        if (cls[k] != k) continue; /* not the first channel of its class */
-        rc = slot_acquire(s, k, &bcfg, err);
-        for (int c = k; c < channels && !rc; ++c) {
-            if (cls[c] != k) continue;
-            /* warm start for iterative backends: this frame of a channel
-             * solved before (same light, another colour or medium) */
-            int warm_from = -1;
-            for (int q = 0; q < channels; ++q)
-                if (solved[q]) warm_from = q;
-            rc = solve_channel(s, &w, c, k, warm_from, lights, nlights, hybrid, err);
-            solved[c] = 1;
-        }
-    }
+    channel_tally tally[OHM_MAX_CHANNELS];
+    memset(tally, 0, sizeof tally);
+    sol->solve_threads = 1;
+    if (!rc)
+        rc = media_together(&run, nclasses) ? solve_media_together(&run, tally, nclasses, &bcfg, err)
+                                            : solve_media_in_turn(&run, tally, &bcfg, err);
+    for (int c = 0; c < run.channels; ++c) tally_add(sol, &tally[c], c);
     report_backend(sol, &s->rep);
-    batch_work_free(&w);
+    face_powers_free(&run.fp);
     return rc;
 }
 

@@ -108,6 +108,8 @@ typedef struct ohm_solution {
     int64_t mc_events;                  /* mc: path segments traced                   */
     int64_t mc_truncated;               /* mc: photons stopped by the event cap       */
     int mc_threads;                     /* mc: threads that traced                    */
+    int solve_threads;                  /* diffusion: threads that solved the media at
+                                           once (keep=1 relights), 1: one after another */
     char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
     int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
                                            summed over columns                        */

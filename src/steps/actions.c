@@ -903,6 +903,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
                       sol->mc_photons > 0 ? (double)sol->mc_events / (double)sol->mc_photons : 0);
     } else {
         ohm_stats_set_int(st, "hybrid", p.mc.handoff);
+        ohm_stats_set_int(st, "solve_threads", sol->solve_threads);
         if (p.mc.handoff > 0) {
             ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
             ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
