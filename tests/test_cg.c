@@ -100,7 +100,7 @@ int main(void)
     for (int64_t v = 0; v < n; ++v) b[v] = lcg(&seed);
     cholmod_factor *L = NULL;
     double berr = 0;
-    CHECK(ohm_cholesky_analyze(&s, A, "metis", NULL, &err) == 0);
+    CHECK(ohm_cholesky_analyze(&s, A, "metis", NULL, NULL, NULL, &err) == 0);
     CHECK(ohm_cholesky_factorize(&L, &s, A, NULL, &err) == 0);
     CHECK(ohm_cholesky_solve(xd, &s, L, A, b, 1, &berr, NULL, &err) == 0);
     ohm_cg cg;

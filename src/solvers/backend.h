@@ -58,7 +58,7 @@ typedef struct ohm_backend_report {
 
 /* Parameters of every backend; zero means the default. */
 typedef struct ohm_backend_config {
-    const char *ordering;      /* direct: metis | amd | nesdis | grid | best     */
+    const char *ordering;      /* direct: auto | metis | amd | nesdis | grid | best */
     const ohm_grid_layout *layout; /* direct: the unknowns' grid cells (ordering=grid); may be NULL */
     double tol;                /* iterative: stop at ||b - A x|| <= tol ||b||; 0: 1e-10 */
     int64_t max_iter;          /* iterative: 0: 20000                            */
@@ -67,6 +67,7 @@ typedef struct ohm_backend_config {
     size_t batch;              /* most columns per solve call (for memory estimates) */
     double columns;            /* columns to be solved in all (auto's cost model) */
     int materials;             /* distinct channel materials = setups to come   */
+    int from_scan;             /* direct, ordering=auto: the object is a scan's */
     const ohm_log *log;
 } ohm_backend_config;
 

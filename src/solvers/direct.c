@@ -16,6 +16,11 @@
 static const double BERR_REFINE = 1e-12;
 static const double BERR_FAIL = 1e-10;
 
+/* Up to this many columns a solve substitutes column by column over the
+ * factor's arrays (substitute.h); more go to cholmod_solve, whose dense
+ * BLAS-3 blocks then win (measured: ohm bench batch=). */
+static const size_t SUBSTITUTE_MAX_COLUMNS = 4;
+
 int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err)
 {
     memset(s, 0, sizeof *s);
@@ -81,8 +86,92 @@ static int analyze_grid(cholmod_factor **out, double *lnz, double *fl, ohm_chole
     return rc;
 }
 
+/* The analysis kept as s's symbolic factor (the one before freed). */
+static void keep_analysis(ohm_cholesky *s, cholmod_factor *F, double lnz, double fl, const char *name)
+{
+    cholmod_l_free_factor(&s->symbolic, &s->cc);
+    s->symbolic = F;
+    s->nnz_L = lnz;
+    s->flops = fl;
+    snprintf(s->ordering, sizeof s->ordering, "%s", name);
+}
+
+/* Bytes the factor will take, known from the symbolic analysis before
+ * factorizing: its values (supernodal: xsize, with amalgamation zeros) and
+ * row indices, the symbolic copy kept beside it, and a batch of B and X. */
+static double factor_bytes(const ohm_cholesky *s, size_t batch)
+{
+    const cholmod_factor *F = s->symbolic;
+    double values = F->is_super ? fmax((double)F->xsize, s->nnz_L) : s->nnz_L;
+    double index = F->is_super ? (double)F->ssize : s->nnz_L;
+    return 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)F->n * (double)batch;
+}
+
+/* ordering=auto's cost model (issue 15), in units of the grid ordering's
+ * own analysis time (this VM's speed varies 2x from day to day, the ratios
+ * much less), from docs/ordering.md (every sample mesh and scan, 1.2e4-9.2e4
+ * cells, on two days) and docs/bench.md:
+ *   - a numeric factorization took 3.4-9x the grid ordering + analysis;
+ *     a one-column solve ~1/50 of a factorization (spot, 2.8e4-2.2e5 cells);
+ *   - METIS's ordering + analysis took 3.8-6.2x the grid's;
+ *   - METIS left 0.89-1.09x the grid ordering's fill on objects from meshes,
+ *     and 1/1.23-1/1.73 of it on scans; its factorization was then 0-23%
+ *     faster on the scans, not the fill's 19-42% (their thin shells give
+ *     small supernodes), so the fill saving is taken as an upper bound.
+ * The model errs by tens of percent, so METIS is analysed only when its
+ * predicted saving is twice its predicted analysis time: on the bundled
+ * scans with one light it is not (measured: grid's one-light total was
+ * then the lower one), with hundreds of lights it is.  Memory comes first:
+ * a grid-ordered factor that does not fit makes METIS's worth a try. */
+static const double FACTOR_OVER_GRID_ANALYSIS = 6.5;
+static const double SOLVE_OVER_FACTOR = 0.02;
+static const double METIS_ANALYSIS_OVER_GRID = 5.0;
+static const double METIS_FILL_GAIN_SCAN = 1.45;
+static const double METIS_MARGIN = 2.0;
+
+/* ordering=auto: the grid ordering's analysis (a tenth to a fifth of a
+ * factorization); then METIS's only when its factor is predicted to save
+ * twice its analysis time over the factorizations and solves to come, or
+ * when the grid's factor does not fit in memory; of the two, the smaller
+ * factor. */
+static int analyze_auto(ohm_cholesky *s, cholmod_sparse *A, const ohm_grid_layout *layout,
+                        const ohm_ordering_costs *costs, const ohm_log *log, ohm_error *err)
+{
+    cholmod_factor *F = NULL;
+    double lnz = 0, fl = 0, t0 = ohm_now();
+    if (!layout || layout->n != (int64_t)A->nrow) {
+        int rc = analyze_one(&F, &lnz, &fl, s, A, CHOLMOD_METIS, NULL, "metis", err);
+        if (!rc) keep_analysis(s, F, lnz, fl, "metis");
+        return rc;
+    }
+    int rc = analyze_grid(&F, &lnz, &fl, s, A, layout, err);
+    if (rc) return rc;
+    keep_analysis(s, F, lnz, fl, "grid");
+    double t_grid = ohm_now() - t0;
+    double factors = costs && costs->factors > 0 ? costs->factors : 1;
+    double columns = costs && costs->columns > 0 ? costs->columns : 1;
+    double gain = costs && costs->from_scan ? METIS_FILL_GAIN_SCAN : 1.0;
+    int fits = factor_bytes(s, costs && costs->batch > 0 ? (size_t)costs->batch : 1) <=
+                  ohm_memory_limit(costs ? costs->max_memory : 0);
+    double work = FACTOR_OVER_GRID_ANALYSIS * t_grid * (factors + SOLVE_OVER_FACTOR * columns);
+    double saving = work * (1.0 - 1.0 / gain), metis_analysis = METIS_ANALYSIS_OVER_GRID * t_grid;
+    if (fits && !(saving > METIS_MARGIN * metis_analysis)) {
+        ohm_log_info(log, "solve: ordering=auto: grid (METIS would save at most ~%.2g s of factorizations and "
+                          "solves for ~%.2g s of analysis)", saving, metis_analysis);
+        return OHM_OK;
+    }
+    double lnz_grid = lnz;
+    rc = analyze_one(&F, &lnz, &fl, s, A, CHOLMOD_METIS, NULL, "metis", err);
+    if (rc) return rc;
+    ohm_log_info(log, "solve: ordering=auto: %s (nnz(L) grid %.3g, metis %.3g; %s)", lnz < lnz_grid ? "metis" : "grid",
+                 lnz_grid, lnz, fits ? "METIS predicted to pay for its analysis" : "the grid's factor does not fit");
+    if (lnz < lnz_grid) keep_analysis(s, F, lnz, fl, "metis");
+    else cholmod_l_free_factor(&F, &s->cc);
+    return OHM_OK;
+}
+
 int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, const ohm_grid_layout *layout,
-                         ohm_error *err)
+                         const ohm_ordering_costs *costs, const ohm_log *log, ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     cholmod_l_free_factor(&s->symbolic, cc);
@@ -92,6 +181,13 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
     } orders[] = {{"metis", CHOLMOD_METIS}, {"amd", CHOLMOD_AMD}, {"nesdis", CHOLMOD_NESDIS}, {"grid", -1}};
     int best = strcmp(ordering, "best") == 0;
     double t0 = ohm_now();
+    if (strcmp(ordering, "auto") == 0) {
+        int rc = analyze_auto(s, A, layout, costs, log, err);
+        if (rc) cholmod_l_free_factor(&s->symbolic, cc);
+        s->t_analyze = ohm_now() - t0;
+        s->nnz_A = (double)cholmod_l_nnz(A, cc);
+        return rc;
+    }
     int found = 0;
     for (int i = 0; i < 4; ++i) {
         /* best: METIS, AMD and (given the grid) grid; keep the smaller factor */
@@ -108,16 +204,13 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
             return rc;
         }
         if (!s->symbolic || lnz < s->nnz_L) {
-            cholmod_l_free_factor(&s->symbolic, cc);
-            s->symbolic = F;
-            s->nnz_L = lnz;
-            s->flops = fl;
-            snprintf(s->ordering, sizeof s->ordering, "%s", orders[i].name);
+            keep_analysis(s, F, lnz, fl, orders[i].name);
         } else {
             cholmod_l_free_factor(&F, cc);
         }
     }
-    if (!found) return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected metis, amd, nesdis, grid or best", ordering);
+    if (!found)
+        return ohm_fail(err, OHM_ERR_USAGE, "ordering=%s: expected auto, metis, amd, nesdis, grid or best", ordering);
     s->t_analyze = ohm_now() - t0;
     s->nnz_A = (double)cholmod_l_nnz(A, cc);
     return OHM_OK;
@@ -150,11 +243,6 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     *L = F;
     return OHM_OK;
 }
-
-/* Up to this many columns a solve substitutes column by column over the
- * factor's arrays (substitute.h); more go to cholmod_solve, whose dense
- * BLAS-3 blocks then win (measured: ohm bench batch=). */
-static const size_t SUBSTITUTE_MAX_COLUMNS = 4;
 
 /* ... and only while the factor's stored values take at most this many
  * bytes.  tests/test_substitute time (best of 5, interleaved, this 2-core
@@ -257,16 +345,6 @@ static int direct_create(void **state, const ohm_backend_config *cfg, ohm_error 
     return OHM_OK;
 }
 
-/* Bytes the factor will take, known from the symbolic analysis before
- * factorizing: its values (supernodal: xsize, with amalgamation zeros) and
- * row indices, the symbolic copy kept beside it, and a batch of B and X. */
-static double factor_bytes(const ohm_cholesky *s, size_t batch)
-{
-    const cholmod_factor *F = s->symbolic;
-    double values = F->is_super ? fmax((double)F->xsize, s->nnz_L) : s->nnz_L;
-    double index = F->is_super ? (double)F->ssize : s->nnz_L;
-    return 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)F->n * (double)batch;
-}
 
 static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
 {
@@ -276,7 +354,9 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
     if (!s->symbolic) {
         ohm_log_info(d->cfg.log, "solve: %lld unknowns, %lld matrix entries; analysing (%s)", (long long)A->nrow,
                      (long long)A->nzmax, ordering);
-        int rc = ohm_cholesky_analyze(s, A, ordering, d->cfg.layout, err);
+        ohm_ordering_costs costs = {d->cfg.materials, d->cfg.columns, (double)d->cfg.batch, d->cfg.max_memory,
+                                    d->cfg.from_scan};
+        int rc = ohm_cholesky_analyze(s, A, ordering, d->cfg.layout, &costs, d->cfg.log, err);
         if (rc) return rc;
         rep->t_analyze += s->t_analyze;
         rep->analyses++;

@@ -15,6 +15,7 @@
 
 #include <cholmod.h>
 
+#include "base/log.h"
 #include "base/ohm_error.h"
 #include "solvers/backend.h"
 #include "solvers/grid_order.h"
@@ -36,11 +37,23 @@ typedef struct ohm_cholesky {
 int ohm_cholesky_start(ohm_cholesky *s, ohm_error *err);
 void ohm_cholesky_finish(ohm_cholesky *s); /* frees everything; fine on a zeroed solver */
 
+/* What ordering=auto weighs: the work to come with this analysis. */
+typedef struct ohm_ordering_costs {
+    double factors;  /* numeric factorizations (distinct materials); 0: 1 */
+    double columns;  /* right-hand sides to be solved; 0: 1               */
+    double batch;    /* of them solved per call (the factor's memory); 0: 1 */
+    double max_memory; /* bytes the factor may take; 0: what the machine has */
+    int from_scan;   /* the object is a density volume's (thin shells and
+                        convoluted surfaces: METIS leaves less fill than grid) */
+} ohm_ordering_costs;
+
 /* ordering: "metis" | "amd" | "nesdis" | "grid" (grid_order.h: needs the
  * unknowns' layout) | "best" (tries METIS, AMD and, given the layout, grid;
- * keeps the one with the smaller factor).  layout may be NULL. */
+ * keeps the one with the smaller factor) | "auto" (grid, then METIS only
+ * when the cost model predicts it pays for its own analysis over `costs`'
+ * factorizations and solves; direct.c).  layout and costs may be NULL. */
 int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *ordering, const ohm_grid_layout *layout,
-                         ohm_error *err);
+                         const ohm_ordering_costs *costs, const ohm_log *log, ohm_error *err);
 
 /* Numeric factor of A (same pattern as analysed): into *L when it holds an
  * earlier factor of this analysis (refactorized in place), else into a new

@@ -1242,6 +1242,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
                                .batch = run.batch,
                                .columns = (double)sol->frames * (double)run.channels,
                                .materials = nclasses,
+                               .from_scan = params->from_scan,
                                .log = s->log};
     channel_tally tally[OHM_MAX_CHANNELS];
     memset(tally, 0, sizeof tally);

@@ -39,7 +39,8 @@ typedef struct ohm_solve_params {
     const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
     double band_k;             /* depth band (band.h): keep cells within
                                   band_k / sigma_tr of the surface; 0: all */
-    const char *ordering;      /* metis | amd | nesdis | best            */
+    const char *ordering;      /* auto | metis | amd | nesdis | grid | best; NULL: metis */
+    int from_scan;             /* ordering=auto: the object is a density volume's */
     ohm_deposit deposit;
     int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
                                   unscattered beam's fluence added (ohm_source_unscattered_face;

@@ -573,8 +573,8 @@ static const ohm_opt_spec solve_opts[] = {
      "robin|neumann|dirichlet", 0, 0, 0},
     {"ordering", OHM_OPT_ENUM, "auto",
      "fill-reducing ordering of the Cholesky factor: metis, amd, nesdis (CHOLMOD's), grid (nested dissection by planes "
-     "of cells, made for voxel grids: milliseconds); best tries metis, amd and grid; auto: grid for an object "
-     "voxelized from a mesh, metis for one from a density volume (docs/ordering.md)",
+     "of cells, made for voxel grids: milliseconds); best tries metis, amd and grid; auto: grid, then metis too "
+     "when it is predicted to pay for its analysis over the factorizations and solves to come (docs/ordering.md)",
      "auto|metis|amd|nesdis|grid|best", 0, 0, 0},
     {"fresnel", OHM_OPT_ENUM, "exact",
      "robin: the boundary constant A from eta by the exact Fresnel moments, A = (1 + 3 C2)/(1 - 2 C1) "
@@ -736,16 +736,6 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
     return OHM_OK;
 }
 
-/* ordering=auto by what made the object, from docs/ordering.md: for the
- * sample meshes the grid ordering's factor was within 0.89-1.09 of METIS's
- * fill at a fifth of its analysis time; for the scans' thin shells and
- * convoluted surfaces its fill was 1.2-1.7x METIS's, so they keep METIS. */
-static const char *auto_ordering(const ohm_state *s, const char *asked)
-{
-    if (strcmp(asked, "auto") != 0) return asked;
-    return s->have_scan && !s->have_mesh ? "metis" : "grid";
-}
-
 /* -solve's options into p (strings point into inv). */
 static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
@@ -759,7 +749,8 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
                  : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
                                                  : OHM_DEPOSIT_EXPONENTIAL;
-    p->ordering = auto_ordering(s, ohm_opt_str(inv, "ordering"));
+    p->ordering = ohm_opt_str(inv, "ordering");
+    p->from_scan = s->have_scan && !s->have_mesh;
     p->total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
     p->solver = ohm_opt_str(inv, "solver");
     if (ohm_opt_given(inv, "petsc_options")) p->petsc_options = ohm_opt_str(inv, "petsc_options");

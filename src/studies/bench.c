@@ -578,7 +578,7 @@ static int plan_grid(bench_plan *plan, const ohm_voxel_grid *g, const ohm_materi
     cholmod_sparse *A = NULL;
     rc = ohm_network_assemble(&A, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &s.cc, err);
     ohm_grid_layout layout = ohm_grid_layout_of(&net);
-    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &layout, err);
+    if (!rc) rc = ohm_cholesky_analyze(&s, A, o->ordering, &layout, NULL, NULL, err);
     if (!rc) {
         const cholmod_factor *F = s.symbolic;
         plan->nnz_L = s.nnz_L;
