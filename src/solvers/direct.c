@@ -17,7 +17,8 @@ static const double BERR_REFINE = 1e-12;
 static const double BERR_FAIL = 1e-10;
 
 /* Up to this many columns a solve substitutes column by column over the
- * factor's arrays (substitute.h); more go to cholmod_solve, whose dense
+ * factor's arrays (substitute.h), while the factor is at most
+ * OHM_SUBSTITUTE_MAX_BYTES (direct.h); more go to cholmod_solve, whose dense
  * BLAS-3 blocks then win (measured: ohm bench batch=). */
 static const size_t SUBSTITUTE_MAX_COLUMNS = 4;
 
@@ -244,21 +245,13 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     return OHM_OK;
 }
 
-/* ... and only while the factor's stored values take at most this many
- * bytes.  tests/test_substitute time (best of 5, interleaved, this 2-core
- * VM): substitution took 0.38 / 5.7 / 21 ms where cholmod_solve took
- * 0.76 / 8.3 / 30 ms for factors of 7 / 48 / 157 MB, but 102 against 89 ms
- * at 894 MB, where the BLAS's matrix-vector calls on the large supernodes
- * run on both cores and the substitution on one. */
-static const double SUBSTITUTE_MAX_BYTES = 256e6;
-
 /* X = A^-1 B for ncols columns of n rows, from the factor L. */
 static int apply_inverse(double *X, ohm_cholesky *s, cholmod_factor *L, const double *B, size_t n, size_t ncols,
                          ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     if (ncols <= SUBSTITUTE_MAX_COLUMNS && ohm_substitute_supports(L) &&
-        8.0 * (double)L->xsize <= SUBSTITUTE_MAX_BYTES) {
+        8.0 * (double)L->xsize <= OHM_SUBSTITUTE_MAX_BYTES) {
         size_t need = ohm_substitute_work_size(L);
         if (need > s->work_size) {
             free(s->work);

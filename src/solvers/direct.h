@@ -20,6 +20,14 @@
 #include "solvers/backend.h"
 #include "solvers/grid_order.h"
 
+/* A solve of a few columns substitutes over the factor's arrays
+ * (substitute.h) on one core while the factor's stored values take at most
+ * this many bytes; above, cholmod_solve's BLAS calls run on every core.
+ * tests/test_substitute time (best of 5, interleaved, this 2-core VM):
+ * substitution took 0.38 / 5.7 / 21 ms where cholmod_solve took 0.76 / 8.3
+ * / 30 ms for factors of 7 / 48 / 157 MB, but 102 against 89 ms at 894 MB. */
+#define OHM_SUBSTITUTE_MAX_BYTES 256e6
+
 typedef struct ohm_cholesky {
     cholmod_common cc;
     int started;

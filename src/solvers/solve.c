@@ -3,6 +3,7 @@
 #include "grid/band.h"
 #include "solvers/backend.h"
 #include "solvers/cg.h"
+#include "solvers/direct.h"
 #include "base/memory.h"
 #include "base/parallel.h"
 
@@ -1156,13 +1157,13 @@ static void solve_medium_job(void *arg, int64_t i)
 enum { MEDIA_TOGETHER_MIN_UNKNOWNS = 4096 };
 static const double MEDIA_TOGETHER_MAX_RHS_BYTES = 64.0 * 1048576.0;
 
-/* Whether the media are solved on several threads at once: each must hold
- * its own setup (keep=1, what a relight reuses), the backend must be the
- * factor (a medium's solves then touch only its own factor and work space;
- * cg warm-starts from other channels, and amg's PETSc is not thread-safe),
- * no solve may call back into the caller (custom_source) or start threads
- * of its own (the hybrid's Monte Carlo), and the machine must have a core to
- * spare. */
+/* Whether the media may be solved on several threads at once: each must
+ * hold its own setup (keep=1, what a relight reuses), the backend must be
+ * the factor (a medium's solves then touch only its own factor and work
+ * space; cg warm-starts from other channels, and amg's PETSc is not
+ * thread-safe), no solve may call back into the caller (custom_source) or
+ * start threads of its own (the hybrid's Monte Carlo), and the machine must
+ * have a core to spare. */
 static int media_together(const diffusion_run *run, int nclasses)
 {
     const ohm_solver *s = run->s;
@@ -1175,7 +1176,11 @@ static int media_together(const diffusion_run *run, int nclasses)
 /* Every medium set up first (one after another: the factorizations use the
  * BLAS's own threads), then the media's channels solved on the cores at
  * once, one medium per thread at a time: the paper's relight, three colours
- * for the wall time of about two (issue 15, item 3). */
+ * for the wall time of about two (issue 15, item 3).  Only while each solve
+ * is a one-core substitution over a small factor (direct.h); a larger
+ * factor's solve already runs on every core through the BLAS and is bound
+ * by memory, and two at once took twice as long (Spot, 297 250 cells,
+ * relight 370 -> 764 ms): those are solved in turn. */
 static int solve_media_together(const diffusion_run *run, channel_tally *tally, int nclasses,
                                 const ohm_backend_config *bcfg, ohm_error *err)
 {
@@ -1188,6 +1193,7 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
             job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
         }
     if (rc) return rc;
+    if (s->rep.bytes > OHM_SUBSTITUTE_MAX_BYTES) return solve_media_in_turn(run, tally, bcfg, err);
     double t0 = ohm_now();
     int threads = ohm_usable_cores() < nclasses ? ohm_usable_cores() : nclasses;
     s->sol.solve_threads = ohm_parallel_for(njobs, threads, solve_medium_job, job);
