@@ -7,7 +7,7 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libopenvdb-dev libboost-dev libboost-iostreams-dev libtbb-dev libblosc-dev libimath-dev
-  zlib1g-dev libnifti2-dev
+  zlib1g-dev libnifti2-dev libteem-dev
   libcgal-dev libgmp-dev libmpfr-dev
   libsuitesparse-dev libmetis-dev libopenblas-dev
   libpetsc-real-dev libhypre-dev openmpi-bin libopenmpi-dev

@@ -22,7 +22,7 @@ run_case() {
     transfer) cmd=(-material "transfer=$f") ;;
     raw:*)    local a=${how#raw:}; cmd=(-read "file=$f" "dims=${a%%:*}" "type=${a#*:}") ;;
     nifti)    cmd=(-read "file=$f" -voxelize dim=8 threshold=1) ;;
-    vdb)      cmd=(-read "file=$f") ;;
+    vdb|scan) cmd=(-read "file=$f") ;;
     *) bad "$name: unknown kind '$how' in the manifest"; return ;;
   esac
   set +e; timeout "$(SAFETY 60)" "$OHM" "${cmd[@]}" >"$T/out" 2>"$T/err" </dev/null; got=$?; set -e

@@ -5,7 +5,7 @@
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 
-for p in walnut head; do
+for p in walnut head liver; do
   sed "s|out/|$T/|g" "pipelines/$p.ohm" >"$T/$p.ohm"
   expect_exit 0 "pipeline $p" -- "$OHM" run "$T/$p.ohm"
   check "$p: grids, one analysis, conservation" $PY - "$T/$p.vdb" "$T/$p.json" <<'PY'
@@ -23,6 +23,18 @@ assert s["conservation_error"] < 1e-10 and s["residual"] < 1e-12, s
 assert s["transfer"].endswith(".transfer") and s["scan_file"], s
 PY
 done
+
+# the liver INR's geometry as the log reports it (CGAL's voxel size), and a
+# folder of slices read through -read (it went to the mesh reader once)
+expect_exit 0 "liver geometry" -- "$OHM" -read file=samples/liver.inr.gz
+check "liver: 0.617188 x 0.617188 x 1.33333 mm, axis-aligned" \
+  grep -q "voxels 0.617188 x 0.617188 x 1.33333 mm, the first one's centre at (0, 0, 0) mm (RAS); axes along the world's" "$T/stderr"
+mkdir -p "$T/slices"
+$PY -c "
+import sys; from PIL import Image
+for z in range(3): Image.new('L', (8, 6), 40 * z + 10).save('$T/slices/s%02d.png' % z)"
+expect_exit 0 "slice folder" -- "$OHM" -read file="$T/slices" spacing=0.5
+check "slice folder: 8 x 6 x 3 voxels of 0.5 mm" grep -q "8 x 6 x 3 voxels, values 10 .. 90, 3.5 x 2.5 x 1 mm" "$T/stderr"
 
 # a scan placed in a mesh: the head MRI stretched over spot's box
 expect_exit 0 "place" -- "$OHM" -read file=samples/spot.obj size=50 -read file=samples/ch2_2mm.nii.gz -place fit=1 \

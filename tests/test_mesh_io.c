@@ -13,6 +13,7 @@
  *    into exact-size heap blocks so AddressSanitizer sees any over-read;
  *  - topology counts on small hand-made meshes. */
 #include "check.h"
+#include "tmp_files.h"
 #include "input/mesh.h"
 
 #include <stdarg.h>
@@ -24,38 +25,6 @@
 #include <zlib.h>
 
 #define PI 3.14159265358979323846
-
-/* ---- temporary files ----------------------------------------------------- */
-
-static char tmpdir[64];
-static char *tmpfiles[64];
-static int ntmp;
-
-static const char *tmp_path(const char *name)
-{
-    char *p = malloc(strlen(tmpdir) + strlen(name) + 2);
-    sprintf(p, "%s/%s", tmpdir, name);
-    if (ntmp < 64) tmpfiles[ntmp++] = p;
-    return p;
-}
-
-static const char *write_tmp(const char *name, const void *data, size_t len)
-{
-    const char *p = tmp_path(name);
-    FILE *f = fopen(p, "wb");
-    if (!f || fwrite(data, 1, len, f) != len) fprintf(stderr, "cannot write %s\n", p);
-    if (f) fclose(f);
-    return p;
-}
-
-static const char *write_tmp_gz(const char *name, const void *data, size_t len)
-{
-    const char *p = tmp_path(name);
-    gzFile f = gzopen(p, "wb");
-    if (!f || gzwrite(f, data, (unsigned)len) != (int)len) fprintf(stderr, "cannot write %s\n", p);
-    if (f) gzclose(f);
-    return p;
-}
 
 static void *read_all(const char *path, size_t *len)
 {
@@ -70,15 +39,6 @@ static void *read_all(const char *path, size_t *len)
     *len = fread(p, 1, (size_t)(n > 0 ? n : 0), f);
     fclose(f);
     return p;
-}
-
-static void cleanup_tmp(void)
-{
-    for (int i = 0; i < ntmp; ++i) {
-        unlink(tmpfiles[i]);
-        free(tmpfiles[i]);
-    }
-    rmdir(tmpdir);
 }
 
 /* ---- growable byte buffer for writing test files ------------------------- */
@@ -776,11 +736,7 @@ static void test_topology(void)
 
 int main(void)
 {
-    strcpy(tmpdir, "/tmp/ohm_test_mesh_io.XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        perror("mkdtemp");
-        return 1;
-    }
+    if (tmp_begin("ohm_test_mesh_io")) return 1;
     test_samples();
     test_obj();
     test_off();

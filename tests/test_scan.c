@@ -6,6 +6,7 @@
  * box means, bounds; PNG stacks (a directory, sorted by name); and the
  * walnut / head samples in samples/. */
 #include "check.h"
+#include "tmp_files.h"
 #include "base/ohm_error.h"
 #include "ohm_vdb.h"
 #include "input/scan.h"
@@ -26,47 +27,6 @@
 #define NX 5
 #define NY 4
 #define NZ 3
-
-/* ---- temporary files ----------------------------------------------------- */
-
-static char tmpdir[64];
-static char *tmpfiles[64];
-static int ntmp;
-
-static const char *tmp_path(const char *name)
-{
-    char *p = malloc(strlen(tmpdir) + strlen(name) + 2);
-    sprintf(p, "%s/%s", tmpdir, name);
-    if (ntmp < 64) tmpfiles[ntmp++] = p;
-    return p;
-}
-
-static const char *write_tmp(const char *name, const void *data, size_t len)
-{
-    const char *p = tmp_path(name);
-    FILE *f = fopen(p, "wb");
-    if (!f || fwrite(data, 1, len, f) != len) fprintf(stderr, "cannot write %s\n", p);
-    if (f) fclose(f);
-    return p;
-}
-
-static const char *write_tmp_gz(const char *name, const void *data, size_t len)
-{
-    const char *p = tmp_path(name);
-    gzFile f = gzopen(p, "wb");
-    if (!f || gzwrite(f, data, (unsigned)len) != (int)len) fprintf(stderr, "cannot write %s\n", p);
-    if (f) gzclose(f);
-    return p;
-}
-
-static void cleanup_tmp(void)
-{
-    for (int i = 0; i < ntmp; ++i) {
-        unlink(tmpfiles[i]);
-        free(tmpfiles[i]);
-    }
-    rmdir(tmpdir);
-}
 
 /* ---- the test volume ------------------------------------------------------ */
 
@@ -757,11 +717,7 @@ static void test_samples(void)
 
 int main(void)
 {
-    strcpy(tmpdir, "/tmp/ohm_test_scan.XXXXXX");
-    if (!mkdtemp(tmpdir)) {
-        perror("mkdtemp");
-        return 1;
-    }
+    if (tmp_begin("ohm_test_scan")) return 1;
     nifti_set_debug_level(0);
     test_nifti_vs_raw();
     test_nifti_errors();

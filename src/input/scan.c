@@ -26,55 +26,14 @@
 
 #include <nifti2_io.h>
 
+#ifndef M_PI
+#define M_PI 3.14159265358979323846
+#endif
+
 #include "ohm_oiio.h"
 #include "ohm_vdb.h"
 #include "input/scan_check.h"
-
-/* Largest volume we allocate (voxels). */
-#define SCAN_MAX_VOXELS ((uint64_t)1 << 31)
-
-static int ends_with_ci(const char *s, const char *suffix)
-{
-    size_t n = strlen(s), m = strlen(suffix);
-    if (m > n) return 0;
-    for (size_t i = 0; i < m; ++i) {
-        char a = s[n - m + i], b = suffix[i];
-        if (a >= 'A' && a <= 'Z') a = (char)(a - 'A' + 'a');
-        if (a != b) return 0;
-    }
-    return 1;
-}
-
-/* dims product, checked against SCAN_MAX_VOXELS. */
-static int voxel_count(const char *path, const int64_t d[3], size_t *n, ohm_error *err)
-{
-    for (int k = 0; k < 3; ++k)
-        if (d[k] <= 0)
-            return ohm_fail(err, OHM_ERR_PARSE, "%s: dimension %d is %" PRId64 ", expected at least 1", path, k,
-                            d[k]);
-    uint64_t total = 1;
-    for (int k = 0; k < 3; ++k) {
-        if ((uint64_t)d[k] > SCAN_MAX_VOXELS || total * (uint64_t)d[k] > SCAN_MAX_VOXELS)
-            return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s: %" PRId64 " x %" PRId64 " x %" PRId64 " voxels is more than the limit of %" PRIu64,
-                            path, d[0], d[1], d[2], SCAN_MAX_VOXELS);
-        total *= (uint64_t)d[k];
-    }
-    *n = (size_t)total;
-    return 0;
-}
-
-static int alloc_values(ohm_scan *s, const char *path, const int64_t d[3], ohm_error *err)
-{
-    size_t n;
-    int rc = voxel_count(path, d, &n, err);
-    if (rc) return rc;
-    s->values = malloc(n * sizeof(float));
-    if (!s->values)
-        return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory allocating %zu voxels", path, n);
-    for (int k = 0; k < 3; ++k) s->dims[k] = (int32_t)d[k];
-    return 0;
-}
+#include "input/scan_io.h"
 
 static size_t scan_count(const ohm_scan *s)
 {
@@ -183,7 +142,7 @@ static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm
     }
     int64_t d[3];
     for (int k = 0; k < 3; ++k) d[k] = (int64_t)info.bbox_max[k] - info.bbox_min[k] + 1;
-    rc = alloc_values(s, path, d, err);
+    rc = ohm_scan_alloc(s, path, d, err);
     if (rc) goto done;
     size_t nv = scan_count(s);
     for (size_t i = 0; i < nv; ++i) s->values[i] = info.background;
@@ -372,7 +331,7 @@ static int nifti_precheck(const char *path, ohm_error *err)
     int64_t d3[3] = {1, 1, 1};
     for (int k = 1; k <= 3 && k <= dim[0]; ++k) d3[k - 1] = dim[k];
     size_t nvox;
-    int rc = voxel_count(path, d3, &nvox, err);
+    int rc = ohm_scan_voxel_count(path, d3, &nvox, err);
     if (rc) return rc;
     /* vox_offset: float32 in NIfTI-1, int64 in NIfTI-2; at most 2^40 so that
      * libnifti's conversion to int64 is defined and seeks stay sane. */
@@ -413,7 +372,7 @@ static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
     int64_t d[3] = {nim->nx, nim->ny, nim->nz};
     for (int k = nim->ndim; k < 3; ++k) d[k] = 1; /* 1-D / 2-D images */
     size_t nvox;
-    rc = voxel_count(path, d, &nvox, err);
+    rc = ohm_scan_voxel_count(path, d, &nvox, err);
     if (rc) goto done;
     if ((uint64_t)nim->nvox != (uint64_t)nvox) {
         rc = ohm_fail(err, OHM_ERR_PARSE, "%s: header says %" PRId64 " voxels but dims give %zu", path, nim->nvox,
@@ -440,7 +399,7 @@ static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
      * NaN/Inf floats into 0, and ohm wants to report them. */
     rc = load_nifti_data(nim, path, nvox, &data, err);
     if (rc) goto done;
-    rc = alloc_values(s, path, d, err);
+    rc = ohm_scan_alloc(s, path, d, err);
     if (rc) goto done;
     const void *src = data;
     for (size_t i = 0; i < nvox; ++i) {
@@ -464,85 +423,21 @@ done:
 /* ------------------------------------------------------------------------ */
 /* raw                                                                       */
 
-/* Read exactly `want` bytes into buf; *actual is the file's (decompressed)
- * length, counted to the end when it differs. */
-static int read_exact(const char *path, int gz, unsigned char *buf, size_t want, uint64_t *actual,
-                      ohm_error *err)
-{
-    if (!gz) {
-        FILE *f = fopen(path, "rb");
-        if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-        size_t got = fread(buf, 1, want, f);
-        uint64_t total = got;
-        unsigned char scratch[4096];
-        size_t more;
-        while ((more = fread(scratch, 1, sizeof scratch, f)) > 0) total += more;
-        int bad = ferror(f);
-        int e = errno;
-        fclose(f);
-        if (bad) return ohm_fail(err, OHM_ERR_IO, "%s: read error: %s", path, strerror(e));
-        *actual = total;
-        return 0;
-    }
-    errno = 0;
-    gzFile f = gzopen(path, "rb");
-    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, errno ? strerror(errno) : "zlib");
-    gzbuffer(f, 1 << 17);
-    uint64_t total = 0;
-    int rc = 0;
-    unsigned char scratch[4096];
-    for (;;) {
-        unsigned char *dst;
-        size_t room;
-        if (total < want) {
-            dst = buf + total;
-            room = want - (size_t)total;
-        } else {
-            dst = scratch;
-            room = sizeof scratch;
-        }
-        if (room > (1u << 30)) room = 1u << 30;
-        int got = gzread(f, dst, (unsigned)room);
-        if (got < 0) {
-            int zerr;
-            const char *m = gzerror(f, &zerr);
-            rc = zerr == Z_ERRNO ? ohm_fail(err, OHM_ERR_IO, "%s: read error: %s", path, strerror(errno))
-                                 : ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream: %s", path,
-                                            m ? m : "unknown");
-            break;
-        }
-        if (total == 0 && got > 0 && gzdirect(f)) {
-            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: not a gzip file (expected the magic bytes 1f 8b)", path);
-            break;
-        }
-        if (got == 0) {
-            int zerr;
-            const char *m = gzerror(f, &zerr);
-            if (zerr != Z_OK)
-                rc = ohm_fail(err, OHM_ERR_PARSE, "%s: corrupt gzip stream: %s", path,
-                              m && *m ? m : "unexpected end of file");
-            break;
-        }
-        total += (uint64_t)got;
-    }
-    gzclose(f);
-    *actual = total;
-    return rc;
-}
-
 static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params *p, ohm_error *err)
 {
     if (!p || p->dims[0] <= 0 || p->dims[1] <= 0 || p->dims[2] <= 0)
         return ohm_fail(err, OHM_ERR_USAGE, "%s: a raw volume needs dims=NX,NY,NZ (all at least 1)%s", path,
                         p ? "" : ", none given");
     const char *type = p->type ? p->type : "";
-    size_t bpv;
-    if (strcmp(type, "u8") == 0) bpv = 1;
-    else if (strcmp(type, "u16") == 0 || strcmp(type, "i16") == 0) bpv = 2;
-    else if (strcmp(type, "f32") == 0) bpv = 4;
+    ohm_sample_type sample;
+    if (strcmp(type, "u8") == 0) sample = OHM_SAMPLE_U8;
+    else if (strcmp(type, "u16") == 0) sample = OHM_SAMPLE_U16;
+    else if (strcmp(type, "i16") == 0) sample = OHM_SAMPLE_I16;
+    else if (strcmp(type, "f32") == 0) sample = OHM_SAMPLE_F32;
     else
         return ohm_fail(err, OHM_ERR_USAGE, "%s: raw type '%s', expected type=u8, u16, i16 or f32", path,
                         p->type ? p->type : "(none)");
+    size_t bpv = ohm_sample_size(sample);
     int big = 0;
     if (p->endian && strcmp(p->endian, "big") == 0) big = 1;
     else if (p->endian && strcmp(p->endian, "little") != 0)
@@ -556,7 +451,7 @@ static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params
     }
     int64_t d[3] = {p->dims[0], p->dims[1], p->dims[2]};
     size_t n;
-    int rc = voxel_count(path, d, &n, err);
+    int rc = ohm_scan_voxel_count(path, d, &n, err);
     if (rc) return rc;
     size_t want = n * bpv;
     if (!gz) {
@@ -571,32 +466,18 @@ static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params
     unsigned char *buf = malloc(want);
     if (!buf) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     uint64_t actual = 0;
-    rc = read_exact(path, gz, buf, want, &actual, err);
+    rc = ohm_scan_read_bytes(path, gz, 0, buf, want, &actual, err);
     if (!rc && actual != (uint64_t)want)
         rc = ohm_fail(err, OHM_ERR_PARSE,
                       "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, the %s has %" PRIu64,
                       path, actual < want ? "truncated" : "too long", d[0], d[1], d[2], type, want,
                       gz ? "decompressed data" : "file", actual);
-    if (!rc) rc = alloc_values(s, path, d, err);
+    if (!rc) rc = ohm_scan_alloc(s, path, d, err);
     if (rc) {
         free(buf);
         return rc;
     }
-    for (size_t i = 0; i < n; ++i) {
-        const unsigned char *b = buf + i * bpv;
-        unsigned char t[4];
-        for (size_t q = 0; q < bpv; ++q) t[q] = big ? b[bpv - 1 - q] : b[q];
-        float v;
-        if (bpv == 1) v = t[0];
-        else if (bpv == 2) {
-            uint16_t u = (uint16_t)(t[0] | (t[1] << 8));
-            v = type[0] == 'u' ? (float)u : (float)(int16_t)u;
-        } else {
-            uint32_t u = (uint32_t)t[0] | ((uint32_t)t[1] << 8) | ((uint32_t)t[2] << 16) | ((uint32_t)t[3] << 24);
-            memcpy(&v, &u, sizeof v);
-        }
-        s->values[i] = v;
-    }
+    ohm_scan_convert(s->values, buf, n, sample, big);
     free(buf);
     memset(s->index_to_world, 0, sizeof s->index_to_world);
     for (int k = 0; k < 3; ++k) s->index_to_world[k][k] = sp[k];
@@ -608,7 +489,7 @@ static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params
 
 static int is_slice_name(const char *n)
 {
-    return n[0] != '.' && (ends_with_ci(n, ".tif") || ends_with_ci(n, ".tiff") || ends_with_ci(n, ".png"));
+    return n[0] != '.' && (ohm_scan_ends_with(n, ".tif") || ohm_scan_ends_with(n, ".tiff") || ohm_scan_ends_with(n, ".png"));
 }
 
 static int cmp_names(const void *a, const void *b)
@@ -667,7 +548,7 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
             int64_t d[3] = {w, h, (int64_t)n};
             w0 = w;
             h0 = h;
-            rc = alloc_values(s, path, d, err);
+            rc = ohm_scan_alloc(s, path, d, err);
         } else if (w != w0 || h != h0) {
             rc = ohm_fail(err, OHM_ERR_PARSE, "%s: slice %zu is %d x %d pixels, expected %d x %d like the first (%s)",
                           names[z], z, w, h, w0, h0, names[0]);
@@ -695,14 +576,18 @@ int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm
     if (S_ISDIR(st.st_mode)) rc = read_stack(out, path, p, err);
     else if (!S_ISREG(st.st_mode))
         return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a scan", path);
-    else if (ends_with_ci(path, ".vdb")) rc = read_vdb(out, path, p, err);
-    else if (ends_with_ci(path, ".nii") || ends_with_ci(path, ".nii.gz")) rc = read_nifti(out, path, err);
-    else if (ends_with_ci(path, ".raw")) rc = read_raw(out, path, 0, p, err);
-    else if (ends_with_ci(path, ".raw.gz")) rc = read_raw(out, path, 1, p, err);
+    else if (ohm_scan_ends_with(path, ".vdb")) rc = read_vdb(out, path, p, err);
+    else if (ohm_scan_ends_with(path, ".nii") || ohm_scan_ends_with(path, ".nii.gz")) rc = read_nifti(out, path, err);
+    else if (ohm_scan_ends_with(path, ".raw")) rc = read_raw(out, path, 0, p, err);
+    else if (ohm_scan_ends_with(path, ".raw.gz")) rc = read_raw(out, path, 1, p, err);
+    else if (ohm_scan_ends_with(path, ".nrrd") || ohm_scan_ends_with(path, ".nhdr")) rc = ohm_scan_read_nrrd(out, path, err);
+    else if (ohm_scan_ends_with(path, ".mha") || ohm_scan_ends_with(path, ".mhd")) rc = ohm_scan_read_meta(out, path, err);
+    else if (ohm_scan_ends_with(path, ".inr")) rc = ohm_scan_read_inr(out, path, 0, err);
+    else if (ohm_scan_ends_with(path, ".inr.gz")) rc = ohm_scan_read_inr(out, path, 1, err);
     else
         return ohm_fail(err, OHM_ERR_USAGE,
-                        "%s: unknown scan format, expected .vdb, .nii, .nii.gz, .raw, .raw.gz or a directory of "
-                        ".tif/.png slices",
+                        "%s: unknown scan format, expected .vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .inr, "
+                        ".inr.gz, .raw, .raw.gz or a directory of .tif/.png slices",
                         path);
     if (!rc) rc = finish_values(out, path, err);
     if (!rc) rc = check_placement(out, path, err);
@@ -829,6 +714,24 @@ double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[
 }
 
 void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3]) { scan_bounds_of(s, lo, hi); }
+
+void ohm_scan_spacing(const ohm_scan *s, double spacing[3])
+{
+    const double(*m)[4] = s->index_to_world;
+    for (int a = 0; a < 3; ++a) spacing[a] = sqrt(m[0][a] * m[0][a] + m[1][a] * m[1][a] + m[2][a] * m[2][a]);
+}
+
+double ohm_scan_obliquity(const ohm_scan *s)
+{
+    double spacing[3], worst = 0;
+    ohm_scan_spacing(s, spacing);
+    for (int a = 0; a < 3; ++a) {
+        double largest = 0; /* the cosine to the nearest world axis */
+        for (int r = 0; r < 3; ++r) largest = fmax(largest, fabs(s->index_to_world[r][a]) / spacing[a]);
+        worst = fmax(worst, acos(fmin(1.0, largest)) * 180.0 / M_PI);
+    }
+    return worst;
+}
 
 static void scan_bounds_of(const ohm_scan *s, double lo[3], double hi[3])
 {

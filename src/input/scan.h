@@ -4,11 +4,21 @@
  *
  * Readers: .vdb (a float grid, grid= picks it; default "density"), NIfTI-1/2
  * (.nii, .nii.gz: voxel spacing, sform (else qform), scl_slope/scl_inter
- * honoured), headerless raw (.raw, .raw.gz: dims=, type=u8|u16|i16|f32,
- * endian=little|big, spacing=; x fastest), and TIFF/PNG stacks through
- * OpenImageIO (a directory of slices sorted by name, spacing=).  Every error names
- * the file and what was expected; NaN or Inf voxels are an error naming the
- * first one.  The scan owns `values`; ohm_scan_free releases it. */
+ * honoured), NRRD (.nrrd, .nhdr + its data file: through Teem,
+ * scan_nrrd.c), MetaImage (.mha, .mhd + its data file: scan_meta.c),
+ * INRIMAGE-4 (.inr, .inr.gz: scan_inr.c), headerless raw (.raw, .raw.gz:
+ * dims=, type=u8|u16|i16|f32, endian=little|big, spacing=; x fastest), and
+ * TIFF/PNG stacks through OpenImageIO (a directory of slices sorted by name,
+ * spacing=).  Every error names the file and what was expected; NaN or Inf
+ * voxels are an error naming the first one.  The scan owns `values`;
+ * ohm_scan_free releases it.
+ *
+ * Geometry: index_to_world is the whole affine map each format states
+ * (spacing, direction cosines, origin), in RAS millimetres (NIfTI's world;
+ * LPS formats are turned, scan_io.h).  An oblique scan (a tilted gantry, a
+ * rotated NRRD space) keeps its map: sampling goes through its inverse, so
+ * the scan is resampled onto ohm's axis-aligned grid with its placement
+ * honoured, never straightened. */
 #ifndef OHM_SCAN_H
 #define OHM_SCAN_H
 
@@ -42,6 +52,14 @@ double ohm_scan_sample(const ohm_scan *s, const double world[3]);
  * coarser than the scan): averages the voxels whose centres fall inside,
  * or the trilinear value at the centre when none does. */
 double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[3]);
+
+/* Voxel size along each of the scan's axes, mm (index_to_world's columns). */
+void ohm_scan_spacing(const ohm_scan *s, double spacing[3]);
+
+/* How far the scan's axes are turned from the world's: the largest angle,
+ * in degrees, between an axis and the world axis nearest to it (0: axis-
+ * aligned, possibly flipped). */
+double ohm_scan_obliquity(const ohm_scan *s);
 
 /* World bounds of the scan's voxel centres (lo, hi). */
 void ohm_scan_bounds(const ohm_scan *s, double lo[3], double hi[3]);

@@ -6,6 +6,7 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
+#include <sys/stat.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -71,8 +72,8 @@ static double unit_mm(const char *u)
 
 static const ohm_opt_spec read_opts[] = {
     {"file", OHM_OPT_STRING, NULL,
-     "mesh (.obj .ply .stl .off, optionally .gz) or density volume (.vdb .nii .nii.gz .raw .raw.gz)", NULL, 0, 0,
-     1},
+     "mesh (.obj .ply .stl .off, optionally .gz) or density volume (.vdb .nii .nii.gz .nrrd .nhdr .mha .mhd .inr "
+     ".inr.gz .raw .raw.gz, or a folder of .tif/.png slices)", NULL, 0, 0, 1},
     {"grid", OHM_OPT_STRING, "density", "volume: the .vdb grid to read", NULL, 0, 0, 0},
     {"dims", OHM_OPT_VEC3, NULL, "raw volume: voxels per axis nx,ny,nz (x fastest)", NULL, 0, 0, 0},
     {"type", OHM_OPT_ENUM, "u16", "raw volume: voxel type", "u8|u16|i16|f32", 0, 0, 0},
@@ -84,7 +85,10 @@ static const ohm_opt_spec read_opts[] = {
 
 static int is_volume_path(const char *p)
 {
-    static const char *ext[] = {".vdb", ".nii", ".nii.gz", ".raw", ".raw.gz"};
+    static const char *ext[] = {".vdb", ".nii", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd",
+                                ".inr", ".inr.gz", ".raw", ".raw.gz"};
+    struct stat st;
+    if (stat(p, &st) == 0 && S_ISDIR(st.st_mode)) return 1; /* a folder of slices */
     size_t lp = strlen(p);
     for (size_t i = 0; i < sizeof ext / sizeof *ext; ++i) {
         size_t le = strlen(ext[i]);
@@ -135,6 +139,15 @@ void ohm_state_set_scan(ohm_state *s, ohm_scan *scan_in, const char *name, doubl
     ohm_log_info(&s->log, "read %s: %d x %d x %d voxels, values %.6g .. %.6g, %.4g x %.4g x %.4g mm, %.2f s", name,
                  scan.dims[0], scan.dims[1], scan.dims[2], scan.min, scan.max, hi[0] - lo[0], hi[1] - lo[1],
                  hi[2] - lo[2], t);
+    double spacing[3], tilt = ohm_scan_obliquity(&scan);
+    ohm_scan_spacing(&scan, spacing);
+    const double(*m)[4] = scan.index_to_world;
+    char axes[128] = "axes along the world's";
+    if (tilt > 1e-6)
+        snprintf(axes, sizeof axes, "axes turned up to %.3g degrees from the world's: resampled through the scan's "
+                                    "transform", tilt);
+    ohm_log_info(&s->log, "read %s: voxels %.6g x %.6g x %.6g mm, the first one's centre at (%.6g, %.6g, %.6g) mm "
+                          "(RAS); %s", name, spacing[0], spacing[1], spacing[2], m[0][3], m[1][3], m[2][3], axes);
     ohm_stats_set_str(&s->stats, "scan_file", name);
     ohm_stats_set_int(&s->stats, "scan_x", scan.dims[0]);
     ohm_stats_set_int(&s->stats, "scan_y", scan.dims[1]);
@@ -661,13 +674,9 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
         if (!*g_cell) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the anisotropy");
     }
     /* the scan's finest spacing decides between sampling and averaging */
-    double spacing = INFINITY;
-    for (int a = 0; a < 3; ++a) {
-        double col = sqrt(s->scan.index_to_world[0][a] * s->scan.index_to_world[0][a] +
-                          s->scan.index_to_world[1][a] * s->scan.index_to_world[1][a] +
-                          s->scan.index_to_world[2][a] * s->scan.index_to_world[2][a]);
-        if (col < spacing) spacing = col;
-    }
+    double axis_spacing[3];
+    ohm_scan_spacing(&s->scan, axis_spacing);
+    double spacing = fmin(axis_spacing[0], fmin(axis_spacing[1], axis_spacing[2]));
     int average = g->h > 1.5 * spacing;
     size_t u = 0;
     for (int32_t k = 0; k < g->dims[2]; ++k)

@@ -9,7 +9,11 @@
  *   KIND_NIFTI  byte 0: bit 0 .nii.gz (the rest gzip-compressed), bit 1 with
  *               bit 0: the rest written as-is under .nii.gz; the rest is the file.
  *   KIND_VDB    the whole input is the .vdb file (grid "density").
- * Run with scripts/fuzz.sh raw|nifti|vdb SECONDS.  Checks: no crash or UB
+ *   KIND_NRRD   the whole input is the .nrrd file (Teem reads it).
+ *   KIND_META   the whole input is the .mha file.
+ *   KIND_INR    byte 0: bit 0 .inr.gz (the rest gzip-compressed); the rest is
+ *               the file.
+ * Run with scripts/fuzz.sh raw|nifti|vdb|nrrd|meta|inr SECONDS.  Checks: no crash or UB
  * (sanitizers); a failure leaves the scan zeroed with a one-line message whose
  * code is the return value; a success has positive dims (raw: exactly the ones
  * asked for), finite values with min <= max matching them, a finite affine, and
@@ -27,6 +31,9 @@
 #define KIND_RAW 1
 #define KIND_NIFTI 2
 #define KIND_VDB 3
+#define KIND_NRRD 4
+#define KIND_META 5
+#define KIND_INR 6
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -68,8 +75,20 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 #elif KIND == KIND_VDB
     suffix = ".vdb";
     (void)types;
+#elif KIND == KIND_NRRD
+    suffix = ".nrrd";
+    (void)types;
+#elif KIND == KIND_META
+    suffix = ".mha";
+    (void)types;
+#elif KIND == KIND_INR
+    if (size < 1) return 0;
+    suffix = (data[0] & 1) ? ".inr.gz" : ".inr";
+    gz = data[0] & 1;
+    data += 1; size -= 1;
+    (void)types;
 #else
-#error "set -DKIND=KIND_RAW, KIND_NIFTI or KIND_VDB"
+#error "set -DKIND=KIND_RAW, KIND_NIFTI, KIND_VDB, KIND_NRRD, KIND_META or KIND_INR"
 #endif
     char path[256];
     const char *dir = getenv("TMPDIR");
