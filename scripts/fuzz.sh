@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzz ohm's readers with libFuzzer (clang from Debian).
-#   scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr [SECONDS=60]
+#   scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom [SECONDS=60]
 #   scripts/fuzz.sh all [SECONDS=60]        every harness in turn
 # Harnesses live in tests/fuzz/ (docs/fuzzing.md says what each checks).  Seeds
 # come from samples/, pipelines/, tests/data/ and tests/fuzz/seeds/; the corpus
@@ -10,9 +10,9 @@
 # Exit status: 0 clean, 1 if any harness found a crash (or failed to build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|all [seconds]"
+usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|all [seconds]"
 name=${1:?$usage}; secs=${2:-60}
-all_names="obj off ply stl pipeline transfer raw nifti vdb nrrd meta inr"
+all_names="obj off ply stl pipeline transfer raw nifti vdb nrrd meta inr dicom"
 command -v clang >/dev/null && command -v clang++ >/dev/null ||
   { echo "fuzz: needs clang and clang++ (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 
@@ -25,7 +25,7 @@ if [ "$name" = all ]; then
   done
   exit $status
 fi
-case $name in obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr) ;;
+case $name in obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom) ;;
   *) echo "fuzz: unknown harness '$name'" >&2; echo "$usage" >&2; exit 2;; esac
 mkdir -p out/fuzz
 
@@ -40,9 +40,9 @@ cmp -s "$objdir/ohm_version.h.new" "$objdir/ohm_version.h" 2>/dev/null || mv "$o
 rm -f "$objdir/ohm_version.h.new"
 SAN="-fsanitize=address,undefined -fno-sanitize-recover=undefined"
 CFLAGS="-std=c11 -D_POSIX_C_SOURCE=200809L -g -O1 -fno-omit-frame-pointer $SAN -fsanitize=fuzzer-no-link
-  -Isrc -Iinclude -I$objdir -Iwrappers/vdb -Iwrappers/oiio -isystem /usr/include/suitesparse -isystem /usr/include/nifti"
+  -Isrc -Iinclude -I$objdir -Iwrappers/vdb -Iwrappers/oiio -Iwrappers/gdcm -isystem /usr/include/suitesparse -isystem /usr/include/nifti"
 CXXFLAGS="-std=c++17 -g -O1 -fno-omit-frame-pointer -fsanitize=address,fuzzer-no-link
-  -Isrc -Iinclude -Iwrappers/vdb -Iwrappers/oiio -isystem /usr/include/Imath"
+  -Isrc -Iinclude -Iwrappers/vdb -Iwrappers/oiio -Iwrappers/gdcm -isystem /usr/include/Imath -isystem /usr/include/gdcm-3.0"
 newest_header=$(ls -t src/*/*.h wrappers/*/*.h | head -n 1)
 objs=()
 obj() { # obj SOURCE [extra flags...]: compile once, append to objs
@@ -55,8 +55,9 @@ obj() { # obj SOURCE [extra flags...]: compile once, append to objs
 }
 VDB_LIBS="-lopenvdb -ltbb -lImath-3_1 -lboost_iostreams"
 OIIO_LIBS="-lOpenImageIO -lOpenImageIO_Util"
-SCAN_LIBS="$VDB_LIBS $OIIO_LIBS -lnifti2 -lznz -lteem -lz -lm -lpthread"
-scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; }
+GDCM_LIBS="-lgdcmMSFF -lgdcmDSED -lgdcmCommon"
+SCAN_LIBS="$VDB_LIBS $OIIO_LIBS $GDCM_LIBS -lnifti2 -lznz -lteem -lz -lm -lpthread"
+scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; }
 link=clang; libs="-lz -lm"
 case $name in
   obj|off|ply|stl)
@@ -69,7 +70,7 @@ case $name in
     # reach every module: link the whole core, as the ohm binary does.
     obj tests/fuzz/fuzz_pipeline.c
     for f in src/*/*.c; do [ "$f" = src/cli/main.c ] || obj "$f"; done
-    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp
+    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp
     link=clang++
     libs="$SCAN_LIBS -lcholmod -lsuitesparseconfig -lembree3 -lblas" ;;
   raw)   obj tests/fuzz/fuzz_scan.c -DKIND=KIND_RAW;   scan_objs; link=clang++; libs=$SCAN_LIBS ;;
@@ -78,6 +79,7 @@ case $name in
   nrrd)  obj tests/fuzz/fuzz_scan.c -DKIND=KIND_NRRD;  scan_objs; link=clang++; libs=$SCAN_LIBS ;;
   meta)  obj tests/fuzz/fuzz_scan.c -DKIND=KIND_META;  scan_objs; link=clang++; libs=$SCAN_LIBS ;;
   inr)   obj tests/fuzz/fuzz_scan.c -DKIND=KIND_INR;   scan_objs; link=clang++; libs=$SCAN_LIBS ;;
+  dicom) obj tests/fuzz/fuzz_scan.c -DKIND=KIND_DICOM; scan_objs; link=clang++; libs=$SCAN_LIBS ;;
 esac
 work=out/fuzz/$name; mkdir -p "$work/corpus" "$work/artifacts"
 $link -g $SAN -fsanitize=fuzzer "${objs[@]}" $libs -o "$work/fuzz_$name"
@@ -106,6 +108,7 @@ case $name in
   nifti) cp_seeds tests/fuzz/seeds/nifti/*; max_len=262144 ;;
   vdb)   cp_seeds tests/fuzz/seeds/vdb/* tests/data/*.vdb tests/data/corpus/*.vdb samples/*.vdb; max_len=262144 ;;
   nrrd|meta|inr) cp_seeds tests/fuzz/seeds/$name/* ;;
+  dicom) cp_seeds tests/fuzz/seeds/dicom/* samples/walnut-dicom/IM0001.dcm ;;
 esac
 [ -n "$dict" ] && [ -f "$dict" ] && dict="-dict=$dict" || dict=""
 

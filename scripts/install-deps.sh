@@ -7,12 +7,12 @@ set -euo pipefail
 packages=(
   build-essential cmake pkg-config
   libopenvdb-dev libboost-dev libboost-iostreams-dev libtbb-dev libblosc-dev libimath-dev
-  zlib1g-dev libnifti2-dev libteem-dev
+  zlib1g-dev libnifti2-dev libteem-dev libgdcm-dev
   libcgal-dev libgmp-dev libmpfr-dev
   libsuitesparse-dev libmetis-dev libopenblas-dev
   libpetsc-real-dev libhypre-dev openmpi-bin libopenmpi-dev
   libopenimageio-dev
-  python3 python3-openvdb python3-numpy
+  python3 python3-openvdb python3-numpy python3-pydicom
   gnuplot-nox
   libembree-dev
   blender

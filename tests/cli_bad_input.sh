@@ -51,7 +51,7 @@ run_bad "NaN coordinate" "nan.off:5: .*nan" "$T/nan.off"
 
 mkdir "$T/dir.obj"
 # a folder is read as a stack of slices (issue 17): one without images says so
-run_bad "directory instead of a file" "dir.obj: no .tif, .tiff or .png images in the directory" "$T/dir.obj"
+run_bad "directory instead of a file" "dir.obj: no DICOM files, DICOMDIR or .tif, .tiff or .png images in the folder" "$T/dir.obj"
 run_bad "missing file" "nothere.obj: cannot open" "$T/nothere.obj"
 
 # unwritable output: a missing directory, and a directory in the file's place

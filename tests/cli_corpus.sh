@@ -107,4 +107,29 @@ run_case "vec3 .vdb" vdb "$T/vec3.vdb" 1 "vec3\.vdb"
 # a data error (exit 1), refused by the .vdb checker before OpenVDB reads it
 run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 1 "nogrids\.vdb: the file holds no grids"
 
+# DICOM series that must be refused (tests/write_dicom.py, pydicom): a missing
+# slice, a duplicated position, a slice turned, a file cut short, two series
+# and none chosen, a DICOMDIR whose record points at a file that is gone; each
+# names the folder or the slice
+$PY -c "import numpy; numpy.arange(48, dtype='<i2').tofile('$T/vol.raw')"
+dicom() { # dicom FOLDER OPTIONS...: a 4 x 3 x 4 volume as a series in T/FOLDER
+  local dir=$1; shift
+  $PY tests/write_dicom.py "$T/$dir" --raw "$T/vol.raw" --dims 4,3,4 --matrix=0.5,0,0,0,0,0.5,0,0,0,0,1,0 \
+    --stored i16 "$@" || bad "$dir: tests/write_dicom.py failed"
+}
+dicom gap --case missing
+run_case "DICOM: a missing slice" scan "$T/gap" 1 "gap: .*a missing slice"
+dicom twice --case duplicate
+run_case "DICOM: a duplicated position" scan "$T/twice" 1 "twice: .*duplicated slice"
+dicom turned --case tilted
+run_case "DICOM: one slice turned" scan "$T/turned" 1 "IM[0-9]+\.dcm: orientation .*one orientation"
+dicom cut --case truncated
+run_case "DICOM: a truncated slice" scan "$T/cut" 1 "IM[0-9]+\.dcm: truncated pixel data"
+dicom two --prefix A
+dicom two --prefix B
+run_case "DICOM: two series, none chosen" scan "$T/two" 2 "two: 2 series here, choose one with series=UID"
+dicom set --dicomdir
+rm -f "$T/set/PT000000/ST000000/SE000000/IM000001"
+run_case "DICOMDIR: a referenced file gone" scan "$T/set" 1 "DICOMDIR: record [0-9]+ references .*, which is missing"
+
 finish

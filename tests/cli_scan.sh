@@ -5,7 +5,7 @@
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 
-for p in walnut head liver; do
+for p in walnut walnut-dicom head liver; do
   sed "s|out/|$T/|g" "pipelines/$p.ohm" >"$T/$p.ohm"
   expect_exit 0 "pipeline $p" -- "$OHM" run "$T/$p.ohm"
   check "$p: grids, one analysis, conservation" $PY - "$T/$p.vdb" "$T/$p.json" <<'PY'
@@ -23,6 +23,31 @@ assert s["conservation_error"] < 1e-10 and s["residual"] < 1e-12, s
 assert s["transfer"].endswith(".transfer") and s["scan_file"], s
 PY
 done
+
+# the walnut as a DICOM series (rescaled values, patient coordinates) lights
+# up as the raw walnut does, mirrored: the same cells and powers; and each
+# .vdb sits where its scan is (the DICOM one at its RAS position)
+check "walnut-dicom: walnut.ohm mirrored, placed where the scan is" $PY - "$T" <<'PY'
+import json, sys, numpy as np, pyopenvdb as vdb
+d = sys.argv[1]
+raw, dcm = (json.load(open(f"{d}/{n}.json")) for n in ("walnut", "walnut-dicom"))
+assert raw["cells"] == dcm["cells"], (raw["cells"], dcm["cells"])
+for k in ("power_in", "power_absorbed", "power_out"):
+    assert abs(raw[k] - dcm[k]) <= 1e-9 * raw[k], (k, raw[k], dcm[k])
+def world_box(path):
+    g = {x.name: x for x in vdb.readAll(path)[0]}["fluence_g"]
+    lo, hi = g.evalActiveVoxelBoundingBox()
+    return np.array(g.transform.indexToWorld(lo)), np.array(g.transform.indexToWorld(hi)), g.transform.voxelSize()[0]
+# the scans' voxel centres: raw (0..39.375, 0..29.375, 0..35); DICOM, LPS origin
+# (-20, -15, -17.5) mirrored to RAS: (20 - 39.375 .. 20, 15 - 29.375 .. 15, -17.5 .. 17.5)
+for name, lo_want, hi_want in (("walnut", (0, 0, 0), (39.375, 29.375, 35)),
+                               ("walnut-dicom", (-19.375, -14.375, -17.5), (20, 15, 17.5))):
+    lo, hi, h = world_box(f"{d}/{name}.vdb")
+    assert np.all(lo >= np.array(lo_want) - 1.5 * h) and np.all(hi <= np.array(hi_want) + 1.5 * h), (name, lo, hi, h)
+    assert np.all(hi - lo > 0.5 * (np.array(hi_want) - np.array(lo_want))), (name, lo, hi)
+PY
+expect_exit 2 "dicom: an unknown series" -- "$OHM" -read file=samples/walnut-dicom series=1.2.3
+expect_error_line "dicom: an unknown series" "walnut-dicom: no series 1.2.3 here; there are 1.2.826.0.1.3680043.8.498"
 
 # the liver INR's geometry as the log reports it (CGAL's voxel size), and a
 # folder of slices read through -read (it went to the mesh reader once)

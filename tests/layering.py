@@ -3,7 +3,7 @@
 by stage, and a file may include headers of its own stage or of an earlier
 one, never of a later one ("nothing below reaching up").  Includes of ohm's
 own headers name the folder ("grid/voxelize.h"); the C++ shims in wrappers/
-(ohm_vdb.h, ohm_oiio.h), the generated ohm_version.h and the public
+(ohm_vdb.h, ohm_oiio.h, ohm_gdcm.h), the generated ohm_version.h and the public
 vocabulary include/ohm/common.h (status codes) are below every stage.  The
 public API (include/ohm.h, implemented in src/api/) is above them all but the
 command line, and the command line is its client: src/cli/ includes ohm.h and
@@ -14,7 +14,7 @@ import re
 import sys
 
 STAGES = ["base", "input", "grid", "physics", "solvers", "outputs", "studies", "steps", "api", "cli"]
-BELOW_ALL = {"ohm_vdb.h", "ohm_oiio.h", "ohm_version.h", "ohm/common.h"}
+BELOW_ALL = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h", "ohm_version.h", "ohm/common.h"}
 
 root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
 src = os.path.join(root, "src")

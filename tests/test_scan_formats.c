@@ -1,13 +1,18 @@
 /* test_scan_formats.c — one volume, written here by independent code as raw,
  * NIfTI-1 (libnifti), NRRD (attached raw, gzip in LPS space, detached
  * big-endian .nhdr), MetaImage (.mha, zlib-compressed .mha, detached .mhd
- * with a header to skip) and INRIMAGE-4 (.inr, .inr.gz, big-endian), reads
+ * with a header to skip), INRIMAGE-4 (.inr, .inr.gz, big-endian) and DICOM
+ * series (written by tests/write_dicom.py with pydicom: files named out of
+ * order, RescaleSlope 0.5 and intercept -1024, a DICOMDIR file-set, a
+ * folder of two series, signed and unsigned pixels), reads
  * in ohm (src/input/scan.h) to identical values and the same world
  * transform: an oblique one (turned 20 degrees about z and 10 about x) for
  * every format that can state one, axis-aligned for INR.  LPS headers
  * (MetaImage; the NRRD that says so) carry the mirrored numbers and must
- * come out in ohm's RAS.  Then bad headers and data: each a one-line error
- * naming the file. */
+ * come out in ohm's RAS, as must DICOM's LPS.  Then bad headers and data
+ * (DICOM: a missing slice, a duplicated position, a slice of another
+ * orientation, a truncated file, two series and none chosen): each a
+ * one-line error naming the file or folder. */
 #include "check.h"
 #include "tmp_files.h"
 #include "base/ohm_error.h"
@@ -21,6 +26,10 @@
 #include <zlib.h>
 
 #include <nifti2_io.h>
+
+#ifndef OHM_TEST_PYTHON
+#define OHM_TEST_PYTHON "/usr/bin/python3"
+#endif
 
 #define PI 3.14159265358979323846
 enum { NX = 6, NY = 5, NZ = 4, NV = NX * NY * NZ };
@@ -157,12 +166,12 @@ static const char *write_inr(const char *name, const char *type, const char *cpu
     return p;
 }
 
-static void expect_volume(const char *path, const double (*want)[4], double tol)
+static void expect_volume_with(const char *path, const ohm_scan_params *p, const double (*want)[4], double tol)
 {
     ohm_scan s;
     ohm_error e;
     ohm_error_clear(&e);
-    int rc = ohm_scan_read(&s, path, NULL, &e);
+    int rc = ohm_scan_read(&s, path, p, &e);
     CHECK_MSG(rc == 0, "%s: %s", path, e.msg);
     if (rc) return;
     CHECK_MSG(s.dims[0] == NX && s.dims[1] == NY && s.dims[2] == NZ, "%s: %d x %d x %d", path, s.dims[0], s.dims[1],
@@ -175,6 +184,55 @@ static void expect_volume(const char *path, const double (*want)[4], double tol)
         for (int c = 0; c < 4; ++c) worst = fmax(worst, fabs(s.index_to_world[r][c] - want[r][c]));
     CHECK_MSG(worst <= tol, "%s: the index-to-world map is off by %.3g mm (tolerance %.1g)", path, worst, tol);
     ohm_scan_free(&s);
+}
+
+static void expect_volume(const char *path, const double (*want)[4], double tol)
+{
+    expect_volume_with(path, NULL, want, tol);
+}
+
+/* A DICOM series of the volume (vol.raw) in folder `name`, written by
+ * tests/write_dicom.py (pydicom) with the options `extra`. */
+static const char *write_dicom(const char *name, const char *extra)
+{
+    const char *dir = tmp_path(name);
+    char matrix[640] = "", cmd[2048];
+    for (int r = 0; r < 3; ++r)
+        for (int c = 0; c < 4; ++c) {
+            size_t n = strlen(matrix);
+            snprintf(matrix + n, sizeof matrix - n, "%s%.17g", r + c ? "," : "", M[r][c]);
+        }
+    snprintf(cmd, sizeof cmd, "%s tests/write_dicom.py %s --raw %s/vol.raw --type i16 --dims %d,%d,%d --matrix=%s %s",
+             OHM_TEST_PYTHON, dir, tmpdir, NX, NY, NZ, matrix, extra);
+    int rc = system(cmd);
+    CHECK_MSG(rc == 0, "tests/write_dicom.py failed (status %d): %s", rc, cmd);
+    return dir;
+}
+
+static void test_dicom(void)
+{
+    /* DICOM keeps 16 significant digits per number (PS3.5 6.2) */
+    const double(*m)[4] = (const double (*)[4])M, tol = 1e-9;
+    const char *dicom = write_dicom("dicom", "--slope 0.5 --intercept -1024");
+    char other[600];
+    snprintf(other, sizeof other, "%s/notes.txt", dicom);
+    FILE *f = fopen(other, "w"); /* a file that is not DICOM, as exports have */
+    if (f) fputs("not a slice\n", f), fclose(f);
+    expect_volume(dicom, m, tol);
+    snprintf(other, sizeof other, "%s/IM0001.dcm", dicom); /* one file: its series */
+    expect_volume(other, m, tol);
+    const char *set = write_dicom("fileset", "--dicomdir --slope 0.5 --intercept -1024");
+    expect_volume(set, m, tol);
+    snprintf(other, sizeof other, "%s/DICOMDIR", set);
+    expect_volume(other, m, tol);
+
+    /* two series in one folder: series= chooses; signed pixels, no rescale */
+    const char *two = write_dicom("two", "--series-uid 1.2.826.0.1.3680043.2.1 --slope 0.5 --intercept -1024 --prefix A");
+    write_dicom("two", "--series-uid 1.2.826.0.1.3680043.2.2 --stored i16 --prefix B");
+    ohm_scan_params p = {.series = "1.2.826.0.1.3680043.2.2"};
+    expect_volume_with(two, &p, m, tol);
+    p.series = "1.2.826.0.1.3680043.2.1";
+    expect_volume_with(two, &p, m, tol);
 }
 
 static void test_same_volume(void)
@@ -251,6 +309,21 @@ static void expect_error(const char *path, int code, const char *why)
     CHECK(s.values == NULL);
 }
 
+static void test_bad_dicom(void)
+{
+    expect_error(write_dicom("gap", "--case missing --stored i16"), OHM_ERR_PARSE, "missing slice");
+    expect_error(write_dicom("twice", "--case duplicate --stored i16"), OHM_ERR_PARSE, "duplicated slice");
+    expect_error(write_dicom("tilted", "--case tilted --stored i16"), OHM_ERR_PARSE, "one orientation");
+    expect_error(write_dicom("cut", "--case truncated --stored i16"), OHM_ERR_PARSE, "truncated");
+    const char *two = tmp_path("two");
+    expect_error(two, OHM_ERR_USAGE, "choose one with series=");
+    ohm_scan s;
+    ohm_error e;
+    ohm_error_clear(&e);
+    ohm_scan_params p = {.series = "1.2.3"};
+    CHECK(ohm_scan_read(&s, two, &p, &e) == OHM_ERR_USAGE && strstr(e.msg, "no series 1.2.3"));
+}
+
 static void test_bad_input(void)
 {
     expect_error(write_nrrd("missing.nhdr", 0, "raw", "little", "no_such.raw", NULL, 0, 0), OHM_ERR_PARSE,
@@ -292,7 +365,9 @@ int main(void)
     nifti_set_debug_level(0);
     make_volume();
     test_same_volume();
+    test_dicom();
     test_bad_input();
+    test_bad_dicom();
     cleanup_tmp();
     return check_summary();
 }

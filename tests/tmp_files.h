@@ -6,6 +6,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <dirent.h>
+#include <sys/stat.h>
 #include <unistd.h>
 #include <zlib.h>
 
@@ -52,13 +54,33 @@ static const char *write_tmp_gz(const char *name, const void *data, size_t len)
     return p;
 }
 
+/* path and everything under it (folders the test's writers made). */
+static void remove_tree(const char *path)
+{
+    struct stat st;
+    if (lstat(path, &st) != 0) return;
+    DIR *d = S_ISDIR(st.st_mode) ? opendir(path) : NULL;
+    if (d) {
+        struct dirent *de;
+        while ((de = readdir(d)) != NULL) {
+            if (strcmp(de->d_name, ".") == 0 || strcmp(de->d_name, "..") == 0) continue;
+            char *child = malloc(strlen(path) + strlen(de->d_name) + 2);
+            if (!child) break;
+            sprintf(child, "%s/%s", path, de->d_name);
+            remove_tree(child);
+            free(child);
+        }
+        closedir(d);
+        rmdir(path);
+    } else {
+        unlink(path);
+    }
+}
+
 static void cleanup_tmp(void)
 {
-    for (int i = 0; i < ntmp; ++i) {
-        unlink(tmpfiles[i]);
-        free(tmpfiles[i]);
-    }
-    rmdir(tmpdir);
+    for (int i = 0; i < ntmp; ++i) free(tmpfiles[i]);
+    remove_tree(tmpdir);
 }
 
 #endif

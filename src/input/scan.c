@@ -30,6 +30,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+#include "ohm_gdcm.h"
 #include "ohm_oiio.h"
 #include "ohm_vdb.h"
 #include "input/scan_check.h"
@@ -535,8 +536,9 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
     }
     closedir(dir);
     if (!rc && n == 0)
-        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: no .tif, .tiff or .png images in the directory, expected an image stack",
-                      path);
+        rc = ohm_fail(err, OHM_ERR_PARSE,
+                      "%s: no DICOM files, DICOMDIR or .tif, .tiff or .png images in the folder, expected a DICOM "
+                      "series or an image stack", path);
     if (!rc) qsort(names, n, sizeof *names, cmp_names);
     int w0 = 0, h0 = 0;
     for (size_t z = 0; z < n && !rc; ++z) {
@@ -566,29 +568,62 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
 
 /* ------------------------------------------------------------------------ */
 
+/* The reader for a path: by the file name's ending; a folder is a DICOM
+ * series when it holds DICOM files (or a DICOMDIR), else a slice stack; a
+ * file named DICOMDIR, or with DICOM's "DICM" mark and no known ending, is
+ * DICOM. */
+typedef enum scan_format {
+    SCAN_UNKNOWN, SCAN_STACK, SCAN_VDB, SCAN_NIFTI, SCAN_RAW, SCAN_RAW_GZ, SCAN_NRRD, SCAN_META, SCAN_INR,
+    SCAN_INR_GZ, SCAN_DICOM
+} scan_format;
+
+static scan_format format_of(const char *path, const struct stat *st)
+{
+    static const struct {
+        const char *ending;
+        scan_format format;
+    } endings[] = {{".vdb", SCAN_VDB},       {".nii", SCAN_NIFTI}, {".nii.gz", SCAN_NIFTI}, {".raw", SCAN_RAW},
+                   {".raw.gz", SCAN_RAW_GZ}, {".nrrd", SCAN_NRRD}, {".nhdr", SCAN_NRRD},    {".mha", SCAN_META},
+                   {".mhd", SCAN_META},      {".inr", SCAN_INR},   {".inr.gz", SCAN_INR_GZ}, {".dcm", SCAN_DICOM}};
+    if (S_ISDIR(st->st_mode)) return ohm_dicom_folder_has_dicom(path) ? SCAN_DICOM : SCAN_STACK;
+    for (size_t i = 0; i < sizeof endings / sizeof *endings; ++i)
+        if (ohm_scan_ends_with(path, endings[i].ending)) return endings[i].format;
+    return S_ISREG(st->st_mode) && ohm_dicom_is_file(path) ? SCAN_DICOM : SCAN_UNKNOWN;
+}
+
+int ohm_scan_is_volume_path(const char *path)
+{
+    struct stat st;
+    return path && stat(path, &st) == 0 && format_of(path, &st) != SCAN_UNKNOWN;
+}
+
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     memset(out, 0, sizeof *out);
     if (!path) return ohm_fail(err, OHM_ERR_USAGE, "scan read: no file name given");
     struct stat st;
     if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
-    int rc;
-    if (S_ISDIR(st.st_mode)) rc = read_stack(out, path, p, err);
-    else if (!S_ISREG(st.st_mode))
+    const scan_format format = format_of(path, &st);
+    if (format != SCAN_STACK && format != SCAN_DICOM && !S_ISREG(st.st_mode))
         return ohm_fail(err, OHM_ERR_IO, "%s: not a regular file, expected a scan", path);
-    else if (ohm_scan_ends_with(path, ".vdb")) rc = read_vdb(out, path, p, err);
-    else if (ohm_scan_ends_with(path, ".nii") || ohm_scan_ends_with(path, ".nii.gz")) rc = read_nifti(out, path, err);
-    else if (ohm_scan_ends_with(path, ".raw")) rc = read_raw(out, path, 0, p, err);
-    else if (ohm_scan_ends_with(path, ".raw.gz")) rc = read_raw(out, path, 1, p, err);
-    else if (ohm_scan_ends_with(path, ".nrrd") || ohm_scan_ends_with(path, ".nhdr")) rc = ohm_scan_read_nrrd(out, path, err);
-    else if (ohm_scan_ends_with(path, ".mha") || ohm_scan_ends_with(path, ".mhd")) rc = ohm_scan_read_meta(out, path, err);
-    else if (ohm_scan_ends_with(path, ".inr")) rc = ohm_scan_read_inr(out, path, 0, err);
-    else if (ohm_scan_ends_with(path, ".inr.gz")) rc = ohm_scan_read_inr(out, path, 1, err);
-    else
+    int rc;
+    switch (format) {
+    case SCAN_STACK: rc = read_stack(out, path, p, err); break;
+    case SCAN_VDB: rc = read_vdb(out, path, p, err); break;
+    case SCAN_NIFTI: rc = read_nifti(out, path, err); break;
+    case SCAN_RAW: rc = read_raw(out, path, 0, p, err); break;
+    case SCAN_RAW_GZ: rc = read_raw(out, path, 1, p, err); break;
+    case SCAN_NRRD: rc = ohm_scan_read_nrrd(out, path, err); break;
+    case SCAN_META: rc = ohm_scan_read_meta(out, path, err); break;
+    case SCAN_INR: rc = ohm_scan_read_inr(out, path, 0, err); break;
+    case SCAN_INR_GZ: rc = ohm_scan_read_inr(out, path, 1, err); break;
+    case SCAN_DICOM: rc = ohm_scan_read_dicom(out, path, p ? p->series : NULL, err); break;
+    default:
         return ohm_fail(err, OHM_ERR_USAGE,
                         "%s: unknown scan format, expected .vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .inr, "
-                        ".inr.gz, .raw, .raw.gz or a directory of .tif/.png slices",
+                        ".inr.gz, .raw, .raw.gz, a DICOM file, a DICOMDIR or a folder of DICOM or .tif/.png slices",
                         path);
+    }
     if (!rc) rc = finish_values(out, path, err);
     if (!rc) rc = check_placement(out, path, err);
     if (rc) ohm_scan_free(out);
@@ -634,7 +669,7 @@ static double sample_index(const ohm_scan *s, const double x[3])
     double t[3];
     for (int a = 0; a < 3; ++a) {
         double n1 = (double)s->dims[a] - 1;
-        if (!(x[a] >= -eps && x[a] <= n1 + eps)) return 0;
+        if (!(x[a] >= -eps && x[a] <= n1 + eps)) return s->min; /* outside: the background */
         double c = x[a] < 0 ? 0 : x[a] > n1 ? n1 : x[a];
         double fl = floor(c);
         if (fl >= n1) fl = n1 > 0 ? n1 - 1 : 0;
@@ -659,7 +694,7 @@ double ohm_scan_sample(const ohm_scan *s, const double world[3])
 {
     if (!s || !s->values) return 0;
     double x[3];
-    if (!world_to_index(s, world, x)) return 0;
+    if (!world_to_index(s, world, x)) return s->min;
     return sample_index(s, x);
 }
 
@@ -670,7 +705,7 @@ double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[
     double ilo[3] = {INFINITY, INFINITY, INFINITY}, ihi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int c = 0; c < 8; ++c) {
         double w[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]}, x[3];
-        if (!world_to_index(s, w, x)) return 0;
+        if (!world_to_index(s, w, x)) return s->min;
         for (int a = 0; a < 3; ++a) {
             if (x[a] < ilo[a]) ilo[a] = x[a];
             if (x[a] > ihi[a]) ihi[a] = x[a];

@@ -6,10 +6,13 @@
  * (.nii, .nii.gz: voxel spacing, sform (else qform), scl_slope/scl_inter
  * honoured), NRRD (.nrrd, .nhdr + its data file: through Teem,
  * scan_nrrd.c), MetaImage (.mha, .mhd + its data file: scan_meta.c),
- * INRIMAGE-4 (.inr, .inr.gz: scan_inr.c), headerless raw (.raw, .raw.gz:
+ * INRIMAGE-4 (.inr, .inr.gz: scan_inr.c), DICOM series (a folder of
+ * slices, a DICOMDIR, or one slice file: through GDCM, scan_dicom.c;
+ * series= picks one of several), headerless raw (.raw, .raw.gz:
  * dims=, type=u8|u16|i16|f32, endian=little|big, spacing=; x fastest), and
  * TIFF/PNG stacks through OpenImageIO (a directory of slices sorted by name,
- * spacing=).  Every error names the file and what was expected; NaN or Inf
+ * spacing=; a directory with DICOM files or a DICOMDIR is a DICOM series).
+ * Every error names the file and what was expected; NaN or Inf
  * voxels are an error naming the first one.  The scan owns `values`;
  * ohm_scan_free releases it.
  *
@@ -32,6 +35,7 @@ typedef struct ohm_scan {
     float *values;                /* dims[0]*dims[1]*dims[2], x fastest, scaled values */
     double index_to_world[3][4];  /* world mm = M (i, j, k, 1)^T, at voxel centres     */
     double min, max;              /* range of values                                   */
+    char detail[192];             /* what the reader chose, for the log ("" if nothing) */
 } ohm_scan;
 
 typedef struct ohm_scan_params {
@@ -40,12 +44,19 @@ typedef struct ohm_scan_params {
     const char *type;             /* raw: u8 | u16 | i16 | f32                          */
     const char *endian;           /* raw: little | big (NULL: little)                   */
     double spacing[3];            /* raw, stacks: voxel size mm (0: 1 mm)               */
+    const char *series;           /* DICOM: SeriesInstanceUID (NULL: the only one)      */
 } ohm_scan_params;
 
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err);
+
+/* 1 when ohm_scan_read takes path as a scan (by its extension, a folder, or
+ * a DICOM file), 0 when it is for the mesh reader. */
+int ohm_scan_is_volume_path(const char *path);
 void ohm_scan_free(ohm_scan *s);
 
-/* Value at a world point: trilinear between voxel centres, 0 outside. */
+/* Value at a world point: trilinear between voxel centres; outside them the
+ * scan's lowest value, its background (0 for most scans, air's -1000 or so
+ * for CT in Hounsfield units: outside the scan is never denser than in it). */
 double ohm_scan_sample(const ohm_scan *s, const double world[3]);
 
 /* Mean over the axis-aligned world box [lo, hi] (box filter, for grids

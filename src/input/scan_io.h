@@ -1,5 +1,5 @@
-/* scan_io.h — what the scan readers share (scan.c, scan_inr.c, scan_meta.c,
- * scan_nrrd.c); private to input/.
+/* scan_io.h — what the scan readers share (scan.c, scan_dicom.c, scan_inr.c,
+ * scan_meta.c, scan_nrrd.c); private to input/.
  *
  * The careful-reader rules of scan.c hold for every reader: messages name
  * the file; no size a header declares is trusted before the bytes are
@@ -79,5 +79,6 @@ void ohm_scan_lps_to_ras(ohm_scan *s);
 int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, ohm_error *err);
 int ohm_scan_read_meta(ohm_scan *s, const char *path, ohm_error *err);
 int ohm_scan_read_nrrd(ohm_scan *s, const char *path, ohm_error *err);
+int ohm_scan_read_dicom(ohm_scan *s, const char *path, const char *series, ohm_error *err);
 
 #endif

@@ -6,7 +6,6 @@
 #include <stdlib.h>
 #include <string.h>
 #include <strings.h>
-#include <sys/stat.h>
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -73,8 +72,11 @@ static double unit_mm(const char *u)
 static const ohm_opt_spec read_opts[] = {
     {"file", OHM_OPT_STRING, NULL,
      "mesh (.obj .ply .stl .off, optionally .gz) or density volume (.vdb .nii .nii.gz .nrrd .nhdr .mha .mhd .inr "
-     ".inr.gz .raw .raw.gz, or a folder of .tif/.png slices)", NULL, 0, 0, 1},
+     ".inr.gz .raw .raw.gz), a DICOM series (a folder of slices, a DICOMDIR or one slice file) or a folder of "
+     ".tif/.png slices", NULL, 0, 0, 1},
     {"grid", OHM_OPT_STRING, "density", "volume: the .vdb grid to read", NULL, 0, 0, 0},
+    {"series", OHM_OPT_STRING, NULL, "DICOM: the SeriesInstanceUID to read when the folder holds several", NULL, 0,
+     0, 0},
     {"dims", OHM_OPT_VEC3, NULL, "raw volume: voxels per axis nx,ny,nz (x fastest)", NULL, 0, 0, 0},
     {"type", OHM_OPT_ENUM, "u16", "raw volume: voxel type", "u8|u16|i16|f32", 0, 0, 0},
     {"endian", OHM_OPT_ENUM, "little", "raw volume: byte order", "little|big", 0, 0, 0},
@@ -82,20 +84,6 @@ static const ohm_opt_spec read_opts[] = {
     {"units", OHM_OPT_ENUM, "mm", "what one unit of the file is", "mm|cm|m|in", 0, 0, 0},
     {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
     {0}};
-
-static int is_volume_path(const char *p)
-{
-    static const char *ext[] = {".vdb", ".nii", ".nii.gz", ".nrrd", ".nhdr", ".mha", ".mhd",
-                                ".inr", ".inr.gz", ".raw", ".raw.gz"};
-    struct stat st;
-    if (stat(p, &st) == 0 && S_ISDIR(st.st_mode)) return 1; /* a folder of slices */
-    size_t lp = strlen(p);
-    for (size_t i = 0; i < sizeof ext / sizeof *ext; ++i) {
-        size_t le = strlen(ext[i]);
-        if (lp >= le && strcasecmp(p + lp - le, ext[i]) == 0) return 1;
-    }
-    return 0;
-}
 
 /* A density volume: the material's source (transfer functions) and, alone,
  * the object itself (-voxelize threshold=). */
@@ -105,6 +93,7 @@ static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path
     ohm_scan_params p;
     memset(&p, 0, sizeof p);
     p.grid = ohm_opt_str(inv, "grid");
+    p.series = ohm_opt_str(inv, "series");
     p.type = ohm_opt_str(inv, "type");
     p.endian = ohm_opt_str(inv, "endian");
     ohm_opt_real13(inv, "spacing", p.spacing);
@@ -148,6 +137,7 @@ void ohm_state_set_scan(ohm_state *s, ohm_scan *scan_in, const char *name, doubl
                                     "transform", tilt);
     ohm_log_info(&s->log, "read %s: voxels %.6g x %.6g x %.6g mm, the first one's centre at (%.6g, %.6g, %.6g) mm "
                           "(RAS); %s", name, spacing[0], spacing[1], spacing[2], m[0][3], m[1][3], m[2][3], axes);
+    if (scan.detail[0]) ohm_log_info(&s->log, "read %s: %s", name, scan.detail);
     ohm_stats_set_str(&s->stats, "scan_file", name);
     ohm_stats_set_int(&s->stats, "scan_x", scan.dims[0]);
     ohm_stats_set_int(&s->stats, "scan_y", scan.dims[1]);
@@ -158,7 +148,7 @@ void ohm_state_set_scan(ohm_state *s, ohm_scan *scan_in, const char *name, doubl
 static int run_read(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     const char *path = ohm_opt_str(inv, "file");
-    if (is_volume_path(path)) return read_volume(s, inv, path, err);
+    if (ohm_scan_is_volume_path(path)) return read_volume(s, inv, path, err);
     double t0 = ohm_now();
     ohm_mesh m;
     int rc = ohm_mesh_read(&m, path, err);

@@ -13,7 +13,9 @@
  *   KIND_META   the whole input is the .mha file.
  *   KIND_INR    byte 0: bit 0 .inr.gz (the rest gzip-compressed); the rest is
  *               the file.
- * Run with scripts/fuzz.sh raw|nifti|vdb|nrrd|meta|inr SECONDS.  Checks: no crash or UB
+ *   KIND_DICOM  the whole input is one .dcm file, alone in a fresh folder, read
+ *               as the series it belongs to (GDCM scans the folder, reads it).
+ * Run with scripts/fuzz.sh raw|nifti|vdb|nrrd|meta|inr|dicom SECONDS.  Checks: no crash or UB
  * (sanitizers); a failure leaves the scan zeroed with a one-line message whose
  * code is the return value; a success has positive dims (raw: exactly the ones
  * asked for), finite values with min <= max matching them, a finite affine, and
@@ -34,6 +36,7 @@
 #define KIND_NRRD 4
 #define KIND_META 5
 #define KIND_INR 6
+#define KIND_DICOM 7
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -87,21 +90,34 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     gz = data[0] & 1;
     data += 1; size -= 1;
     (void)types;
+#elif KIND == KIND_DICOM
+    suffix = ".dcm";
+    (void)types;
 #else
-#error "set -DKIND=KIND_RAW, KIND_NIFTI, KIND_VDB, KIND_NRRD, KIND_META or KIND_INR"
+#error "set -DKIND=KIND_RAW, KIND_NIFTI, KIND_VDB, KIND_NRRD, KIND_META, KIND_INR or KIND_DICOM"
 #endif
-    char path[256];
+    char path[320];
     const char *dir = getenv("TMPDIR");
+#if KIND == KIND_DICOM
+    char folder[256];
+    snprintf(folder, sizeof folder, "%s/ohm-fuzz-XXXXXX", dir && *dir ? dir : "/tmp");
+    if (!mkdtemp(folder)) abort();
+    snprintf(path, sizeof path, "%s/slice%s", folder, suffix);
+#else
     snprintf(path, sizeof path, "%s/ohm-fuzz-XXXXXX%s", dir && *dir ? dir : "/tmp", suffix);
     int fd = mkstemps(path, (int)strlen(suffix));
     if (fd < 0) abort();
     close(fd);
+#endif
     if (write_file(path, data, size, gz) != 0) abort();
 
     ohm_scan s; ohm_error e;
     memset(&e, 0, sizeof e);
     int rc = ohm_scan_read(&s, path, &p, &e);
     unlink(path);
+#if KIND == KIND_DICOM
+    rmdir(folder);
+#endif
     if (rc == 0) {
         if (!s.values) abort();
         size_t n = 1;

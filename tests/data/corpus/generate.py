@@ -386,6 +386,74 @@ add("fuzz-vdb-empty-root.vdb", crash("vdb", "crash-cfd0cd52a74ee83cfe5bcab828acb
     ": .*topology ends at byte 664",
     "fuzz finding (regression, 2026-11-22): an empty root node made the checker qsort a NULL array (UB)")
 
+# ---- scan formats (issue 16): INRIMAGE-4, NRRD, MetaImage -----------------------
+def inr(fields, data, end=True):
+    """An INR file: KEY=VALUE lines padded with newlines to a 256-byte header."""
+    head = "#INRIMAGE-4#{\n" + "".join("%s=%s\n" % kv for kv in fields)
+    head = head.ljust(252, "\n") + "##}\n" if end else head.ljust(256, "\n")
+    return head.encode() + data
+
+INR_FIELDS = [("XDIM", 4), ("YDIM", 3), ("ZDIM", 2), ("VDIM", 1), ("TYPE", "signed fixed"), ("PIXSIZE", "16 bits"),
+              ("SCALE", "2**0"), ("CPU", "decm"), ("VX", 1), ("VY", 1), ("VZ", 1)]
+VOXELS = bytes(range(48))  # 4 x 3 x 2 16-bit voxels
+S16 = "ohm: scan formats (issue 16)"
+add("unknown-type.inr", inr([(k, "complex" if k == "TYPE" else v) for k, v in INR_FIELDS], VOXELS), "scan", 1,
+    ANY + ".*TYPE=complex", S16)
+add("truncated.inr", inr(INR_FIELDS, VOXELS[:30]), "scan", 1, ANY + ".*truncated", S16)
+add("no-end.inr", inr(INR_FIELDS, VOXELS, end=False), "scan", 1, ANY + ".*does not end", S16)
+NRRD = "NRRD0004\ntype: short\ndimension: 3\nsizes: %s\nendian: little\nencoding: %s\n"
+add("missing-data.nhdr", NRRD % ("4 3 2", "raw") + "data file: nowhere.raw\n", "scan", 1, ANY + ".*couldn't open", S16)
+add("bad-magic.nrrd", "NRRD000-pi\ntype: short\n", "scan", 1, ANY + ".*not a NRRD file", S16)
+add("bomb.nrrd", (NRRD % ("1000 1000 1000", "gzip") + "\n").encode() + gzip.compress(bytes(32), mtime=0), "scan", 1,
+    ANY + ".*truncated", S16 + ": 2 GB declared, 32 bytes of gzip")
+META = "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = %s\nElementDataFile = %s\n"
+add("truncated.mha", (META % ("MET_SHORT", "LOCAL")).encode() + VOXELS[:20], "scan", 1, ANY + ".*truncated", S16)
+add("list.mhd", META % ("MET_SHORT", "LIST") + "slice1.raw\n", "scan", 1, ANY + ".*list of slice files", S16)
+add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan", 1, ANY + ".*MET_LONG_LONG", S16)
+
+# ---- DICOM (issue 16): single slices, each its own series (a slice file is read
+# as its series, among the files of its folder: this one).  Written through
+# tests/write_dicom.py's pydicom code; folders (gaps, duplicates, two series, a
+# DICOMDIR) are made at run time by tests/cli_corpus.sh.
+def dicom(name, change, pattern, code=1, cut=0):
+    import argparse, io, sys
+    sys.path.insert(0, os.path.join(D, "..", ".."))
+    import numpy as np
+    import write_dicom
+    args = argparse.Namespace(description="ohm corpus", patient="ohm^corpus", thickness=1.0, slope=1.0,
+                              intercept=0.0, stored="u16", rescale_type="US", uid_seed="ohm corpus " + name)
+    ds = write_dicom.slice_dataset(args, 0, np.arange(12).reshape(3, 4), [1, 0, 0, 0, 1, 0], [0.5, 0.5],
+                                   [0.0, 0.0, 0.0], write_dicom.uid(args, "study"), write_dicom.uid(args, "series"), 1)
+    change(ds)
+    out = io.BytesIO()
+    ds.save_as(out, write_like_original=False)
+    data = out.getvalue()
+    add(name, data[:len(data) - cut] if cut else data, "scan", code, ANY + pattern, "ohm: DICOM (issue 16)")
+
+def frames(ds):
+    ds.NumberOfFrames = 2
+
+def rgb(ds):
+    ds.SamplesPerPixel, ds.PhotometricInterpretation, ds.PlanarConfiguration = 3, "RGB", 0
+    ds.PixelData = bytes(3 * 2 * 12)
+
+def junk_pixels(ds):
+    ds.PixelData = bytes(5)
+
+dicom("dicom-truncated.dcm", lambda ds: None, ".*truncated pixel data", cut=7)
+dicom("dicom-short-pixels.dcm", junk_pixels, ".*truncated pixel data")
+dicom("dicom-no-position.dcm", lambda ds: delattr(ds, "ImagePositionPatient"), ".*no ImagePositionPatient")
+dicom("dicom-skew.dcm", lambda ds: setattr(ds, "ImageOrientationPatient", ["1", "0", "0", "1", "0", "0"]),
+      ".*perpendicular unit vectors")
+dicom("dicom-frames.dcm", frames, ".*2 frames in one file")
+dicom("dicom-no-spacing.dcm", lambda ds: setattr(ds, "PixelSpacing", ["0", "0.5"]), ".*positive PixelSpacing")
+dicom("dicom-rgb.dcm", rgb, ".*3 samples per pixel")
+dicom("dicom-zero-slope.dcm", lambda ds: setattr(ds, "RescaleSlope", "0"), ".*RescaleSlope .*non-zero slope")
+dicom("dicom-huge.dcm", lambda ds: (setattr(ds, "Rows", 65535), setattr(ds, "Columns", 65535)),
+      ".*more than the limit")
+add("dicom-junk.dcm", bytes(128) + b"DICM" + bytes(range(256)) * 4, "scan", 1, ANY, "ohm: DICOM (issue 16): the "
+    "mark and then noise")
+
 with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
     f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
     for r in rows:
