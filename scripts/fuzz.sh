@@ -55,9 +55,9 @@ obj() { # obj SOURCE [extra flags...]: compile once, append to objs
 }
 VDB_LIBS="-lopenvdb -ltbb -lImath-3_1 -lboost_iostreams"
 OIIO_LIBS="-lOpenImageIO -lOpenImageIO_Util"
-GDCM_LIBS="-lgdcmMSFF -lgdcmDSED -lgdcmCommon"
+GDCM_LIBS="-lgdcmMSFF -lgdcmDICT -lgdcmDSED -lgdcmCommon"
 SCAN_LIBS="$VDB_LIBS $OIIO_LIBS $GDCM_LIBS -lnifti2 -lznz -lteem -lz -lm -lpthread"
-scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; }
+scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp; }
 link=clang; libs="-lz -lm"
 case $name in
   obj|off|ply|stl)
@@ -70,7 +70,7 @@ case $name in
     # reach every module: link the whole core, as the ohm binary does.
     obj tests/fuzz/fuzz_pipeline.c
     for f in src/*/*.c; do [ "$f" = src/cli/main.c ] || obj "$f"; done
-    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp
+    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp
     link=clang++
     libs="$SCAN_LIBS -lcholmod -lsuitesparseconfig -lembree3 -lblas" ;;
   raw)   obj tests/fuzz/fuzz_scan.c -DKIND=KIND_RAW;   scan_objs; link=clang++; libs=$SCAN_LIBS ;;

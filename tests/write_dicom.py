@@ -13,7 +13,7 @@ are (value - intercept) / slope, which must come out whole.
 --case makes the broken series the reader must refuse: missing (a middle
 slice left out), duplicate (a slice at its neighbour's position), tilted
 (one slice with another orientation), truncated (a file cut short in its
-pixel data).  --dicomdir writes a DICOM File-set (a DICOMDIR and the
+pixel data).  --rle compresses the pixels (RLE Lossless, encapsulated).  --dicomdir writes a DICOM File-set (a DICOMDIR and the
 PS3.10 folder layout) through pydicom.fileset instead of a plain folder.
 File names are scrambled by default (--names shuffled): the reader must
 sort by position, never by name or InstanceNumber."""
@@ -114,6 +114,7 @@ def main():
     p.add_argument("--names", choices=["shuffled", "ordered"], default="shuffled")
     p.add_argument("--case", choices=["ok", "missing", "duplicate", "tilted", "truncated"], default="ok")
     p.add_argument("--dicomdir", action="store_true")
+    p.add_argument("--rle", action="store_true", help="RLE Lossless (an encapsulated transfer syntax: GDCM decodes it)")
     args = p.parse_args()
 
     dims = [int(v) for v in args.dims.split(",")]
@@ -136,6 +137,9 @@ def main():
             turned = turned[3:] + turned[:3]
         ds = slice_dataset(args, k, stored[k], turned, pixel_spacing, origin + at * step, study, series,
                            order[k] + 1)
+        if args.rle:
+            from pydicom.uid import RLELossless
+            ds.compress(RLELossless, stored[k].astype("<i2" if args.stored == "i16" else "<u2"))
         datasets.append((order[k], ds))
     os.makedirs(args.out, exist_ok=True)
     if args.dicomdir:

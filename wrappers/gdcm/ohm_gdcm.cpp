@@ -3,6 +3,7 @@
 // so no C++ exception crosses into C.
 
 #include "ohm_gdcm.h"
+#include "dicom_check.h"
 
 #include <gdcmDataSet.h>
 #include <gdcmDirectory.h>
@@ -24,7 +25,6 @@
 #include <cstring>
 #include <map>
 #include <new>
-#include <set>
 #include <string>
 #include <vector>
 
@@ -51,7 +51,9 @@ namespace {
 
 const gdcm::Tag T_SERIES(0x0020, 0x000e), T_POSITION(0x0020, 0x0032), T_ORIENTATION(0x0020, 0x0037),
     T_ROWS(0x0028, 0x0010), T_COLUMNS(0x0028, 0x0011), T_SPACING(0x0028, 0x0030), T_THICKNESS(0x0018, 0x0050),
-    T_DESCRIPTION(0x0008, 0x103e), T_FRAMES(0x0028, 0x0008), T_SLOPE(0x0028, 0x1053), T_RECORDS(0x0004, 0x1220), T_FILE_ID(0x0004, 0x1500), T_PIXEL_DATA(0x7fe0, 0x0010);
+    T_DESCRIPTION(0x0008, 0x103e), T_FRAMES(0x0028, 0x0008), T_SLOPE(0x0028, 0x1053), T_SAMPLES(0x0028, 0x0002),
+    T_BITS_ALLOCATED(0x0028, 0x0100), T_BITS_STORED(0x0028, 0x0101), T_PIXEL_SIGN(0x0028, 0x0103),
+    T_INTERCEPT(0x0028, 0x1052), T_RECORDS(0x0004, 0x1220), T_FILE_ID(0x0004, 0x1500), T_PIXEL_DATA(0x7fe0, 0x0010);
 
 // Up to n backslash-separated numbers of a DICOM decimal string; how many,
 // -1 when something else is there.
@@ -106,9 +108,17 @@ bool is_file(const std::string &path)
     return stat(path.c_str(), &st) == 0 && S_ISREG(st.st_mode);
 }
 
+// How one slice's stored samples become values (PS3.3 C.7.6.3, C.11.1).
+struct Samples {
+    int bits, stored;        // BitsAllocated (8, 16, 32), BitsStored
+    bool is_signed;          // PixelRepresentation 1: two's complement
+    double slope, intercept; // RescaleSlope, RescaleIntercept
+};
+
 struct Slice {
     std::string file;
     double position[3], along; // ImagePositionPatient; its distance along the normal
+    Samples samples;
 };
 
 struct Series {
@@ -120,6 +130,11 @@ struct Series {
 // components joined by '/' under the DICOMDIR's folder; PS3.10 8.5).
 int dicomdir_files(std::vector<std::string> &files, const std::string &dicomdir, ohm_error *err)
 {
+    std::string why;
+    if (!ohm_dicom::has_part10_mark(dicomdir))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: no DICM mark after a 128-byte preamble: not a DICOMDIR",
+                        dicomdir.c_str());
+    if (!ohm_dicom::lengths_fit(dicomdir, why)) return ohm_fail(err, OHM_ERR_PARSE, "%s: %s", dicomdir.c_str(), why.c_str());
     gdcm::Reader reader;
     reader.SetFileName(dicomdir.c_str());
     if (!reader.Read())
@@ -177,10 +192,19 @@ int group_series(std::map<std::string, Series> &series, gdcm::Scanner &scanner,
                  const std::vector<std::string> &files, const char *path, ohm_error *err)
 {
     for (gdcm::Tag t : {T_SERIES, T_POSITION, T_ORIENTATION, T_ROWS, T_COLUMNS, T_SPACING, T_THICKNESS,
-                        T_DESCRIPTION, T_FRAMES, T_SLOPE})
+                        T_DESCRIPTION, T_FRAMES, T_SLOPE, T_SAMPLES,
+                        T_BITS_ALLOCATED, T_BITS_STORED, T_PIXEL_SIGN, T_INTERCEPT})
         scanner.AddTag(t);
-    if (!scanner.Scan(files)) return ohm_fail(err, OHM_ERR_IO, "%s: GDCM could not scan the files", path);
+    // only DICOM Part 10 files, each checked before GDCM allocates what it declares
+    std::vector<std::string> dicom;
     for (const std::string &f : files) {
+        if (!ohm_dicom::has_part10_mark(f)) continue;
+        std::string why;
+        if (!ohm_dicom::lengths_fit(f, why)) return ohm_fail(err, OHM_ERR_PARSE, "%s: %s", f.c_str(), why.c_str());
+        dicom.push_back(f);
+    }
+    if (!scanner.Scan(dicom)) return ohm_fail(err, OHM_ERR_IO, "%s: GDCM could not scan the files", path);
+    for (const std::string &f : dicom) {
         if (!scanner.IsKey(f.c_str())) continue; // not DICOM
         const char *uid = scanner.GetValue(f.c_str(), T_SERIES), *rows = scanner.GetValue(f.c_str(), T_ROWS);
         if (!uid || !rows) continue; // not an image of a series
@@ -220,7 +244,38 @@ struct Frame {
     int64_t cols, rows;
 };
 
-int slice_frame(Frame &f, double position[3], const char *file, gdcm::Scanner &scanner, ohm_error *err)
+// A grey-level image of 8, 16 or 32-bit integers and its rescale.  Checked
+// here, before GDCM's ImageReader sees the file: it asserts (aborts) on
+// 2 samples per pixel, and reads a RescaleSlope of 0 as 1.
+int slice_samples(Samples &px, const char *file, gdcm::Scanner &scanner, ohm_error *err)
+{
+    double samples = 1, bits = 0, stored = 0, sign = 0, slope = 1, intercept = 0;
+    if (numbers(scanner.GetValue(file, T_SAMPLES), &samples, 1) < 0 || samples != 1)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %g samples per pixel (0028,0002), expected one (a grey-level image)",
+                        file, samples);
+    if (numbers(scanner.GetValue(file, T_BITS_ALLOCATED), &bits, 1) != 1 || !(bits == 8 || bits == 16 || bits == 32))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: BitsAllocated (0028,0100) %g, expected 8, 16 or 32", file, bits);
+    int got = numbers(scanner.GetValue(file, T_BITS_STORED), &stored, 1);
+    if (got == 0) stored = bits;
+    if (got < 0 || !(stored >= 1 && stored <= bits) || stored != std::floor(stored))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: BitsStored (0028,0101) %g, expected 1 to BitsAllocated (%g)", file,
+                        stored, bits);
+    if (numbers(scanner.GetValue(file, T_PIXEL_SIGN), &sign, 1) < 0 || !(sign == 0 || sign == 1))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: PixelRepresentation (0028,0103) %g, expected 0 (unsigned) or 1 "
+                                            "(signed)", file, sign);
+    const char *slope_text = scanner.GetValue(file, T_SLOPE);
+    if (numbers(slope_text, &slope, 1) < 0 || slope == 0)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: RescaleSlope (0028,1053) '%s': expected a finite, non-zero slope",
+                        file, trimmed(slope_text).c_str());
+    const char *intercept_text = scanner.GetValue(file, T_INTERCEPT);
+    if (numbers(intercept_text, &intercept, 1) < 0)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: RescaleIntercept (0028,1052) '%s': expected a finite number", file,
+                        trimmed(intercept_text).c_str());
+    px = Samples{(int)bits, (int)stored, sign == 1, slope, intercept};
+    return 0;
+}
+
+int slice_frame(Frame &f, Samples &px, double position[3], const char *file, gdcm::Scanner &scanner, ohm_error *err)
 {
     if (numbers(scanner.GetValue(file, T_ORIENTATION), f.orient, 6) != 6)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: no ImageOrientationPatient (0020,0037), expected six direction "
@@ -239,12 +294,8 @@ int slice_frame(Frame &f, double position[3], const char *file, gdcm::Scanner &s
     if (frames != 1)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: %g frames in one file (an enhanced multi-frame image): ohm reads "
                                             "series of single-frame slices", file, frames);
-    // GDCM reads a RescaleSlope of 0 as 1 (no rescale): refused here instead
-    double slope = 1;
-    const char *slope_text = scanner.GetValue(file, T_SLOPE);
-    if (slope_text && !trimmed(slope_text).empty() && (numbers(slope_text, &slope, 1) != 1 || slope == 0))
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: RescaleSlope (0028,1053) '%s': expected a finite, non-zero slope",
-                        file, trimmed(slope_text).c_str());
+    int rc = slice_samples(px, file, scanner, err);
+    if (rc) return rc;
     f.cols = (int64_t)c;
     f.rows = (int64_t)r;
     double a[3] = {f.orient[0], f.orient[1], f.orient[2]}, b[3] = {f.orient[3], f.orient[4], f.orient[5]};
@@ -300,91 +351,69 @@ int check_spacing(const std::vector<Slice> &slices, const Frame &frame, const ch
     return 0;
 }
 
-template <typename T> void rescale(float *out, const char *in, size_t n, double slope, double intercept)
+// n stored samples (little- or big-endian) as values: the bits outside
+// BitsStored dropped, two's complement from BitsStored when signed (PS3.5
+// 8.1.1), then rescaled.
+void decode_samples(float *out, const unsigned char *in, size_t n, const Samples &px, bool big_endian)
 {
+    const size_t each = (size_t)px.bits / 8;
+    const uint64_t mask = ((uint64_t)1 << px.stored) - 1, sign_bit = (uint64_t)1 << (px.stored - 1);
     for (size_t i = 0; i < n; ++i) {
-        T v;
-        std::memcpy(&v, in + i * sizeof(T), sizeof(T));
-        out[i] = (float)((double)v * slope + intercept);
+        const unsigned char *b = in + i * each;
+        uint64_t u = 0;
+        for (size_t q = 0; q < each; ++q) u |= (uint64_t)b[big_endian ? each - 1 - q : q] << (8 * q);
+        u &= mask;
+        const int64_t v = px.is_signed && (u & sign_bit) ? (int64_t)u - ((int64_t)1 << px.stored) : (int64_t)u;
+        out[i] = (float)((double)v * px.slope + px.intercept);
     }
 }
 
-size_t sample_bytes(gdcm::PixelFormat::ScalarType t)
+// One slice's pixels, rescaled, into out (cols x rows).  Native
+// (uncompressed) pixel data is decoded here from the PixelData element;
+// compressed (encapsulated) data is decompressed by GDCM's ImageReader.
+int read_slice(float *out, int64_t *rescaled, const Slice &slice, int64_t cols, int64_t rows, ohm_error *err)
 {
-    switch (t) {
-    case gdcm::PixelFormat::UINT8: case gdcm::PixelFormat::INT8: return 1;
-    case gdcm::PixelFormat::UINT16: case gdcm::PixelFormat::INT16: return 2;
-    case gdcm::PixelFormat::UINT32: case gdcm::PixelFormat::INT32: case gdcm::PixelFormat::FLOAT32: return 4;
-    case gdcm::PixelFormat::FLOAT64: return 8;
-    default: return 0;
-    }
-}
-
-// How many bytes of native (not encapsulated) PixelData the file holds, -1
-// when it is encapsulated or cannot be told.  GDCM's ImageReader fills a
-// native PixelData cut short by the end of the file and only warns, so the
-// bytes are counted here: Reader::ReadUpToTag, skipping PixelData's value,
-// stops where that value begins (after the element's tag, VR and length),
-// and the value runs to the end of the file or is cut short.
-int64_t native_pixel_bytes(const std::string &file)
-{
+    const char *file = slice.file.c_str();
+    const Samples &px = slice.samples;
+    const size_t n = (size_t)cols * (size_t)rows, want = n * (size_t)(px.bits / 8);
     gdcm::Reader reader;
-    reader.SetFileName(file.c_str());
-    std::set<gdcm::Tag> skip{T_PIXEL_DATA};
-    if (!reader.ReadUpToTag(T_PIXEL_DATA, skip)) return -1;
+    reader.SetFileName(file);
+    if (!reader.Read()) return ohm_fail(err, OHM_ERR_PARSE, "%s: GDCM cannot parse the file", file);
     const gdcm::TransferSyntax &ts = reader.GetFile().GetHeader().GetDataSetTransferSyntax();
-    if (ts.IsEncapsulated()) return -1;
-    const int64_t start = (int64_t)reader.GetStreamCurrentPosition();
-    struct stat st;
-    if (stat(file.c_str(), &st) != 0) return -1;
-    return (int64_t)st.st_size > start ? (int64_t)st.st_size - start : 0;
-}
-
-// One slice's pixels, rescaled, into out (cols x rows).
-int read_slice(float *out, int64_t *rescaled, const std::string &file, int64_t cols, int64_t rows, ohm_error *err)
-{
-    gdcm::ImageReader reader;
-    reader.SetFileName(file.c_str());
-    if (!reader.Read())
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: GDCM cannot read the image (truncated or corrupt)", file.c_str());
-    const gdcm::Image &img = reader.GetImage();
-    if ((int64_t)img.GetDimension(0) != cols || (int64_t)img.GetDimension(1) != rows)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: the pixel data is %u x %u, its header says %lld x %lld", file.c_str(),
-                        img.GetDimension(0), img.GetDimension(1), (long long)cols, (long long)rows);
-    const gdcm::PixelFormat &pf = img.GetPixelFormat();
-    if (pf.GetSamplesPerPixel() != 1)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: %u samples per pixel, expected one (a grey-level image)",
-                        file.c_str(), pf.GetSamplesPerPixel());
-    const size_t each = sample_bytes(pf.GetScalarType());
-    if (!each)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: pixel type %s is not supported", file.c_str(),
-                        pf.GetScalarTypeAsString());
-    const size_t n = (size_t)cols * (size_t)rows, bytes = img.GetBufferLength();
-    int64_t stored = native_pixel_bytes(file);
-    if (stored >= 0 && (uint64_t)stored < (uint64_t)(n * each))
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated pixel data: %lld bytes for %lld x %lld pixels of %zu bytes",
-                        file.c_str(), (long long)stored, (long long)cols, (long long)rows, each);
-    if (bytes < n * each)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated pixel data: %zu bytes for %lld x %lld pixels of %zu bytes",
-                        file.c_str(), bytes, (long long)cols, (long long)rows, each);
-    std::vector<char> buf(bytes);
-    if (!img.GetBuffer(buf.data()))
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: the pixel data is truncated or cannot be decoded", file.c_str());
-    const double slope = img.GetSlope(), intercept = img.GetIntercept();
-    if (!std::isfinite(slope) || !std::isfinite(intercept) || slope == 0)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: RescaleSlope %g, RescaleIntercept %g: expected finite values and a "
-                                            "non-zero slope", file.c_str(), slope, intercept);
-    *rescaled += slope != 1 || intercept != 0;
-    switch (pf.GetScalarType()) {
-    case gdcm::PixelFormat::UINT8: rescale<uint8_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::INT8: rescale<int8_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::UINT16: rescale<uint16_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::INT16: rescale<int16_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::UINT32: rescale<uint32_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::INT32: rescale<int32_t>(out, buf.data(), n, slope, intercept); break;
-    case gdcm::PixelFormat::FLOAT32: rescale<float>(out, buf.data(), n, slope, intercept); break;
-    default: rescale<double>(out, buf.data(), n, slope, intercept); break;
+    std::vector<char> decompressed;
+    const unsigned char *stored = NULL;
+    size_t have = 0;
+    gdcm::ImageReader image_reader;
+    if (ts.IsEncapsulated()) {
+        image_reader.SetFileName(file);
+        if (!image_reader.Read())
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: GDCM cannot read the compressed image (%s)", file,
+                            gdcm::TransferSyntax::GetTSString(ts));
+        const gdcm::Image &img = image_reader.GetImage();
+        if ((int64_t)img.GetDimension(0) != cols || (int64_t)img.GetDimension(1) != rows ||
+            img.GetPixelFormat().GetBitsAllocated() != px.bits)
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: the compressed image is %u x %u of %u bits, its header says %lld x "
+                                                "%lld of %d", file, img.GetDimension(0), img.GetDimension(1),
+                            img.GetPixelFormat().GetBitsAllocated(), (long long)cols, (long long)rows, px.bits);
+        decompressed.resize(img.GetBufferLength());
+        if (!img.GetBuffer(decompressed.data()))
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: the compressed pixel data cannot be decoded", file);
+        stored = (const unsigned char *)decompressed.data();
+        have = decompressed.size();
+    } else {
+        const gdcm::DataSet &ds = reader.GetFile().GetDataSet();
+        const gdcm::ByteValue *pixels =
+            ds.FindDataElement(T_PIXEL_DATA) ? ds.GetDataElement(T_PIXEL_DATA).GetByteValue() : NULL;
+        if (!pixels) return ohm_fail(err, OHM_ERR_PARSE, "%s: no PixelData (7fe0,0010)", file);
+        stored = (const unsigned char *)pixels->GetPointer();
+        have = pixels->GetLength(); // held to the file by dicom_check
     }
+    if (have < want)
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: truncated pixel data: %zu bytes for %lld x %lld pixels of %d bits",
+                        file, have, (long long)cols, (long long)rows, px.bits);
+    // GDCM's decompressed buffer is in the machine's order (little-endian here)
+    decode_samples(out, stored, n, px, !ts.IsEncapsulated() && ts.GetSwapCode() == gdcm::SwapCode::BigEndian);
+    *rescaled += px.slope != 1 || px.intercept != 0;
     return 0;
 }
 
@@ -405,8 +434,8 @@ int build_series(ohm_dicom_series &out, const Series &s, gdcm::Scanner &scanner,
     Frame first = {}, f = {};
     std::string first_file;
     for (const std::string &file : s.files) {
-        Slice sl{file, {0, 0, 0}, 0};
-        int rc = slice_frame(first_file.empty() ? first : f, sl.position, file.c_str(), scanner, err);
+        Slice sl{file, {0, 0, 0}, 0, Samples{}};
+        int rc = slice_frame(first_file.empty() ? first : f, sl.samples, sl.position, file.c_str(), scanner, err);
         if (!rc && !first_file.empty()) rc = same_frame(f, first, file.c_str(), first_file, err);
         if (rc) return rc;
         if (first_file.empty()) first_file = file;
@@ -443,13 +472,7 @@ int build_series(ohm_dicom_series &out, const Series &s, gdcm::Scanner &scanner,
 extern "C" int ohm_dicom_is_file(const char *path)
 {
     try {
-        if (std::strcmp(base_name(path), "DICOMDIR") == 0) return 1;
-        FILE *f = std::fopen(path, "rb");
-        if (!f) return 0;
-        char head[132];
-        size_t got = std::fread(head, 1, sizeof head, f);
-        std::fclose(f);
-        return got == sizeof head && std::memcmp(head + 128, "DICM", 4) == 0;
+        return std::strcmp(base_name(path), "DICOMDIR") == 0 || ohm_dicom::has_part10_mark(path);
     } catch (...) {
         return 0;
     }
@@ -458,16 +481,11 @@ extern "C" int ohm_dicom_is_file(const char *path)
 extern "C" int ohm_dicom_folder_has_dicom(const char *dir)
 {
     try {
-        gdcm::Trace::WarningOff();
-        gdcm::Trace::ErrorOff();
         if (is_file(std::string(dir) + "/DICOMDIR")) return 1;
         gdcm::Directory d;
         if (d.Load(dir, false) == 0) return 0;
-        gdcm::Scanner s;
-        s.AddTag(T_SERIES);
-        if (!s.Scan(d.GetFilenames())) return 0;
         for (const std::string &f : d.GetFilenames())
-            if (s.IsKey(f.c_str())) return 1;
+            if (ohm_dicom::has_part10_mark(f)) return 1;
         return 0;
     } catch (...) {
         return 0;
@@ -487,6 +505,8 @@ extern "C" int ohm_dicom_open(ohm_dicom_series **out, const char *path, const ch
     if (rc) return rc;
     std::string asked = series_uid ? trimmed(series_uid) : std::string();
     if (asked.empty() && !is_folder(path) && std::strcmp(base_name(path), "DICOMDIR") != 0) {
+        if (!ohm_dicom::has_part10_mark(path))
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: no DICM mark after a 128-byte preamble: not a DICOM file", path);
         if (!scanner.IsKey(path))
             return ohm_fail(err, OHM_ERR_PARSE, "%s: not a readable DICOM file (GDCM cannot parse it)", path);
         const char *own = scanner.GetValue(path, T_SERIES);
@@ -525,7 +545,7 @@ extern "C" int ohm_dicom_read_voxels(ohm_dicom_series *s, float *out, int64_t *r
     OHM_GDCM_TRY
     const size_t per_slice = (size_t)s->dims[0] * (size_t)s->dims[1];
     for (size_t k = 0; k < s->slices.size(); ++k) {
-        int rc = read_slice(out + k * per_slice, rescaled, s->slices[k].file, s->dims[0], s->dims[1], err);
+        int rc = read_slice(out + k * per_slice, rescaled, s->slices[k], s->dims[0], s->dims[1], err);
         if (rc) return rc;
     }
     return 0;

@@ -4,9 +4,12 @@
  * ohm_dicom_open takes a folder (its DICOMDIR when it has one, else the
  * DICOM files in it), a DICOMDIR file (the files its records reference) or
  * one DICOM file (the series it belongs to, among the files of its folder).
- * The files are scanned for their series (0020,000E) and geometry tags; one
- * series is taken (the one asked for, or the only one; a folder with several
- * and none asked for is refused with the list of them); its slices are
+ * Every DICOM Part 10 file among them has each declared length checked
+ * against its size first (dicom_check.h: GDCM allocates what a file
+ * declares); the files are scanned for their series (0020,000E) and
+ * geometry tags; one series is taken (the one asked for, or the only one;
+ * a folder with several and none asked for is refused with the list of
+ * them); its slices are
  * sorted by their position along the slice normal (the cross product of
  * ImageOrientationPatient's two directions) — never by file name or
  * InstanceNumber — and refused, with a message naming the files, when two
@@ -32,7 +35,8 @@ extern "C" {
 
 typedef struct ohm_dicom_series ohm_dicom_series;
 
-/* 1 when the folder has a DICOMDIR or a file GDCM reads as DICOM. */
+/* 1 when the folder has a DICOMDIR or a DICOM Part 10 file (the "DICM"
+ * mark after a 128-byte preamble; files without it are not read). */
 int ohm_dicom_folder_has_dicom(const char *dir);
 
 /* 1 when the file is DICOM: "DICM" after the 128-byte preamble, or named
