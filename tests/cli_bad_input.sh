@@ -70,6 +70,22 @@ if [ "$(id -u)" != 0 ]; then
   expect_error_line "read-only dir" "cannot write"
 fi
 
+# numbers at the edge of double (issue 17): a direction whose length
+# overflows is still a direction (the light must not vanish), and a zero one
+# is refused naming the argument
+expect_exit 0 "dir 1e308,1e308,1e308" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
+  -light type=directional dir=1e308,1e308,1e308 -solve -stats file="$T/far.json"
+check "dir 1e308,1e308,1e308: the light reaches the object" $PY -c "
+import json; s = json.load(open('$T/far.json')); assert s['power_in'] > 0, s['power_in']"
+expect_exit 2 "dir 0,0,0" -- "$OHM" -light type=directional dir=0,0,0
+expect_error_line "dir 0,0,0" "argument 1: -light dir=0,0,0 has no direction"
+printf 'ohm-transfer 1\n0 1e300 1\n100 0.1 1\n' >"$T/huge.transfer"
+expect_exit 1 "sigma_a 1e300 in a transfer function" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz \
+  dims=64,48,57 type=u16 spacing=0.625 -voxelize dim=12 threshold=5000 -material transfer="$T/huge.transfer" \
+  -light dir=0,-1,0 -solve -stats file="$T/keep.json"
+expect_error_line "sigma_a 1e300 in a transfer function" "huge.transfer:2: column 2 \\(sigma_a\\) must be in"
+check "sigma_a 1e300: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
+
 # no temporary files are left behind by any failure
 check "no temporaries left" test -z "$(find "$T" -name '.*.ohm-*')"
 # and a successful overwrite does replace the file

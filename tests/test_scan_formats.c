@@ -4,7 +4,7 @@
  * with a header to skip), INRIMAGE-4 (.inr, .inr.gz, big-endian) and DICOM
  * series (written by tests/write_dicom.py with pydicom: files named out of
  * order, RescaleSlope 0.5 and intercept -1024, a DICOMDIR file-set, a
- * folder of two series, signed and unsigned pixels), reads
+ * folder of two series, signed and unsigned pixels, RLE-compressed), reads
  * in ohm (src/input/scan.h) to identical values and the same world
  * transform: an oblique one (turned 20 degrees about z and 10 about x) for
  * every format that can state one, axis-aligned for INR.  LPS headers
@@ -221,6 +221,7 @@ static void test_dicom(void)
     expect_volume(dicom, m, tol);
     snprintf(other, sizeof other, "%s/IM0001.dcm", dicom); /* one file: its series */
     expect_volume(other, m, tol);
+    expect_volume(write_dicom("rle", "--rle --stored i16"), m, tol); /* compressed: through GDCM's decoder */
     const char *set = write_dicom("fileset", "--dicomdir --slope 0.5 --intercept -1024");
     expect_volume(set, m, tol);
     snprintf(other, sizeof other, "%s/DICOMDIR", set);
@@ -324,8 +325,58 @@ static void test_bad_dicom(void)
     CHECK(ohm_scan_read(&s, two, &p, &e) == OHM_ERR_USAGE && strstr(e.msg, "no series 1.2.3"));
 }
 
+/* A gzip stream far longer than the header says, cut off half way: a reader
+ * that stops one byte past the expected size reports "too long"; one that
+ * inflates the whole stream (a decompression bomb's cost) meets the cut and
+ * reports something else. */
+static const char *write_gz_bomb(const char *name, const char *header, size_t header_len)
+{
+    enum { BOMB = 4 << 20 };
+    unsigned char *zeros = calloc(BOMB, 1), *z = malloc(BOMB);
+    uLongf zlen = BOMB;
+    const char *p = tmp_path(name);
+    z_stream s;
+    memset(&s, 0, sizeof s);
+    if (zeros && z && deflateInit2(&s, 9, Z_DEFLATED, 15 + 16, 9, Z_DEFAULT_STRATEGY) == Z_OK) {
+        unsigned char *whole = malloc(header_len + BOMB);
+        if (whole) {
+            memcpy(whole, header, header_len);
+            memset(whole + header_len, 0, BOMB);
+            s.next_in = whole;
+            s.avail_in = (uInt)(header_len + BOMB);
+            s.next_out = z;
+            s.avail_out = (uInt)zlen;
+            deflate(&s, Z_FINISH);
+            zlen = zlen - s.avail_out;
+            free(whole);
+        }
+        deflateEnd(&s);
+        write_tmp(name, z, zlen / 2);
+    }
+    free(zeros);
+    free(z);
+    return p;
+}
+
 static void test_bad_input(void)
 {
+    /* decompression bombs: 4 MB of zeros behind a header that wants 64 bytes */
+    static const char inr_head[] = "#INRIMAGE-4#{\nXDIM=4\nYDIM=4\nZDIM=4\nVDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n"
+                                   "CPU=decm\n";
+    char inr[256];
+    memset(inr, '\n', sizeof inr);
+    memcpy(inr, inr_head, strlen(inr_head));
+    memcpy(inr + 252, "##}\n", 4);
+    expect_error(write_gz_bomb("bomb.inr.gz", inr, sizeof inr), OHM_ERR_PARSE, "too long");
+    {
+        const char *raw = write_gz_bomb("bomb.raw.gz", "", 0);
+        ohm_scan s;
+        ohm_error e;
+        ohm_error_clear(&e);
+        ohm_scan_params p = {.dims = {4, 4, 4}, .type = "u8"};
+        CHECK_MSG(ohm_scan_read(&s, raw, &p, &e) == OHM_ERR_PARSE && strstr(e.msg, "too long"), "raw.gz bomb: %s",
+                  e.msg);
+    }
     expect_error(write_nrrd("missing.nhdr", 0, "raw", "little", "no_such.raw", NULL, 0, 0), OHM_ERR_PARSE,
                  "couldn't open");
     expect_error(write_inr("complex.inr", "complex", "decm", le, sizeof le, 0, 1), OHM_ERR_PARSE, "TYPE=complex");

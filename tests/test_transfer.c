@@ -229,16 +229,30 @@ static void test_errors(void)
     expect_error("ohm-transfer 1\n0 nan 1\n", OHM_ERR_PARSE, 2, "not a finite number");
     expect_error("ohm-transfer 1\n0 0.1 inf\n", OHM_ERR_PARSE, 2, "column 3 (sigma_s')");
     expect_error("ohm-transfer 1\n1e999 0.1 1\n", OHM_ERR_PARSE, 2, "column 1 (density)");
-    expect_error("ohm-transfer 1\n0 -0.1 1\n", OHM_ERR_INVALID, 2, "must be >= 0");
+    /* each coefficient within transfer.h's ranges (sigma_a [0, 1e6], sigma_s' [1e-9, 1e12],
+     * resistances [1e-12, 1e12]): beyond them the network's sums overflow */
+    expect_error("ohm-transfer 1\n0 -0.1 1\n", OHM_ERR_INVALID, 2, "(sigma_a) must be in [0, 1e+06], got -0.1");
     expect_error("ohm-transfer 1\n0 .1 .2 .3 1 2 3\n1 .1 -.2 .3 1 2 3\n", OHM_ERR_INVALID, 3,
-                 "column 3 (sigma_a (G)) must be >= 0");
-    /* sigma_s' must be > 0 */
-    expect_error("ohm-transfer 1\n0 0.1 0\n", OHM_ERR_INVALID, 2, "sigma_s') must be > 0");
-    expect_error("ohm-transfer 1\n0 0.1 -1\n", OHM_ERR_INVALID, 2, "must be > 0");
+                 "column 3 (sigma_a (G)) must be in [0, 1e+06]");
+    expect_error("ohm-transfer 1\n0 1e300 1\n", OHM_ERR_INVALID, 2, "(sigma_a) must be in [0, 1e+06], got 1e300");
+    expect_error("ohm-transfer 1\n0 0.1 0\n", OHM_ERR_INVALID, 2, "sigma_s') must be in [1e-09, 1e+12], got 0");
+    expect_error("ohm-transfer 1\n0 0.1 -1\n", OHM_ERR_INVALID, 2, "sigma_s') must be in [1e-09, 1e+12]");
+    expect_error("ohm-transfer 1\n0 0.1 1e-300\n", OHM_ERR_INVALID, 2, "sigma_s') must be in [1e-09, 1e+12]");
+    expect_error("ohm-transfer 1\n0 0.1 2e12\n", OHM_ERR_INVALID, 2, "sigma_s') must be in [1e-09, 1e+12]");
     expect_error("ohm-transfer 1\n0 .1 .2 .3 1 2 3\n1 .1 .2 .3 1 2 0\n", OHM_ERR_INVALID, 3,
-                 "column 7 (sigma_s' (B)) must be > 0");
-    expect_error("ohm-transfer 1 mode=resistance\n0 1000 0\n", OHM_ERR_INVALID, 2, "ground) must be > 0");
-    expect_error("ohm-transfer 1 mode=resistance\n0 -5 10\n", OHM_ERR_INVALID, 2, "resistance) must be > 0");
+                 "column 7 (sigma_s' (B)) must be in");
+    expect_error("ohm-transfer 1 mode=resistance\n0 1000 0\n", OHM_ERR_INVALID, 2, "ground) must be in [1e-12, 1e+12]");
+    expect_error("ohm-transfer 1 mode=resistance\n0 -5 10\n", OHM_ERR_INVALID, 2, "resistance) must be in");
+    expect_error("ohm-transfer 1 mode=resistance\n0 1e200 10\n", OHM_ERR_INVALID, 2, "resistance) must be in");
+    /* the ends of the ranges are accepted (tests/cli_extremes.sh solves them) */
+    {
+        ohm_transfer t;
+        ohm_error e;
+        ohm_error_clear(&e);
+        const char *edge = "ohm-transfer 1\n0 0 1e-9\n1 1e6 1e12\n";
+        CHECK_MSG(ohm_transfer_parse(&t, edge, strlen(edge), "edge.transfer", &e) == 0, "%s", e.msg);
+        ohm_transfer_free(&t);
+    }
     /* increasing densities */
     expect_error("ohm-transfer 1\n0 0.1 1\n1 0.1 1\n1 0.1 1\n", OHM_ERR_INVALID, 4, "strictly increasing");
     expect_error("ohm-transfer 1\n0 0.1 1\n\n# c\n-1 0.1 1\n", OHM_ERR_INVALID, 5, "strictly increasing");

@@ -469,10 +469,7 @@ static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params
     uint64_t actual = 0;
     rc = ohm_scan_read_bytes(path, gz, 0, buf, want, &actual, err);
     if (!rc && actual != (uint64_t)want)
-        rc = ohm_fail(err, OHM_ERR_PARSE,
-                      "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, the %s has %" PRIu64,
-                      path, actual < want ? "truncated" : "too long", d[0], d[1], d[2], type, want,
-                      gz ? "decompressed data" : "file", actual);
+        rc = ohm_scan_size_error(path, actual, want, d, sample, gz ? "the decompressed data" : "the file", err);
     if (!rc) rc = ohm_scan_alloc(s, path, d, err);
     if (rc) {
         free(buf);

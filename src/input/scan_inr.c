@@ -146,12 +146,11 @@ int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, ohm_error *err)
     if (!buf) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     uint64_t actual = 0;
     rc = ohm_scan_read_bytes(path, gz, h.size, buf, want, &actual, err);
-    if (!rc && actual != want)
-        rc = ohm_fail(err, OHM_ERR_PARSE,
-                      "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes after the %zu-byte "
-                      "header, the %s has %" PRIu64,
-                      path, actual < want ? "truncated" : "too long", h.dims[0], h.dims[1], h.dims[2],
-                      ohm_sample_name(t), want, h.size, gz ? "decompressed data" : "file", actual);
+    if (!rc && actual != want) {
+        char where[96];
+        snprintf(where, sizeof where, "the %s after its %zu-byte header", gz ? "decompressed data" : "file", h.size);
+        rc = ohm_scan_size_error(path, actual, want, h.dims, t, where, err);
+    }
     if (!rc) rc = ohm_scan_alloc(s, path, h.dims, err);
     if (!rc) {
         ohm_scan_convert(s->values, buf, n, t, big);

@@ -159,9 +159,9 @@ static int read_gz(const char *path, uint64_t offset, unsigned char *buf, size_t
         } else if (total < want) {
             dst = buf + total;
             room = want - (size_t)total;
-        } else {
+        } else { /* one byte past what is expected says "too long": stop there (a bomb is not inflated) */
             dst = scratch;
-            room = sizeof scratch;
+            room = 1;
         }
         if (room > (1u << 30)) room = 1u << 30;
         int got = gzread(f, dst, (unsigned)room);
@@ -181,6 +181,7 @@ static int read_gz(const char *path, uint64_t offset, unsigned char *buf, size_t
         }
         if (skipped < offset) skipped += (uint64_t)got;
         else total += (uint64_t)got;
+        if (total > want) break;
     }
     gzclose(f);
     *actual = total;
@@ -191,6 +192,18 @@ int ohm_scan_read_bytes(const char *path, int gz, uint64_t offset, unsigned char
                         uint64_t *actual, ohm_error *err)
 {
     return gz ? read_gz(path, offset, buf, want, actual, err) : read_plain(path, offset, buf, want, actual, err);
+}
+
+int ohm_scan_size_error(const char *path, uint64_t actual, size_t want, const int64_t d[3], ohm_sample_type t,
+                        const char *where, ohm_error *err)
+{
+    if (actual > want)
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: too long: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, %s holds more",
+                        path, d[0], d[1], d[2], ohm_sample_name(t), want, where);
+    return ohm_fail(err, OHM_ERR_PARSE,
+                    "%s: truncated: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, %s holds %" PRIu64,
+                    path, d[0], d[1], d[2], ohm_sample_name(t), want, where, actual);
 }
 
 int ohm_scan_inflate_bytes(const char *path, uint64_t offset, unsigned char *buf, size_t want, uint64_t *actual,

@@ -43,14 +43,21 @@ int ohm_scan_alloc(ohm_scan *s, const char *path, const int64_t d[3], ohm_error 
 void ohm_scan_convert(float *out, const unsigned char *in, size_t n, ohm_sample_type t, int big_endian);
 
 /* Read exactly `want` bytes from `offset` on (gz: offsets in the gzip
- * stream's decompressed data) into buf; *actual is how many the file
- * holds from offset, counted to its end when it is not `want`. */
+ * stream's decompressed data) into buf; *actual is how many the file holds
+ * from offset, or want + 1 when it holds more: reading stops one byte past
+ * what is expected, so a decompression bomb costs no more than the volume. */
 int ohm_scan_read_bytes(const char *path, int gz, uint64_t offset, unsigned char *buf, size_t want,
                         uint64_t *actual, ohm_error *err);
 
 /* The same for a zlib (or gzip) stream that starts at byte `offset` of a
  * plain file (MetaImage's CompressedData): inflated into buf until it ends
  * or holds one byte more than want (*actual then says "too long"). */
+/* The error for data of the wrong size: *actual bytes (want + 1: more)
+ * where d's voxels of type t need want; `where` says what was read ("the
+ * file", "the decompressed data"). */
+int ohm_scan_size_error(const char *path, uint64_t actual, size_t want, const int64_t d[3], ohm_sample_type t,
+                        const char *where, ohm_error *err);
+
 int ohm_scan_inflate_bytes(const char *path, uint64_t offset, unsigned char *buf, size_t want, uint64_t *actual,
                            ohm_error *err);
 

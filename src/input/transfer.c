@@ -221,13 +221,11 @@ static int parse_point(ohm_transfer *t, size_t *cap, char **tok, int ntok, const
                                 i + 1, tok[i]);
             continue;
         }
-        int positive = t->resistance_mode || i > t->channels; /* sigma_s' and resistances: > 0 */
-        if (positive && !(v[i] > 0.0))
-            return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be > 0, got %s", name, line, i + 1,
-                            cols[i], tok[i]);
-        if (!positive && v[i] < 0.0)
-            return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be >= 0, got %s", name, line, i + 1,
-                            cols[i], tok[i]);
+        const double lo = t->resistance_mode ? OHM_RESISTANCE_MIN : i > t->channels ? OHM_SIGMA_S_MIN : 0.0;
+        const double hi = t->resistance_mode ? OHM_RESISTANCE_MAX : i > t->channels ? OHM_SIGMA_S_MAX : OHM_SIGMA_A_MAX;
+        if (!(v[i] >= lo && v[i] <= hi))
+            return ohm_fail(err, OHM_ERR_INVALID, "%s:%zu: column %d (%s) must be in [%g, %g], got %s", name, line,
+                            i + 1, cols[i], lo, hi, tok[i]);
     }
     if (t->n > 0 && !(v[0] > t->density[t->n - 1]))
         return ohm_fail(err, OHM_ERR_INVALID,

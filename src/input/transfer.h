@@ -15,14 +15,25 @@
  * scattering=full: the third column is sigma_s, and sigma_s' = sigma_s (1 - g)
  * is kept (diffusion needs only that; g shapes Monte Carlo's phase function).
  * Piecewise linear between points, clamped outside them.  Validated on load:
- * increasing densities, finite non-negative values (sigma_s' and resistances
- * > 0), consistent column counts; errors say "file:line: what". */
+ * increasing densities, values in the ranges below, consistent column
+ * counts; errors say "file:line: what". */
 #ifndef OHM_TRANSFER_H
 #define OHM_TRANSFER_H
 
 #include <stddef.h>
 
 #include "base/ohm_error.h"
+
+/* The coefficients ohm accepts, in a transfer function and on -material:
+ * the ranges tests/cli_extremes.sh solves stably (sigma_a 1e-6 against 1e6,
+ * sigma_s' 1 against 1e12 in one object, 1/mm).  Beyond them the network's
+ * conductances and the solve's power sums leave double's range (1e300 gave
+ * an infinite sigma_a grid) or its precision; resistances likewise, ohms. */
+#define OHM_SIGMA_A_MAX 1e6
+#define OHM_SIGMA_S_MIN 1e-9
+#define OHM_SIGMA_S_MAX 1e12
+#define OHM_RESISTANCE_MIN 1e-12
+#define OHM_RESISTANCE_MAX 1e12
 
 typedef struct ohm_transfer {
     int resistance_mode;      /* points hold resistance, ground instead          */

@@ -11,6 +11,7 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+#include "base/vec3.h"
 #include "studies/accuracy.h"
 #include "steps/export_action.h"
 #include "outputs/export_vdb.h"
@@ -340,18 +341,21 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 static const ohm_opt_spec material_opts[] = {
     {"preset", OHM_OPT_ENUM, NULL, "measured material (Jensen et al. 2001; eta 1.3)",
      "apple|chicken1|chicken2|cream|ketchup|marble|potato|skimmilk|skin1|skin2|spectralon|wholemilk", 0, 0, 0},
-    {"sigma_a", OHM_OPT_REAL13, NULL, "absorption coefficient, 1/mm", NULL, 0, 1e6, 0},
-    {"sigma_s", OHM_OPT_REAL13, NULL, "reduced scattering coefficient sigma_s', 1/mm", NULL, 1e-9, 1e9, 0},
+    {"sigma_a", OHM_OPT_REAL13, NULL, "absorption coefficient, 1/mm", NULL, 0, OHM_SIGMA_A_MAX, 0},
+    {"sigma_s", OHM_OPT_REAL13, NULL, "reduced scattering coefficient sigma_s', 1/mm", NULL, OHM_SIGMA_S_MIN,
+     OHM_SIGMA_S_MAX, 0},
     {"sigma_s_full", OHM_OPT_REAL13, NULL,
-     "scattering coefficient sigma_s, 1/mm, instead of sigma_s': with g=, sigma_s' = sigma_s (1 - g)", NULL, 1e-9,
-     1e9, 0},
+     "scattering coefficient sigma_s, 1/mm, instead of sigma_s': with g=, sigma_s' = sigma_s (1 - g)", NULL,
+     OHM_SIGMA_S_MIN, OHM_SIGMA_S_MAX, 0},
     {"g", OHM_OPT_REAL, "0",
      "scattering anisotropy (mean cosine, Henyey-Greenstein): diffusion uses only sigma_s'; solver=mc traces "
      "sigma_s = sigma_s' / (1 - g) with this phase function",
      NULL, -0.99, 0.99, 0},
     {"eta", OHM_OPT_REAL, "1.3", "relative index of refraction", NULL, 1, 3, 0},
-    {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, 1e-300, 1e300, 0},
-    {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, 1e-300, 1e300, 0},
+    {"resistance", OHM_OPT_REAL, NULL, "paper mode: ohms between neighbouring cells", NULL, OHM_RESISTANCE_MIN,
+     OHM_RESISTANCE_MAX, 0},
+    {"ground", OHM_OPT_REAL, NULL, "paper mode: ohms from each cell to ground", NULL, OHM_RESISTANCE_MIN,
+     OHM_RESISTANCE_MAX, 0},
     {"transfer", OHM_OPT_STRING, NULL,
      "transfer function file: the volume's density -> coefficients per cell (see docs/transfer-functions.md)", NULL,
      0, 0, 0},
@@ -523,9 +527,9 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     ohm_opt_vec3(inv, "pos", l.pos);
     if (need_dir) {
         ohm_opt_vec3(inv, "dir", l.dir);
-        double len = sqrt(l.dir[0] * l.dir[0] + l.dir[1] * l.dir[1] + l.dir[2] * l.dir[2]);
-        if (!(len > 0)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light dir=0,0,0 has no direction", inv->where);
-        for (int a = 0; a < 3; ++a) l.dir[a] /= len;
+        if (!ohm_vec3_normalize(l.dir))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -light dir=%g,%g,%g has no direction", inv->where, l.dir[0],
+                            l.dir[1], l.dir[2]);
     }
     l.channels = ohm_opt_real13(inv, "intensity", l.intensity);
     int orbit = (int)ohm_opt_int(inv, "orbit");
@@ -785,6 +789,19 @@ static const char *deposit_name(ohm_deposit d)
     return d == OHM_DEPOSIT_POINT ? "point" : d == OHM_DEPOSIT_SURFACE ? "surface" : "exponential";
 }
 
+/* A solve never succeeds with a number that is not one: the powers and the
+ * backward error it reports must be finite (where: the step, for the message). */
+static int check_solution_finite(const ohm_solution *sol, const char *where, ohm_error *err)
+{
+    const double v[4] = {sol->power_in, sol->power_absorbed, sol->power_out, sol->residual};
+    static const char *const names[4] = {"power in", "power absorbed", "power out", "backward error"};
+    for (int k = 0; k < 4; ++k)
+        if (!isfinite(v[k]))
+            return ohm_fail(err, OHM_ERR_NUMERIC, "%s: -solve: the %s is %g: the material or lights overflow double "
+                                                  "precision", where, names[k], v[k]);
+    return OHM_OK;
+}
+
 /* The solver's latest solve logged and booked in the statistics (-solve and
  * ohm_state_relight): t0 is when the solve began; a relight does not repeat
  * the notes about the grid and the boundary, which have not changed. */
@@ -935,6 +952,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
     if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
+    if (!rc) rc = check_solution_finite(ohm_solver_solution(s->solver), inv->where, err);
     if (rc) {
         drop_solution(s);
         return rc;
@@ -952,6 +970,7 @@ int ohm_state_relight(ohm_state *s, ohm_error *err)
     double t0 = ohm_now();
     s->have_solution = 0;
     int rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
+    if (!rc) rc = check_solution_finite(ohm_solver_solution(s->solver), "relight", err);
     if (rc) return rc;
     s->have_solution = 1;
     report_solve(s, t0, 1);
@@ -1100,7 +1119,7 @@ const ohm_action ohm_actions[] = {
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
      material_opts, run_material},
-    {"light", "add a light (directional, point, or a pencil beam)",
+    {"light", "add a light (directional, point, spot, area or a pencil beam)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
      "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",

@@ -4,6 +4,7 @@
 #include <math.h>
 #include <string.h>
 
+#include "base/vec3.h"
 #include "outputs/export_csv.h"
 #include "outputs/export_df3.h"
 #include "outputs/export_ply.h"
@@ -35,9 +36,8 @@ static void toward_light(const ohm_state *s, int frame, double out[3])
         if (l->frame != 0 && l->frame != frame + 1) continue;
         double v[3];
         for (int a = 0; a < 3; ++a) v[a] = l->type == OHM_LIGHT_POINT ? l->pos[a] - centre[a] : -l->dir[a];
-        double len = sqrt(v[0] * v[0] + v[1] * v[1] + v[2] * v[2]);
-        if (!(len > 0)) continue;
-        for (int a = 0; a < 3; ++a) out[a] += v[a] / len;
+        if (!ohm_vec3_normalize(v)) continue;
+        for (int a = 0; a < 3; ++a) out[a] += v[a];
     }
 }
 

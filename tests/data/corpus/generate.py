@@ -211,6 +211,12 @@ add("not-increasing.transfer", T + "0 0.1 1\n100 0.1 1\n100 0.2 1\n", "transfer"
 add("no-points.transfer", T + "# nothing here\n", "transfer", 1, ":2: .*no control points")
 add("long-line.transfer", T + "0 0.1 1" + " " * 5000 + "\n", "transfer", 1, ":2: ")
 add("binary-junk.transfer", bytes((i * 91 + 3) % 256 for i in range(400)), "transfer", 1, ":1: .*NUL")
+# issue 17: finite numbers whose products overflow (an infinite sigma_a grid at -write, or a null
+# power with -stats and exit 0, before the ranges of transfer.h)
+add("huge-sigma-a.transfer", T + "0 1e300 1\n100 0.1 1\n", "transfer", 1, r":2: .*sigma_a\) must be in \[0, 1e\+06\]")
+add("tiny-sigma-s.transfer", T + "0 0.1 1\n100 0.1 1e-300\n", "transfer", 1, r":3: .*sigma_s'\) must be in")
+add("huge-resistance.transfer", "ohm-transfer 1 mode=resistance\n0 1e200 1000\n", "transfer", 1,
+    ":2: .*must be in")
 
 # ---- raw volumes ---------------------------------------------------------------------
 add("empty.raw", b"", "raw:4,4,4:u8", 1, ": .*64 bytes")
@@ -411,11 +417,21 @@ add("truncated.mha", (META % ("MET_SHORT", "LOCAL")).encode() + VOXELS[:20], "sc
 add("list.mhd", META % ("MET_SHORT", "LIST") + "slice1.raw\n", "scan", 1, ANY + ".*list of slice files", S16)
 add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan", 1, ANY + ".*MET_LONG_LONG", S16)
 
-# ---- DICOM (issue 16): single slices, each its own series (a slice file is read
-# as its series, among the files of its folder: this one).  Written through
-# tests/write_dicom.py's pydicom code; folders (gaps, duplicates, two series, a
-# DICOMDIR) are made at run time by tests/cli_corpus.sh.
-def dicom(name, change, pattern, code=1, cut=0):
+# ---- DICOM (issue 16): one bad slice per folder (a folder is read as a series,
+# and one broken file fails the whole folder, so each case needs its own).
+# Written through tests/write_dicom.py's pydicom code; series (gaps,
+# duplicates, two series, a DICOMDIR) are made at run time by
+# tests/cli_corpus.sh.
+def add_slice_folder(folder, data, code, pat, note, names_file=True):
+    import shutil
+    shutil.rmtree(os.path.join(D, folder), ignore_errors=True)
+    os.makedirs(os.path.join(D, folder))
+    with open(os.path.join(D, folder, "IM0001.dcm"), "wb") as f:
+        f.write(data)
+    where = esc(folder) + ("/IM0001" + esc(".dcm") if names_file else "")
+    rows.append((folder, "scan", str(code), where + ": " + pat, note))
+
+def dicom(name, change, pattern, code=1, cut=0, names_file=True):
     import argparse, io, sys
     sys.path.insert(0, os.path.join(D, "..", ".."))
     import numpy as np
@@ -428,7 +444,8 @@ def dicom(name, change, pattern, code=1, cut=0):
     out = io.BytesIO()
     ds.save_as(out, write_like_original=False)
     data = out.getvalue()
-    add(name, data[:len(data) - cut] if cut else data, "scan", code, ANY + pattern, "ohm: DICOM (issue 16)")
+    add_slice_folder(name, data[:len(data) - cut] if cut else data, code, pattern, "ohm: DICOM (issue 16)",
+                     names_file)
 
 def frames(ds):
     ds.NumberOfFrames = 2
@@ -440,19 +457,38 @@ def rgb(ds):
 def junk_pixels(ds):
     ds.PixelData = bytes(5)
 
-dicom("dicom-truncated.dcm", lambda ds: None, ".*truncated pixel data", cut=7)
-dicom("dicom-short-pixels.dcm", junk_pixels, ".*truncated pixel data")
-dicom("dicom-no-position.dcm", lambda ds: delattr(ds, "ImagePositionPatient"), ".*no ImagePositionPatient")
-dicom("dicom-skew.dcm", lambda ds: setattr(ds, "ImageOrientationPatient", ["1", "0", "0", "1", "0", "0"]),
+dicom("dicom-truncated", lambda ds: None, ".*truncated or corrupt", cut=7)
+dicom("dicom-short-pixels", junk_pixels, ".*truncated pixel data")
+dicom("dicom-no-position", lambda ds: delattr(ds, "ImagePositionPatient"), ".*no ImagePositionPatient")
+dicom("dicom-skew", lambda ds: setattr(ds, "ImageOrientationPatient", ["1", "0", "0", "1", "0", "0"]),
       ".*perpendicular unit vectors")
-dicom("dicom-frames.dcm", frames, ".*2 frames in one file")
-dicom("dicom-no-spacing.dcm", lambda ds: setattr(ds, "PixelSpacing", ["0", "0.5"]), ".*positive PixelSpacing")
-dicom("dicom-rgb.dcm", rgb, ".*3 samples per pixel")
-dicom("dicom-zero-slope.dcm", lambda ds: setattr(ds, "RescaleSlope", "0"), ".*RescaleSlope .*non-zero slope")
-dicom("dicom-huge.dcm", lambda ds: (setattr(ds, "Rows", 65535), setattr(ds, "Columns", 65535)),
-      ".*more than the limit")
-add("dicom-junk.dcm", bytes(128) + b"DICM" + bytes(range(256)) * 4, "scan", 1, ANY, "ohm: DICOM (issue 16): the "
-    "mark and then noise")
+dicom("dicom-frames", frames, ".*2 frames in one file")
+dicom("dicom-no-spacing", lambda ds: setattr(ds, "PixelSpacing", ["0", "0.5"]), ".*positive PixelSpacing")
+dicom("dicom-rgb", rgb, ".*3 samples per pixel \\(0028,0002\\)")
+dicom("dicom-zero-slope", lambda ds: setattr(ds, "RescaleSlope", "0"), ".*RescaleSlope .*non-zero slope")
+dicom("dicom-huge", lambda ds: (setattr(ds, "Rows", 65535), setattr(ds, "Columns", 65535)),
+      ".*more than the limit", names_file=False)
+add_slice_folder("dicom-junk", bytes(128) + b"DICM" + bytes(range(256)) * 4, 1, ".*not a DICOM Part 10 file",
+                 "ohm: DICOM (issue 16): the mark and then noise")
+
+# DICOM fuzz findings (scripts/fuzz.sh dicom, 2026-12-03): GDCM 3.0.21 allocates
+# declared lengths and asserts (aborts) on bad VRs; the pre-pass refuses them
+for name, crash_file, pattern, what in (
+        ("fuzz-dicom-oom-meta", "oom-589eedd7b2b5d98c7d014af004bd0ca15b89eddb", "has VR '03', not one of DICOM's",
+         "an unknown VR in the meta group: GDCM read a 1.3 GB length"),
+        ("fuzz-dicom-oom-vr", "oom-ed9e0be83d97bc4dd7e571f2e5196869fb90f8ca", "has VR '81', not one of DICOM's",
+         "an unknown VR: GDCM read a 943 MB length"),
+        ("fuzz-dicom-oom-swapped", "oom-f689ac3bf678842d16ed10bdd6f0da537a52a463", "no TransferSyntaxUID",
+         "no meta group: GDCM guessed big endian and read a 3.5 GB length"),
+        ("fuzz-dicom-meta-length", "crash-4cf87d5a8dbda3808632aad6f05c801fcba0d69d", "length \\(0002,0000\\) runs to byte",
+         "the meta group runs past the file: GDCM asserted reading the next tag"),
+        ("fuzz-dicom-samples", "crash-71844e66744b0650541ce3314de5e936909e13c5", "5 samples per pixel",
+         "GDCM asserted in PixelFormat::SetSamplesPerPixel"),
+        ("fuzz-dicom-vr-planar", "crash-94df232651e151a4b50331a817ecd55604f2168f", "\\(0028,0006\\) .*has VR 'CS'",
+         "GDCM asserted in Attribute::SetFromDataElement (PlanarConfiguration)"),
+        ("fuzz-dicom-vr-sign", "crash-0a2fdc1f409c220da15aebb2bd98d6461682be87", "\\(0028,0103\\) .*has VR 'UL'",
+         "GDCM asserted in Attribute::SetFromDataSet (PixelRepresentation)")):
+    add_slice_folder(name, crash("dicom", crash_file), 1, ".*" + pattern, "fuzz finding (regression): " + what)
 
 with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
     f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
