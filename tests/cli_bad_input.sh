@@ -86,6 +86,15 @@ expect_exit 1 "sigma_a 1e300 in a transfer function" -- "$OHM" -read file=sample
 expect_error_line "sigma_a 1e300 in a transfer function" "huge.transfer:2: column 2 \\(sigma_a\\) must be in"
 check "sigma_a 1e300: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
 
+# an empty object: the warning and the error say why, naming the scan
+expect_exit 1 "threshold above the scan" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 \
+  type=u16 spacing=0.625 -voxelize dim=12 threshold=1e9 -material preset=marble -light dir=0,-1,0 -solve
+expect_error_line "threshold above the scan" \
+  "argument [0-9]+: -solve: the voxel object from samples/walnut_64x48x57_uint16.raw.gz is empty: no cell reaches"
+check "threshold above the scan: the warning names the scan's range" \
+  grep -q "walnut_64x48x57_uint16.raw.gz: no cell reaches threshold=1e+09 (the scan's values are 0 .. 16875)" "$T/stderr"
+check "threshold above the scan: no word about meshes" bash -c "! grep -q 'inside the mesh' '$T/stderr'"
+
 # no temporary files are left behind by any failure
 check "no temporaries left" test -z "$(find "$T" -name '.*.ohm-*')"
 # and a successful overwrite does replace the file

@@ -104,6 +104,22 @@ vdb.write(sys.argv[1], grids=[g])
 vdb.write(sys.argv[2], grids=[])
 PY
 run_case "vec3 .vdb" vdb "$T/vec3.vdb" 1 "vec3\.vdb"
+# a grid whose transform has a zero or NaN voxel size (the 0.37 mm scale's
+# doubles overwritten): OpenVDB's exception, named with the file (issue 17)
+$PY - "$T/zero-voxel.vdb" "$T/nan-voxel.vdb" <<'PY'
+import struct, sys, numpy, pyopenvdb as vdb
+g = vdb.FloatGrid(); g.name = "density"
+g.copyFromArray(numpy.ones((4, 4, 4), dtype=numpy.float32))
+g.transform = vdb.createLinearTransform(voxelSize=0.37)
+vdb.write(sys.argv[1], grids=[g])
+b = open(sys.argv[1], "rb").read()
+scale = struct.pack("<d", 0.37)
+assert b.count(scale) >= 3, b.count(scale)
+open(sys.argv[1], "wb").write(b.replace(scale, struct.pack("<d", 0.0)))
+open(sys.argv[2], "wb").write(b.replace(scale, struct.pack("<d", float("nan"))))
+PY
+run_case "zero voxel size .vdb" vdb "$T/zero-voxel.vdb" 1 "zero-voxel\.vdb: OpenVDB: ArithmeticError"
+run_case "NaN voxel size .vdb" vdb "$T/nan-voxel.vdb" 1 "nan-voxel\.vdb: OpenVDB: ArithmeticError"
 # a data error (exit 1), refused by the .vdb checker before OpenVDB reads it
 run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 1 "nogrids\.vdb: the file holds no grids"
 

@@ -26,3 +26,11 @@ void ohm_error_clear(ohm_error *err)
         err->msg[0] = '\0';
     }
 }
+
+int ohm_error_name(ohm_error *err, int code, const char *name)
+{
+    if (!err || code == 0 || !name || strstr(err->msg, name)) return code;
+    char why[OHM_ERROR_MSG_MAX];
+    snprintf(why, sizeof why, "%s", err->msg);
+    return ohm_fail(err, code, "%s: %s", name, why);
+}

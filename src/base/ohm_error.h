@@ -36,6 +36,12 @@ int ohm_fail(ohm_error *err, int code, const char *fmt, ...)
 /* Clear the record. */
 void ohm_error_clear(ohm_error *err);
 
+/* Make a failure name the file it came from: when code is an error and the
+ * message does not already hold `name`, it becomes "name: message" (a
+ * library's exception text, "OpenVDB: ArithmeticError: ...", then says where).
+ * Returns code. */
+int ohm_error_name(ohm_error *err, int code, const char *name);
+
 #ifdef __cplusplus
 }
 #endif

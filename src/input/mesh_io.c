@@ -1427,5 +1427,5 @@ int ohm_mesh_read(ohm_mesh *out, const char *path, ohm_error *err)
     if (rc) return rc;
     rc = formats[fi].parse(out, buf, len, path, err);
     free(buf);
-    return rc;
+    return ohm_error_name(err, rc, path);
 }

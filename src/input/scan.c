@@ -624,7 +624,7 @@ int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm
     if (!rc) rc = finish_values(out, path, err);
     if (!rc) rc = check_placement(out, path, err);
     if (rc) ohm_scan_free(out);
-    return rc;
+    return ohm_error_name(err, rc, path);
 }
 
 void ohm_scan_free(ohm_scan *s)

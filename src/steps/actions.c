@@ -223,7 +223,8 @@ static const ohm_opt_spec voxelize_opts[] = {
     {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
     {"error", OHM_OPT_REAL, NULL,
      "pick dim= from an accuracy target: the relative error of the surface exitance (e.g. 0.02); probes the scene "
-     "at dim 16 and 32 and extrapolates (needs -material and -light before -voxelize)",
+     "at dim 16 and 32 and extrapolates (steps run in order and the probes solve the scene: put -material and "
+     "-light before -voxelize)",
      NULL, 1e-4, 0.9, 0},
     {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
      1e12, 0},
@@ -284,16 +285,8 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         ohm_scan_bounds(&s->scan, lo, hi);
         rc = ohm_voxelize_field(&g, scan_field, &s->scan, lo, hi, ohm_opt_real(inv, "threshold"), &p, &s->log, err);
     }
-    if (rc) {
-        /* name the file the object came from (DESIGN.md §6) */
-        const char *src = s->have_mesh ? s->mesh_path : s->scan_path;
-        if (err && !strstr(err->msg, src)) {
-            char why[OHM_ERROR_MSG_MAX];
-            snprintf(why, sizeof why, "%s", err->msg);
-            ohm_fail(err, rc, "%s: %s", src, why);
-        }
-        return rc;
-    }
+    /* name the file the object came from (DESIGN.md §6) */
+    if (rc) return ohm_error_name(err, rc, s->have_mesh ? s->mesh_path : s->scan_path);
     double t = ohm_now() - t0;
 
     drop_solution(s);
@@ -320,8 +313,11 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                      "mm^3), %.2f s",
                      s->scan_path, ohm_opt_real(inv, "threshold"), g.dims[0], g.dims[1], g.dims[2], g.h,
                      g.interior_cells, vol, t);
-    if (g.interior_cells == 0)
+    if (g.interior_cells == 0 && s->have_mesh)
         ohm_log_warn(&s->log, "no cell centre lies inside the mesh: use a larger dim= or a smaller voxel=");
+    else if (g.interior_cells == 0)
+        ohm_log_warn(&s->log, "%s: no cell reaches threshold=%g (the scan's values are %g .. %g): the object is "
+                              "empty", s->scan_path, ohm_opt_real(inv, "threshold"), s->scan.min, s->scan.max);
 
     ohm_stats_set(&s->stats, "voxel_mm", g.h);
     ohm_stats_set_int(&s->stats, "grid_x", g.dims[0]);
@@ -924,6 +920,11 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     if (!s->have_grid)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no voxel object: -read and -voxelize first", inv->where);
+    if (s->grid.interior_cells == 0)
+        return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: the voxel object from %s is empty: %s", inv->where,
+                        s->have_mesh ? s->mesh_path : s->scan_path,
+                        s->have_mesh ? "no cell centre lies inside the mesh (use a larger dim= or a smaller voxel=)"
+                                     : "no cell reaches -voxelize threshold= (lower it)");
     if (!s->have_material)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: no material: add -material (e.g. preset=marble) first",
                         inv->where);
