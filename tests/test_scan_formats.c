@@ -358,8 +358,32 @@ static const char *write_gz_bomb(const char *name, const char *header, size_t he
     return p;
 }
 
+/* vol.nii with `len` bytes at `offset` of its header replaced (and the sform
+ * switched off when no_sform), as name. */
+static const char *patch_nifti(const char *name, size_t offset, const void *bytes, size_t len, int no_sform)
+{
+    const char *p = tmp_path(name);
+    FILE *in = fopen(tmp_path("vol.nii"), "rb");
+    unsigned char buf[4096];
+    size_t n = in ? fread(buf, 1, sizeof buf, in) : 0;
+    if (in) fclose(in);
+    if (n < 352) return p;
+    memcpy(buf + offset, bytes, len);
+    if (no_sform) memset(buf + 252, 0, 4); /* qform_code and sform_code: the voxel size places the voxels */
+    write_tmp(name, buf, n);
+    return p;
+}
+
 static void test_bad_input(void)
 {
+    /* what libnifti2 would repair without a word: refused, naming the field */
+    const float nan_value = NAN, zero = 0;
+    expect_error(patch_nifti("nan_slope.nii", 112, &nan_value, 4, 0), OHM_ERR_PARSE, "scl_slope nan");
+    expect_error(patch_nifti("zero_voxel.nii", 80, &zero, 4, 1), OHM_ERR_PARSE,
+                 "pixdim[1] (the voxel size along axis 0) is 0");
+    expect_error(patch_nifti("nan_voxel.nii", 84, &nan_value, 4, 1), OHM_ERR_PARSE, "pixdim[2]");
+    /* with an sform, pixdim places nothing: a zero there is harmless */
+    expect_volume(patch_nifti("zero_voxel_sform.nii", 80, &zero, 4, 0), (const double (*)[4])M, 1e-5);
     /* decompression bombs: 4 MB of zeros behind a header that wants 64 bytes */
     static const char inr_head[] = "#INRIMAGE-4#{\nXDIM=4\nYDIM=4\nZDIM=4\nVDIM=1\nTYPE=unsigned fixed\nPIXSIZE=8 bits\n"
                                    "CPU=decm\n";

@@ -252,6 +252,38 @@ static double nii_f32(const unsigned char *b, int swap)
     memcpy(&f, &u, sizeof f);
     return f;
 }
+static double nii_f64(const unsigned char *b, int swap)
+{
+    uint64_t u = nii_u(b, 8, swap);
+    double d;
+    memcpy(&d, &u, sizeof d);
+    return d;
+}
+
+/* What libnifti2 would "repair" without a word: a non-finite scl_slope or
+ * scl_inter (read as no scaling) and, when the voxel size is what places the
+ * voxels (no sform), a zero, negative or NaN pixdim (read as 1 mm).  Refused
+ * instead, naming the field.  Offsets: NIfTI-1 pixdim float[8] at 76,
+ * scl_slope/scl_inter at 112/116, sform_code at 254; NIfTI-2 pixdim
+ * double[8] at 104, scl_slope/scl_inter at 176/184, sform_code at 348. */
+static int nifti_check_scaling(const unsigned char *h, int v2, int swap, const char *path, const char *ver,
+                               ohm_error *err)
+{
+    const double slope = v2 ? nii_f64(h + 176, swap) : nii_f32(h + 112, swap);
+    const double inter = v2 ? nii_f64(h + 184, swap) : nii_f32(h + 116, swap);
+    if (!isfinite(slope) || !isfinite(inter))
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: %s scl_slope %g, scl_inter %g: expected finite numbers (a slope of 0 "
+                                            "means no scaling)", path, ver, slope, inter);
+    const int64_t sform_code = v2 ? nii_i32(h + 348, swap) : nii_i16(h + 254, swap);
+    if (sform_code > 0) return 0; /* the sform places the voxels; pixdim is not used */
+    for (int k = 1; k <= 3; ++k) {
+        const double d = v2 ? nii_f64(h + 104 + 8 * k, swap) : nii_f32(h + 76 + 4 * k, swap);
+        if (!(d > 0) || !isfinite(d))
+            return ohm_fail(err, OHM_ERR_PARSE, "%s: %s pixdim[%d] (the voxel size along axis %d) is %g, expected a "
+                                                "positive size in mm", path, ver, k, k - 1, d);
+    }
+    return 0;
+}
 
 /* Check a NIfTI-1/2 header ourselves before libnifti2 sees it: libnifti2 3.0.1
  * smashes its stack on a NIfTI-2 header with a bad datatype, reads a wrong
@@ -340,7 +372,7 @@ static int nifti_precheck(const char *path, ohm_error *err)
     if (!isfinite(off) || off < (double)hsize || off > 1099511627776.0)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: %s vox_offset is %g, expected a finite byte offset of at least %zu",
                         path, ver, off, hsize);
-    return 0;
+    return nifti_check_scaling(h, v2, swap, path, ver, err);
 }
 
 static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)

@@ -180,12 +180,10 @@ int ohm_scan_read_meta(ohm_scan *s, const char *path, ohm_error *err)
     if (!rc)
         rc = h->compressed ? ohm_scan_inflate_bytes(src, offset, buf, want, &actual, err)
                            : ohm_scan_read_bytes(src, 0, offset, buf, want, &actual, err);
-    if (!rc && actual != want) {
-        char where[4096 + 1100];
-        snprintf(where, sizeof where, "%s%s", h->compressed ? "the decompressed data of " : "",
-                 local ? "the data after the header" : src);
-        rc = ohm_scan_size_error(path, actual, want, h->dims, h->type, where, err);
-    }
+    if (!rc && actual != want)
+        rc = ohm_scan_size_error(path, actual, want, h->dims, h->type,
+                                 h->compressed ? "the decompressed data" : local ? "the data after the header" : src,
+                                 err);
     if (!rc) rc = ohm_scan_alloc(s, path, h->dims, err);
     if (!rc) {
         ohm_scan_convert(s->values, buf, n, h->type, h->big);
