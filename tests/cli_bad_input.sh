@@ -95,6 +95,18 @@ check "threshold above the scan: the warning names the scan's range" \
   grep -q "walnut_64x48x57_uint16.raw.gz: no cell reaches threshold=1e+09 (the scan's values are 0 .. 16875)" "$T/stderr"
 check "threshold above the scan: no word about meshes" bash -c "! grep -q 'inside the mesh' '$T/stderr'"
 
+# all or nothing (issue 17): a chain that writes and then fails leaves every
+# file it wrote as it was, and creates none
+expect_exit 1 "write, then a failing step" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
+  -write file="$T/keep.vdb" -stats file="$T/fresh.json" -read file="$T/no-such.obj"
+expect_error_line "write, then a failing step" "no-such.obj: cannot open"
+check "write, then a failing step: the .vdb it wrote is the old one" cmp -s "$T/keep.vdb" "$T/keep.ref"
+check "write, then a failing step: no new file" test ! -e "$T/fresh.json"
+# a chain that reads back what it wrote finds it on disk
+expect_exit 0 "write, then read it back" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
+  -material preset=marble -light dir=0,-1,0 -solve -write file="$T/back.vdb" -read file="$T/back.vdb" grid=density
+check "write, then read it back: read" grep -q "read $T/back.vdb: " "$T/stderr"
+
 # no temporary files are left behind by any failure
 check "no temporaries left" test -z "$(find "$T" -name '.*.ohm-*')"
 # and a successful overwrite does replace the file

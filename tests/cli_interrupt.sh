@@ -33,6 +33,26 @@ for sig in KILL INT TERM; do
   rm -f "$T"/.*.ohm-* 2>/dev/null || true
 done
 
+# killed between the final renames of a run's outputs (all staged, renamed
+# only when the whole chain has succeeded): each file is whole, old or new,
+# and SIGTERM leaves no temporary.  Which of the two the kill lands between
+# depends on the machine's speed; the invariant does not.
+OHM_TEST_COMMIT_DELAY_MS=3000 "$OHM" --quiet -read file=samples/spot.obj -voxelize dim=20 \
+  -write file="$T/keep.vdb" -stats file="$T/keep.json" &
+pid=$!
+for _ in $(seq 600); do # until the first rename has happened (at most a minute)
+  cmp -s "$T/keep.vdb" "$T/keep.ref" || break
+  sleep 0.1
+done
+kill -s TERM "$pid"
+set +e; wait "$pid"; set -e
+check "between renames: the .vdb was renamed (new)" bash -c "! cmp -s '$T/keep.vdb' '$T/keep.ref'"
+check "between renames: the new .vdb is whole" $PY -c "
+import pyopenvdb as vdb; assert vdb.readAll('$T/keep.vdb')[0]"
+check "between renames: the stats are old or new, whole" $PY -c "
+import json; s = json.load(open('$T/keep.json')); assert 'cells' in s"
+check "between renames: no temporary left" test -z "$(ls -a "$T" | grep '\.ohm-' || true)"
+
 # memory estimates, before allocating
 expect_exit 1 "grid over max_memory" -- "$OHM" -read file=samples/spot.obj -voxelize dim=400 max_memory=100
 expect_error_line "grid over max_memory" "needs about [0-9.]+ MiB, more than the 100.0 MiB max_memory= allows; use a smaller dim="

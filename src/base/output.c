@@ -9,17 +9,19 @@
 #include <sys/stat.h>
 #include <unistd.h>
 
-/* The temporaries in flight, for the signal handler (see output.h). */
-enum { IN_FLIGHT_MAX = 16 };
-static char in_flight[IN_FLIGHT_MAX][OHM_PATH_MAX];
-static volatile sig_atomic_t in_flight_used[IN_FLIGHT_MAX];
+/* The temporaries in flight, for the signal handler (see output.h): the
+ * names themselves live in each ohm_output or staged batch entry until they
+ * are renamed or removed; the table only points at them.  A chain stages
+ * one file per output (an orbit's frames each), so the table is sized for
+ * long sequences. */
+enum { IN_FLIGHT_MAX = 4096 };
+static const char *volatile in_flight[IN_FLIGHT_MAX];
 
 static void in_flight_add(const char *tmp)
 {
     for (int i = 0; i < IN_FLIGHT_MAX; ++i)
-        if (!in_flight_used[i]) {
-            snprintf(in_flight[i], sizeof in_flight[i], "%s", tmp);
-            in_flight_used[i] = 1;
+        if (!in_flight[i]) {
+            in_flight[i] = tmp;
             return;
         }
 }
@@ -27,13 +29,15 @@ static void in_flight_add(const char *tmp)
 static void in_flight_remove(const char *tmp)
 {
     for (int i = 0; i < IN_FLIGHT_MAX; ++i)
-        if (in_flight_used[i] && strcmp(in_flight[i], tmp) == 0) in_flight_used[i] = 0;
+        if (in_flight[i] == tmp) in_flight[i] = NULL;
 }
 
 static void cleanup_and_die(int sig)
 {
-    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
-        if (in_flight_used[i]) unlink(in_flight[i]); /* async-signal-safe */
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i) {
+        const char *tmp = in_flight[i];
+        if (tmp) unlink(tmp); /* async-signal-safe */
+    }
     signal(sig, SIG_DFL);
     raise(sig);
 }
@@ -49,9 +53,10 @@ void ohm_output_install_signal_cleanup(void)
     sigaction(SIGHUP, &sa, NULL);
 }
 
-int ohm_output_begin(ohm_output *o, const char *path, ohm_error *err)
+int ohm_output_begin(ohm_output *o, const char *path, ohm_output_batch *batch, ohm_error *err)
 {
     memset(o, 0, sizeof *o);
+    o->batch = batch;
     if (!path || !*path) return ohm_fail(err, OHM_ERR_USAGE, "no output file name given");
     size_t len = strlen(path);
     if (len + 16 >= sizeof o->path) return ohm_fail(err, OHM_ERR_IO, "%s: path is too long", path);
@@ -99,6 +104,99 @@ const char *ohm_output_tmp_path(ohm_output *o)
     return o->tmp;
 }
 
+/* Test hook (output.h): OHM_TEST_COMMIT_DELAY_MS before each rename. */
+static void test_delay(void)
+{
+    const char *delay = getenv("OHM_TEST_COMMIT_DELAY_MS");
+    long ms = delay ? strtol(delay, NULL, 10) : 0;
+    struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
+    if (ms > 0) nanosleep(&ts, NULL);
+}
+
+static void staged_free(ohm_staged_output *it)
+{
+    in_flight_remove(it->tmp);
+    free(it->path);
+    free(it->tmp);
+    it->path = it->tmp = NULL;
+}
+
+/* The complete temporary handed to the batch (ohm_output_commit). */
+static int stage(ohm_output *o, ohm_error *err)
+{
+    ohm_output_batch *b = o->batch;
+    for (size_t i = 0; i < b->n; ++i) /* written twice in one run: the later file wins */
+        if (strcmp(b->items[i].path, o->path) == 0) {
+            unlink(b->items[i].tmp);
+            staged_free(&b->items[i]);
+            memmove(b->items + i, b->items + i + 1, (b->n - i - 1) * sizeof *b->items);
+            --b->n;
+            break;
+        }
+    if (b->n == b->cap) {
+        size_t cap = b->cap ? 2 * b->cap : 8;
+        ohm_staged_output *grown = realloc(b->items, cap * sizeof *grown);
+        if (!grown) {
+            ohm_output_abort(o);
+            return ohm_fail(err, OHM_ERR_NOMEM, "cannot write '%s': out of memory", o->path);
+        }
+        b->items = grown;
+        b->cap = cap;
+    }
+    ohm_staged_output *it = &b->items[b->n];
+    it->path = strdup(o->path);
+    it->tmp = strdup(o->tmp);
+    if (!it->path || !it->tmp) {
+        free(it->path);
+        free(it->tmp);
+        ohm_output_abort(o);
+        return ohm_fail(err, OHM_ERR_NOMEM, "cannot write '%s': out of memory", o->path);
+    }
+    in_flight_add(it->tmp); /* the table now points at the batch's copy (added first: never unlisted) */
+    in_flight_remove(o->tmp);
+    ++b->n;
+    o->tmp[0] = '\0';
+    return OHM_OK;
+}
+
+static void batch_clear(ohm_output_batch *b)
+{
+    free(b->items);
+    b->items = NULL;
+    b->n = b->cap = 0;
+}
+
+int ohm_output_batch_commit(ohm_output_batch *b, ohm_error *err)
+{
+    int rc = OHM_OK;
+    for (size_t i = 0; i < b->n; ++i) {
+        ohm_staged_output *it = &b->items[i];
+        if (!rc) test_delay();
+        if (!rc && rename(it->tmp, it->path) != 0)
+            rc = ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", it->path, strerror(errno));
+        if (rc) unlink(it->tmp);
+        staged_free(it);
+    }
+    batch_clear(b);
+    return rc;
+}
+
+void ohm_output_batch_abort(ohm_output_batch *b)
+{
+    for (size_t i = 0; i < b->n; ++i) {
+        unlink(b->items[i].tmp);
+        staged_free(&b->items[i]);
+    }
+    batch_clear(b);
+}
+
+int ohm_output_batch_holds(const ohm_output_batch *b, const char *path)
+{
+    for (size_t i = 0; b && i < b->n; ++i)
+        if (strcmp(b->items[i].path, path) == 0) return 1;
+    return 0;
+}
+
 int ohm_output_commit(ohm_output *o, ohm_error *err)
 {
     if (!o->tmp[0]) return ohm_fail(err, OHM_ERR_INTERNAL, "%s: output was not started", o->path);
@@ -117,12 +215,8 @@ int ohm_output_commit(ohm_output *o, ohm_error *err)
             close(fd);
         }
     }
-    const char *delay = getenv("OHM_TEST_COMMIT_DELAY_MS"); /* test hook, see output.h */
-    if (delay && !failed) {
-        long ms = strtol(delay, NULL, 10);
-        struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
-        if (ms > 0) nanosleep(&ts, NULL);
-    }
+    if (!failed && o->batch) return stage(o, err);
+    test_delay();
     if (!failed && rename(o->tmp, o->path) != 0) failed = 1, e = errno;
     if (failed) unlink(o->tmp);
     in_flight_remove(o->tmp);

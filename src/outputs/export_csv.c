@@ -16,7 +16,8 @@ static void write_header(FILE *f, int channels)
     fputc('\n', f);
 }
 
-int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solution *sol, int frame, ohm_error *err)
+int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solution *sol, int frame,
+                   ohm_output_batch *batch, ohm_error *err)
 {
     size_t n = (size_t)sol->n;
     int channels = sol->channels < 3 ? sol->channels : 3;
@@ -30,7 +31,7 @@ int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solut
         ohm_solution_exitance_frame(exitance[c], sol, c, frame);
     }
     ohm_output out;
-    int rc = ohm_output_begin(&out, path, err);
+    int rc = ohm_output_begin(&out, path, batch, err);
     if (!rc) {
         FILE *f = out.stream;
         write_header(f, channels);

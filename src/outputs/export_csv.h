@@ -8,9 +8,11 @@
 #define OHM_EXPORT_CSV_H
 
 #include "base/ohm_error.h"
+#include "base/output.h"
 #include "grid/voxelize.h"
 #include "solvers/solve.h"
 
-int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solution *sol, int frame, ohm_error *err);
+int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solution *sol, int frame,
+                   ohm_output_batch *batch, ohm_error *err);
 
 #endif

@@ -11,11 +11,11 @@
 static const char *const channel_suffix[3] = {"_r", "_g", "_b"};
 
 static int write_df3(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, const double *vals,
-                     double scale, ohm_error *err)
+                     double scale, ohm_output_batch *batch, ohm_error *err)
 {
     const int32_t nx = g->dims[0] + 2, ny = g->dims[1] + 2, nz = g->dims[2] + 2;
     ohm_output out;
-    int rc = ohm_output_begin(&out, path, err);
+    int rc = ohm_output_begin(&out, path, batch, err);
     if (rc) return rc;
     FILE *f = out.stream;
     unsigned char hdr[6] = {(unsigned char)(nx >> 8), (unsigned char)nx, (unsigned char)(ny >> 8),
@@ -62,7 +62,8 @@ static int normalize3(double v[3])
 static void pov_vec(FILE *f, const double v[3]) { fprintf(f, "<%.9g, %.9g, %.9g>", v[0], v[1], -v[2]); }
 
 static int write_pov(const char *path, const char *const *df3_names, const ohm_voxel_grid *g,
-                     const ohm_solution *sol, const ohm_df3_params *p, double max, double scale, ohm_error *err)
+                     const ohm_solution *sol, const ohm_df3_params *p, double max, double scale,
+                     ohm_output_batch *batch, ohm_error *err)
 {
     const double h = g->h;
     double lo[3], size[3], centre[3], radius = 0, extent = 0;
@@ -98,7 +99,7 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     for (int a = 0; a < 3; ++a) cam[a] = centre[a] + dist * D[a];
 
     ohm_output out;
-    int rc = ohm_output_begin(&out, path, err);
+    int rc = ohm_output_begin(&out, path, batch, err);
     if (rc) return rc;
     FILE *f = out.stream;
     const char *what = p->exitance ? "exitance" : "fluence rate";
@@ -138,7 +139,7 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
 
 /* The .df3 files and the .pov scene of one value per unknown and channel. */
 static int write_scene(const char *base, const ohm_voxel_grid *g, const ohm_solution *sol, const ohm_df3_params *p,
-                       const double *const vals[], ohm_df3_report *rep, ohm_error *err)
+                       const double *const vals[], ohm_df3_report *rep, ohm_output_batch *batch, ohm_error *err)
 {
     double max = 0;
     for (int c = 0; c < sol->channels; ++c) {
@@ -159,16 +160,16 @@ static int write_scene(const char *base, const ohm_voxel_grid *g, const ohm_solu
         snprintf(path, sizeof path, "%s%s.df3", base, suf);
         snprintf(names[c], sizeof names[c], "%s%s.df3", stem, suf);
         namep[c] = names[c];
-        int rc = write_df3(path, g, sol, vals[c], scale, err);
+        int rc = write_df3(path, g, sol, vals[c], scale, batch, err);
         if (rc) return rc;
         if (c == 0) snprintf(rep->first, sizeof rep->first, "%s", path);
     }
     snprintf(rep->pov, sizeof rep->pov, "%s.pov", base);
-    return write_pov(rep->pov, namep, g, sol, p, max, scale, err);
+    return write_pov(rep->pov, namep, g, sol, p, max, scale, batch, err);
 }
 
 int ohm_export_df3(const char *base_in, const ohm_voxel_grid *g, const ohm_solution *sol, const ohm_df3_params *p,
-                   ohm_df3_report *rep, ohm_error *err)
+                   ohm_df3_report *rep, ohm_output_batch *batch, ohm_error *err)
 {
     memset(rep, 0, sizeof *rep);
     char base[OHM_PATH_MAX];
@@ -202,7 +203,7 @@ int ohm_export_df3(const char *base_in, const ohm_voxel_grid *g, const ohm_solut
         ohm_solution_exitance_frame(cell_exitance[c], sol, c, p->frame);
         vals[c] = cell_exitance[c];
     }
-    if (!rc) rc = write_scene(base, g, sol, p, vals, rep, err);
+    if (!rc) rc = write_scene(base, g, sol, p, vals, rep, batch, err);
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) free(cell_exitance[c]);
     return rc;
 }

@@ -36,6 +36,6 @@ typedef struct ohm_df3_report {
 
 /* base: the output name without extension (a trailing .df3 or .pov is dropped). */
 int ohm_export_df3(const char *base, const ohm_voxel_grid *grid, const ohm_solution *sol, const ohm_df3_params *p,
-                   ohm_df3_report *rep, ohm_error *err);
+                   ohm_df3_report *rep, ohm_output_batch *batch, ohm_error *err);
 
 #endif

@@ -146,7 +146,7 @@ static void put_f32(unsigned char *b, float f)
 }
 
 int ohm_export_ply(const char *path, const ohm_mesh *mesh, const ohm_voxel_grid *grid, const ohm_solution *sol,
-                   int frame, double exposure, double *exposure_used, ohm_error *err)
+                   int frame, double exposure, double *exposure_used, ohm_output_batch *batch, ohm_error *err)
 {
     if (mesh->nverts > (size_t)INT32_MAX)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: %zu vertices are too many for PLY int indices", path,
@@ -174,7 +174,7 @@ int ohm_export_ply(const char *path, const ohm_mesh *mesh, const ohm_voxel_grid 
     if (exposure_used) *exposure_used = exposure;
 
     ohm_output out;
-    rc = ohm_output_begin(&out, path, err);
+    rc = ohm_output_begin(&out, path, batch, err);
     if (rc) {
         free(ex);
         return rc;

@@ -12,6 +12,7 @@
 
 #include "input/mesh.h"
 #include "base/ohm_error.h"
+#include "base/output.h"
 #include "solvers/solve.h"
 #include "grid/voxelize.h"
 
@@ -23,6 +24,6 @@ int ohm_vertex_exitance(float **out, const ohm_mesh *mesh, const ohm_voxel_grid 
 /* exposure <= 0: automatic (the 99th percentile of the vertex exitance maps to
  * 1.0).  *exposure_used (may be NULL) receives the exposure written. */
 int ohm_export_ply(const char *path, const ohm_mesh *mesh, const ohm_voxel_grid *grid, const ohm_solution *sol,
-                   int frame, double exposure, double *exposure_used, ohm_error *err);
+                   int frame, double exposure, double *exposure_used, ohm_output_batch *batch, ohm_error *err);
 
 #endif

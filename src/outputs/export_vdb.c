@@ -133,7 +133,7 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
 enum { MAX_GRIDS = 2 + 6 * OHM_MAX_CHANNELS };
 
 int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
-                   const ohm_vdb_provenance *prov, ohm_error *err)
+                   const ohm_vdb_provenance *prov, ohm_output_batch *batch, ohm_error *err)
 {
     if (!g || !g->inside) return ohm_fail(err, OHM_ERR_INVALID, "write: nothing to write: run -voxelize first");
     voxel_list surface = {0}, density = {0};
@@ -204,7 +204,7 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
     }
     if (rc) goto done;
 
-    rc = ohm_output_begin(&out, path, err);
+    rc = ohm_output_begin(&out, path, batch, err);
     if (rc) goto done;
     out_open = 1;
     rc = ohm_vdb_write(ohm_output_tmp_path(&out), grids, ngrids, err);

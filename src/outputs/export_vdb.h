@@ -14,6 +14,7 @@
 #define OHM_EXPORT_VDB_H
 
 #include "base/ohm_error.h"
+#include "base/output.h"
 #include "solvers/solve.h"
 #include "grid/voxelize.h"
 
@@ -26,6 +27,6 @@ typedef struct ohm_vdb_provenance {
 
 /* sol may be NULL (no solve yet); frame (0-based) picks the solution's frame. */
 int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
-                   const ohm_vdb_provenance *prov, ohm_error *err);
+                   const ohm_vdb_provenance *prov, ohm_output_batch *batch, ohm_error *err);
 
 #endif

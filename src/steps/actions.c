@@ -1051,7 +1051,7 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         char framepath[OHM_PATH_MAX];
         if (frames == 1) snprintf(framepath, sizeof framepath, "%s", path);
         else snprintf(framepath, sizeof framepath, "%.*s_%04d.vdb", (int)stem, path, f + 1);
-        rc = ohm_export_vdb(framepath, &s->grid, sol, f, &prov, err);
+        rc = ohm_export_vdb(framepath, &s->grid, sol, f, &prov, s->outputs, err);
     }
     if (rc) return rc;
     double t = ohm_now() - t0;
@@ -1088,7 +1088,7 @@ static int run_stats(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     const char *path = ohm_opt_str(inv, "file");
     ohm_output out;
-    int rc = ohm_output_begin(&out, path, err);
+    int rc = ohm_output_begin(&out, path, s->outputs, err);
     if (rc) return rc;
     if (ohm_stats_write_json(&s->stats, out.stream) != 0) {
         ohm_output_abort(&out);

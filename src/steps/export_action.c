@@ -60,7 +60,8 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         if (!s->have_mesh)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -export ply=: no mesh to export", inv->where);
         double exposure = ohm_opt_given(inv, "exposure") ? ohm_opt_real(inv, "exposure") : 0, used = 0;
-        rc = ohm_export_ply(path, &s->mesh, &s->grid, ohm_state_solution(s), frame, exposure, &used, err);
+        rc = ohm_export_ply(path, &s->mesh, &s->grid, ohm_state_solution(s), frame, exposure, &used, s->outputs,
+                            err);
         if (rc) return rc;
         ohm_log_info(&s->log, "wrote %s (%zu vertices with exitance, frame %d, exposure %.6g%s)", path,
                      s->mesh.nverts, frame + 1, used, ohm_opt_given(inv, "exposure") ? "" : ", auto");
@@ -73,7 +74,7 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         p.exitance = strcmp(ohm_opt_str(inv, "quantity"), "exitance") == 0;
         toward_light(s, frame, p.toward_light);
         ohm_df3_report rep;
-        rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, ohm_state_solution(s), &p, &rep, err);
+        rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, ohm_state_solution(s), &p, &rep, s->outputs, err);
         if (rc) return rc;
         ohm_log_info(&s->log, "wrote %s and %d density file(s) from %s (%s, frame %d, scale %.6g per W/mm^2)",
                      rep.pov, ohm_state_solution(s)->channels, rep.first, p.exitance ? "exitance" : "fluence", frame + 1,
@@ -82,7 +83,7 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     if (want_csv) {
         const char *path = ohm_opt_str(inv, "csv");
-        rc = ohm_export_csv(path, &s->grid, ohm_state_solution(s), frame, err);
+        rc = ohm_export_csv(path, &s->grid, ohm_state_solution(s), frame, s->outputs, err);
         if (rc) return rc;
         ohm_log_info(&s->log, "wrote %s (%lld cells, frame %d)", path, (long long)ohm_state_solution(s)->n, frame + 1);
     }

@@ -459,14 +459,47 @@ int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
 
 /* ---- running ------------------------------------------------------------------- */
 
-int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
+/* Whether a step reads a file the run has staged but not yet renamed into
+ * place (a -read of what an earlier -write wrote): any option value of a step
+ * that does not itself write, equal to a staged path. */
+static int reads_staged(const ohm_invocation *inv, const ohm_output_batch *b)
+{
+    static const char *const writers[] = {"write", "stats", "export", "render"};
+    for (size_t w = 0; w < sizeof writers / sizeof *writers; ++w)
+        if (strcmp(inv->action->name, writers[w]) == 0) return 0;
+    for (int k = 0; k < OHM_MAX_OPTS; ++k)
+        if (inv->values[k] && ohm_output_batch_holds(b, inv->values[k])) return 1;
+    return 0;
+}
+
+static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
 {
     for (size_t i = 0; i < c->n; ++i) {
         const ohm_invocation *inv = &c->items[i];
+        if (reads_staged(inv, s->outputs)) { /* it must find the file on disk: the run's outputs so far go first */
+            ohm_log_info(&s->log, "%s: reads a file this run wrote: its outputs so far are put in place first",
+                         inv->where);
+            int rc = ohm_output_batch_commit(s->outputs, err);
+            if (rc) return rc;
+        }
         int rc = inv->action->run(s, inv, err);
         if (rc) return rc;
     }
     return OHM_OK;
+}
+
+int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
+{
+    if (s->outputs) return run_steps(c, s, err); /* inside a run: part of it */
+    ohm_output_batch batch = {0};
+    s->outputs = &batch;
+    int rc = run_steps(c, s, err);
+    s->outputs = NULL;
+    if (rc) {
+        ohm_output_batch_abort(&batch);
+        return rc;
+    }
+    return ohm_output_batch_commit(&batch, err);
 }
 
 /* ---- help ---------------------------------------------------------------------- */

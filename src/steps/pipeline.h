@@ -92,7 +92,11 @@ int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
 int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
 
 /* Run every invocation in order; stops at the first failure, whose message
- * names the action and where it came from. */
+ * names the action and where it came from.  All or nothing for its outputs:
+ * every file the run writes is staged complete beside its target and
+ * renamed into place only when the whole chain has succeeded, so a failed
+ * run leaves every earlier file as it was (base/output.h).  A step that
+ * reads a file the run has written first puts the outputs so far in place. */
 int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err);
 
 /* Help, generated from the table. */

@@ -470,7 +470,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     free(scat), free(lamb), free(hits);
 
     ohm_output out;
-    rc = ohm_output_begin(&out, path, err);
+    rc = ohm_output_begin(&out, path, s->outputs, err);
     if (!rc) {
         rc = ohm_image_write_to(path, ohm_output_tmp_path(&out), img, W, H, 3, err);
         if (rc) ohm_output_abort(&out);

@@ -50,6 +50,10 @@ typedef struct ohm_state {
     int have_solution;              /* the solver's solution is for these lights */
     char solve_options[160];        /* boundary=... fluence=...: for metadata  */
     char solution_desc[320];        /* those, the lights and the solver        */
+
+    /* The running chain's outputs, staged until it has succeeded
+     * (ohm_chain_run); NULL outside a run: writes then rename at once. */
+    ohm_output_batch *outputs;
 } ohm_state;
 
 void ohm_state_init(ohm_state *s);

@@ -728,7 +728,7 @@ static int run(const acc_options *o, const ohm_log *log, ohm_error *err)
         write_markdown(stdout, rows, n, o);
         if (o->csv) {
             ohm_output out;
-            rc = ohm_output_begin(&out, o->csv, err);
+            rc = ohm_output_begin(&out, o->csv, NULL, err);
             if (!rc) {
                 write_csv(out.stream, rows, n);
                 rc = ohm_output_commit(&out, err);

@@ -842,7 +842,7 @@ static int write_file(const char *path, writer_fn fn, const bench_row *rows, siz
                       const bench_options *o, const ohm_material *mat, ohm_error *err)
 {
     ohm_output out;
-    int rc = ohm_output_begin(&out, path, err);
+    int rc = ohm_output_begin(&out, path, NULL, err);
     if (rc) return rc;
     fn(out.stream, rows, nrows, m, o, mat);
     rc = ohm_output_commit(&out, err);

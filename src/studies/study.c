@@ -68,7 +68,7 @@ static int validate_main(int argc, char **argv, int verbosity)
             return 2;
         }
         ohm_output out;
-        int frc = ohm_output_begin(&out, argv[2], &err);
+        int frc = ohm_output_begin(&out, argv[2], NULL, &err);
         if (!frc) frc = ohm_paper_figure1(out.stream, &v, &log, &err);
         if (!frc) frc = ohm_output_commit(&out, &err);
         else ohm_output_abort(&out);
