@@ -8,6 +8,8 @@
 #include <string.h>
 #include <strings.h>
 
+#include "base/vec3.h"
+
 static const char *const channel_suffix[3] = {"_r", "_g", "_b"};
 
 static int write_df3(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, const double *vals,
@@ -50,14 +52,6 @@ static int write_df3(const char *path, const ohm_voxel_grid *g, const ohm_soluti
 
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
 
-static int normalize3(double v[3])
-{
-    double l = sqrt(dot3(v, v));
-    if (!(l > 1e-12)) return -1;
-    for (int a = 0; a < 3; ++a) v[a] /= l;
-    return 0;
-}
-
 /* POV-Ray vector from an ohm one: mirror z (right- to left-handed). */
 static void pov_vec(FILE *f, const double v[3]) { fprintf(f, "<%.9g, %.9g, %.9g>", v[0], v[1], -v[2]); }
 
@@ -78,7 +72,7 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     /* camera: halfway between the light's side and a side view, image up
      * towards the light */
     double L[3] = {p->toward_light[0], p->toward_light[1], p->toward_light[2]};
-    if (normalize3(L)) L[0] = 0, L[1] = 1, L[2] = 0;
+    if (!ohm_vec3_normalize(L)) L[0] = 0, L[1] = 1, L[2] = 0;
     static const int pref[3] = {2, 0, 1};
     int best = pref[0];
     for (int t = 1; t < 3; ++t)
@@ -87,13 +81,13 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     P[best] = 1;
     double lp = dot3(L, P);
     for (int a = 0; a < 3; ++a) P[a] -= lp * L[a];
-    normalize3(P);
+    ohm_vec3_normalize(P);
     double D[3], S[3], cam[3];
     for (int a = 0; a < 3; ++a) D[a] = L[a] + P[a];
-    normalize3(D);
+    ohm_vec3_normalize(D);
     double ld = dot3(L, D);
     for (int a = 0; a < 3; ++a) S[a] = L[a] - ld * D[a];
-    normalize3(S);
+    ohm_vec3_normalize(S);
     const double half_angle = 20.0 * 3.14159265358979323846 / 180.0;
     double dist = 1.05 * radius / sin(half_angle);
     for (int a = 0; a < 3; ++a) cam[a] = centre[a] + dist * D[a];

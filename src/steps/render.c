@@ -8,6 +8,7 @@
 
 #include <embree3/rtcore.h>
 
+#include "base/vec3.h"
 #include "ohm_oiio.h"
 
 #ifndef M_PI
@@ -43,14 +44,6 @@ typedef struct render_ctx {
 } render_ctx;
 
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
-
-static int normalize3(double v[3])
-{
-    double len = sqrt(dot3(v, v));
-    if (!(len > 0) || !isfinite(len)) return 0;
-    for (int a = 0; a < 3; ++a) v[a] /= len;
-    return 1;
-}
 
 static void cross3(const double a[3], const double b[3], double out[3])
 {
@@ -236,7 +229,7 @@ static void lambert_albedo(const render_ctx *r, double albedo[3])
         }
         cross3(e1, e2, nn);
         double area = 0.5 * sqrt(dot3(nn, nn));
-        if (!normalize3(nn)) continue;
+        if (!ohm_vec3_normalize(nn)) continue;
         for (int k = 0; k < 3; ++k) nn[k] *= orient;
         double E[3];
         irradiance_at(r, p, nn, E);
@@ -258,7 +251,7 @@ static double *vertex_normals(const ohm_mesh *m)
         for (int k = 0; k < 3; ++k)
             for (int q = 0; q < 3; ++q) vn[3 * ti[k] + q] += nn[q];
     }
-    for (size_t v = 0; v < m->nverts; ++v) normalize3(vn + 3 * v);
+    for (size_t v = 0; v < m->nverts; ++v) ohm_vec3_normalize(vn + 3 * v);
     return vn;
 }
 
@@ -313,7 +306,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     double f[3] = {0, 0, -1};
     if (ohm_opt_given(inv, "view")) {
         ohm_opt_vec3(inv, "view", f);
-        if (!normalize3(f)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -render view=0,0,0 has no direction", inv->where);
+        if (!ohm_vec3_normalize(f)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -render view=0,0,0 has no direction", inv->where);
     } else {
         for (size_t i = 0; i < s->nlights; ++i) {
             const ohm_light *L = &s->lights[i];
@@ -322,8 +315,8 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
             if (L->type == OHM_LIGHT_DIRECTIONAL) memcpy(d, L->dir, sizeof d);
             else
                 for (int a = 0; a < 3; ++a) d[a] = centre[a] - L->pos[a];
-            if (!normalize3(d)) memcpy(d, L->dir, sizeof d);
-            if (normalize3(d)) memcpy(f, d, sizeof f);
+            if (!ohm_vec3_normalize(d)) memcpy(d, L->dir, sizeof d);
+            if (ohm_vec3_normalize(d)) memcpy(f, d, sizeof f);
             break;
         }
     }
@@ -331,7 +324,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (fabs(f[1]) > 0.99) uphint[1] = 0, uphint[2] = f[1] > 0 ? 1 : -1;
     double right[3], up[3];
     cross3(f, uphint, right);
-    normalize3(right);
+    ohm_vec3_normalize(right);
     cross3(right, f, up);
     int pw = compare ? W / 2 : W, ph = H;
     double xr = 0, yr = 0;
@@ -402,7 +395,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                     if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
                     double p[3], n[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
                     for (int a = 0; a < 3; ++a) p[a] = o[a] + (double)rh.ray.tfar * f[a];
-                    if (!normalize3(n)) continue;
+                    if (!ohm_vec3_normalize(n)) continue;
                     if (dot3(n, f) > 0)
                         for (int a = 0; a < 3; ++a) n[a] = -n[a]; /* face the camera */
                     double e[3];
@@ -415,7 +408,7 @@ int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                         for (int a = 0; a < 3; ++a)
                             ns[a] = (1 - bu - bv) * r.vnormal[3 * ti[0] + a] + bu * r.vnormal[3 * ti[1] + a] +
                                     bv * r.vnormal[3 * ti[2] + a];
-                        if (!normalize3(ns)) memcpy(ns, n, sizeof ns);
+                        if (!ohm_vec3_normalize(ns)) memcpy(ns, n, sizeof ns);
                         if (dot3(ns, n) < 0)
                             for (int a = 0; a < 3; ++a) ns[a] = -ns[a];
                         double E[3];
