@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Fuzz ohm's readers with libFuzzer (clang from Debian).
-#   scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom [SECONDS=60]
+#   scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|args [SECONDS=60]
 #   scripts/fuzz.sh all [SECONDS=60]        every harness in turn
 # Harnesses live in tests/fuzz/ (docs/fuzzing.md says what each checks).  Seeds
 # come from samples/, pipelines/, tests/data/ and tests/fuzz/seeds/; the corpus
@@ -10,9 +10,9 @@
 # Exit status: 0 clean, 1 if any harness found a crash (or failed to build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|all [seconds]"
+usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|args|all [seconds]"
 name=${1:?$usage}; secs=${2:-60}
-all_names="obj off ply stl pipeline transfer raw nifti vdb nrrd meta inr dicom"
+all_names="obj off ply stl pipeline args transfer raw nifti vdb nrrd meta inr dicom"
 command -v clang >/dev/null && command -v clang++ >/dev/null ||
   { echo "fuzz: needs clang and clang++ (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 
@@ -25,7 +25,7 @@ if [ "$name" = all ]; then
   done
   exit $status
 fi
-case $name in obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom) ;;
+case $name in obj|off|ply|stl|pipeline|args|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom) ;;
   *) echo "fuzz: unknown harness '$name'" >&2; echo "$usage" >&2; exit 2;; esac
 mkdir -p out/fuzz
 
@@ -65,10 +65,10 @@ case $name in
     obj src/input/mesh_io.c; obj src/input/mesh.c; obj src/base/ohm_error.c ;;
   transfer)
     obj tests/fuzz/fuzz_transfer.c; obj src/input/transfer.c; obj src/base/ohm_error.c ;;
-  pipeline)
+  pipeline|args)
     # The option specs live in the action table (actions.c), whose run functions
     # reach every module: link the whole core, as the ohm binary does.
-    obj tests/fuzz/fuzz_pipeline.c
+    if [ "$name" = args ]; then obj tests/fuzz/fuzz_pipeline.c -DARGS; else obj tests/fuzz/fuzz_pipeline.c; fi
     for f in src/*/*.c; do [ "$f" = src/cli/main.c ] || obj "$f"; done
     obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp
     link=clang++
@@ -94,6 +94,15 @@ case $name in
     for f in samples/*."$name".gz; do [ -f "$f" ] && (gzip -dc "$f" | head -c 65536 > "$seeds/$(basename "$f" .gz)") || true; done
     dict=tests/fuzz/dict/mesh.dict ;;
   pipeline) cp_seeds pipelines/*.ohm tests/data/*.ohm tests/data/*/*.ohm tests/fuzz/seeds/pipeline/*; dict=tests/fuzz/dict/pipeline.dict ;;
+  args)
+    # each pipeline's action lines as argv: "-read" "file=..." ..., NUL-separated
+    for p in pipelines/*.ohm; do
+      grep -v '^#\|^ohm-pipeline\|^$' "$p" | tr ' ' '\n' | sed '/^[a-z]*$/s/^/-/' | tr '\n' '\0' \
+        > "$seeds/$(basename "$p" .ohm)" || true
+    done
+    printf -- '-light\0type=directional\0dir=1e308,1e308,1e308\0-material\0sigma_a=1e-320\0sigma_s=0x1p3' \
+      > "$seeds/numbers"
+    dict=tests/fuzz/dict/pipeline.dict ;;
   transfer) cp_seeds samples/*.transfer tests/data/*.transfer tests/data/*/*.transfer tests/fuzz/seeds/transfer/*
             dict=tests/fuzz/dict/transfer.dict ;;
   raw)

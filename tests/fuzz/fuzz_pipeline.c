@@ -1,5 +1,8 @@
-/* fuzz_pipeline.c — libFuzzer harness for pipeline files (ohm_chain_parse_text).
- * Run with scripts/fuzz.sh pipeline SECONDS.  Checks: no crash or UB
+/* fuzz_pipeline.c — libFuzzer harness for pipeline files (ohm_chain_parse_text)
+ * and, built with -DARGS, for the command line (ohm_chain_parse_args: the
+ * input split at NUL bytes into argv, so every option and number arrives as
+ * the shell would pass it).  Run with scripts/fuzz.sh pipeline|args SECONDS.
+ * Checks: no crash or UB
  * (sanitizers); a failure leaves the chain empty with a one-line message whose
  * code is the return value; a success has at least one action, each with a
  * known action, and every option it was given reads back as validated (finite
@@ -10,13 +13,44 @@
 #include <stdlib.h>
 #include <string.h>
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
+#ifdef ARGS
+/* argv from the input: one argument per NUL-terminated run, each in its own
+ * exact-size allocation (over-reads are caught); at most 64. */
+static int parse(ohm_chain *c, const uint8_t *data, size_t size, ohm_error *e)
+{
+    enum { MAX_ARGS = 64 };
+    char *argv[MAX_ARGS];
+    int argc = 0;
+    size_t start = 0;
+    for (size_t i = 0; i <= size && argc < MAX_ARGS; ++i)
+        if (i == size || data[i] == 0) {
+            if (i == size && i == start && argc > 0) break;
+            argv[argc] = malloc(i - start + 1);
+            memcpy(argv[argc], data + start, i - start);
+            argv[argc][i - start] = '\0';
+            ++argc;
+            start = i + 1;
+        }
+    int rc = ohm_chain_parse_args(c, argc, (const char *const *)argv, e);
+    for (int k = 0; k < argc; ++k) free(argv[k]);
+    return rc;
+}
+#else
+static int parse(ohm_chain *c, const uint8_t *data, size_t size, ohm_error *e)
+{
+    char *copy = malloc(size ? size : 1); /* exact size, so over-reads are caught */
+    if (size) memcpy(copy, data, size);
+    int rc = ohm_chain_parse_text(c, size ? copy : NULL, size, "fuzz.ohm", e);
+    free(copy);
+    return rc;
+}
+#endif
+
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     ohm_chain c; ohm_error e;
     memset(&e, 0, sizeof e);
-    char *copy = malloc(size ? size : 1); /* exact size, so over-reads are caught */
-    if (size) memcpy(copy, data, size);
-    int rc = ohm_chain_parse_text(&c, size ? copy : NULL, size, "fuzz.ohm", &e);
+    int rc = parse(&c, data, size, &e);
     if (rc == 0) {
         if (c.n == 0 || !c.items) abort();
         for (size_t i = 0; i < c.n; ++i) {
@@ -62,6 +96,5 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         if (c.items || c.n) abort();
         if (e.code != rc || !memchr(e.msg, 0, sizeof e.msg) || strchr(e.msg, '\n')) abort();
     }
-    free(copy);
     return 0;
 }
