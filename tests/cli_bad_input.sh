@@ -86,6 +86,25 @@ expect_exit 1 "sigma_a 1e300 in a transfer function" -- "$OHM" -read file=sample
 expect_error_line "sigma_a 1e300 in a transfer function" "huge.transfer:2: column 2 \\(sigma_a\\) must be in"
 check "sigma_a 1e300: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
 
+# one policy for lights that reach nothing, whatever their type: a warning
+# naming the -light argument, and no light from them (the same powers as
+# without them; hybrid=0, since a pencil beam in the scene turns the
+# transport hybrid on by default)
+expect_exit 0 "lights that miss" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
+  -light type=pencil pos=1000,1000,1000 dir=0,0,1 -light dir=0,-1,0 -light type=spot pos=0,100,0 dir=0,1,0 angle=10 \
+  -solve hybrid=0 -stats file="$T/missing.json"
+check "lights that miss: the pencil is named" \
+  grep -q "warning: argument 7: -light type=pencil reaches no part of the object" "$T/stderr"
+check "lights that miss: the spot is named" \
+  grep -q "warning: argument 13: -light type=spot reaches no part of the object" "$T/stderr"
+check "lights that miss: the directional one is not" bash -c "! grep -q 'argument 11: -light' '$T/stderr'"
+expect_exit 0 "the light that reaches" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
+  -light dir=0,-1,0 -solve hybrid=0 -stats file="$T/reaching.json"
+check "lights that miss add nothing" $PY -c "
+import json; a, b = (json.load(open('$T/' + n)) for n in ('missing.json', 'reaching.json'))
+assert abs(a['power_in'] - b['power_in']) <= 1e-12 * b['power_in'], (a['power_in'], b['power_in'])
+assert a['lights_reaching_nothing'] == 2 and b['lights_reaching_nothing'] == 0"
+
 # an empty object: the warning and the error say why, naming the scan
 expect_exit 1 "threshold above the scan" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 \
   type=u16 spacing=0.625 -voxelize dim=12 threshold=1e9 -material preset=marble -light dir=0,-1,0 -solve

@@ -203,16 +203,20 @@ static void face_centre(const ohm_network *net, int64_t f, double p[3])
 }
 
 /* Pencil beam: walk the ray through the grid (Amanatides & Woo 1987) to the
- * first interior cell; the face it crosses is where the beam enters. */
-static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], const double dir[3], ohm_error *err)
+ * first interior cell; the face it crosses is where the beam enters (*face;
+ * -1 when the beam misses the object: a light that reaches nothing, like any
+ * other, adds nothing and the -solve step warns about it). */
+static int pencil_entry_face(const ohm_network *net, const double pos[3], const double dir[3], int64_t *face,
+                             ohm_error *err)
 {
+    *face = -1;
     const ohm_voxel_grid *g = net->grid;
     double gp[3], t_enter = 0.0, t_exit = INFINITY;
     for (int a = 0; a < 3; ++a) {
         gp[a] = (pos[a] - g->origin[a]) / g->h + 0.5; /* cell i spans [i, i+1) */
         double lo = 0.0, hi = (double)g->dims[a];
         if (fabs(dir[a]) < 1e-300) {
-            if (gp[a] < lo || gp[a] >= hi) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+            if (gp[a] < lo || gp[a] >= hi) return OHM_OK; /* misses */
             continue;
         }
         double t0 = (lo - gp[a]) / dir[a], t1 = (hi - gp[a]) / dir[a];
@@ -220,7 +224,7 @@ static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], co
         if (t0 > t_enter) t_enter = t0;
         if (t1 < t_exit) t_exit = t1;
     }
-    if (t_enter > t_exit) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object's grid");
+    if (t_enter > t_exit) return OHM_OK; /* misses the grid */
     int32_t c[3], stepv[3];
     double tmax[3], tdelta[3];
     for (int a = 0; a < 3; ++a) {
@@ -245,13 +249,13 @@ static int64_t pencil_entry_face(const ohm_network *net, const double pos[3], co
             if (last_axis < 0)
                 return ohm_fail(err, OHM_ERR_INVALID, "pencil beam starts inside the object: put pos= outside it");
             int d = 2 * last_axis + (stepv[last_axis] > 0 ? 0 : 1);
-            int64_t f = ohm_network_face(net, u, d);
-            if (f >= 0) return f;
+            *face = ohm_network_face(net, u, d);
+            if (*face >= 0) return OHM_OK;
             return ohm_fail(err, OHM_ERR_INVALID, "pencil beam enters through a symmetry plane");
         }
         int a = tmax[0] < tmax[1] ? (tmax[0] < tmax[2] ? 0 : 2) : (tmax[1] < tmax[2] ? 1 : 2);
         c[a] += stepv[a];
-        if (c[a] < 0 || c[a] >= g->dims[a]) return ohm_fail(err, OHM_ERR_INVALID, "pencil beam misses the object");
+        if (c[a] < 0 || c[a] >= g->dims[a]) return OHM_OK; /* passes the object by */
         tmax[a] += tdelta[a];
         last_axis = a;
     }
@@ -542,8 +546,9 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
     ohm_light_entry e;
     memset(&e, 0, sizeof e);
     if (light->type == OHM_LIGHT_PENCIL) {
-        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
-        if (f < 0) return (int)f;
+        int64_t f;
+        int rc = pencil_entry_face(net, light->pos, light->dir, &f, err);
+        if (rc || f < 0) return rc;
         double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, light->dir, ef, &e.mu);
         e.face = f;
         e.at_point = 1;
@@ -598,8 +603,9 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     double I = light->intensity[light->channels == 1 ? 0 : c];
     double eta = med->resistance_mode ? 1.0 : med->eta;
     if (light->type == OHM_LIGHT_PENCIL) {
-        int64_t f = pencil_entry_face(net, light->pos, light->dir, err);
-        if (f < 0) return (int)f;
+        int64_t f;
+        int rc = pencil_entry_face(net, light->pos, light->dir, &f, err);
+        if (rc || f < 0) return rc;
         double mu, T = face_transmittance(net, f, light->dir, face_eta(net, f, eta, med->eta_v), &mu);
         pw->incident += I;
         pw->entered += T * I;

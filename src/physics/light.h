@@ -38,6 +38,7 @@ typedef struct ohm_light {
     int disk;                       /* area: a disk of radius width/2, else a rectangle     */
     double width, height;           /* area: size (mm), centred on pos, facing dir          */
     int samples;                    /* area: sample points (stratified); 0 means 64         */
+    char where[256];                /* how the user gave it ("argument 12"), for messages   */
 } ohm_light;
 
 typedef enum ohm_deposit {

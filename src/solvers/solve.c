@@ -1290,6 +1290,15 @@ const ohm_solution *ohm_solver_solution(const ohm_solver *s)
     return &s->sol;
 }
 
+int ohm_solver_light_reaches(const ohm_solver *s, const ohm_light *light, int *reaches, ohm_error *err)
+{
+    ohm_light_entries in = {0}; /* the lit faces (or the pencil's one), traced as for transport */
+    int rc = ohm_light_entries_add(&in, &s->sol.net, light, 1, 1.0, NULL, s->occ, err);
+    *reaches = in.count > 0;
+    ohm_light_entries_free(&in);
+    return rc;
+}
+
 const ohm_solve_params *ohm_solver_params(const ohm_solver *s)
 {
     return &s->params;

@@ -172,6 +172,12 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 /* The latest solve's solution, owned by the solver. */
 const ohm_solution *ohm_solver_solution(const ohm_solver *s);
 
+/* *reaches = whether light lights any part of the object's surface (in
+ * shadow or off the object it lights none), whatever its intensity.  The
+ * -solve step warns about a light that does not, the same way for every
+ * type of light. */
+int ohm_solver_light_reaches(const ohm_solver *s, const ohm_light *light, int *reaches, ohm_error *err);
+
 /* The parameters it solves with (the solver's copy: its strings and the
  * band's compacted arrays are the solver's own). */
 const ohm_solve_params *ohm_solver_params(const ohm_solver *s);

@@ -500,6 +500,7 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     ohm_light l;
     memset(&l, 0, sizeof l);
+    snprintf(l.where, sizeof l.where, "%s", inv->where);
     const char *type = ohm_opt_str(inv, "type");
     l.type = strcmp(type, "point") == 0    ? OHM_LIGHT_POINT
              : strcmp(type, "pencil") == 0 ? OHM_LIGHT_PENCIL
@@ -785,6 +786,27 @@ static const char *deposit_name(ohm_deposit d)
     return d == OHM_DEPOSIT_POINT ? "point" : d == OHM_DEPOSIT_SURFACE ? "surface" : "exponential";
 }
 
+/* One policy for a light that reaches nothing (off the object, behind it,
+ * or only onto faces in shadow), whatever its type: it adds nothing, and
+ * the log says which -light it is. */
+static int warn_dark_lights(ohm_state *s, ohm_error *err)
+{
+    static const char *const type_names[] = {"directional", "point", "pencil", "spot", "area"}; /* ohm_light_type */
+    long long dark = 0;
+    for (size_t l = 0; l < s->nlights; ++l) {
+        int reaches = 1;
+        int rc = ohm_solver_light_reaches(s->solver, &s->lights[l], &reaches, err);
+        if (rc) return rc;
+        dark += !reaches;
+        if (!reaches)
+            ohm_log_warn(&s->log, "%s: -light type=%s reaches no part of the object (it misses it, or what it "
+                                  "faces is in shadow): it adds no light",
+                         s->lights[l].where[0] ? s->lights[l].where : "a light", type_names[s->lights[l].type]);
+    }
+    ohm_stats_set_int(&s->stats, "lights_reaching_nothing", dark);
+    return OHM_OK;
+}
+
 /* A solve never succeeds with a number that is not one: the powers and the
  * backward error it reports must be finite (where: the step, for the message). */
 static int check_solution_finite(const ohm_solution *sol, const char *where, ohm_error *err)
@@ -960,7 +982,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     s->have_solution = 1;
     report_solve(s, t0, 0);
-    return OHM_OK;
+    return warn_dark_lights(s, err);
 }
 
 int ohm_state_relight(ohm_state *s, ohm_error *err)
