@@ -123,6 +123,18 @@ run_case "NaN voxel size .vdb" vdb "$T/nan-voxel.vdb" 1 "nan-voxel\.vdb: OpenVDB
 # a data error (exit 1), refused by the .vdb checker before OpenVDB reads it
 run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 1 "nogrids\.vdb: the file holds no grids"
 
+# slice folders (issue 17): an empty one, one whose slices differ in size, and
+# one with a slice that is not an image
+mkdir -p "$T/stack-empty" "$T/stack-sizes" "$T/stack-junk"
+$PY -c "
+from PIL import Image
+Image.new('L', (8, 6), 10).save('$T/stack-sizes/s00.png'); Image.new('L', (8, 7), 20).save('$T/stack-sizes/s01.png')
+Image.new('L', (8, 6), 10).save('$T/stack-junk/s00.png')
+open('$T/stack-junk/s01.png', 'wb').write(b'not a png at all')"
+run_case "slice folder: empty" scan "$T/stack-empty" 1 "stack-empty: no DICOM files, DICOMDIR or .tif, .tiff or .png"
+run_case "slice folder: sizes differ" scan "$T/stack-sizes" 1 "s01\.png: slice 1 is 8 x 7 pixels, expected 8 x 6"
+run_case "slice folder: not an image" scan "$T/stack-junk" 1 "s01\.png: cannot read image"
+
 # DICOM series that must be refused (tests/write_dicom.py, pydicom): a missing
 # slice, a duplicated position, a slice turned, a file cut short, two series
 # and none chosen, a DICOMDIR whose record points at a file that is gone; each
