@@ -115,7 +115,7 @@ static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm
     if (rc) return rc;
     if (n == 0) return ohm_fail(err, OHM_ERR_PARSE, "%s: the file holds no grids, expected a float grid named '%s'", path, want);
     ohm_vdb_grid *g = NULL;
-    ohm_vdb_grid_info info;
+    ohm_vdb_grid_info info = {0};
     char names[512] = "";
     size_t used = 0;
     for (size_t i = 0; i < n && !g; ++i) {

@@ -51,7 +51,7 @@ int ohm_scan_voxel_count(const char *path, const int64_t d[3], size_t *n, ohm_er
 
 int ohm_scan_alloc(ohm_scan *s, const char *path, const int64_t d[3], ohm_error *err)
 {
-    size_t n;
+    size_t n = 0;
     int rc = ohm_scan_voxel_count(path, d, &n, err);
     if (rc) return rc;
     s->values = malloc(n * sizeof(float));

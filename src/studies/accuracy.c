@@ -644,7 +644,7 @@ static int run_material(acc_row **rows, size_t *n, size_t *cap, const acc_option
     int rc = ohm_material_preset(&mat, name, err);
     if (rc) return rc;
     size_t first = *n;
-    acc_row *r;
+    acc_row *r = NULL;
     for (int i = 0; i < o->ndims; ++i)
         for (int s = 0; s < 2; ++s) {
             if ((s == 0 && !o->direct) || (s == 1 && !o->cg)) continue;
@@ -706,7 +706,7 @@ static int run(const acc_options *o, const ohm_log *log, ohm_error *err)
     for (int m = 0; m < o->nmaterials && !rc; ++m)
         rc = run_material(&rows, &n, &cap, o, &mesh, &Lat, o->materials[m], log, err);
     for (int i = 0; i < o->nslab && !rc; ++i) {
-        acc_row *r;
+        acc_row *r = NULL;
         if ((rc = push(&rows, &n, &cap, &r, err))) break;
         static const ohm_log quiet = {.verbosity = 0};
         ohm_halfspace_result hs;

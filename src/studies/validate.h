@@ -14,7 +14,7 @@
 #include "base/ohm_error.h"
 
 typedef struct ohm_check_row {
-    char name[80];       /* the scene and quantity                         */
+    char name[128];      /* the scene and quantity                         */
     char reference[64];  /* what it is compared with                       */
     double measured, expected;
     double error;        /* relative error (or the quantity, see kind)     */
