@@ -15,9 +15,10 @@
  * InstanceNumber — and refused, with a message naming the files, when two
  * share a position, when the spacing between them is not uniform (a missing
  * slice), or when their orientations, sizes or pixel spacings differ.
- * ohm_dicom_read_voxels then decodes each slice (any transfer syntax GDCM
- * reads) and rescales it by its own RescaleSlope/RescaleIntercept (CT: to
- * Hounsfield units).
+ * ohm_dicom_read_voxels then decodes each slice (uncompressed pixel data
+ * by the shim itself, masked to BitsStored and signed from it; compressed
+ * transfer syntaxes through GDCM's ImageReader) and rescales it by its own
+ * RescaleSlope/RescaleIntercept (CT: to Hounsfield units).
  *
  * Int status codes (0 ok, negative ohm error code); the message in the
  * caller's ohm_error names the folder or file.  Every exported body runs in
