@@ -623,7 +623,8 @@ static scan_format format_of(const char *path, const struct stat *st)
 int ohm_scan_is_volume_path(const char *path)
 {
     struct stat st;
-    return path && stat(path, &st) == 0 && format_of(path, &st) != SCAN_UNKNOWN;
+    if (!path || stat(path, &st) != 0) return 0;
+    return S_ISDIR(st.st_mode) || format_of(path, &st) != SCAN_UNKNOWN; /* a folder is a volume either way */
 }
 
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err)
