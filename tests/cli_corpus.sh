@@ -25,7 +25,9 @@ run_case() {
     vdb|scan) cmd=(-read "file=$f") ;;
     *) bad "$name: unknown kind '$how' in the manifest"; return ;;
   esac
-  set +e; timeout "$(SAFETY 60)" "$OHM" "${cmd[@]}" >"$T/out" 2>"$T/err" </dev/null; got=$?; set -e
+  # a bomb's run also has its peak memory measured (BOMB_MB: its ceiling)
+  local measure=(); [ -n "${BOMB_MB:-}" ] && measure=("$PY" tests/peak_rss.py "$T/rss")
+  set +e; "${measure[@]}" timeout "$(SAFETY 60)" "$OHM" "${cmd[@]}" >"$T/out" 2>"$T/err" </dev/null; got=$?; set -e
   LAST_ERR=$(cat "$T/err")
   if [ "$got" = 124 ]; then bad "$name: timed out (hang) running: ohm ${cmd[*]}"; return; fi
   if [ "$got" -gt 128 ]; then bad "$name: killed by signal $((got - 128)) running: ohm ${cmd[*]}"; return; fi
@@ -36,6 +38,10 @@ run_case() {
   if [ "$got" != "$want" ]; then bad "$name: exit $got, expected $want: $(tail -3 "$T/err")"; return; fi
   ok
   expect_error_line "$name" "$pat"
+  if [ -n "${BOMB_MB:-}" ]; then
+    local kb; kb=$(cat "$T/rss")
+    check "$name: peak memory $((kb / 1024)) MB, at most $BOMB_MB" test "$kb" -le $((BOMB_MB * 1024))
+  fi
   [ "$noname" = no-name ] && return
   # the error line names the file by its basename
   local base; base=$(basename -- "$f")
@@ -54,7 +60,10 @@ while IFS=$'\t' read -r file how code pat note; do
     *) bad "$file: manifest expects exit $code" ;; esac
   if [ ! -e "$C/$file" ]; then bad "$file: listed in the manifest but missing"; continue; fi
   nn=; case $note in '[no-name]'*) nn=no-name ;; esac
-  run_case "$file" "$how" "$C/$file" "$code" "$pat" $nn
+  # a bomb is refused before anything is allocated: ohm's own ~150 MB
+  # (its libraries), the sanitizers' shadow memory on top
+  bomb_mb=; case $note in bomb:*) bomb_mb=$((SANITIZED ? 1200 : 400)) ;; esac
+  BOMB_MB=$bomb_mb run_case "$file" "$how" "$C/$file" "$code" "$pat" $nn
 done <"$M"
 check "the corpus has at least 50 files (has $n)" test "$n" -ge 50
 # every committed file is in the manifest
@@ -122,6 +131,23 @@ run_case "zero voxel size .vdb" vdb "$T/zero-voxel.vdb" 1 "zero-voxel\.vdb: Open
 run_case "NaN voxel size .vdb" vdb "$T/nan-voxel.vdb" 1 "nan-voxel\.vdb: OpenVDB: ArithmeticError"
 # a data error (exit 1), refused by the .vdb checker before OpenVDB reads it
 run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 1 "nogrids\.vdb: the file holds no grids"
+
+# bombs that are not gzip streams (issue 17): a .vdb with two voxels
+# 1000 apart (its dense box, 10^9 voxels) and a PNG slice of 8192 x 8192
+# zeros; both refused by the readers' budget before anything is allocated
+mkdir -p "$T/stack-bomb"
+$PY - "$T/far-apart.vdb" "$T/stack-bomb/s00.png" <<'PY'
+import sys, pyopenvdb as vdb
+from PIL import Image
+g = vdb.FloatGrid(); g.name = "density"
+a = g.getAccessor(); a.setValueOn((0, 0, 0), 1.0); a.setValueOn((999, 999, 999), 1.0)
+vdb.write(sys.argv[1], grids=[g])
+Image.new("L", (8192, 8192), 0).save(sys.argv[2])
+PY
+BOMB_MB=$((SANITIZED ? 1200 : 400)) run_case ".vdb bomb: two voxels far apart" vdb "$T/far-apart.vdb" 1 \
+  "far-apart\.vdb: .*decompression bomb"
+BOMB_MB=$((SANITIZED ? 1200 : 400)) run_case "slice-folder bomb: one 8192^2 PNG of zeros" scan "$T/stack-bomb" 1 \
+  "stack-bomb: .*decompression bomb"
 
 # slice folders (issue 17): an empty one, one whose slices differ in size, and
 # one with a slice that is not an image

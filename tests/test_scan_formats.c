@@ -401,6 +401,23 @@ static void test_bad_input(void)
         CHECK_MSG(ohm_scan_read(&s, raw, &p, &e) == OHM_ERR_PARSE && strstr(e.msg, "too long"), "raw.gz bomb: %s",
                   e.msg);
     }
+    {
+        /* an honest bomb (the corpus's: 57.6e6 zeros from 55 KB) is refused
+         * by the budget, and read when max_expansion= lets it through */
+        ohm_scan s;
+        ohm_error e;
+        ohm_error_clear(&e);
+        ohm_scan_params p = {.dims = {480, 400, 300}, .type = "u8"};
+        const char *bomb = "tests/data/corpus/bomb-honest.raw.gz";
+        CHECK_MSG(ohm_scan_read(&s, bomb, &p, &e) == OHM_ERR_PARSE && strstr(e.msg, "decompression bomb") &&
+                      strstr(e.msg, "max_expansion=1039"),
+                  "honest raw.gz bomb: %s", e.msg);
+        p.max_expansion = 1039;
+        int rc = ohm_scan_read(&s, bomb, &p, &e);
+        CHECK_MSG(rc == 0 && s.dims[0] == 480 && s.dims[2] == 300 && s.values[480 * 400 * 300 - 1] == 0,
+                  "the same with max_expansion=1039: %s", rc ? e.msg : "wrong volume");
+        if (!rc) ohm_scan_free(&s);
+    }
     expect_error(write_nrrd("missing.nhdr", 0, "raw", "little", "no_such.raw", NULL, 0, 0), OHM_ERR_PARSE,
                  "couldn't open");
     expect_error(write_inr("complex.inr", "complex", "decm", le, sizeof le, 0, 1), OHM_ERR_PARSE, "TYPE=complex");

@@ -143,7 +143,11 @@ static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm
     }
     int64_t d[3];
     for (int k = 0; k < 3; ++k) d[k] = (int64_t)info.bbox_max[k] - info.bbox_min[k] + 1;
-    rc = ohm_scan_alloc(s, path, d, err);
+    size_t dense = 0;
+    struct stat st;
+    rc = ohm_scan_voxel_count(path, d, &dense, err);
+    if (!rc) rc = ohm_scan_check_budget(path, p, dense, 0, stat(path, &st) == 0 ? (double)st.st_size : 0, err);
+    if (!rc) rc = ohm_scan_alloc(s, path, d, err);
     if (rc) goto done;
     size_t nv = scan_count(s);
     for (size_t i = 0; i < nv; ++i) s->values[i] = info.background;
@@ -167,7 +171,8 @@ done:
 /* The voxel data of a header-only nifti_image: exactly nvox * nbyper bytes
  * from iname_offset of iname (plain or gzip, through znzlib), byte-swapped to
  * the host's order. */
-static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void **out, ohm_error *err)
+static int load_nifti_data(nifti_image *nim, const char *path, const ohm_scan_params *p, size_t nvox, void **out,
+                           ohm_error *err)
 {
     int nbyper = 0, swapsize = 0;
     nifti_datatype_sizes(nim->datatype, &nbyper, &swapsize);
@@ -181,7 +186,9 @@ static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void
     /* Never allocate what the file cannot hold: a plain file must have the
      * bytes; a gzip stream expands at most ~1032:1 (deflate's limit). */
     struct stat st;
+    double stored = 0;
     if (stat(iname, &st) == 0 && S_ISREG(st.st_mode)) {
+        stored = (double)st.st_size;
         double have = (double)st.st_size - (double)nim->iname_offset;
         if (nifti_is_gzfile(iname)) have = 1032.0 * (double)st.st_size;
         if ((double)want > have)
@@ -191,9 +198,10 @@ static int load_nifti_data(nifti_image *nim, const char *path, size_t nvox, void
                             path, nvox, nifti_datatype_string(nim->datatype), want, (int64_t)nim->iname_offset,
                             (long long)st.st_size);
     }
+    int rc = ohm_scan_check_budget(path, p, nvox, (double)want, stored, err);
+    if (rc) return rc;
     znzFile f = znzopen(iname, "rb", nifti_is_gzfile(iname));
     if (znz_isnull(f)) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open image data %s", path, iname);
-    int rc = 0;
     unsigned char *buf = malloc(want ? want : 1);
     if (!buf) rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     else if (znzseek(f, (znz_off_t)nim->iname_offset, SEEK_SET) < 0)
@@ -375,7 +383,7 @@ static int nifti_precheck(const char *path, ohm_error *err)
     return nifti_check_scaling(h, v2, swap, path, ver, err);
 }
 
-static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
+static int read_nifti(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     nifti_set_debug_level(0);
     int prc = nifti_precheck(path, err);
@@ -430,7 +438,7 @@ static int read_nifti(ohm_scan *s, const char *path, ohm_error *err)
         }
     /* Only now read the data, ourselves: nifti_image_load silently turns
      * NaN/Inf floats into 0, and ohm wants to report them. */
-    rc = load_nifti_data(nim, path, nvox, &data, err);
+    rc = load_nifti_data(nim, path, p, nvox, &data, err);
     if (rc) goto done;
     rc = ohm_scan_alloc(s, path, d, err);
     if (rc) goto done;
@@ -487,15 +495,17 @@ static int read_raw(ohm_scan *s, const char *path, int gz, const ohm_scan_params
     int rc = ohm_scan_voxel_count(path, d, &n, err);
     if (rc) return rc;
     size_t want = n * bpv;
+    struct stat st;
+    if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
     if (!gz) {
-        struct stat st;
-        if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
         if (S_ISREG(st.st_mode) && (uint64_t)st.st_size != (uint64_t)want)
             return ohm_fail(err, OHM_ERR_PARSE,
                             "%s: %s: %" PRId64 " x %" PRId64 " x %" PRId64 " %s voxels need %zu bytes, the file has %" PRIu64,
                             path, (uint64_t)st.st_size < want ? "truncated" : "too long", d[0], d[1], d[2], type,
                             want, (uint64_t)st.st_size);
     }
+    rc = ohm_scan_check_budget(path, p, n, (double)want, S_ISREG(st.st_mode) ? (double)st.st_size : 0, err);
+    if (rc) return rc;
     unsigned char *buf = malloc(want);
     if (!buf) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     uint64_t actual = 0;
@@ -525,6 +535,29 @@ static int is_slice_name(const char *n)
 static int cmp_names(const void *a, const void *b)
 {
     return strcmp(*(char *const *)a, *(char *const *)b);
+}
+
+/* The stack's volume, sized from the first slice's header, under the
+ * readers' budget: the slices' files against the volume they declare, and
+ * beside it one decoded slice (up to 3 channels, then grey). */
+static int stack_alloc(ohm_scan *s, const char *path, const ohm_scan_params *p, const char *const *names, size_t n,
+                       ohm_error *err)
+{
+    int w = 0, h = 0, channels = 0;
+    int rc = ohm_image_size(names[0], &w, &h, &channels, err);
+    if (rc) return rc;
+    double stored = 0;
+    for (size_t z = 0; z < n; ++z) {
+        struct stat st;
+        if (stat(names[z], &st) == 0) stored += (double)st.st_size;
+    }
+    const int64_t d[3] = {w, h, (int64_t)n};
+    size_t voxels = 0;
+    rc = ohm_scan_voxel_count(path, d, &voxels, err);
+    const double slice_bytes = (double)w * (double)h * sizeof(float) * (channels >= 3 ? 4 : 2);
+    if (!rc) rc = ohm_scan_check_budget(path, p, voxels, slice_bytes, stored, err);
+    if (!rc) rc = ohm_scan_alloc(s, path, d, err);
+    return rc;
 }
 
 static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
@@ -569,21 +602,19 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
                       "%s: no DICOM files, DICOMDIR or .tif, .tiff or .png images in the folder, expected a DICOM "
                       "series or an image stack", path);
     if (!rc) qsort(names, n, sizeof *names, cmp_names);
-    int w0 = 0, h0 = 0;
+    if (!rc) rc = stack_alloc(s, path, p, (const char *const *)names, n, err);
+    const int w0 = s->dims[0], h0 = s->dims[1];
     for (size_t z = 0; z < n && !rc; ++z) {
         float *px = NULL;
-        int w = 0, h = 0;
-        rc = ohm_image_read_gray(names[z], &px, &w, &h, err);
-        if (rc) break;
-        if (z == 0) {
-            int64_t d[3] = {w, h, (int64_t)n};
-            w0 = w;
-            h0 = h;
-            rc = ohm_scan_alloc(s, path, d, err);
-        } else if (w != w0 || h != h0) {
+        int w = 0, h = 0, channels = 0;
+        /* each slice's size from its header before its pixels are decoded */
+        rc = ohm_image_size(names[z], &w, &h, &channels, err);
+        if (!rc && (w != w0 || h != h0))
             rc = ohm_fail(err, OHM_ERR_PARSE, "%s: slice %zu is %d x %d pixels, expected %d x %d like the first (%s)",
                           names[z], z, w, h, w0, h0, names[0]);
-        }
+        if (!rc) rc = ohm_image_read_gray(names[z], &px, &w, &h, err);
+        if (!rc && (w != w0 || h != h0))
+            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: the file changed while it was read", names[z]);
         if (!rc) memcpy(s->values + z * (size_t)w0 * (size_t)h0, px, (size_t)w0 * (size_t)h0 * sizeof(float));
         free(px);
     }
@@ -640,14 +671,14 @@ int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm
     switch (format) {
     case SCAN_STACK: rc = read_stack(out, path, p, err); break;
     case SCAN_VDB: rc = read_vdb(out, path, p, err); break;
-    case SCAN_NIFTI: rc = read_nifti(out, path, err); break;
+    case SCAN_NIFTI: rc = read_nifti(out, path, p, err); break;
     case SCAN_RAW: rc = read_raw(out, path, 0, p, err); break;
     case SCAN_RAW_GZ: rc = read_raw(out, path, 1, p, err); break;
-    case SCAN_NRRD: rc = ohm_scan_read_nrrd(out, path, err); break;
-    case SCAN_META: rc = ohm_scan_read_meta(out, path, err); break;
-    case SCAN_INR: rc = ohm_scan_read_inr(out, path, 0, err); break;
-    case SCAN_INR_GZ: rc = ohm_scan_read_inr(out, path, 1, err); break;
-    case SCAN_DICOM: rc = ohm_scan_read_dicom(out, path, p ? p->series : NULL, err); break;
+    case SCAN_NRRD: rc = ohm_scan_read_nrrd(out, path, p, err); break;
+    case SCAN_META: rc = ohm_scan_read_meta(out, path, p, err); break;
+    case SCAN_INR: rc = ohm_scan_read_inr(out, path, 0, p, err); break;
+    case SCAN_INR_GZ: rc = ohm_scan_read_inr(out, path, 1, p, err); break;
+    case SCAN_DICOM: rc = ohm_scan_read_dicom(out, path, p, err); break;
     default:
         return ohm_fail(err, OHM_ERR_USAGE,
                         "%s: unknown scan format, expected .vdb, .nii, .nii.gz, .nrrd, .nhdr, .mha, .mhd, .inr, "

@@ -45,7 +45,18 @@ typedef struct ohm_scan_params {
     const char *endian;           /* raw: little | big (NULL: little)                   */
     double spacing[3];            /* raw, stacks: voxel size mm (0: 1 mm)               */
     const char *series;           /* DICOM: SeriesInstanceUID (NULL: the only one)      */
+    double max_expansion;         /* voxels per byte of file a large scan may have
+                                     (0: OHM_SCAN_MAX_EXPANSION; see scan_io.h)         */
 } ohm_scan_params;
+
+/* A scan needing more than OHM_SCAN_BOMB_FLOOR bytes to read may hold at
+ * most this many voxels per byte of its files.  Scans compress 1.2-2:1
+ * (the walnut's raw.gz, Colin27's nii.gz, the skull's inr.gz); a label
+ * mask of a 512^3 grid, 165:1; deflate's ceiling, and so a gzip bomb's,
+ * is 1032:1. */
+#define OHM_SCAN_MAX_EXPANSION 200
+#define OHM_SCAN_MAX_EXPANSION_TEXT "200" /* the same, for option defaults */
+#define OHM_SCAN_BOMB_FLOOR (256.0 * 1048576.0)
 
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err);
 

@@ -11,15 +11,19 @@
 #include "ohm_gdcm.h"
 #include "input/scan_io.h"
 
-int ohm_scan_read_dicom(ohm_scan *s, const char *path, const char *series, ohm_error *err)
+int ohm_scan_read_dicom(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     ohm_dicom_series *ds = NULL;
-    int rc = ohm_dicom_open(&ds, path, series, err);
+    int rc = ohm_dicom_open(&ds, path, p ? p->series : NULL, err);
     if (rc) return rc;
     int64_t d[3];
-    double m[3][4];
+    double m[3][4], stored = 0, slice = 0;
+    size_t n = 0;
     ohm_dicom_geometry(ds, d, m);
-    rc = ohm_scan_alloc(s, path, d, err);
+    ohm_dicom_sizes(ds, &stored, &slice);
+    rc = ohm_scan_voxel_count(path, d, &n, err);
+    if (!rc) rc = ohm_scan_check_budget(path, p, n, slice, stored, err);
+    if (!rc) rc = ohm_scan_alloc(s, path, d, err);
     int64_t rescaled = 0;
     if (!rc) rc = ohm_dicom_read_voxels(ds, s->values, &rescaled, err);
     if (!rc) {

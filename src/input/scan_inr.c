@@ -11,6 +11,7 @@
 #include "input/scan_io.h"
 
 #include <inttypes.h>
+#include <sys/stat.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -125,7 +126,7 @@ static int inr_big_endian(int *big, const inr_header *h, const char *path, ohm_e
                                         "(big-endian)", path, h->cpu[0] ? h->cpu : "(none)");
 }
 
-int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, ohm_error *err)
+int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, const ohm_scan_params *p, ohm_error *err)
 {
     char *head = malloc(INR_HEADER_MAX + 1);
     if (!head) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory", path);
@@ -142,6 +143,9 @@ int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, ohm_error *err)
     if (!rc) rc = ohm_scan_voxel_count(path, h.dims, &n, err);
     if (rc) return rc;
     size_t want = n * ohm_sample_size(t);
+    struct stat st;
+    rc = ohm_scan_check_budget(path, p, n, (double)want, stat(path, &st) == 0 ? (double)st.st_size : 0, err);
+    if (rc) return rc;
     unsigned char *buf = malloc(want ? want : 1);
     if (!buf) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     uint64_t actual = 0;

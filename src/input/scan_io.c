@@ -1,6 +1,8 @@
 /* scan_io.c — what the scan readers share (scan_io.h). */
 #include "input/scan_io.h"
 
+#include "base/memory.h"
+
 #include <ctype.h>
 #include <errno.h>
 #include <inttypes.h>
@@ -46,6 +48,26 @@ int ohm_scan_voxel_count(const char *path, const int64_t d[3], size_t *n, ohm_er
         total *= (uint64_t)d[k];
     }
     *n = (size_t)total;
+    return 0;
+}
+
+int ohm_scan_check_budget(const char *path, const ohm_scan_params *p, size_t voxels, double buffer_bytes,
+                          double stored_bytes, ohm_error *err)
+{
+    const double need = (double)voxels * sizeof(float) + buffer_bytes, limit = ohm_memory_limit(0);
+    char nb[32], lb[32];
+    if (need > limit)
+        return ohm_fail(err, OHM_ERR_NOMEM, "%s: reading its %zu voxels needs %s, more than the %s available", path,
+                        voxels, ohm_format_bytes(need, nb, 32), ohm_format_bytes(limit, lb, 32));
+    const double max = p && p->max_expansion > 0 ? p->max_expansion : OHM_SCAN_MAX_EXPANSION;
+    const double per_byte = stored_bytes > 0 ? (double)voxels / stored_bytes : 0;
+    if (need > OHM_SCAN_BOMB_FLOOR && per_byte > max)
+        return ohm_fail(err, OHM_ERR_PARSE,
+                        "%s: %zu voxels from %s of file, %.0f per byte (more than max_expansion=%g): refused as a "
+                        "likely decompression bomb; reading it would take %s (a real scan this compressible: "
+                        "-read max_expansion=%.0f)",
+                        path, voxels, ohm_format_bytes(stored_bytes, lb, 32), per_byte, max,
+                        ohm_format_bytes(need, nb, 32), ceil(per_byte * 1.01));
     return 0;
 }
 

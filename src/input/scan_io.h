@@ -36,6 +36,16 @@ int ohm_scan_ends_with(const char *name, const char *suffix);
  * OHM_SCAN_MAX_VOXELS; else OHM_ERR_PARSE naming path. */
 int ohm_scan_voxel_count(const char *path, const int64_t d[3], size_t *n, ohm_error *err);
 
+/* Before anything large is allocated: whether a read of `voxels` voxels
+ * (their floats plus `buffer_bytes` of the reader's own decoding buffer)
+ * from `stored_bytes` of files (0: not known) may go ahead.  Refused,
+ * naming path: more than the memory available (ohm_memory_limit); or more
+ * than OHM_SCAN_BOMB_FLOOR bytes at more than p->max_expansion voxels per
+ * stored byte, a decompression bomb's mark (the message gives the
+ * max_expansion= that would let a real scan through).  p may be NULL. */
+int ohm_scan_check_budget(const char *path, const ohm_scan_params *p, size_t voxels, double buffer_bytes,
+                          double stored_bytes, ohm_error *err);
+
 /* s->values for d[0] x d[1] x d[2] voxels, s->dims set. */
 int ohm_scan_alloc(ohm_scan *s, const char *path, const int64_t d[3], ohm_error *err);
 
@@ -83,9 +93,9 @@ void ohm_scan_set_geometry(ohm_scan *s, const double spacing[3], const double di
 void ohm_scan_lps_to_ras(ohm_scan *s);
 
 /* Readers behind ohm_scan_read (scan.h), one file each. */
-int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, ohm_error *err);
-int ohm_scan_read_meta(ohm_scan *s, const char *path, ohm_error *err);
-int ohm_scan_read_nrrd(ohm_scan *s, const char *path, ohm_error *err);
-int ohm_scan_read_dicom(ohm_scan *s, const char *path, const char *series, ohm_error *err);
+int ohm_scan_read_inr(ohm_scan *s, const char *path, int gz, const ohm_scan_params *p, ohm_error *err);
+int ohm_scan_read_meta(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err);
+int ohm_scan_read_nrrd(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err);
+int ohm_scan_read_dicom(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err);
 
 #endif

@@ -154,7 +154,7 @@ static int data_path(char *out, size_t max, const char *header, const char *name
     return 0;
 }
 
-int ohm_scan_read_meta(ohm_scan *s, const char *path, ohm_error *err)
+int ohm_scan_read_meta(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     char *head = malloc(META_HEADER_MAX + 1);
     meta_header *h = malloc(sizeof *h);
@@ -174,6 +174,7 @@ int ohm_scan_read_meta(ohm_scan *s, const char *path, ohm_error *err)
         rc = ohm_fail(err, OHM_ERR_IO, "%s: cannot open its data file %s: %s", path, src, strerror(errno));
     if (!rc && !local && h->header_size == -1 && !h->compressed) /* the data ends the file */
         offset = (uint64_t)st.st_size > want ? (uint64_t)st.st_size - want : 0;
+    if (!rc) rc = ohm_scan_check_budget(path, p, n, (double)want, (double)st.st_size - (double)offset, err);
     unsigned char *buf = rc ? NULL : malloc(want ? want : 1);
     if (!rc && !buf) rc = ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory reading %zu bytes", path, want);
     uint64_t actual = 0;

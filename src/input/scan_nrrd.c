@@ -18,7 +18,6 @@
 
 #include <teem/nrrd.h>
 
-#include "base/memory.h"
 
 /* Teem's accumulated error text, made one line, into err. */
 static int teem_failure(const char *path, const char *doing, ohm_error *err)
@@ -136,8 +135,9 @@ static double data_bytes(const NrrdIoState *nio, const char *path)
  * that declares more data than its files can hold is refused first.  Raw
  * data needs its bytes; deflate expands at most 1032:1 (zlib's technical
  * details), so gzip data needs a 1032th of them; text needs a character
- * per value. */
-static int nrrd_data_fits(const NrrdIoState *nio, const char *path, size_t n, size_t want, ohm_error *err)
+ * per value.  Then the budget every reader keeps (memory, expansion). */
+static int nrrd_data_fits(const NrrdIoState *nio, const char *path, const ohm_scan_params *p, size_t n, size_t want,
+                          ohm_error *err)
 {
     const char *enc = nio->encoding ? nio->encoding->name : "raw";
     double have = data_bytes(nio, path), need = (double)want;
@@ -148,16 +148,10 @@ static int nrrd_data_fits(const NrrdIoState *nio, const char *path, size_t n, si
         return ohm_fail(err, OHM_ERR_PARSE,
                         "%s: truncated: its %zu voxels need %zu bytes (%s encoding), its data has at most %.0f", path,
                         n, want, enc, have);
-    double limit = ohm_memory_limit(0);
-    if ((double)want > limit) {
-        char wb[32], lb[32];
-        return ohm_fail(err, OHM_ERR_NOMEM, "%s: its data needs %s, more than the %s available", path,
-                        ohm_format_bytes((double)want, wb, 32), ohm_format_bytes(limit, lb, 32));
-    }
-    return 0;
+    return ohm_scan_check_budget(path, p, n, (double)want, have, err);
 }
 
-int ohm_scan_read_nrrd(ohm_scan *s, const char *path, ohm_error *err)
+int ohm_scan_read_nrrd(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     int magic = nrrd_magic(path, err);
     if (magic) return magic;
@@ -175,7 +169,7 @@ int ohm_scan_read_nrrd(ohm_scan *s, const char *path, ohm_error *err)
     size_t n = 0;
     if (!rc) rc = nrrd_layout(s, dims, &t, nh, path, err);
     if (!rc) rc = ohm_scan_voxel_count(path, dims, &n, err);
-    if (!rc) rc = nrrd_data_fits(nio, path, n, n * ohm_sample_size(t), err);
+    if (!rc) rc = nrrd_data_fits(nio, path, p, n, n * ohm_sample_size(t), err);
     nrrdIoStateNix(nio);
     const int type = nh->type;
     const unsigned naxes = nh->dim;

@@ -84,6 +84,9 @@ static const ohm_opt_spec read_opts[] = {
     {"spacing", OHM_OPT_REAL13, "1", "raw volume: voxel size in mm (one value or x,y,z)", NULL, 1e-9, 1e9, 0},
     {"units", OHM_OPT_ENUM, "mm", "what one unit of the file is", "mm|cm|m|in", 0, 0, 0},
     {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
+    {"max_expansion", OHM_OPT_REAL, OHM_SCAN_MAX_EXPANSION_TEXT,
+     "volume: a scan needing over 256 MiB to read may hold at most this many voxels per byte of its files "
+     "(more is a decompression bomb's mark; scans hold 0.5-2, label masks up to ~200)", NULL, 1, 1e12, 0},
     {0}};
 
 /* A density volume: the material's source (transfer functions) and, alone,
@@ -95,6 +98,7 @@ static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path
     memset(&p, 0, sizeof p);
     p.grid = ohm_opt_str(inv, "grid");
     p.series = ohm_opt_str(inv, "series");
+    p.max_expansion = ohm_opt_real(inv, "max_expansion");
     p.type = ohm_opt_str(inv, "type");
     p.endian = ohm_opt_str(inv, "endian");
     ohm_opt_real13(inv, "spacing", p.spacing);

@@ -539,6 +539,17 @@ extern "C" void ohm_dicom_geometry(const ohm_dicom_series *s, int64_t dims[3], d
 
 extern "C" const char *ohm_dicom_series_uid(const ohm_dicom_series *s) { return s->uid.c_str(); }
 
+extern "C" void ohm_dicom_sizes(const ohm_dicom_series *s, double *stored_bytes, double *slice_bytes)
+{
+    *stored_bytes = *slice_bytes = 0;
+    for (const Slice &slice : s->slices) {
+        struct stat st;
+        if (stat(slice.file.c_str(), &st) == 0) *stored_bytes += (double)st.st_size;
+        const double bytes = (double)s->dims[0] * (double)s->dims[1] * (slice.samples.bits / 8);
+        if (bytes > *slice_bytes) *slice_bytes = bytes;
+    }
+}
+
 extern "C" int ohm_dicom_read_voxels(ohm_dicom_series *s, float *out, int64_t *rescaled, ohm_error *err)
 {
     *rescaled = 0;

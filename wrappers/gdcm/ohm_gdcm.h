@@ -54,6 +54,10 @@ int ohm_dicom_open(ohm_dicom_series **out, const char *path, const char *series_
 void ohm_dicom_geometry(const ohm_dicom_series *s, int64_t dims[3], double index_to_world[3][4]);
 const char *ohm_dicom_series_uid(const ohm_dicom_series *s);
 
+/* The bytes of the series' files, and of one slice's decoded samples (the
+ * reader's buffer beside the volume): for the scan readers' budget. */
+void ohm_dicom_sizes(const ohm_dicom_series *s, double *stored_bytes, double *slice_bytes);
+
 /* Every slice's rescaled values into out (columns fastest, then rows, then
  * slices in order along the normal); *rescaled counts the slices whose
  * slope/intercept is not 1/0. */

@@ -123,19 +123,11 @@ extern "C" int ohm_image_write_to(const char *path, const char *write_path, cons
     OHM_OIIO_CATCH(err, path)
 }
 
-extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+namespace {
+
+// A 2-D image of at most 2^28 pixels and 64 channels.
+int check_slice_spec(const char *path, const OIIO::ImageSpec &spec, ohm_error *err)
 {
-    if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_gray: NULL argument");
-    *pixels = nullptr;
-    *w = *h = 0;
-    OHM_OIIO_TRY
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) {
-        std::string msg = one_line(OIIO::geterror());
-        return ohm_fail(err, OHM_ERR_IO, "%s: cannot read image: %s", path,
-                        msg.empty() ? "unknown error" : msg.c_str());
-    }
-    const OIIO::ImageSpec &spec = in->spec();
     const int64_t pw = spec.width, ph = spec.height, nc = spec.nchannels;
     if (pw <= 0 || ph <= 0 || nc <= 0 || spec.depth > 1)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: image is %" PRId64 " x %" PRId64 " x %d with %" PRId64
@@ -143,6 +135,46 @@ extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int
     if (pw * ph > (int64_t(1) << 28) || nc > 64)
         return ohm_fail(err, OHM_ERR_PARSE, "%s: image %" PRId64 " x %" PRId64 " x %" PRId64
                         " channels is larger than the limit of 2^28 pixels", path, pw, ph, nc);
+    return OHM_OK;
+}
+
+int open_failure(const char *path, ohm_error *err)
+{
+    std::string msg = one_line(OIIO::geterror());
+    return ohm_fail(err, OHM_ERR_IO, "%s: cannot read image: %s", path, msg.empty() ? "unknown error" : msg.c_str());
+}
+
+} // namespace
+
+extern "C" int ohm_image_size(const char *path, int *w, int *h, int *channels, ohm_error *err)
+{
+    if (!path || !w || !h || !channels) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_size: NULL argument");
+    *w = *h = *channels = 0;
+    OHM_OIIO_TRY
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return open_failure(path, err);
+    const OIIO::ImageSpec &spec = in->spec();
+    int rc = check_slice_spec(path, spec, err);
+    if (rc) return rc;
+    *w = spec.width;
+    *h = spec.height;
+    *channels = spec.nchannels;
+    return OHM_OK;
+    OHM_OIIO_CATCH(err, path)
+}
+
+extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+{
+    if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_gray: NULL argument");
+    *pixels = nullptr;
+    *w = *h = 0;
+    OHM_OIIO_TRY
+    auto in = OIIO::ImageInput::open(path);
+    if (!in) return open_failure(path, err);
+    const OIIO::ImageSpec &spec = in->spec();
+    int rc = check_slice_spec(path, spec, err);
+    if (rc) return rc;
+    const int64_t pw = spec.width, ph = spec.height, nc = spec.nchannels;
     double scale = 1.0;
     switch (spec.format.basetype) {
     case OIIO::TypeDesc::UINT8: scale = 255.0; break;
@@ -153,8 +185,9 @@ extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int
     case OIIO::TypeDesc::INT32: scale = 2147483647.0; break;
     default: break;
     }
-    std::vector<float> buf(size_t(pw * ph * nc));
-    if (!in->read_image(0, 0, 0, int(nc), OIIO::TypeDesc::FLOAT, buf.data())) {
+    const int use = nc >= 3 ? 3 : 1; // grey, or R, G and B: never alpha nor extra channels
+    std::vector<float> buf(size_t(pw * ph * use));
+    if (!in->read_image(0, 0, 0, use, OIIO::TypeDesc::FLOAT, buf.data())) {
         std::string msg = one_line(in->geterror());
         return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels: %s", path,
                         msg.empty() ? "unknown error" : msg.c_str());
@@ -162,11 +195,10 @@ extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int
     in->close();
     float *out = static_cast<float *>(std::malloc(size_t(pw * ph) * sizeof(float)));
     if (!out) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory for %" PRId64 " pixels", path, pw * ph);
-    const int use = nc >= 3 ? 3 : 1;
     for (size_t i = 0; i < size_t(pw * ph); ++i) {
         double s = 0;
         for (int c = 0; c < use; ++c) {
-            const double v = double(buf[i * size_t(nc) + size_t(c)]) * scale;
+            const double v = double(buf[i * size_t(use) + size_t(c)]) * scale;
             s += scale != 1.0 ? std::nearbyint(v) : v; // integers come back exact
         }
         out[i] = float(s / use);

@@ -41,6 +41,10 @@ int ohm_image_write_to(const char *path, const char *write_path, const float *rg
  * only the first subimage. */
 int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err);
 
+/* An image's width, height and channels, from its header alone (nothing
+ * decoded): for checking a slice before reading it. */
+int ohm_image_size(const char *path, int *w, int *h, int *channels, ohm_error *err);
+
 #ifdef __cplusplus
 }
 #endif

@@ -7,7 +7,7 @@ does not name this file (a known gap: the test then skips that check); exit 0
 rows are inputs ohm accepts (VALID-RUNS: fine; KNOWN GAP: should be refused).
 Inputs that need the file system (FIFO, directory, non-UTF-8 name, 5 MB
 pipeline, .vdb grids) are made at run time by tests/cli_corpus.sh."""
-import gzip, os, struct
+import gzip, os, struct, zlib
 
 D = os.path.dirname(os.path.abspath(__file__))
 rows = []
@@ -416,6 +416,27 @@ META = "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = %s\nElemen
 add("truncated.mha", (META % ("MET_SHORT", "LOCAL")).encode() + VOXELS[:20], "scan", 1, ANY + ".*truncated", S16)
 add("list.mhd", META % ("MET_SHORT", "LIST") + "slice1.raw\n", "scan", 1, ANY + ".*list of slice files", S16)
 add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan", 1, ANY + ".*MET_LONG_LONG", S16)
+
+# ---- honest bombs (issue 17): each header declares what its stream holds,
+# 57.6e6 zero bytes (reading them would take 288 MB, over the readers'
+# 256 MiB floor) from ~56 KB of deflate, a bomb's 1030 voxels per byte: each
+# is refused by the readers' shared budget before anything is allocated
+# (cli_corpus.sh also holds each run's peak memory to a few hundred MB).
+BOMB = (480, 400, 300)
+BOMB_ZEROS = bytes(BOMB[0] * BOMB[1] * BOMB[2])
+BOMB_NOTE = "bomb: issue 17, an honest header over 57.6 MB of zeros"
+def gz(data):
+    return gzip.compress(data, 9, mtime=0)
+add("bomb-honest.nii.gz", gz(nifti(BOMB, data=BOMB_ZEROS)), "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
+add("bomb-honest.raw.gz", gz(BOMB_ZEROS), "raw:%d,%d,%d:u8" % BOMB, 1, ANY + ".*decompression bomb", BOMB_NOTE)
+add("bomb-honest.inr.gz", gz(inr([("XDIM", BOMB[0]), ("YDIM", BOMB[1]), ("ZDIM", BOMB[2]), ("VDIM", 1),
+                                  ("TYPE", "unsigned fixed"), ("PIXSIZE", "8 bits"), ("CPU", "decm")], BOMB_ZEROS)),
+    "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
+add("bomb-honest.nrrd", ("NRRD0004\ntype: uchar\ndimension: 3\nsizes: %d %d %d\nencoding: gzip\n\n" % BOMB).encode()
+    + gz(BOMB_ZEROS), "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
+add("bomb-honest.mha", ("ObjectType = Image\nNDims = 3\nDimSize = %d %d %d\nElementType = MET_UCHAR\n"
+                        "CompressedData = True\nElementDataFile = LOCAL\n" % BOMB).encode()
+    + zlib.compress(BOMB_ZEROS, 9), "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
 
 # ---- DICOM (issue 16): one bad slice per folder (a folder is read as a series,
 # and one broken file fails the whole folder, so each case needs its own).
