@@ -26,8 +26,32 @@ print("  %s dim %s: error %.4f (target %.2f)" % (rows[0]["material"], rows[0]["d
 PY
   done
 done
+# the natural order (read, voxelize, material, light, solve) picks the same
+# grid: -voxelize error= runs once the material and light after it are set
+for order in before after; do
+  if [ $order = before ]; then
+    scene=(-material preset=skin1 -light type=directional dir=0,-1,0 intensity=1 -voxelize error=$target)
+  else
+    scene=(-voxelize error=$target -material preset=skin1 -light type=directional dir=0,-1,0 intensity=1)
+  fi
+  expect_exit 0 "error= $order the scene" -- "$OHM" -read file=samples/spot.obj size=50 "${scene[@]}" \
+    -solve -stats file="$T/$order.json"
+done
+check "error= picks the same grid and solves the same in either order" $PY - "$T/before.json" "$T/after.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:])
+for k in ("dim_chosen", "cells"):
+    assert a[k] == b[k], (k, a[k], b[k])
+for k in ("error_predicted", "power_absorbed"):  # the same solves (threads may sum in another order)
+    assert abs(a[k] - b[k]) <= 1e-9 * abs(a[k]), (k, a[k], b[k])
+assert a["dim_chosen"] > 0 and a["cells"] > 0 and a["power_absorbed"] > 0
+PY
 expect_exit 2 "error= without a light" -- "$OHM" -read file=samples/spot.obj -material preset=marble -voxelize error=0.1
-expect_error_line "error= without a light" "error= probes the scene: put -material .* and -light before -voxelize"
+expect_error_line "error= without a light" "error= probes the scene: it needs -material .* and -light"
+expect_exit 2 "error= with the light after a -write" -- "$OHM" -read file=samples/spot.obj -material preset=marble \
+  -voxelize error=0.1 -write file="$T/early.vdb" -light type=directional dir=0,-1,0
+expect_error_line "error= with the light after a -write" "error= probes the scene: it needs -material .* and -light"
+check "the refused run wrote nothing" test ! -e "$T/early.vdb"
 expect_exit 2 "error= and dim=" -- "$OHM" -read file=samples/spot.obj -material preset=marble \
   -light type=directional dir=0,-1,0 -voxelize error=0.1 dim=32
 expect_error_line "error= and dim=" "give error= or dim=/voxel=, not both"

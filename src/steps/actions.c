@@ -227,8 +227,8 @@ static const ohm_opt_spec voxelize_opts[] = {
     {"band", OHM_OPT_INT, "3", "half width of the surface level set's narrow band, in voxels", NULL, 1, 64, 0},
     {"error", OHM_OPT_REAL, NULL,
      "pick dim= from an accuracy target: the relative error of the surface exitance (e.g. 0.02); probes the scene "
-     "at dim 16 and 32 and extrapolates (steps run in order and the probes solve the scene: put -material and "
-     "-light before -voxelize)",
+     "at dim 16 and 32 and extrapolates (the probes solve the scene, so this -voxelize runs after the -material "
+     "and -light steps that follow it, wherever they are written)",
      NULL, 1e-4, 0.9, 0},
     {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
      1e12, 0},
@@ -236,6 +236,9 @@ static const ohm_opt_spec voxelize_opts[] = {
      "with a volume and no mesh: the object is where the density is >= this (its iso-surface)", NULL, -1e300, 1e300,
      0},
     {0}};
+
+/* -voxelize error= solves the scene: it waits for the material and lights */
+static int voxelize_waits(const ohm_invocation *inv) { return ohm_opt_given(inv, "error"); }
 
 static double scan_field(void *user, const double world[3]) { return ohm_scan_sample(user, world); }
 
@@ -260,8 +263,8 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         if (!s->have_material || s->nlights == 0 || s->have_transfer ||
             s->material.kind == OHM_MATERIAL_RESISTANCE)
             return ohm_fail(err, OHM_ERR_USAGE,
-                            "%s: -voxelize error= probes the scene: put -material (optical coefficients) and -light "
-                            "before -voxelize",
+                            "%s: -voxelize error= probes the scene: it needs -material (optical coefficients, not "
+                            "transfer= or resistance=) and -light, before it or right after it",
                             inv->where);
         ohm_resolution_pick pick;
         double target = ohm_opt_real(inv, "error");
@@ -1131,26 +1134,26 @@ const ohm_action ohm_actions[] = {
     {"read", "read a mesh (OBJ, PLY, STL, OFF; .gz too) and scale it to millimetres",
      "Reads a triangle mesh; polygons are split into triangles.  Reports open and non-manifold edges.\n"
      "Meshes come in arbitrary units: units= says what one unit is, size= scales the longest axis to a length.",
-     read_opts, run_read},
+     read_opts, run_read, 0, NULL},
     {"voxelize", "find the cells inside the mesh (or above a volume's threshold) on a regular grid",
      "Classifies cell centres with the generalized winding number (robust to holes, open rims, overlapping\n"
      "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
      "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
-     voxelize_opts, run_voxelize},
+     voxelize_opts, run_voxelize, 0, voxelize_waits},
     {"place", "put a density volume where the mesh is (fit its box, scale, offset)",
      "For a mesh whose material comes from a scan: fit=1 stretches the volume's box onto the mesh's, then\n"
      "scale= and offset= adjust it.  A NIfTI volume already carries its world placement (sform/qform).",
-     place_opts, run_place},
+     place_opts, run_place, 0, NULL},
     {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
      "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
-     material_opts, run_material},
+     material_opts, run_material, 1, NULL},
     {"light", "add a light (directional, point, spot, area or a pencil beam)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
      "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
-     light_opts, run_light},
+     light_opts, run_light, 1, NULL},
     {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
@@ -1162,7 +1165,7 @@ const ohm_action ohm_actions[] = {
      "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
      "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
      "validate transport`, docs/transport.md).",
-     solve_opts, run_solve},
+     solve_opts, run_solve, 0, NULL},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files, CSV",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
      "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
@@ -1171,18 +1174,18 @@ const ohm_action ohm_actions[] = {
      "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.  csv=FILE\n"
      "writes one line per solved cell (i,j,k, centre in mm, fluence and exitance per channel) with 17\n"
      "significant digits: doubles read back exactly.",
-     ohm_export_opts, ohm_run_export},
+     ohm_export_opts, ohm_run_export, 0, NULL},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
      "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
      "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
-     write_opts, run_write},
+     write_opts, run_write, 0, NULL},
     {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
      "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
      "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
      "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
      "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
-     ohm_render_opts, ohm_run_render},
+     ohm_render_opts, ohm_run_render, 0, NULL},
     {"stats", "write the run's figures as one JSON object",
-     "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats},
-    {NULL, NULL, NULL, NULL, NULL}};
+     "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats, 0, NULL},
+    {NULL, NULL, NULL, NULL, NULL, 0, NULL}};

@@ -472,20 +472,42 @@ static int reads_staged(const ohm_invocation *inv, const ohm_output_batch *b)
     return 0;
 }
 
-static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
+static int run_step(const ohm_invocation *inv, ohm_state *s, ohm_error *err)
 {
-    for (size_t i = 0; i < c->n; ++i) {
-        const ohm_invocation *inv = &c->items[i];
-        if (reads_staged(inv, s->outputs)) { /* it must find the file on disk: the run's outputs so far go first */
-            ohm_log_info(&s->log, "%s: reads a file this run wrote: its outputs so far are put in place first",
-                         inv->where);
-            int rc = ohm_output_batch_commit(s->outputs, err);
-            if (rc) return rc;
-        }
-        int rc = inv->action->run(s, inv, err);
+    if (reads_staged(inv, s->outputs)) { /* it must find the file on disk: the run's outputs so far go first */
+        ohm_log_info(&s->log, "%s: reads a file this run wrote: its outputs so far are put in place first",
+                     inv->where);
+        int rc = ohm_output_batch_commit(s->outputs, err);
         if (rc) return rc;
     }
-    return OHM_OK;
+    return inv->action->run(s, inv, err);
+}
+
+/* The chain's steps in order, except that a step that waits for the scene
+ * runs once the scene steps right after it have: the natural order "read,
+ * voxelize error=, material, light, solve" works as the user wrote it. */
+static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
+{
+    const ohm_invocation *waiting = NULL;
+    for (size_t i = 0; i < c->n; ++i) {
+        const ohm_invocation *inv = &c->items[i];
+        int rc;
+        if (waiting && !inv->action->sets_scene) {
+            rc = run_step(waiting, s, err);
+            if (rc) return rc;
+            waiting = NULL;
+        }
+        if (!waiting && inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
+            c->items[i + 1].action->sets_scene) {
+            ohm_log_info(&s->log, "%s: -%s runs after the -material and -light steps that follow it", inv->where,
+                         inv->action->name);
+            waiting = inv;
+            continue;
+        }
+        rc = run_step(inv, s, err);
+        if (rc) return rc;
+    }
+    return waiting ? run_step(waiting, s, err) : OHM_OK;
 }
 
 int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)

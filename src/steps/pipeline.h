@@ -58,6 +58,13 @@ struct ohm_action {
     const char *doc;             /* a paragraph for `ohm help NAME`          */
     const ohm_opt_spec *opts;    /* terminated by {0}                        */
     ohm_action_fn run;
+    /* 1: sets up the scene (the material, the lights), which a step that
+     * `waits` needs whichever side of it the user wrote it on */
+    int sets_scene;
+    /* NULL or 1 when this invocation must see the whole scene: it then runs
+     * after the scene-setting steps that directly follow it (-voxelize
+     * error=, whose probes solve the scene) */
+    int (*waits)(const ohm_invocation *inv);
 };
 
 /* The table (actions.c), terminated by an entry with name NULL. */
@@ -91,7 +98,8 @@ int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_er
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
 int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
 
-/* Run every invocation in order; stops at the first failure, whose message
+/* Run every invocation in order (a step that `waits` after the scene steps
+ * that follow it); stops at the first failure, whose message
  * names the action and where it came from.  All or nothing for its outputs:
  * every file the run writes is staged complete beside its target and
  * renamed into place only when the whole chain has succeeded, so a failed
