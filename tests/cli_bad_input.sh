@@ -88,22 +88,30 @@ check "sigma_a 1e300: old stats intact" cmp -s "$T/keep.json" "$T/keep.json.ref"
 
 # one policy for lights that reach nothing, whatever their type: a warning
 # naming the -light argument, and no light from them (the same powers as
-# without them; hybrid=0, since a pencil beam in the scene turns the
-# transport hybrid on by default)
+# without them; a pencil beam that misses does not turn hybrid=auto's
+# transport on either)
 expect_exit 0 "lights that miss" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
   -light type=pencil pos=1000,1000,1000 dir=0,0,1 -light dir=0,-1,0 -light type=spot pos=0,100,0 dir=0,1,0 angle=10 \
-  -solve hybrid=0 -stats file="$T/missing.json"
+  -solve -stats file="$T/missing.json"
 check "lights that miss: the pencil is named" \
   grep -q "warning: argument 7: -light type=pencil reaches no part of the object" "$T/stderr"
 check "lights that miss: the spot is named" \
   grep -q "warning: argument 13: -light type=spot reaches no part of the object" "$T/stderr"
 check "lights that miss: the directional one is not" bash -c "! grep -q 'argument 11: -light' '$T/stderr'"
 expect_exit 0 "the light that reaches" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
-  -light dir=0,-1,0 -solve hybrid=0 -stats file="$T/reaching.json"
+  -light dir=0,-1,0 -solve -stats file="$T/reaching.json"
 check "lights that miss add nothing" $PY -c "
 import json; a, b = (json.load(open('$T/' + n)) for n in ('missing.json', 'reaching.json'))
 assert abs(a['power_in'] - b['power_in']) <= 1e-12 * b['power_in'], (a['power_in'], b['power_in'])
-assert a['lights_reaching_nothing'] == 2 and b['lights_reaching_nothing'] == 0"
+assert abs(a['power_absorbed'] - b['power_absorbed']) <= 1e-9 * b['power_absorbed'], (a, b)
+assert a['lights_reaching_nothing'] == 2 and b['lights_reaching_nothing'] == 0
+assert a['hybrid'] == 0 and 'mc_photons' not in a, a"
+# a pencil that reaches still turns it on
+expect_exit 0 "a pencil that reaches" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
+  -light type=pencil pos=0,1000,0 dir=0,-1,0 -solve photons=2e4 -stats file="$T/pencil.json"
+check "a pencil that reaches: hybrid=auto traces it" $PY -c "
+import json; a = json.load(open('$T/pencil.json'))
+assert a['hybrid'] == 10 and a['mc_photons'] > 0 and a['lights_reaching_nothing'] == 0, a"
 
 # an empty object: the warning and the error say why, naming the scan
 expect_exit 1 "threshold above the scan" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 \

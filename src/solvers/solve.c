@@ -1299,6 +1299,18 @@ int ohm_solver_light_reaches(const ohm_solver *s, const ohm_light *light, int *r
     return rc;
 }
 
+int ohm_solver_settle_auto_hybrid(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+{
+    int reaching = 0;
+    for (size_t l = 0; l < nlights && !reaching; ++l) {
+        if (lights[l].type != OHM_LIGHT_PENCIL) continue;
+        int rc = ohm_solver_light_reaches(s, &lights[l], &reaching, err);
+        if (rc) return rc;
+    }
+    if (!reaching) s->params.mc.handoff = 0;
+    return OHM_OK;
+}
+
 const ohm_solve_params *ohm_solver_params(const ohm_solver *s)
 {
     return &s->params;

@@ -178,6 +178,12 @@ const ohm_solution *ohm_solver_solution(const ohm_solver *s);
  * type of light. */
 int ohm_solver_light_reaches(const ohm_solver *s, const ohm_light *light, int *reaches, ohm_error *err);
 
+/* hybrid=auto, decided once the solver can trace the lights: the hybrid
+ * (mc.handoff) turned off when no pencil beam among them reaches the
+ * object, so a beam that misses costs no photons and labels nothing
+ * "hybrid".  Changes only the solver's copy of the parameters. */
+int ohm_solver_settle_auto_hybrid(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err);
+
 /* The parameters it solves with (the solver's copy: its strings and the
  * band's compacted arrays are the solver's own). */
 const ohm_solve_params *ohm_solver_params(const ohm_solver *s);

@@ -981,6 +981,8 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         if (p.give_media) memset(percell, 0, sizeof percell); /* the solver took them (solve.h) */
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
+    if (!rc && p.mc.handoff > 0 && strcmp(ohm_opt_str(inv, "hybrid"), "auto") == 0)
+        rc = ohm_solver_settle_auto_hybrid(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = check_solution_finite(ohm_solver_solution(s->solver), inv->where, err);
     if (rc) {
