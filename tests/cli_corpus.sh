@@ -16,15 +16,19 @@ M=$C/MANIFEST.tsv
 # check it. "no-name" skips the check that the error line names the file.
 run_case() {
   local name=$1 how=$2 f=$3 want=$4 pat=$5 noname=${6:-} got cmd
+  # every chain first writes a .vdb over an old file, then meets the bad
+  # input: the run is all or nothing, so the old file must stay as it was
+  local first=(-read file=samples/cow.obj -voxelize dim=8 -write "file=$T/kept.vdb")
   case $how in
-    mesh)     cmd=(-read "file=$f" -voxelize dim=8) ;;
+    mesh)     cmd=("${first[@]}" -read "file=$f" -voxelize dim=8) ;;
     pipeline) cmd=(run "$f") ;;
-    transfer) cmd=(-material "transfer=$f") ;;
-    raw:*)    local a=${how#raw:}; cmd=(-read "file=$f" "dims=${a%%:*}" "type=${a#*:}") ;;
-    nifti)    cmd=(-read "file=$f" -voxelize dim=8 threshold=1) ;;
-    vdb|scan) cmd=(-read "file=$f") ;;
+    transfer) cmd=("${first[@]}" -material "transfer=$f") ;;
+    raw:*)    local a=${how#raw:}; cmd=("${first[@]}" -read "file=$f" "dims=${a%%:*}" "type=${a#*:}") ;;
+    nifti)    cmd=("${first[@]}" -read "file=$f" -voxelize dim=8 threshold=1) ;;
+    vdb|scan) cmd=("${first[@]}" -read "file=$f") ;;
     *) bad "$name: unknown kind '$how' in the manifest"; return ;;
   esac
+  echo old >"$T/kept.vdb"
   # a bomb's run also has its peak memory measured (BOMB_MB: its ceiling)
   local measure=(); [ -n "${BOMB_MB:-}" ] && measure=("$PY" tests/peak_rss.py "$T/rss")
   set +e; "${measure[@]}" timeout "$(SAFETY 60)" "$OHM" "${cmd[@]}" >"$T/out" 2>"$T/err" </dev/null; got=$?; set -e
@@ -38,6 +42,7 @@ run_case() {
   if [ "$got" != "$want" ]; then bad "$name: exit $got, expected $want: $(tail -3 "$T/err")"; return; fi
   ok
   expect_error_line "$name" "$pat"
+  check "$name: the .vdb the run wrote before it failed is not in place" test "$(cat "$T/kept.vdb")" = old
   if [ -n "${BOMB_MB:-}" ]; then
     local kb; kb=$(cat "$T/rss")
     check "$name: peak memory $((kb / 1024)) MB, at most $BOMB_MB" test "$kb" -le $((BOMB_MB * 1024))
