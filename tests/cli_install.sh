@@ -30,6 +30,21 @@ check "examples build by find_package(ohm)" bash -c \
 
 # the installed command, from the prefix alone (its RPATH finds the library)
 check "installed ohm runs" bash -c "env -u LD_LIBRARY_PATH '$P/bin/ohm' --version | grep -q '^ohm 0\\.'"
+# images come from the module beside the library, loaded on first use
+check "image module installed beside libohm" test -f "$LIBDIR/libohm_oiio.so"
+check "installed ohm renders a PNG" env -u LD_LIBRARY_PATH "$P/bin/ohm" -q -read file=samples/cow.obj -voxelize dim=16 \
+  -material preset=marble -light dir=0,-1,0 -solve -render file="$T/installed.png"
+check "the PNG is one" bash -c "head -c 8 '$T/installed.png' | od -An -tx1 | grep -q '89 50 4e 47'"
+check "and ohm starts without loading OpenImageIO" bash -c \
+  "! env -u LD_LIBRARY_PATH LD_DEBUG=files '$P/bin/ohm' --version 2>&1 | grep -q 'OpenImageIO'"
+# without the module, images fail with one clear line; everything else works
+cp -a "$P" "$T/broken"
+rm "$(dirname "$(find "$T/broken" -name libohm.so -print -quit)")/libohm_oiio.so"
+expect_exit 1 "render without the image module" -- env -u LD_LIBRARY_PATH "$T/broken/bin/ohm" -q \
+  -read file=samples/cow.obj -voxelize dim=16 -material preset=marble -light dir=0,-1,0 -solve \
+  -render file="$T/none.png" -stats file="$T/none.json"
+expect_error_line "render without the image module" "none\.png: images need ohm's OpenImageIO module libohm_oiio\.so"
+check "and it wrote nothing" test ! -e "$T/none.png" -a ! -e "$T/none.json"
 "$T/voxelize_and_solve" samples/cow.obj 24 "$T/ex.vdb" > "$T/example.txt"
 check "example wrote its .vdb" test -s "$T/ex.vdb"
 "$P/bin/ohm" -q -read file=samples/cow.obj size=50 -voxelize dim=24 -material preset=marble \

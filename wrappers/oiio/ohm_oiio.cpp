@@ -1,11 +1,14 @@
-// ohm_oiio.cpp — the C API of ohm_oiio.h over OpenImageIO 2.4 (C++17).
+// ohm_oiio.cpp — the image functions of ohm_oiio.h over OpenImageIO 2.4
+// (C++17), built as the module libohm_oiio.so that ohm_oiio_load.c opens on
+// first use (ohm_oiio_module.h says why).
 //
-// The only translation unit of ohm that sees OpenImageIO.  Every exported
-// function body runs inside OHM_OIIO_TRY ... OHM_OIIO_CATCH(err, path), so no
-// C++ exception crosses into C; OIIO's own errors (geterror) are reported with
-// the file name.
+// The only translation unit of ohm that sees OpenImageIO.  Every function
+// body the module's table points to runs inside OHM_OIIO_TRY ...
+// OHM_OIIO_CATCH(err, path), so no C++ exception crosses into C; OIIO's own
+// errors (geterror) are reported with the file name.
 
 #include "ohm_oiio.h"
+#include "ohm_oiio_module.h"
 
 #include <OpenImageIO/imageio.h>
 
@@ -63,23 +66,10 @@ std::string one_line(std::string s)
     return s;
 }
 
-} // namespace
-
-extern "C" int ohm_image_format_supported(const char *path)
+int write_to(const char *path, const char *write_path, const float *rgb, int width, int height, int channels,
+             ohm_error *err)
 {
-    return path && format_of(path) != Format::none;
-}
-
-extern "C" int ohm_image_write(const char *path, const float *rgb, int width, int height, int channels,
-                               ohm_error *err)
-{
-    return ohm_image_write_to(path, path, rgb, width, height, channels, err);
-}
-
-extern "C" int ohm_image_write_to(const char *path, const char *write_path, const float *rgb, int width, int height,
-                                  int channels, ohm_error *err)
-{
-    if (!path || !write_path) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_write: NULL path");
+    if (!path || !write_path) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_write_to: NULL path");
     OHM_OIIO_TRY
     Format fmt = format_of(path);
     if (fmt == Format::none)
@@ -123,8 +113,6 @@ extern "C" int ohm_image_write_to(const char *path, const char *write_path, cons
     OHM_OIIO_CATCH(err, path)
 }
 
-namespace {
-
 // A 2-D image of at most 2^28 pixels and 64 channels.
 int check_slice_spec(const char *path, const OIIO::ImageSpec &spec, ohm_error *err)
 {
@@ -144,18 +132,25 @@ int open_failure(const char *path, ohm_error *err)
     return ohm_fail(err, OHM_ERR_IO, "%s: cannot read image: %s", path, msg.empty() ? "unknown error" : msg.c_str());
 }
 
-} // namespace
+// The image opened and its spec checked (check_slice_spec); null, with *rc
+// the error, when either fails.
+OIIO::ImageInput::unique_ptr open_slice(const char *path, int *rc, ohm_error *err)
+{
+    auto in = OIIO::ImageInput::open(path);
+    *rc = in ? check_slice_spec(path, in->spec(), err) : open_failure(path, err);
+    if (*rc) in.reset();
+    return in;
+}
 
-extern "C" int ohm_image_size(const char *path, int *w, int *h, int *channels, ohm_error *err)
+int image_size(const char *path, int *w, int *h, int *channels, ohm_error *err)
 {
     if (!path || !w || !h || !channels) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_size: NULL argument");
     *w = *h = *channels = 0;
     OHM_OIIO_TRY
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) return open_failure(path, err);
+    int rc;
+    auto in = open_slice(path, &rc, err);
+    if (!in) return rc;
     const OIIO::ImageSpec &spec = in->spec();
-    int rc = check_slice_spec(path, spec, err);
-    if (rc) return rc;
     *w = spec.width;
     *h = spec.height;
     *channels = spec.nchannels;
@@ -163,17 +158,16 @@ extern "C" int ohm_image_size(const char *path, int *w, int *h, int *channels, o
     OHM_OIIO_CATCH(err, path)
 }
 
-extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+int read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
 {
     if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_gray: NULL argument");
     *pixels = nullptr;
     *w = *h = 0;
     OHM_OIIO_TRY
-    auto in = OIIO::ImageInput::open(path);
-    if (!in) return open_failure(path, err);
+    int rc;
+    auto in = open_slice(path, &rc, err);
+    if (!in) return rc;
     const OIIO::ImageSpec &spec = in->spec();
-    int rc = check_slice_spec(path, spec, err);
-    if (rc) return rc;
     const int64_t pw = spec.width, ph = spec.height, nc = spec.nchannels;
     double scale = 1.0;
     switch (spec.format.basetype) {
@@ -208,4 +202,12 @@ extern "C" int ohm_image_read_gray(const char *path, float **pixels, int *w, int
     *h = int(ph);
     return OHM_OK;
     OHM_OIIO_CATCH(err, path)
+}
+
+} // namespace
+
+extern "C" __attribute__((visibility("default"))) const ohm_oiio_api *ohm_oiio_module(void)
+{
+    static const ohm_oiio_api api = {write_to, read_gray, image_size};
+    return &api;
 }

@@ -1,9 +1,10 @@
 /* ohm_oiio.h — a small C API over OpenImageIO (the only code that sees OIIO).
  *
  * Int status codes (0 ok, negative ohm error code) and a caller-owned
- * ohm_error for the message, which names the file.  Every exported function
- * body runs inside one catch-all (OHM_OIIO_TRY in ohm_oiio.cpp), so no C++
- * exception ever reaches C.
+ * ohm_error for the message, which names the file.  The functions that touch
+ * images run in the module libohm_oiio.so, loaded on first use
+ * (ohm_oiio_module.h); each body there runs inside one catch-all
+ * (OHM_OIIO_TRY in ohm_oiio.cpp), so no C++ exception ever reaches C.
  *
  * Pixels are linear floats, row-major from the top-left, `channels` (1, 3 or
  * 4) interleaved per pixel.  The format comes from the extension of `path`:
@@ -24,10 +25,7 @@ extern "C" {
  * case-insensitive), else 0. */
 int ohm_image_format_supported(const char *path);
 
-/* Write exactly `path`. */
-int ohm_image_write(const char *path, const float *rgb, int width, int height, int channels, ohm_error *err);
-
-/* The same, but the bytes go to `write_path` (a temporary name from
+/* Write an image: the bytes go to `write_path` (a temporary name from
  * ohm_output_tmp_path, which has no image extension) while the format and
  * every message come from `path`, the final name. */
 int ohm_image_write_to(const char *path, const char *write_path, const float *rgb, int width, int height,
