@@ -10,9 +10,9 @@
 # Exit status: 0 clean, 1 if any harness found a crash (or failed to build).
 set -euo pipefail
 cd "$(dirname "$0")/.."
-usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|args|all [seconds]"
+usage="usage: scripts/fuzz.sh obj|off|ply|stl|pipeline|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|stack|args|all [seconds]"
 name=${1:?$usage}; secs=${2:-60}
-all_names="obj off ply stl pipeline args transfer raw nifti vdb nrrd meta inr dicom"
+all_names="obj off ply stl pipeline args transfer raw nifti vdb nrrd meta inr dicom stack"
 command -v clang >/dev/null && command -v clang++ >/dev/null ||
   { echo "fuzz: needs clang and clang++ (apt-get install clang libclang-rt-14-dev)" >&2; exit 1; }
 
@@ -25,7 +25,7 @@ if [ "$name" = all ]; then
   done
   exit $status
 fi
-case $name in obj|off|ply|stl|pipeline|args|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom) ;;
+case $name in obj|off|ply|stl|pipeline|args|transfer|raw|nifti|vdb|nrrd|meta|inr|dicom|stack) ;;
   *) echo "fuzz: unknown harness '$name'" >&2; echo "$usage" >&2; exit 2;; esac
 mkdir -p out/fuzz
 
@@ -57,7 +57,7 @@ VDB_LIBS="-lopenvdb -ltbb -lImath-3_1 -lboost_iostreams"
 OIIO_LIBS="-lOpenImageIO -lOpenImageIO_Util"
 GDCM_LIBS="-lgdcmMSFF -lgdcmDICT -lgdcmDSED -lgdcmCommon"
 SCAN_LIBS="$VDB_LIBS $OIIO_LIBS $GDCM_LIBS -lnifti2 -lznz -lteem -lz -lm -lpthread"
-scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp; }
+scan_objs() { for f in src/input/scan*.c; do obj "$f"; done; obj src/base/ohm_error.c; obj src/base/memory.c; obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/oiio/ohm_oiio_load.c; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp; }
 link=clang; libs="-lz -lm"
 case $name in
   obj|off|ply|stl)
@@ -70,7 +70,7 @@ case $name in
     # reach every module: link the whole core, as the ohm binary does.
     if [ "$name" = args ]; then obj tests/fuzz/fuzz_pipeline.c -DARGS; else obj tests/fuzz/fuzz_pipeline.c; fi
     for f in src/*/*.c; do [ "$f" = src/cli/main.c ] || obj "$f"; done
-    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp
+    obj wrappers/vdb/ohm_vdb.cpp; obj wrappers/oiio/ohm_oiio.cpp; obj wrappers/oiio/ohm_oiio_load.c; obj wrappers/gdcm/ohm_gdcm.cpp; obj wrappers/gdcm/dicom_check.cpp
     link=clang++
     libs="$SCAN_LIBS -lcholmod -lsuitesparseconfig -lembree3 -lblas" ;;
   raw)   obj tests/fuzz/fuzz_scan.c -DKIND=KIND_RAW;   scan_objs; link=clang++; libs=$SCAN_LIBS ;;
@@ -80,6 +80,7 @@ case $name in
   meta)  obj tests/fuzz/fuzz_scan.c -DKIND=KIND_META;  scan_objs; link=clang++; libs=$SCAN_LIBS ;;
   inr)   obj tests/fuzz/fuzz_scan.c -DKIND=KIND_INR;   scan_objs; link=clang++; libs=$SCAN_LIBS ;;
   dicom) obj tests/fuzz/fuzz_scan.c -DKIND=KIND_DICOM; scan_objs; link=clang++; libs=$SCAN_LIBS ;;
+  stack) obj tests/fuzz/fuzz_scan.c -DKIND=KIND_STACK; scan_objs; link=clang++; libs=$SCAN_LIBS ;;
 esac
 work=out/fuzz/$name; mkdir -p "$work/corpus" "$work/artifacts"
 $link -g $SAN -fsanitize=fuzzer "${objs[@]}" $libs -o "$work/fuzz_$name"
@@ -118,6 +119,7 @@ case $name in
   vdb)   cp_seeds tests/fuzz/seeds/vdb/* tests/data/*.vdb tests/data/corpus/*.vdb samples/*.vdb; max_len=262144 ;;
   nrrd|meta|inr) cp_seeds tests/fuzz/seeds/$name/* ;;
   dicom) cp_seeds tests/fuzz/seeds/dicom/* samples/walnut-dicom/IM0001.dcm ;;
+  stack) cp_seeds tests/fuzz/seeds/stack/* ;;
 esac
 [ -n "$dict" ] && [ -f "$dict" ] && dict="-dict=$dict" || dict=""
 

@@ -15,7 +15,9 @@
  *               the file.
  *   KIND_DICOM  the whole input is one .dcm file, alone in a fresh folder, read
  *               as the series it belongs to (GDCM scans the folder, reads it).
- * Run with scripts/fuzz.sh raw|nifti|vdb|nrrd|meta|inr|dicom SECONDS.  Checks: no crash or UB
+ *   KIND_STACK  the whole input is one .png file, alone in a fresh folder,
+ *               read as a slice stack (OpenImageIO decodes it).
+ * Run with scripts/fuzz.sh raw|nifti|vdb|nrrd|meta|inr|dicom|stack SECONDS.  Checks: no crash or UB
  * (sanitizers); a failure leaves the scan zeroed with a one-line message whose
  * code is the return value; a success has positive dims (raw: exactly the ones
  * asked for), finite values with min <= max matching them, a finite affine, and
@@ -37,6 +39,7 @@
 #define KIND_META 5
 #define KIND_INR 6
 #define KIND_DICOM 7
+#define KIND_STACK 8
 
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size);
 
@@ -93,12 +96,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 #elif KIND == KIND_DICOM
     suffix = ".dcm";
     (void)types;
+#elif KIND == KIND_STACK
+    suffix = ".png";
+    (void)types;
 #else
-#error "set -DKIND=KIND_RAW, KIND_NIFTI, KIND_VDB, KIND_NRRD, KIND_META, KIND_INR or KIND_DICOM"
+#error "set -DKIND=KIND_RAW, KIND_NIFTI, KIND_VDB, KIND_NRRD, KIND_META, KIND_INR, KIND_DICOM or KIND_STACK"
 #endif
     char path[320];
     const char *dir = getenv("TMPDIR");
-#if KIND == KIND_DICOM
+#if KIND == KIND_DICOM || KIND == KIND_STACK
     char folder[256];
     snprintf(folder, sizeof folder, "%s/ohm-fuzz-XXXXXX", dir && *dir ? dir : "/tmp");
     if (!mkdtemp(folder)) abort();
@@ -115,7 +121,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     memset(&e, 0, sizeof e);
     int rc = ohm_scan_read(&s, path, &p, &e);
     unlink(path);
-#if KIND == KIND_DICOM
+#if KIND == KIND_DICOM || KIND == KIND_STACK
     rmdir(folder);
 #endif
     if (rc == 0) {
