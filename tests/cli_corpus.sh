@@ -65,7 +65,7 @@ while IFS=$'\t' read -r file how code pat note; do
     *) bad "$file: manifest expects exit $code" ;; esac
   if [ ! -e "$C/$file" ]; then bad "$file: listed in the manifest but missing"; continue; fi
   nn=; case $note in '[no-name]'*) nn=no-name ;; esac
-  # a bomb is refused before anything is allocated: ohm's own ~150 MB
+  # a bomb is refused before anything is allocated: ohm's own ~75 MB
   # (its libraries), the sanitizers' shadow memory on top
   bomb_mb=; case $note in bomb:*) bomb_mb=$((SANITIZED ? 1200 : 400)) ;; esac
   BOMB_MB=$bomb_mb run_case "$file" "$how" "$C/$file" "$code" "$pat" $nn

@@ -86,7 +86,7 @@ static const ohm_opt_spec read_opts[] = {
     {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
     {"max_expansion", OHM_OPT_REAL, OHM_SCAN_MAX_EXPANSION_TEXT,
      "volume: a scan needing over 256 MiB to read may hold at most this many voxels per byte of its files "
-     "(more is a decompression bomb's mark; scans hold 0.5-2, label masks up to ~200)", NULL, 1, 1e12, 0},
+     "(more is a decompression bomb's mark: deflate's ceiling is 1032; scans hold 0.5-2, label masks 165-380)", NULL, 1, 1e12, 0},
     {0}};
 
 /* A density volume: the material's source (transfer functions) and, alone,

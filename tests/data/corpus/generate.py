@@ -419,7 +419,8 @@ add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan
 
 # ---- honest bombs (issue 17): each header declares what its stream holds,
 # 57.6e6 zero bytes (reading them would take 288 MB, over the readers'
-# 256 MiB floor) from ~56 KB of deflate, a bomb's 1030 voxels per byte: each
+# 256 MiB floor) from ~56 KB of deflate, a bomb's 1030 voxels per byte (over
+# max_expansion's 500): each
 # is refused by the readers' shared budget before anything is allocated
 # (cli_corpus.sh also holds each run's peak memory to a few hundred MB).
 BOMB = (480, 400, 300)
