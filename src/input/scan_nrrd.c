@@ -18,7 +18,6 @@
 
 #include <teem/nrrd.h>
 
-
 /* Teem's accumulated error text, made one line, into err. */
 static int teem_failure(const char *path, const char *doing, ohm_error *err)
 {

@@ -86,7 +86,8 @@ static const ohm_opt_spec read_opts[] = {
     {"size", OHM_OPT_REAL, NULL, "scale so the longest axis is this many mm (overrides units=)", NULL, 1e-9, 1e9, 0},
     {"max_expansion", OHM_OPT_REAL, OHM_SCAN_MAX_EXPANSION_TEXT,
      "volume: a scan needing over 256 MiB to read may hold at most this many voxels per byte of its files "
-     "(more is a decompression bomb's mark: deflate's ceiling is 1032; scans hold 0.5-2, label masks 165-380)", NULL, 1, 1e12, 0},
+     "(more is a decompression bomb's mark: deflate's ceiling is 1032; scans hold 0.5-2, label masks 165-380)",
+     NULL, 1, 1e12, 0},
     {0}};
 
 /* A density volume: the material's source (transfer functions) and, alone,
@@ -1189,5 +1190,6 @@ const ohm_action ohm_actions[] = {
      "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
      ohm_render_opts, ohm_run_render, 0, NULL},
     {"stats", "write the run's figures as one JSON object",
-     "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats, 0, NULL},
+     "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats,
+     0, NULL},
     {NULL, NULL, NULL, NULL, NULL, 0, NULL}};
