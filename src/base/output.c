@@ -216,7 +216,7 @@ int ohm_output_commit(ohm_output *o, ohm_error *err)
         }
     }
     if (!failed && o->batch) return stage(o, err);
-    test_delay();
+    if (!failed) test_delay();
     if (!failed && rename(o->tmp, o->path) != 0) failed = 1, e = errno;
     if (failed) unlink(o->tmp);
     in_flight_remove(o->tmp);

@@ -607,8 +607,10 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
     for (size_t z = 0; z < n && !rc; ++z) {
         float *px = NULL;
         int w = 0, h = 0, channels = 0;
-        /* each slice's size from its header before its pixels are decoded */
-        rc = ohm_image_size(names[z], &w, &h, &channels, err);
+        /* each later slice's size from its header before its pixels are
+         * decoded (the first's sized the volume) */
+        if (z > 0) rc = ohm_image_size(names[z], &w, &h, &channels, err);
+        else w = w0, h = h0;
         if (!rc && (w != w0 || h != h0))
             rc = ohm_fail(err, OHM_ERR_PARSE, "%s: slice %zu is %d x %d pixels, expected %d x %d like the first (%s)",
                           names[z], z, w, h, w0, h0, names[0]);

@@ -1151,12 +1151,12 @@ const ohm_action ohm_actions[] = {
      "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
-     material_opts, run_material, 1, NULL},
+     material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL},
     {"light", "add a light (directional, point, spot, area or a pencil beam)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
      "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
-     light_opts, run_light, 1, NULL},
+     light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL},
     {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
      "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
@@ -1177,19 +1177,19 @@ const ohm_action ohm_actions[] = {
      "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.  csv=FILE\n"
      "writes one line per solved cell (i,j,k, centre in mm, fluence and exitance per channel) with 17\n"
      "significant digits: doubles read back exactly.",
-     ohm_export_opts, ohm_run_export, 0, NULL},
+     ohm_export_opts, ohm_run_export, OHM_ACTION_WRITES, NULL},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
      "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
      "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
-     write_opts, run_write, 0, NULL},
+     write_opts, run_write, OHM_ACTION_WRITES, NULL},
     {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
      "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
      "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
      "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
      "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
-     ohm_render_opts, ohm_run_render, 0, NULL},
+     ohm_render_opts, ohm_run_render, OHM_ACTION_WRITES, NULL},
     {"stats", "write the run's figures as one JSON object",
      "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats,
-     0, NULL},
+     OHM_ACTION_WRITES, NULL},
     {NULL, NULL, NULL, NULL, NULL, 0, NULL}};

@@ -464,9 +464,7 @@ int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
  * that does not itself write, equal to a staged path. */
 static int reads_staged(const ohm_invocation *inv, const ohm_output_batch *b)
 {
-    static const char *const writers[] = {"write", "stats", "export", "render"};
-    for (size_t w = 0; w < sizeof writers / sizeof *writers; ++w)
-        if (strcmp(inv->action->name, writers[w]) == 0) return 0;
+    if (inv->action->flags & OHM_ACTION_WRITES) return 0;
     for (int k = 0; k < OHM_MAX_OPTS; ++k)
         if (inv->values[k] && ohm_output_batch_holds(b, inv->values[k])) return 1;
     return 0;
@@ -492,13 +490,13 @@ static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
     for (size_t i = 0; i < c->n; ++i) {
         const ohm_invocation *inv = &c->items[i];
         int rc;
-        if (waiting && !inv->action->sets_scene) {
+        if (waiting && !(inv->action->flags & OHM_ACTION_SETS_SCENE)) {
             rc = run_step(waiting, s, err);
             if (rc) return rc;
             waiting = NULL;
         }
         if (!waiting && inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
-            c->items[i + 1].action->sets_scene) {
+            (c->items[i + 1].action->flags & OHM_ACTION_SETS_SCENE)) {
             ohm_log_info(&s->log, "%s: -%s runs after the -material and -light steps that follow it", inv->where,
                          inv->action->name);
             waiting = inv;

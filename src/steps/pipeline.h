@@ -52,15 +52,19 @@ typedef struct ohm_invocation {
 
 typedef int (*ohm_action_fn)(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
 
+/* ohm_action.flags.  SETS_SCENE: sets up the scene (the material, the
+ * lights), which a step that `waits` needs whichever side of it the user
+ * wrote it on.  WRITES: writes files, so its option values name outputs,
+ * never a staged file it would have to read (ohm_chain_run). */
+enum { OHM_ACTION_SETS_SCENE = 1u, OHM_ACTION_WRITES = 2u };
+
 struct ohm_action {
     const char *name;
     const char *summary;
     const char *doc;             /* a paragraph for `ohm help NAME`          */
     const ohm_opt_spec *opts;    /* terminated by {0}                        */
     ohm_action_fn run;
-    /* 1: sets up the scene (the material, the lights), which a step that
-     * `waits` needs whichever side of it the user wrote it on */
-    int sets_scene;
+    unsigned flags;              /* OHM_ACTION_SETS_SCENE, OHM_ACTION_WRITES  */
     /* NULL or 1 when this invocation must see the whole scene: it then runs
      * after the scene-setting steps that directly follow it (-voxelize
      * error=, whose probes solve the scene) */
