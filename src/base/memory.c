@@ -1,14 +1,9 @@
-/* madvise's MADV_HUGEPAGE is outside POSIX; glibc shows it with _DEFAULT_SOURCE */
-#define _DEFAULT_SOURCE
 #include "base/memory.h"
 
 #include <math.h>
 #include <stdio.h>
 #include <stdint.h>
 #include <string.h>
-#if defined(__linux__)
-#include <sys/mman.h>
-#endif
 
 double ohm_memory_available(void)
 {
@@ -48,18 +43,5 @@ const char *ohm_format_bytes(double bytes, char *buf, int len)
     else if (bytes >= 1024.0 * 1024) snprintf(buf, (size_t)len, "%.1f MiB", bytes / (1024.0 * 1024));
     else snprintf(buf, (size_t)len, "%.0f KiB", bytes / 1024.0);
     return buf;
-}
-
-void ohm_memory_advise_huge(void *p, size_t bytes)
-{
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-    const uintptr_t huge = (uintptr_t)2 << 20; /* x86-64's PMD page */
-    if (!p || bytes < 4 * huge) return;
-    uintptr_t lo = ((uintptr_t)p + huge - 1) & ~(huge - 1), hi = ((uintptr_t)p + bytes) & ~(huge - 1);
-    if (hi > lo) (void)madvise((void *)lo, hi - lo, MADV_HUGEPAGE); /* a hint: failure changes nothing */
-#else
-    (void)p;
-    (void)bytes;
-#endif
 }
 

@@ -6,7 +6,6 @@
 #include <string.h>
 
 #include "physics/material.h"
-#include "base/memory.h"
 
 const int32_t ohm_face_offset[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
 
@@ -155,8 +154,6 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
     if (index_failed || !net->cell || !net->piece) goto nomem;
-    ohm_memory_advise_huge(net->cell, (size_t)n * sizeof *net->cell);
-    ohm_memory_advise_huge(net->piece, (size_t)n * sizeof *net->piece);
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
         if ((active ? active[c] : 1) && inside[c]) {
@@ -350,9 +347,6 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
     if (!M)
         return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns (%lld entries)",
                         (long long)n, (long long)net->nnz);
-    ohm_memory_advise_huge(M->p, ((size_t)n + 1) * sizeof(int64_t));
-    ohm_memory_advise_huge(M->i, (size_t)net->nnz * sizeof(int64_t));
-    ohm_memory_advise_huge(M->x, (size_t)net->nnz * sizeof(double));
     int rc = ohm_network_assemble_into(M, ga, gb, net, med, boundary, err);
     if (rc) {
         cholmod_l_free_sparse(&M, cc);
