@@ -158,6 +158,8 @@ static int start(ohm_error *err)
 
 int ohm_backend_amg_available(void) { return 1; }
 
+int ohm_backend_amg_started(void) { return proc.initialized; }
+
 int ohm_mpi_ranks(void) { return proc.initialized ? proc.size : 1; }
 
 int ohm_mpi_start(void)
@@ -630,6 +632,8 @@ const ohm_backend_ops ohm_backend_amg = {"amg", amg_create, amg_setup, amg_solve
 
 #else /* no PETSc */
 int ohm_backend_amg_available(void) { return 0; }
+
+int ohm_backend_amg_started(void) { return 0; }
 
 static int amg_unavailable(void **state, const ohm_backend_config *cfg, ohm_error *err)
 {

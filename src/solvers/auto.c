@@ -21,9 +21,9 @@
  * 1.4e-6 n^1.155 s, a factorization 1.02e-7 n^1.4 s — power laws fitted to
  * spot at dim 32..128 on this 2-core machine (docs/accuracy.md).  The amg
  * costs are linear in n (its iteration count does not grow): per cell,
- * setup 2280-2810 ns and one column 1530-2200 ns on one rank, measured from
- * 1e6 to 1e7 cells of the random block medium and marble Spot
- * (docs/scale.md). */
+ * setup 810-2550 ns per material and one column 585-990 ns on one rank,
+ * measured from 1e6 to 2.7e7 cells of the random block medium, marble Spot
+ * and the Colin27 head on a quiet machine (docs/scale.md, at ab1c5c9). */
 #include "solvers/backend.h"
 
 #include "base/memory.h"
@@ -33,8 +33,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-static const double AMG_SETUP_NS = 2500.0;
-static const double AMG_COLUMN_NS = 1800.0;
+static const double AMG_SETUP_NS = 1800.0;
+static const double AMG_COLUMN_NS = 800.0;
+/* starting PETSc and MPI in a process that has not: spot at 1947 cells took
+ * 0.45 s in all with amg against 0.14 s with the factor, of which the
+ * solvers' own setups and solves were 9 and 12 ms */
+static const double AMG_START_S = 0.3;
 
 typedef struct auto_state {
     ohm_backend_config cfg;
@@ -134,7 +138,8 @@ static int rank_candidates(candidate *c, const auto_state *s, double n, double t
     double t_analyze = 1.4e-6 * pow(n, 1.155), t_factor = materials * 1.02e-7 * pow(n, 1.4);
     double t_direct = t_analyze + t_factor + rest * 1.7e-9 * 3.5 * pow(n, 4.0 / 3.0);
     /* under mpirun every rank takes a slab (assumed to scale: docs/scale.md) */
-    double t_amg = 1e-9 * n * (materials * AMG_SETUP_NS + rest * AMG_COLUMN_NS) / ohm_mpi_ranks();
+    double t_amg = 1e-9 * n * (materials * AMG_SETUP_NS + rest * AMG_COLUMN_NS) / ohm_mpi_ranks() +
+                   (ohm_backend_amg_started() ? 0.0 : AMG_START_S);
     c[nc++] = (candidate){&ohm_backend_direct, t_direct};
     if (ohm_backend_amg_available()) c[nc++] = (candidate){&ohm_backend_amg, t_amg};
     if (t1 >= 0) c[nc++] = (candidate){&ohm_backend_cg, rest * t1};

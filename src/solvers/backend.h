@@ -93,8 +93,11 @@ extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg
 const ohm_backend_ops *ohm_backend_find(const char *name);
 
 /* Whether this build has the amg backend (PETSc); when not, its create fails
- * with a message saying so. */
+ * with a message saying so.  Whether this process has started PETSc and MPI
+ * already (under mpirun, or at an earlier solver=amg): the first start costs
+ * a fixed ~0.3 s, which solver=auto counts. */
 int ohm_backend_amg_available(void);
+int ohm_backend_amg_started(void);
 
 /* OHM_OK when `need` bytes fit the limit (max_memory > 0, else what the
  * machine has available); else OHM_ERR_NOMEM with one message for every
