@@ -2,6 +2,7 @@
 #include "grid/voxelize.h"
 
 #include "base/memory.h"
+#include "base/parallel.h"
 
 #include <math.h>
 #include <stdlib.h>
@@ -488,6 +489,43 @@ static int layout_grid(ohm_voxel_grid *out, const double lo[3], const double hi[
     return OHM_OK;
 }
 
+/* The fine pass of ohm_voxelize, one z slice per job: each slice writes its
+ * own cells of inside[] and its own two counts (winding numbers evaluated,
+ * ambiguous cells), so the result is the same on any number of threads.  The
+ * pass is ~90% of voxelizing a mesh (perf, spot at dim 410: 3.1e6 winding
+ * numbers, 9.5 s on one core). */
+enum { FINE_ROUND = 8 }; /* slices per thread between progress updates */
+
+typedef struct fine_pass {
+    ohm_voxel_grid *grid;
+    const bvh *tree;
+    const uint8_t *decided;
+    double orient;
+    int32_t k0;     /* this round's first slice   */
+    size_t *counts; /* 2 per slice                */
+} fine_pass;
+
+static void fine_pass_slice(void *user, int64_t job)
+{
+    fine_pass *f = user;
+    ohm_voxel_grid *g = f->grid;
+    int32_t k = f->k0 + (int32_t)job;
+    size_t exact = 0, ambiguous = 0;
+    for (int32_t j = 0; j < g->dims[1]; ++j)
+        for (int32_t i = 0; i < g->dims[0]; ++i) {
+            size_t idx = ohm_voxel_index(g, i, j, k);
+            if (f->decided[idx]) continue;
+            double p[3];
+            cell_centre(g, i, j, k, p);
+            double w = f->orient * bvh_winding(f->tree, p);
+            exact++;
+            if (w > 0.4 && w < 0.6) ambiguous++;
+            g->inside[idx] = w > 0.5;
+        }
+    f->counts[2 * (size_t)k] = exact;
+    f->counts[2 * (size_t)k + 1] = ambiguous;
+}
+
 int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mesh *mesh,
                  const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
 {
@@ -619,21 +657,32 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
                         }
             }
     }
-    /* Fine pass: every cell the blocks did not decide. */
-    for (int32_t k = 0; k < dims[2]; ++k) {
-        ohm_progress_update(&prog, 0.5 + 0.5 * k / dims[2]);
-        for (int32_t j = 0; j < dims[1]; ++j)
-            for (int32_t i = 0; i < dims[0]; ++i) {
-                size_t idx = ohm_voxel_index(out, i, j, k);
-                if (decided[idx]) continue;
-                double p[3];
-                cell_centre(out, i, j, k, p);
-                double w = orient * bvh_winding(&tree, p);
-                rep.winding_exact++;
-                if (w > 0.4 && w < 0.6) rep.ambiguous++;
-                out->inside[idx] = w > 0.5;
-            }
+    /* Fine pass: every cell the blocks did not decide, slice by slice on
+     * every core, a round of FINE_ROUND slices per thread between progress
+     * updates (the progress line is the caller's thread's alone). */
+    size_t *slice_counts = calloc(2 * (size_t)dims[2], sizeof *slice_counts);
+    if (!slice_counts) {
+        free(block_near);
+        free(lattice_w);
+        free(decided);
+        bvh_free(&tree);
+        free(dist);
+        ohm_voxel_grid_free(out);
+        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the fine pass");
     }
+    fine_pass fine = {.grid = out, .tree = &tree, .decided = decided, .orient = orient, .counts = slice_counts};
+    int threads = ohm_usable_cores();
+    int32_t round = FINE_ROUND * threads;
+    for (int32_t k0 = 0; k0 < dims[2]; k0 += round) {
+        ohm_progress_update(&prog, 0.5 + 0.5 * k0 / dims[2]);
+        fine.k0 = k0;
+        ohm_parallel_for(k0 + round < dims[2] ? round : dims[2] - k0, threads, fine_pass_slice, &fine);
+    }
+    for (int32_t k = 0; k < dims[2]; ++k) {
+        rep.winding_exact += slice_counts[2 * (size_t)k];
+        rep.ambiguous += slice_counts[2 * (size_t)k + 1];
+    }
+    free(slice_counts);
     ohm_progress_end(&prog);
 
     size_t interior = 0;
