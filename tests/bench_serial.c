@@ -154,14 +154,14 @@ static int digest_scene(const char *name, const ohm_voxel_grid *g, const int32_t
            (long long)net.nfaces, (long long)net.npieces, (long long)net.nnz, (long long)net.nclosure,
            (unsigned long long)hash_network(&net));
     int64_t n = net.n;
-    double *sa = malloc((size_t)n * sizeof *sa), *ss = malloc((size_t)n * sizeof *ss);
-    double *r = malloc((size_t)n * sizeof *r), *rg = malloc((size_t)n * sizeof *rg);
+    ohm_coeff *sa = malloc((size_t)n * sizeof *sa), *ss = malloc((size_t)n * sizeof *ss);
+    ohm_coeff *r = malloc((size_t)n * sizeof *r), *rg = malloc((size_t)n * sizeof *rg);
     if (!sa || !ss || !r || !rg) return -1;
     for (int64_t v = 0; v < n; ++v) {
-        sa[v] = 0.001 + 0.05 * unit((uint64_t)v);
-        ss[v] = 0.5 + 3.0 * unit((uint64_t)v + 0x100000000ull);
-        r[v] = 500.0 + 1000.0 * unit((uint64_t)v + 0x200000000ull);
-        rg[v] = 1e4 + 1e6 * unit((uint64_t)v + 0x300000000ull);
+        sa[v] = (ohm_coeff)(0.001 + 0.05 * unit((uint64_t)v));
+        ss[v] = (ohm_coeff)(0.5 + 3.0 * unit((uint64_t)v + 0x100000000ull));
+        r[v] = (ohm_coeff)(500.0 + 1000.0 * unit((uint64_t)v + 0x200000000ull));
+        rg[v] = (ohm_coeff)(1e4 + 1e6 * unit((uint64_t)v + 0x300000000ull));
     }
     static const ohm_boundary bs[3] = {OHM_BOUNDARY_ROBIN, OHM_BOUNDARY_NEUMANN, OHM_BOUNDARY_DIRICHLET};
     char label[96];
@@ -192,7 +192,7 @@ static int digest_scene(const char *name, const ohm_voxel_grid *g, const int32_t
     digest_assembly(label, &net, &z, OHM_BOUNDARY_NEUMANN);
     digest_assembly(label, &net, &z, OHM_BOUNDARY_ROBIN);
     /* absorption in only some cells: the pieces without it are singular */
-    for (int64_t v = 0; v < n; ++v) sa[v] = net.cell[v] % 7 == 0 ? 0.01 : 0.0;
+    for (int64_t v = 0; v < n; ++v) sa[v] = net.cell[v] % 7 == 0 ? 0.01f : 0.0f;
     z.sigma_a = sa;
     snprintf(label, sizeof label, "%s/sparse-absorption", name);
     digest_assembly(label, &net, &z, OHM_BOUNDARY_NEUMANN);
@@ -295,12 +295,12 @@ static int time_one(double cells)
         if (rep < REPS - 1) ohm_network_free(&net);
     }
     int64_t n = net.n;
-    double *sa = malloc((size_t)n * sizeof *sa), *ss = malloc((size_t)n * sizeof *ss);
+    ohm_coeff *sa = malloc((size_t)n * sizeof *sa), *ss = malloc((size_t)n * sizeof *ss);
     double *ga = malloc((size_t)n * sizeof *ga), *gb = malloc((size_t)net.nfaces * sizeof *gb);
     if (!sa || !ss || !ga || !gb) return -1;
     for (int64_t v = 0; v < n; ++v) {
-        sa[v] = 0.0041 * (1.0 + 0.5 * unit((uint64_t)v));
-        ss[v] = 2.62 * (1.0 + 0.5 * unit((uint64_t)v + 0x100000000ull));
+        sa[v] = (ohm_coeff)(0.0041 * (1.0 + 0.5 * unit((uint64_t)v)));
+        ss[v] = (ohm_coeff)(2.62 * (1.0 + 0.5 * unit((uint64_t)v + 0x100000000ull)));
     }
     cholmod_common cc;
     cholmod_l_start(&cc);

@@ -37,7 +37,7 @@ static double lcg(uint64_t *s) /* deterministic [0, 1) */
 
 /* A for the box with per-cell sigma_s' from 1 to 1e4 (two blocks) and the
  * Robin boundary. */
-static cholmod_sparse *assemble(ohm_network *net, const ohm_voxel_grid *g, double *ss, cholmod_common *cc)
+static cholmod_sparse *assemble(ohm_network *net, const ohm_voxel_grid *g, ohm_coeff *ss, cholmod_common *cc)
 {
     ohm_error err;
     ohm_error_clear(&err);
@@ -89,8 +89,8 @@ int main(void)
     ohm_error_clear(&err);
     CHECK(ohm_cholesky_start(&s, &err) == 0);
     int64_t n = (int64_t)g.interior_cells;
-    double *ss = malloc((size_t)n * sizeof *ss);
-    for (int64_t v = 0; v < n; ++v) ss[v] = v < n / 2 ? 1.0 : 1e4;
+    ohm_coeff *ss = malloc((size_t)n * sizeof *ss);
+    for (int64_t v = 0; v < n; ++v) ss[v] = v < n / 2 ? 1.0f : 1e4f;
     ohm_network net;
     cholmod_sparse *A = assemble(&net, &g, ss, &s.cc);
     CHECK(A != NULL);

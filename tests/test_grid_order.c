@@ -60,14 +60,14 @@ static int make_shape(ohm_voxel_grid *g, enum shape shape, int d)
 }
 
 /* A with a per-cell sigma_s' contrast of 1e3 (random), the Robin boundary. */
-static cholmod_sparse *assemble(ohm_network *net, const ohm_voxel_grid *g, double **ss, cholmod_common *cc)
+static cholmod_sparse *assemble(ohm_network *net, const ohm_voxel_grid *g, ohm_coeff **ss, cholmod_common *cc)
 {
     ohm_error err;
     ohm_error_clear(&err);
     if (ohm_network_build(net, g, NULL, &err)) return NULL;
     *ss = malloc((size_t)net->n * sizeof **ss);
     uint64_t seed = 11;
-    for (int64_t v = 0; v < net->n; ++v) (*ss)[v] = pow(10.0, 3.0 * lcg(&seed));
+    for (int64_t v = 0; v < net->n; ++v) (*ss)[v] = (ohm_coeff)pow(10.0, 3.0 * lcg(&seed));
     ohm_channel_medium med;
     memset(&med, 0, sizeof med);
     med.sigma_a0 = 0.01;
@@ -157,7 +157,7 @@ static void check_shape(enum shape shape, int d)
     ohm_voxel_grid g;
     CHECK(make_shape(&g, shape, d) == 0);
     ohm_network net;
-    double *ss = NULL;
+    ohm_coeff *ss = NULL;
     cholmod_common cc;
     cholmod_l_start(&cc);
     cholmod_sparse *A = assemble(&net, &g, &ss, &cc);
@@ -209,7 +209,7 @@ int main(void)
     ohm_voxel_grid g;
     CHECK(make_shape(&g, BOX, 6) == 0);
     ohm_network net;
-    double *ss = NULL;
+    ohm_coeff *ss = NULL;
     cholmod_common cc;
     cholmod_l_start(&cc);
     cholmod_sparse *A = assemble(&net, &g, &ss, &cc);

@@ -127,7 +127,7 @@ static void test_two_layers(void)
     CHECK(make_box(&g, W, W, N, h) == 0);
     /* the solver numbers unknowns as the interior cells in x-fastest order */
     size_t n = (size_t)W * W * N;
-    double *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+    ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
     CHECK(sa && ss);
     if (!sa || !ss) goto out;
     for (int k = 1; k <= N; ++k) {
@@ -137,8 +137,8 @@ static void test_two_layers(void)
         ohm_transfer_eval(&tf, density, &a, &s);
         for (size_t q = 0; q < (size_t)W * W; ++q) {
             size_t u = (size_t)(k - 1) * W * W + q;
-            sa[u] = a;
-            ss[u] = s;
+            sa[u] = (ohm_coeff)a;
+            ss[u] = (ohm_coeff)s;
         }
     }
 
@@ -233,12 +233,14 @@ static void test_contrast(void)
     ohm_voxel_grid g;
     CHECK(make_box(&g, nx, ny, nz, 0.25) == 0);
     size_t n = (size_t)nx * ny * nz;
-    double *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+    ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
     CHECK(sa && ss);
     if (sa && ss) {
         for (size_t u = 0; u < n; ++u) {
             int i = (int)(u % (size_t)nx) + 1; /* x-fastest */
-            ohm_transfer_eval(&tf, i > nx / 2 ? 1.0 : 0.0, &sa[u], &ss[u]);
+            double sa_u, ss_u;
+            ohm_transfer_eval(&tf, i > nx / 2 ? 1.0 : 0.0, &sa_u, &ss_u);
+            sa[u] = (ohm_coeff)sa_u, ss[u] = (ohm_coeff)ss_u;
         }
         CHECK(ss[0] == 1.0 && ss[nx - 1] == 1e6);
         ohm_material m = grey(tf.eta);
@@ -289,11 +291,12 @@ static int index_column(ohm_solution *sol, ohm_voxel_grid *g, const char *solver
     const int n0 = 20, n1 = 20, N = n0 + n1;
     const double h = 0.1;
     if (make_box(g, 1, 1, N, h)) return -1;
-    static double sa[40], ss[40], eta[40];
+    static ohm_coeff sa[40], ss[40];
+    static double eta[40];
     for (int u = 0; u < N; ++u) { /* unknown u is cell k = u + 1, layer 0 on top */
         int top = u >= n1;
-        sa[u] = top ? 0.02 : 0.1;
-        ss[u] = top ? 1.0 : 2.0;
+        sa[u] = top ? 0.02f : 0.1f;
+        ss[u] = top ? 1.0f : 2.0f;
         eta[u] = top ? 1.3 : 1.6;
     }
     ohm_material m = grey(1.3);

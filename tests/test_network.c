@@ -11,7 +11,7 @@
 
 static const ohm_log quiet = {.verbosity = 0};
 
-static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double *sa, const double *ss, double eta)
+static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const ohm_coeff *sa, const ohm_coeff *ss, double eta)
 {
     ohm_error err;
     ohm_error_clear(&err);
@@ -52,7 +52,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double
                 int64_t sx = 1, sy = g->dims[0], sz = (int64_t)g->dims[0] * g->dims[1];
                 if (!(diff == sx || diff == sy || diff == sz)) ++bad_pair;
                 if (!(a < 0)) ++bad_sign;
-                double Dv = 1.0 / (3 * (sa[v] + ss[v])), Dw = 1.0 / (3 * (sa[w] + ss[w]));
+                double Dv = 1.0 / (3 * ((double)sa[v] + ss[v])), Dw = 1.0 / (3 * ((double)sa[w] + ss[w]));
                 double expect = -h * 2 * Dv * Dw / (Dv + Dw);
                 if (fabs(a - expect) > 1e-14 * fabs(expect)) ++bad_value;
                 /* symmetric: the entry serves row v and row w */
@@ -70,7 +70,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double
         for (int64_t v = 0; v < net.n; ++v) expect_sum[v] = sa[v] * h * h * h;
         for (int64_t f = 0; f < net.nfaces; ++f) {
             int64_t v = net.face_unknown[f];
-            double D = 1.0 / (3 * (sa[v] + ss[v]));
+            double D = 1.0 / (3 * ((double)sa[v] + ss[v]));
             double gbf = bnd == OHM_BOUNDARY_ROBIN ? h * h / (h / (2 * D) + 2 * Aeta)
                          : bnd == OHM_BOUNDARY_DIRICHLET ? 2 * D * h
                                                          : 0.0;
@@ -110,7 +110,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const double
  * second and later channel materials) is bit for bit a fresh assembly of the
  * same medium, whatever medium filled it before; a matrix of another shape is
  * refused. */
-static void refill(const ohm_voxel_grid *g, const double *sa, const double *ss)
+static void refill(const ohm_voxel_grid *g, const ohm_coeff *sa, const ohm_coeff *ss)
 {
     ohm_error err;
     ohm_network net;
@@ -209,10 +209,10 @@ int main(void)
     }
     /* an inhomogeneous medium: coefficients varying cell by cell */
     size_t n = g.interior_cells;
-    double *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+    ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
     for (size_t u = 0; u < n; ++u) {
-        sa[u] = 0.001 + 0.01 * (double)(u % 7);
-        ss[u] = 0.5 + 0.3 * (double)(u % 11);
+        sa[u] = (ohm_coeff)(0.001 + 0.01 * (double)(u % 7));
+        ss[u] = (ohm_coeff)(0.5 + 0.3 * (double)(u % 11));
     }
     check_matrix(&g, OHM_BOUNDARY_ROBIN, sa, ss, 1.3);
     check_matrix(&g, OHM_BOUNDARY_DIRICHLET, sa, ss, 1.3);

@@ -100,16 +100,25 @@ static inline int64_t ohm_network_face_run_end(const ohm_network *net, int64_t f
     return end;
 }
 
+/* A per-cell optical or resistive coefficient as held for a whole grid: a
+ * float.  The media come from scans, which ohm holds as floats, through
+ * transfer functions, and are written to .vdb as floats; rounding the
+ * coefficient to float moves it by at most 6e-8 relative, far below the
+ * scan's own precision and the discretisation's error, and halves the
+ * media's memory (three channels: 24 bytes per cell instead of 48,
+ * docs/serial-stages.md).  Arithmetic on them is in double. */
+typedef float ohm_coeff;
+
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
  * constant beside them. */
 typedef struct ohm_channel_medium {
     int resistance_mode;        /* paper mode: G = 1/R between neighbours, 1/R_g to ground */
     double resistance, ground;  /* ohms, paper mode                           */
-    const double *resistance_v; /* n, paper mode per cell, or NULL: the link between two
+    const ohm_coeff *resistance_v; /* n, paper mode per cell, or NULL: the link between two
                                    cells is two half-resistors in series        */
-    const double *ground_v;     /* n, paper mode per cell, or NULL             */
-    const double *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
-    const double *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
+    const ohm_coeff *ground_v;     /* n, paper mode per cell, or NULL             */
+    const ohm_coeff *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
+    const ohm_coeff *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
     double sigma_a0, sigma_s0;
     double eta;
     const double *eta_v;        /* n, the index per cell, or NULL -> eta (below) */

@@ -98,17 +98,20 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     return any;
 }
 
-/* A per-interior-cell array compacted to the band's kept unknowns (malloc'd;
- * NULL: out of memory). */
-static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const double *in, int64_t kept)
+/* A per-interior-cell array of `size`-byte entries (the media's ohm_coeff,
+ * the index's and anisotropy's doubles) compacted to the band's kept
+ * unknowns (malloc'd; NULL: out of memory). */
+static void *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const void *in, size_t size,
+                             int64_t kept)
 {
-    double *o = malloc((size_t)(kept ? kept : 1) * sizeof *o);
+    char *o = malloc((size_t)(kept ? kept : 1) * size);
     if (!o) return NULL;
+    const char *from = in;
     size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
     int64_t ii = 0, u = 0;
     for (size_t cell = 0; cell < ncells; ++cell) {
         if (!grid->inside[cell]) continue;
-        if (sol->band_active[cell]) o[u++] = in[ii];
+        if (sol->band_active[cell]) memcpy(o + size * (size_t)u++, from + size * (size_t)ii, size);
         ++ii;
     }
     return o;
@@ -119,7 +122,7 @@ static double *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *gr
  * per-cell media compacted from interior-cell order to the band's unknowns
  * into compact[] (the same array for the same input, so channels that share
  * a medium still share a factor).  *out is params with those arrays. */
-static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[2 * OHM_MAX_CHANNELS],
+static int setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                       const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
                       const ohm_log *log, ohm_error *err)
 {
@@ -161,14 +164,14 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
     ohm_log_info(log, "solve: depth band %.3g mm (depth_band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
                  depth, params->band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
     /* compact the per-cell arrays: interior order -> band order */
-    const double *const *src[2] = {params->sigma_a, params->sigma_s};
-    const double **dst[2] = {out->sigma_a, out->sigma_s};
+    const ohm_coeff *const *src[2] = {params->sigma_a, params->sigma_s};
+    const ohm_coeff **dst[2] = {out->sigma_a, out->sigma_s};
     int used = 0;
     for (int q = 0; q < 2; ++q)
         for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-            const double *in = src[q][c];
+            const ohm_coeff *in = src[q][c];
             if (!in) continue;
-            const double *same = NULL; /* compacted already? */
+            const ohm_coeff *same = NULL; /* compacted already? */
             for (int q2 = 0; q2 <= q && !same; ++q2)
                 for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
                     if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
@@ -176,21 +179,21 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, double *compact[
                 dst[q][c] = same;
                 continue;
             }
-            double *o = compact_to_band(sol, grid, in, kept);
+            ohm_coeff *o = compact_to_band(sol, grid, in, sizeof *in, kept);
             if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's material");
             compact[used++] = o;
             dst[q][c] = o;
         }
-    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, kept)))
+    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, sizeof *params->eta_v, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
-    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, kept)))
+    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, sizeof *params->g_v, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
     return OHM_OK;
 }
 
 /* Add array a to the solution's owned media once (the same array may serve
  * several channels). */
-static void own_medium(ohm_solution *sol, double *a)
+static void own_medium(ohm_solution *sol, ohm_coeff *a)
 {
     int q = 0;
     while (q < 2 * OHM_MAX_CHANNELS && sol->medium_owned[q] && sol->medium_owned[q] != a) ++q;
@@ -204,8 +207,8 @@ static void take_media(ohm_solution *sol, const ohm_solve_params *p)
     if (!p->give_media) return;
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
         /* ours now (solve.h): the const is the params' promise not to write them */
-        if (p->sigma_a[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_a[c]);
-        if (p->sigma_s[c]) own_medium(sol, (double *)(uintptr_t)p->sigma_s[c]);
+        if (p->sigma_a[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_a[c]);
+        if (p->sigma_s[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_s[c]);
     }
 }
 
@@ -213,7 +216,7 @@ static void take_media(ohm_solution *sol, const ohm_solve_params *p)
  * params after the band): with a band, p's arrays are compact[] (moved into
  * the solution; given originals are freed now, no longer needed); given
  * arrays are kept as they are; others are copied once each. */
-static int keep_media(ohm_solution *sol, const ohm_solve_params *p, double *compact[2 * OHM_MAX_CHANNELS],
+static int keep_media(ohm_solution *sol, const ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                       ohm_error *err)
 {
     if (sol->band_active) {
@@ -223,20 +226,20 @@ static int keep_media(ohm_solution *sol, const ohm_solve_params *p, double *comp
             compact[q] = NULL;
         }
     }
-    const double *const *src[2] = {p->sigma_a, p->sigma_s};
-    const double **dst[2] = {sol->medium_sa, sol->medium_ss};
+    const ohm_coeff *const *src[2] = {p->sigma_a, p->sigma_s};
+    const ohm_coeff **dst[2] = {sol->medium_sa, sol->medium_ss};
     for (int q = 0; q < 2; ++q)
         for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-            const double *in = src[q][c];
+            const ohm_coeff *in = src[q][c];
             if (!in) continue;
             int owned = 0;
             for (int k = 0; k < 2 * OHM_MAX_CHANNELS && !owned; ++k) owned = sol->medium_owned[k] == in;
-            const double *same = owned ? in : NULL; /* copied already? */
+            const ohm_coeff *same = owned ? in : NULL; /* copied already? */
             for (int q2 = 0; q2 <= q && !same; ++q2)
                 for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
                     if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
             if (!same) {
-                double *copy = malloc((size_t)sol->net.n * sizeof *copy);
+                ohm_coeff *copy = malloc((size_t)sol->net.n * sizeof *copy);
                 if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the medium");
                 memcpy(copy, in, (size_t)sol->net.n * sizeof *copy);
                 own_medium(sol, copy);
@@ -798,7 +801,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     if (rc) return rc;
     double t0 = ohm_now();
     /* per-cell media compacted to the band's unknowns (when there is one) */
-    double *compact[2 * OHM_MAX_CHANNELS] = {NULL};
+    ohm_coeff *compact[2 * OHM_MAX_CHANNELS] = {NULL};
     rc = setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
     snprintf(s->solver_name, sizeof s->solver_name, "%s", params->solver ? params->solver : "direct");
     snprintf(s->ordering, sizeof s->ordering, "%s", params->ordering ? params->ordering : "metis");

@@ -53,8 +53,8 @@ typedef struct ohm_solve_params {
     int orientation;           /* +1, or -1 for an inside-out mesh       */
     /* per-unknown coefficients (n entries per channel) for inhomogeneous
      * media; NULL: the material's constants */
-    const double *sigma_a[OHM_MAX_CHANNELS];
-    const double *sigma_s[OHM_MAX_CHANNELS];
+    const ohm_coeff *sigma_a[OHM_MAX_CHANNELS];
+    const ohm_coeff *sigma_s[OHM_MAX_CHANNELS];
     /* the refractive index per unknown (interior cells), 1..3, for every
      * channel, or NULL: the material's eta; network.h's interfaces.  Not
      * taken by give_media: the caller frees it after the solve. */
@@ -69,7 +69,7 @@ typedef struct ohm_solve_params {
      * medium_ss instead of copies (16 B per cell and channel less). */
     int give_media;
     /* paper mode with per-cell resistances (transfer functions): n each */
-    const double *resistance_v, *ground_v;
+    const ohm_coeff *resistance_v, *ground_v;
     /* Validation scenes place their own sources: when set, called once per
      * channel instead of the lights (`lights` may be NULL, one frame).
      * Fills b (n x ncols, zeroed) and returns 0. */
@@ -95,8 +95,8 @@ typedef struct ohm_solution {
      * arrays themselves when given (give_media), the depth band's compacted
      * ones, else copies.  Channels with one array share it; medium_owned
      * lists each distinct array once, for ohm_solution_free. */
-    const double *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
-    double *medium_owned[2 * OHM_MAX_CHANNELS];
+    const ohm_coeff *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
+    ohm_coeff *medium_owned[2 * OHM_MAX_CHANNELS];
     /* statistics (DESIGN.md §7) */
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */

@@ -653,7 +653,7 @@ static const ohm_opt_spec solve_opts[] = {
  * density at each interior cell (trilinear at its centre, or the mean over
  * the cell when the grid is coarser than the scan), then the transfer
  * function.  Arrays in unknown order (interior cells, x fastest). */
-static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percell, double **eta_cell,
+static int material_from_scan(ohm_state *s, ohm_solve_params *p, ohm_coeff **percell, double **eta_cell,
                               double **g_cell, ohm_error *err)
 {
     const ohm_voxel_grid *g = &s->grid;
@@ -661,7 +661,7 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
     size_t n = g->interior_cells;
     int nc = t->resistance_mode ? 1 : t->channels;
     for (int q = 0; q < 2 * nc; ++q) {
-        percell[q] = malloc((n ? n : 1) * sizeof(double));
+        percell[q] = malloc((n ? n : 1) * sizeof *percell[q]);
         if (!percell[q]) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the material");
     }
     if (t->eta_column) { /* the index per cell (transfer.h): network.h's interfaces */
@@ -694,8 +694,8 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, double **percel
                 double sa[OHM_MAX_CHANNELS], ss[OHM_MAX_CHANNELS];
                 ohm_transfer_eval(t, density, sa, ss);
                 for (int ch = 0; ch < nc; ++ch) {
-                    percell[ch][u] = sa[ch];
-                    percell[nc + ch][u] = ss[ch];
+                    percell[ch][u] = (ohm_coeff)sa[ch];
+                    percell[nc + ch][u] = (ohm_coeff)ss[ch];
                 }
                 if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, density);
                 if (*g_cell) (*g_cell)[u] = ohm_transfer_eval_g(t, density);
@@ -968,7 +968,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
              ohm_opt_str(inv, "boundary"), ohm_opt_str(inv, "fresnel"), ohm_opt_str(inv, "deposit"),
              ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows));
     double t0 = ohm_now();
-    double *percell[2 * OHM_MAX_CHANNELS] = {NULL};
+    ohm_coeff *percell[2 * OHM_MAX_CHANNELS] = {NULL};
     if (s->have_transfer) {
         if (!s->have_scan)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",

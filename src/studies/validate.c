@@ -407,10 +407,6 @@ int ohm_validate_boundaries(ohm_validation *v, const ohm_log *log, ohm_error *er
 
 /* ---- singular and ill-conditioned systems ------------------------------------ */
 
-typedef struct two_media {
-    double *sa, *ss;
-} two_media;
-
 
 /* Box of n^3 cells of 1 mm; the top half (k > n/2) gets (sa_top, ss_top). */
 static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot, double sa_top, double ss_top,
@@ -420,7 +416,7 @@ static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot,
     int rc = ohm_scene_box(&g, n, n, n, 1.0, err);
     if (rc) return rc;
     size_t cells = (size_t)n * n * n;
-    double *sa = malloc(cells * sizeof *sa), *ss = malloc(cells * sizeof *ss);
+    ohm_coeff *sa = malloc(cells * sizeof *sa), *ss = malloc(cells * sizeof *ss);
     if (!sa || !ss) {
         free(sa);
         free(ss);
@@ -431,8 +427,8 @@ static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot,
     for (size_t u = 0; u < cells; ++u) {
         int k = (int)(u / ((size_t)n * n)) + 1;
         int top = k > n / 2;
-        sa[u] = top ? sa_top : sa_bot;
-        ss[u] = top ? ss_top : ss_bot;
+        sa[u] = (ohm_coeff)(top ? sa_top : sa_bot);
+        ss[u] = (ohm_coeff)(top ? ss_top : ss_bot);
     }
     ohm_material m = ohm_scene_grey(sa_bot, ss_bot);
     ohm_light l = ohm_scene_directional((const double[3]){0, 0, 1.0}); /* from below, onto z = 0 */
@@ -527,7 +523,7 @@ static int index_layers_run(ohm_solution *sol, double h, int with_eta, double *e
     ohm_voxel_grid g;
     int rc = ohm_scene_box(&g, 1, 1, N, h, err);
     if (rc) return rc;
-    double *sa = malloc((size_t)N * sizeof *sa), *ss = malloc((size_t)N * sizeof *ss);
+    ohm_coeff *sa = malloc((size_t)N * sizeof *sa), *ss = malloc((size_t)N * sizeof *ss);
     double *eta = malloc((size_t)N * sizeof *eta);
     if (!sa || !ss || !eta) {
         free(sa), free(ss), free(eta);
@@ -536,8 +532,8 @@ static int index_layers_run(ohm_solution *sol, double h, int with_eta, double *e
     }
     for (int u = 0; u < N; ++u) { /* unknown u is cell k = u + 1; the top n0 cells are layer 0 */
         const ohm_ref_layer *l = &IDX_LAYERS[u >= n1 ? 0 : 1];
-        sa[u] = l->sigma_a;
-        ss[u] = l->sigma_s;
+        sa[u] = (ohm_coeff)l->sigma_a;
+        ss[u] = (ohm_coeff)l->sigma_s;
         eta[u] = with_eta == 1 ? l->eta : IDX_LAYERS[0].eta;
     }
     ohm_material m = ohm_scene_grey(IDX_LAYERS[0].sigma_a, IDX_LAYERS[0].sigma_s);

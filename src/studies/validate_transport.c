@@ -40,7 +40,7 @@ static const double INC_SA = 0.02, INC_SS = 2.0, VOID_SA = 0.0001, VOID_SS = 0.0
 
 /* Per-cell media for the inclusion (unknown order = interior cells in cell
  * order: the box has no band).  The arrays are given to ohm_solve. */
-static int inclusion_media(double **sa, double **ss, const ohm_voxel_grid *g, const transport_scene *sc, ohm_error *err)
+static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, const ohm_voxel_grid *g, const transport_scene *sc, ohm_error *err)
 {
     size_t n = g->interior_cells;
     *sa = malloc(n * sizeof **sa);
@@ -57,8 +57,8 @@ static int inclusion_media(double **sa, double **ss, const ohm_voxel_grid *g, co
                 if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
                 double x = (i - 0.5) * g->h, y = (j - 0.5) * g->h, z = (k - 0.5) * g->h - sc->sphere_c;
                 int in = x * x + y * y + z * z < sc->sphere_r * sc->sphere_r;
-                (*sa)[u] = in ? sc->inc_sa : TR_SA;
-                (*ss)[u] = in ? sc->inc_ss : TR_SS;
+                (*sa)[u] = (ohm_coeff)(in ? sc->inc_sa : TR_SA);
+                (*ss)[u] = (ohm_coeff)(in ? sc->inc_ss : TR_SS);
                 ++u;
             }
     return OHM_OK;
@@ -88,7 +88,7 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
         p.mc.handoff = cfg->hybrid;
     }
     if (sc->inclusion) {
-        double *sa, *ss;
+        ohm_coeff *sa, *ss;
         int rc = inclusion_media(&sa, &ss, g, sc, err);
         if (rc) return rc;
         p.sigma_a[0] = sa;
@@ -309,7 +309,8 @@ typedef struct mc_box {
     ohm_network net;
     ohm_light_entries in;
     double *fluence, *fluence_se, *face, *exit_se;
-    double *sa, *ss, *eta; /* per cell (a clear top layer), or NULL */
+    ohm_coeff *sa, *ss; /* per cell (a clear top layer), or NULL */
+    double *eta;
     ohm_mc_result res;
 } mc_box;
 
@@ -333,14 +334,14 @@ static int mc_box_trace(mc_box *b, int nx, int ny, int nz, double h, double sa, 
     if (!rc) rc = ohm_network_build(&b->net, &b->grid, NULL, err);
     size_t n = (size_t)b->net.n, nf = (size_t)b->net.nfaces;
     if (!rc && clear_top > 0) {
-        b->sa = malloc(n * sizeof(double));
-        b->ss = malloc(n * sizeof(double));
+        b->sa = malloc(n * sizeof *b->sa);
+        b->ss = malloc(n * sizeof *b->ss);
         b->eta = malloc(n * sizeof(double));
         if (!b->sa || !b->ss || !b->eta) rc = ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory");
         for (size_t u = 0; u < n && !rc; ++u) { /* x-fastest: z index u / (nx ny) */
             int clear = (int)(u / ((size_t)nx * (size_t)ny)) >= nz - clear_top;
-            b->sa[u] = clear ? 0.0 : sa;
-            b->ss[u] = clear ? 1e-6 : ss_reduced; /* a scattering every 1e6 mm: clear */
+            b->sa[u] = (ohm_coeff)(clear ? 0.0 : sa);
+            b->ss[u] = (ohm_coeff)(clear ? 1e-6 : ss_reduced); /* a scattering every 1e6 mm: clear */
             b->eta[u] = clear ? 1.0 : eta;
         }
     }
