@@ -587,14 +587,16 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     uint8_t *block_near = calloc(nblocks ? nblocks : 1, 1);
     double *lattice_w = malloc((nlattice ? nlattice : 1) * sizeof *lattice_w);
     uint8_t *decided = calloc(n, 1);
-    if (!block_near || !lattice_w || !decided) {
+    size_t *slice_counts = calloc(2 * (size_t)dims[2], sizeof *slice_counts); /* the fine pass's, below */
+    if (!block_near || !lattice_w || !decided || !slice_counts) {
         free(block_near);
         free(lattice_w);
         free(decided);
+        free(slice_counts);
         bvh_free(&tree);
         free(dist);
         ohm_voxel_grid_free(out);
-        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the coarse pass");
+        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the inside test");
     }
     for (size_t l = 0; l < nlattice; ++l) lattice_w[l] = NAN;
     const float near_dist = (float)out->h; /* > sqrt(3)/2 h: no triangle slips between far cells */
@@ -660,16 +662,6 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     /* Fine pass: every cell the blocks did not decide, slice by slice on
      * every core, a round of FINE_ROUND slices per thread between progress
      * updates (the progress line is the caller's thread's alone). */
-    size_t *slice_counts = calloc(2 * (size_t)dims[2], sizeof *slice_counts);
-    if (!slice_counts) {
-        free(block_near);
-        free(lattice_w);
-        free(decided);
-        bvh_free(&tree);
-        free(dist);
-        ohm_voxel_grid_free(out);
-        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the fine pass");
-    }
     fine_pass fine = {.grid = out, .tree = &tree, .decided = decided, .orient = orient, .counts = slice_counts};
     int threads = ohm_usable_cores();
     int32_t round = FINE_ROUND * threads;
