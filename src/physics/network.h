@@ -106,7 +106,9 @@ static inline int64_t ohm_network_face_run_end(const ohm_network *net, int64_t f
  * coefficient to float moves it by at most 6e-8 relative, far below the
  * scan's own precision and the discretisation's error, and halves the
  * media's memory (three channels: 24 bytes per cell instead of 48,
- * docs/serial-stages.md).  Arithmetic on them is in double. */
+ * docs/serial-stages.md).  The transfer functions' ranges (transfer.h,
+ * 1e-12 .. 1e12) lie well inside a float's normal range.  Arithmetic on
+ * them is in double. */
 typedef float ohm_coeff;
 
 /* One channel's coefficients.  Per-unknown arrays may be NULL, meaning the
@@ -114,8 +116,8 @@ typedef float ohm_coeff;
 typedef struct ohm_channel_medium {
     int resistance_mode;        /* paper mode: G = 1/R between neighbours, 1/R_g to ground */
     double resistance, ground;  /* ohms, paper mode                           */
-    const ohm_coeff *resistance_v; /* n, paper mode per cell, or NULL: the link between two
-                                   cells is two half-resistors in series        */
+    const ohm_coeff *resistance_v; /* n, paper mode per cell, or NULL: the link between
+                                      two cells is two half-resistors in series */
     const ohm_coeff *ground_v;     /* n, paper mode per cell, or NULL             */
     const ohm_coeff *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
     const ohm_coeff *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */

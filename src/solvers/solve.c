@@ -184,9 +184,10 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compa
             compact[used++] = o;
             dst[q][c] = o;
         }
-    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, sizeof *params->eta_v, kept)))
+    const size_t real = sizeof(double); /* the index and the anisotropy */
+    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, real, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
-    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, sizeof *params->g_v, kept)))
+    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, real, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
     return OHM_OK;
 }

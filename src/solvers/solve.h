@@ -66,7 +66,7 @@ typedef struct ohm_solve_params {
     /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
      * caller and ohm_solve takes them, whether it succeeds or fails (the
      * caller must not free them): the solution keeps them as medium_sa /
-     * medium_ss instead of copies (16 B per cell and channel less). */
+     * medium_ss instead of copies (8 B per cell and channel less). */
     int give_media;
     /* paper mode with per-cell resistances (transfer functions): n each */
     const ohm_coeff *resistance_v, *ground_v;

@@ -40,7 +40,8 @@ static const double INC_SA = 0.02, INC_SS = 2.0, VOID_SA = 0.0001, VOID_SS = 0.0
 
 /* Per-cell media for the inclusion (unknown order = interior cells in cell
  * order: the box has no band).  The arrays are given to ohm_solve. */
-static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, const ohm_voxel_grid *g, const transport_scene *sc, ohm_error *err)
+static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, const ohm_voxel_grid *g, const transport_scene *sc,
+                           ohm_error *err)
 {
     size_t n = g->interior_cells;
     *sa = malloc(n * sizeof **sa);
