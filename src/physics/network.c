@@ -293,6 +293,11 @@ static inline double ground_conductance(const ohm_channel_medium *m, double h, i
     return med_sa(m, v) * h * h * h;
 }
 
+double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
+{
+    return ground_conductance(m, h, v);
+}
+
 static inline double boundary_conductance(const ohm_channel_medium *m, double h, int64_t v, double dv, ohm_boundary b,
                                           double A)
 {

@@ -157,7 +157,9 @@ static inline double ohm_network_unknown_scale(const ohm_channel_medium *m, int6
 
 /* Assemble A (caller frees with cholmod_l_free_sparse) and, optionally, the
  * per-unknown ground conductance ga[n] and per-face boundary conductance
- * gb[nfaces] (for power bookkeeping and exitance).  Fails with a physical
+ * gb[nfaces] (for power bookkeeping and exitance).  Without closure faces
+ * (nclosure = 0) ga[v] is ohm_network_ground_conductance (below) exactly, so
+ * a caller may pass NULL and compute it where it needs it.  Fails with a physical
  * explanation when a piece can neither absorb nor lose light. */
 int ohm_network_assemble(cholmod_sparse **A, double *ga, double *gb, const ohm_network *net,
                          const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc, ohm_error *err);
@@ -170,6 +172,10 @@ int ohm_network_assemble(cholmod_sparse **A, double *ga, double *gb, const ohm_n
  * On failure A's values are undefined (its shape is kept). */
 int ohm_network_assemble_into(cholmod_sparse *A, double *ga, double *gb, const ohm_network *net,
                               const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
+
+/* Unknown v's conductance to ground (absorption sigma_a h^3, or paper mode's
+ * 1 / R_g), without the depth band's closure faces. */
+double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int64_t v);
 
 const char *ohm_boundary_name(ohm_boundary b);
 

@@ -53,6 +53,14 @@ static void tally_add(ohm_solution *sol, const channel_tally *t, int c)
     sol->mode_corrections += t->mode_corrections;
 }
 
+/* Unknown v's ground conductance: the assembly's ga when it kept one (a
+ * depth band's closure faces add to it), else the medium's, by the formula
+ * the assembly used (bit for bit; 8 B per cell not held). */
+static inline double ground_of(const double *ga, const ohm_network *net, const ohm_channel_medium *med, int64_t v)
+{
+    return ga ? ga[v] : ohm_network_ground_conductance(med, net->grid->h, v);
+}
+
 static int correct_constant_modes(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t ncols,
                                   const double *ga, const double *gb, const cholmod_sparse *A,
                                   const ohm_channel_medium *med)
@@ -66,7 +74,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     }
     const int64_t *Ap = A->p;
     const double *Ax = A->x;
-    for (int64_t v = 0; v < n; ++v) vsink[v] = ga[v];
+    for (int64_t v = 0; v < n; ++v) vsink[v] = ground_of(ga, net, med, v);
     for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
     if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
         for (int64_t v = 0; v < n; ++v) vsink[v] *= ohm_network_unknown_scale(med, v);
@@ -420,7 +428,7 @@ static void expand_columns(double *X, double *B, const ohm_solution *sol, const 
  * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
  * derived from its faces' when read: ohm_solution_exitance_frame). */
 static void book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
-                       const double *gb, size_t f0, size_t nb, int c)
+                       const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -432,7 +440,7 @@ static void book_power(ohm_solution *sol, channel_tally *t, const double *X, con
         double *fx = sol->face_exitance[c] + fr * nf;
         for (size_t v = 0; v < n; ++v) {
             in += b[v];
-            absorbed += ga[v] * x[v];
+            absorbed += ground_of(ga, net, med, (int64_t)v) * x[v];
         }
         for (int64_t f = 0; f < net->nfaces; ++f) {
             double p = gb[f] * x[net->face_unknown[f]];
@@ -749,7 +757,7 @@ static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params 
 typedef struct medium_slot {
     void *state;            /* the backend's, or NULL                     */
     cholmod_sparse *A;      /* the network's matrix for this medium        */
-    double *ga, *gb;        /* ground per unknown, boundary per face       */
+    double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
     int ready;              /* A holds this medium's values, set up        */
 } medium_slot;
 
@@ -877,9 +885,10 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     s->held = k;
     const ohm_network *net = &s->sol.net;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    if (!m->ga) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
+    /* ga only where closure faces add to the ground (ground_of) */
+    if (!m->ga && net->nclosure > 0) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
     if (!m->gb) m->gb = malloc(nf * sizeof *m->gb);
-    if (!m->ga || !m->gb) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
+    if ((!m->ga && net->nclosure > 0) || !m->gb) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
     if (rc) return rc;
     ohm_channel_medium med;
@@ -1099,7 +1108,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         if (berr > t->residual) t->residual = berr;
         t->solves += (int64_t)nu;
         expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
-        book_power(sol, t, X, w->B, m->ga, m->gb, f0, nb, c);
+        book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
         if (run->hybrid) hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
             rc = add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
