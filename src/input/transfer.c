@@ -352,29 +352,7 @@ int ohm_transfer_read(ohm_transfer *out, const char *path, ohm_error *err)
 /* The points around density: value = v[i0] + w (v[i1] - v[i0]); n > 0. */
 static void bracket(const ohm_transfer *t, double density, size_t *pi0, size_t *pi1, double *pw)
 {
-    size_t n = t->n, i0, i1;
-    double w;
-    if (!(density > t->density[0])) { /* below the first point, or NaN: clamp */
-        i0 = i1 = 0;
-        w = 0.0;
-    } else if (density >= t->density[n - 1]) {
-        i0 = i1 = n - 1;
-        w = 0.0;
-    } else {
-        /* binary search: density[lo] <= density < density[hi] */
-        size_t lo = 0, hi = n - 1;
-        while (hi - lo > 1) {
-            size_t mid = lo + (hi - lo) / 2;
-            if (t->density[mid] <= density) lo = mid;
-            else hi = mid;
-        }
-        i0 = lo;
-        i1 = hi;
-        w = (density - t->density[lo]) / (t->density[hi] - t->density[lo]);
-    }
-    *pi0 = i0;
-    *pi1 = i1;
-    *pw = w;
+    ohm_curve_bracket(t->density, t->n, density, pi0, pi1, pw);
 }
 
 /* One extra column (eta, g) at a density, or its header value when it is
@@ -414,4 +392,10 @@ void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double
         sa[c] = a0 + w * (a1 - a0);
         ss[c] = s0 + w * (s1 - s0);
     }
+}
+
+ohm_curve ohm_transfer_curve(const ohm_transfer *t, int c, int ss)
+{
+    ohm_curve k = {t->n, t->density, (ss ? t->sigma_s : t->sigma_a) + c, (size_t)t->channels};
+    return k;
 }

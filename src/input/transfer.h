@@ -22,6 +22,7 @@
 
 #include <stddef.h>
 
+#include "base/curve.h"
 #include "base/ohm_error.h"
 
 /* The coefficients ohm accepts, in a transfer function and on -material:
@@ -57,6 +58,11 @@ void ohm_transfer_free(ohm_transfer *t);
 
 /* Coefficients at a density (clamped at the ends): sa[c], ss[c] for c < channels. */
 void ohm_transfer_eval(const ohm_transfer *t, double density, double *sa, double *ss);
+
+/* Channel c's sigma_a (ss = 0) or sigma_s' (ss = 1) as a function of
+ * density: ohm_curve_at gives ohm_transfer_eval's values; the curve points
+ * into t (n > 0). */
+ohm_curve ohm_transfer_curve(const ohm_transfer *t, int c, int ss);
 
 /* The refractive index at a density: the column's (eta=column), else eta. */
 double ohm_transfer_eval_eta(const ohm_transfer *t, double density);

@@ -91,11 +91,10 @@ static int set_common_meta(ohm_vdb_grid *grid, const ohm_voxel_grid *g, const oh
     return rc;
 }
 
-/* One solution grid: values per unknown (a result, in double) or coeffs
- * (the medium, network.h's ohm_coeff), active where `where` is non-zero
+/* One solution grid: values per unknown, active where `where` is non-zero
  * (NULL: every unknown). */
 static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quantity, const ohm_voxel_grid *g,
-                         const ohm_solution *sol, const double *values, const ohm_coeff *coeffs, const int *where,
+                         const ohm_solution *sol, const double *values, const int *where,
                          const ohm_vdb_provenance *prov, ohm_error *err)
 {
     voxel_list l = {0};
@@ -105,7 +104,7 @@ static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quant
         int32_t ijk[3];
         ohm_voxel_coords(g, net->cell[v], ijk);
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];
-        if (list_push(&l, i, j, k, values ? (float)values[v] : coeffs[v])) {
+        if (list_push(&l, i, j, k, (float)values[v])) {
             list_free(&l);
             return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting %s", name);
         }
@@ -172,34 +171,35 @@ int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution
             snprintf(name, sizeof name, "fluence%s", sfx);
             size_t off = (size_t)frame * (size_t)sol->n;
             rc = solution_grid(&grids[ngrids++], name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off,
-                               NULL, NULL, prov, err);
+                               NULL, prov, err);
             if (rc) break;
             snprintf(name, sizeof name, "exitance%s", sfx);
             ohm_solution_exitance_frame(cell_exitance, sol, c, frame);
             rc = solution_grid(&grids[ngrids++], name,
                                "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
-                               sol, cell_exitance, NULL, boundary_cell, prov, err);
+                               sol, cell_exitance, boundary_cell, prov, err);
             /* solver=mc: the standard errors beside the values */
             if (!rc && sol->fluence_se[c]) {
                 snprintf(name, sizeof name, "fluence_se%s", sfx);
                 rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the fluence, W/mm^2", g, sol,
-                                   sol->fluence_se[c] + off, NULL, NULL, prov, err);
+                                   sol->fluence_se[c] + off, NULL, prov, err);
             }
             if (!rc && sol->exitance_se[c]) {
                 snprintf(name, sizeof name, "exitance_se%s", sfx);
                 rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the exitance, W/mm^2", g,
-                                   sol, sol->exitance_se[c] + off, NULL, boundary_cell, prov, err);
+                                   sol, sol->exitance_se[c] + off, boundary_cell, prov, err);
             }
-            /* the material, when it varies cell by cell (scans) */
-            if (!rc && sol->medium_sa[c]) {
+            /* the material, when it varies cell by cell (scans), in turn
+             * through the exitance's buffer */
+            if (!rc && ohm_solution_medium(cell_exitance, sol, c, 0)) {
                 snprintf(name, sizeof name, "sigma_a%s", sfx);
                 rc = solution_grid(&grids[ngrids++], name, "absorption coefficient sigma_a, 1/mm", g, sol,
-                                   NULL, sol->medium_sa[c], NULL, prov, err);
+                                   cell_exitance, NULL, prov, err);
             }
-            if (!rc && sol->medium_ss[c]) {
+            if (!rc && ohm_solution_medium(cell_exitance, sol, c, 1)) {
                 snprintf(name, sizeof name, "sigma_s%s", sfx);
                 rc = solution_grid(&grids[ngrids++], name, "reduced scattering coefficient sigma_s', 1/mm", g, sol,
-                                   NULL, sol->medium_ss[c], NULL, prov, err);
+                                   cell_exitance, NULL, prov, err);
             }
         }
     }

@@ -47,11 +47,11 @@ void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
 
 static inline double med_sigma_t(const ohm_channel_medium *m, int64_t v)
 {
-    return (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) + (m->sigma_s ? m->sigma_s[v] : m->sigma_s0);
+    return ohm_medium_sigma_a(m, v) + ohm_medium_sigma_s(m, v);
 }
 static inline double med_albedo(const ohm_channel_medium *m, int64_t v)
 {
-    return (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) / med_sigma_t(m, v);
+    return ohm_medium_sigma_s(m, v) / med_sigma_t(m, v);
 }
 
 /* The column of cells below boundary face f, walked inward against its
@@ -184,8 +184,7 @@ void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f,
         if (u < 0) break;
         /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
          * loses every photon that scatters, forward or not */
-        double sa = med->sigma_a ? med->sigma_a[u] : med->sigma_a0;
-        double st = sa + (med->sigma_s ? med->sigma_s[u] : med->sigma_s0) / (1.0 - med->g), t1 = tau + st * h / mu;
+        double st = ohm_medium_sigma_a(med, u) + ohm_medium_sigma_s(med, u) / (1.0 - med->g), t1 = tau + st * h / mu;
         /* track length in the cell along the ray, P int e^-st s ds, per volume */
         phi[u] += P * (exp(-tau) - exp(-t1)) / (st * volume);
         tau = t1;

@@ -95,9 +95,9 @@ static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, 
 {
     const ohm_channel_medium *m = sc->med;
     double h = sc->net->grid->h;
-    *sa = (m->sigma_a ? m->sigma_a[v] : m->sigma_a0) * h;
+    *sa = ohm_medium_sigma_a(m, v) * h;
     double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
-    *ss = (m->sigma_s ? m->sigma_s[v] : m->sigma_s0) * scale * h;
+    *ss = ohm_medium_sigma_s(m, v) * scale * h;
 }
 
 /* ---- one thread's tallies ------------------------------------------------------ */

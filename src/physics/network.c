@@ -240,8 +240,8 @@ typedef struct coeffs {
     double g_edge, g_ground, g_bound, g_closure;
 } coeffs;
 
-static inline double med_sa(const ohm_channel_medium *m, int64_t v) { return m->sigma_a ? m->sigma_a[v] : m->sigma_a0; }
-static inline double med_ss(const ohm_channel_medium *m, int64_t v) { return m->sigma_s ? m->sigma_s[v] : m->sigma_s0; }
+static inline double med_sa(const ohm_channel_medium *m, int64_t v) { return ohm_medium_sigma_a(m, v); }
+static inline double med_ss(const ohm_channel_medium *m, int64_t v) { return ohm_medium_sigma_s(m, v); }
 static inline double med_D(const ohm_channel_medium *m, int64_t v) { return 1.0 / (3.0 * (med_sa(m, v) + med_ss(m, v))); }
 
 /* Conductance between neighbouring unknowns v and w (Dv = med_D(m, v)). */
@@ -332,7 +332,7 @@ static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_bo
     k->A = m->resistance_mode ? 0.0 : ohm_boundary_A(m->eta, m->fresnel);
     k->fresnel = m->fresnel;
     k->tab = tab;
-    k->uniform = !m->sigma_a && !m->sigma_s && (!m->resistance_mode || (!m->resistance_v && !m->ground_v)) &&
+    k->uniform = !ohm_medium_varies(m) && (!m->resistance_mode || (!m->resistance_v && !m->ground_v)) &&
                  (m->resistance_mode || !m->eta_v);
     if (k->uniform) {
         double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */

@@ -22,6 +22,7 @@
 
 #include <cholmod.h>
 
+#include "base/curve.h"
 #include "grid/cell_index.h"
 #include "physics/fresnel.h"
 #include "base/ohm_error.h"
@@ -119,15 +120,39 @@ typedef struct ohm_channel_medium {
     const ohm_coeff *resistance_v; /* n, paper mode per cell, or NULL: the link between
                                       two cells is two half-resistors in series */
     const ohm_coeff *ground_v;     /* n, paper mode per cell, or NULL             */
-    const ohm_coeff *sigma_a;      /* n, 1/mm, or NULL -> sigma_a0               */
-    const ohm_coeff *sigma_s;      /* n, reduced scattering, or NULL -> sigma_s0 */
+    const ohm_coeff *sigma_a;      /* n, 1/mm, or NULL -> the curve, or sigma_a0 */
+    const ohm_coeff *sigma_s;      /* n, reduced scattering, or NULL -> likewise */
     double sigma_a0, sigma_s0;
+    /* A scan's media: a density per unknown and the transfer function's
+     * curves of it (curve.h), evaluated where a coefficient is needed — 4 B
+     * per cell for every channel and both coefficients; NULL / n = 0: none */
+    const float *density;
+    ohm_curve sigma_a_curve, sigma_s_curve;
     double eta;
     const double *eta_v;        /* n, the index per cell, or NULL -> eta (below) */
     double g;                   /* anisotropy: transport only (mc.h), sigma_s = sigma_s' / (1 - g) */
     const double *g_v;          /* n, the anisotropy per cell (transport only), or NULL -> g */
     ohm_fresnel fresnel;        /* robin: A from eta by the Fresnel moments or the fit */
 } ohm_channel_medium;
+
+/* Unknown v's coefficients, 1/mm: its own (an array), its density's (the
+ * curves), or the medium's constant. */
+static inline double ohm_medium_sigma_a(const ohm_channel_medium *m, int64_t v)
+{
+    if (m->sigma_a) return m->sigma_a[v];
+    return m->density && m->sigma_a_curve.n ? ohm_curve_at(&m->sigma_a_curve, m->density[v]) : m->sigma_a0;
+}
+static inline double ohm_medium_sigma_s(const ohm_channel_medium *m, int64_t v)
+{
+    if (m->sigma_s) return m->sigma_s[v];
+    return m->density && m->sigma_s_curve.n ? ohm_curve_at(&m->sigma_s_curve, m->density[v]) : m->sigma_s0;
+}
+
+/* Whether the optical coefficients vary cell by cell. */
+static inline int ohm_medium_varies(const ohm_channel_medium *m)
+{
+    return m->sigma_a || m->sigma_s || (m->density && (m->sigma_a_curve.n || m->sigma_s_curve.n));
+}
 
 /* A refractive index per cell (eta_v).  Where two cells' indices differ, the
  * face between them is an interface of diffusion theory: the normal flux J is

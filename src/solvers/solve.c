@@ -106,6 +106,29 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     return any;
 }
 
+static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c)
+{
+    memset(med, 0, sizeof *med);
+    int mc = mat->channels == 1 ? 0 : c;
+    med->resistance_mode = mat->kind == OHM_MATERIAL_RESISTANCE;
+    med->resistance = mat->resistance;
+    med->ground = mat->ground;
+    med->sigma_a0 = mat->sigma_a[mc];
+    med->sigma_s0 = mat->sigma_s[mc];
+    med->sigma_a = p->sigma_a[c];
+    med->sigma_s = p->sigma_s[c];
+    med->density = p->density;
+    med->sigma_a_curve = p->density_sa[c];
+    med->sigma_s_curve = p->density_ss[c];
+    med->resistance_v = p->resistance_v;
+    med->ground_v = p->ground_v;
+    med->eta = mat->eta;
+    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
+    med->g = mat->g;
+    med->g_v = med->resistance_mode ? NULL : p->g_v;
+    med->fresnel = p->fresnel;
+}
+
 /* A per-interior-cell array of `size`-byte entries (the media's ohm_coeff,
  * the index's and anisotropy's doubles) compacted to the band's kept
  * unknowns (malloc'd; NULL: out of memory). */
@@ -143,12 +166,15 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compa
     int64_t ni = (int64_t)grid->interior_cells;
     double sigma_tr = INFINITY;
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        int per_cell = params->sigma_a[c] || params->sigma_s[c];
+        ohm_channel_medium med;
+        medium_for(&med, mat, params, c);
+        int per_cell = ohm_medium_varies(&med);
         if (c >= mat->channels && !per_cell) continue;
         int mc = mat->channels == 1 || c >= mat->channels ? 0 : c;
+        med.sigma_a0 = mat->sigma_a[mc];
+        med.sigma_s0 = mat->sigma_s[mc];
         for (int64_t v = 0; v < (per_cell ? ni : 1); ++v) {
-            double sa = params->sigma_a[c] ? params->sigma_a[c][v] : mat->sigma_a[mc];
-            double ss = params->sigma_s[c] ? params->sigma_s[c][v] : mat->sigma_s[mc];
+            double sa = ohm_medium_sigma_a(&med, v), ss = ohm_medium_sigma_s(&med, v);
             sigma_tr = fmin(sigma_tr, sqrt(3.0 * sa * (sa + ss)));
         }
     }
@@ -192,6 +218,12 @@ static int setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compa
             compact[used++] = o;
             dst[q][c] = o;
         }
+    if (params->density) {
+        float *o = compact_to_band(sol, grid, params->density, sizeof *params->density, kept);
+        if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's density");
+        free(sol->medium_density); /* a given one: no longer needed */
+        out->density = sol->medium_density = o;
+    }
     const size_t real = sizeof(double); /* the index and the anisotropy */
     if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, real, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
@@ -219,13 +251,45 @@ static void take_media(ohm_solution *sol, const ohm_solve_params *p)
         if (p->sigma_a[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_a[c]);
         if (p->sigma_s[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_s[c]);
     }
+    /* paper mode's resistances: held for the solver's life, not output */
+    if (p->resistance_v) own_medium(sol, (ohm_coeff *)(uintptr_t)p->resistance_v);
+    if (p->ground_v) own_medium(sol, (ohm_coeff *)(uintptr_t)p->ground_v);
+    sol->medium_density = (float *)(uintptr_t)p->density;
+}
+
+/* The curves of a scan's media (solve.h) copied into the solution, which may
+ * outlive the caller's transfer function; p's curves then point at the
+ * copies. */
+static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
+{
+    ohm_curve *given[2] = {p->density_sa, p->density_ss}, *kept[2] = {sol->medium_sa_curve, sol->medium_ss_curve};
+    size_t total = 0;
+    for (int q = 0; q < 2; ++q)
+        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) total += 2 * given[q][c].n;
+    if (!p->density || total == 0) return OHM_OK;
+    double *store = sol->curve_store = malloc(total * sizeof *store);
+    if (!store) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the transfer function");
+    for (int q = 0; q < 2; ++q)
+        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
+            ohm_curve *k = &given[q][c];
+            if (!k->n) continue;
+            double *x = store, *y = store + k->n;
+            store += 2 * k->n;
+            for (size_t i = 0; i < k->n; ++i) {
+                x[i] = k->x[i];
+                y[i] = k->y[i * k->stride];
+            }
+            ohm_curve copy = {k->n, x, y, 1};
+            *k = kept[q][c] = copy;
+        }
+    return OHM_OK;
 }
 
 /* The medium the solution keeps for its output grids (solve.h), from p (the
  * params after the band): with a band, p's arrays are compact[] (moved into
  * the solution; given originals are freed now, no longer needed); given
  * arrays are kept as they are; others are copied once each. */
-static int keep_media(ohm_solution *sol, const ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
+static int keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                       ohm_error *err)
 {
     if (sol->band_active) {
@@ -256,7 +320,13 @@ static int keep_media(ohm_solution *sol, const ohm_solve_params *p, ohm_coeff *c
             }
             dst[q][c] = same;
         }
-    return OHM_OK;
+    if (p->density && !sol->medium_density) {
+        float *copy = malloc((size_t)(sol->net.n ? sol->net.n : 1) * sizeof *copy);
+        if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the density");
+        memcpy(copy, p->density, (size_t)sol->net.n * sizeof *copy);
+        p->density = sol->medium_density = copy;
+    }
+    return keep_curves(sol, p, err);
 }
 
 /* The mean of face_exitance over faces [f, end) (one cell's run). */
@@ -289,11 +359,34 @@ void ohm_solution_free(ohm_solution *sol)
         free(sol->exitance_se[c]);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
+    free(sol->medium_density);
+    free(sol->curve_store);
     ohm_network_free(&sol->net);
     free(sol->band_active);
     free(sol->band_eta);
     free(sol->band_g);
     memset(sol, 0, sizeof *sol);
+}
+
+int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss)
+{
+    const ohm_coeff *values = ss ? sol->medium_ss[c] : sol->medium_sa[c];
+    const ohm_curve *curve = ss ? &sol->medium_ss_curve[c] : &sol->medium_sa_curve[c];
+    if (values) {
+        for (int64_t v = 0; v < sol->n; ++v) out[v] = values[v];
+        return 1;
+    }
+    if (!sol->medium_density || !curve->n) return 0;
+    for (int64_t v = 0; v < sol->n; ++v) out[v] = ohm_curve_at(curve, sol->medium_density[v]);
+    return 1;
+}
+
+int ohm_solution_medium_varies(const ohm_solution *sol)
+{
+    for (int c = 0; c < sol->channels; ++c)
+        if (sol->medium_sa[c] || sol->medium_ss[c] || sol->medium_sa_curve[c].n || sol->medium_ss_curve[c].n)
+            return 1;
+    return 0;
 }
 
 double ohm_solution_conservation_error(const ohm_solution *sol)
@@ -302,30 +395,21 @@ double ohm_solution_conservation_error(const ohm_solution *sol)
     return fabs(sol->power_in - sol->power_absorbed - sol->power_out) / sol->power_in;
 }
 
-static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c)
+/* Whether curves a and b are one function (knot for knot). */
+static int same_curve(const ohm_curve *a, const ohm_curve *b)
 {
-    memset(med, 0, sizeof *med);
-    int mc = mat->channels == 1 ? 0 : c;
-    med->resistance_mode = mat->kind == OHM_MATERIAL_RESISTANCE;
-    med->resistance = mat->resistance;
-    med->ground = mat->ground;
-    med->sigma_a0 = mat->sigma_a[mc];
-    med->sigma_s0 = mat->sigma_s[mc];
-    med->sigma_a = p->sigma_a[c];
-    med->sigma_s = p->sigma_s[c];
-    med->resistance_v = p->resistance_v;
-    med->ground_v = p->ground_v;
-    med->eta = mat->eta;
-    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
-    med->g = mat->g;
-    med->g_v = med->resistance_mode ? NULL : p->g_v;
-    med->fresnel = p->fresnel;
+    if (a->n != b->n) return 0;
+    for (size_t i = 0; i < a->n; ++i)
+        if (a->x[i] != b->x[i] || a->y[i * a->stride] != b->y[i * b->stride]) return 0;
+    return 1;
 }
 
 /* Channels c and e share a factor when their coefficients are identical. */
 static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e)
 {
     if (p->sigma_a[c] != p->sigma_a[e] || p->sigma_s[c] != p->sigma_s[e]) return 0;
+    if (!same_curve(&p->density_sa[c], &p->density_sa[e]) || !same_curve(&p->density_ss[c], &p->density_ss[e]))
+        return 0;
     if (mat->kind == OHM_MATERIAL_RESISTANCE || mat->channels == 1) return 1;
     return mat->sigma_a[c] == mat->sigma_a[e] && mat->sigma_s[c] == mat->sigma_s[e];
 }

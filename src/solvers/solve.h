@@ -63,10 +63,18 @@ typedef struct ohm_solve_params {
      * material's g; transport only (solver=mc, hybrid=): diffusion takes
      * sigma_s' as given.  Not taken by give_media either. */
     const double *g_v;
-    /* Nonzero: the arrays in sigma_a[] and sigma_s[] were malloc'd by the
-     * caller and ohm_solve takes them, whether it succeeds or fails (the
-     * caller must not free them): the solution keeps them as medium_sa /
-     * medium_ss instead of copies (8 B per cell and channel less). */
+    /* A scan's media, instead of arrays: a density per unknown (interior
+     * cells) and each channel's curves of it (the transfer function's,
+     * curve.h; n = 0 where a coefficient is the material's constant),
+     * evaluated where a coefficient is needed: 4 B per cell for all channels.
+     * The solver copies the curves. */
+    const float *density;
+    ohm_curve density_sa[OHM_MAX_CHANNELS], density_ss[OHM_MAX_CHANNELS];
+    /* Nonzero: the arrays in sigma_a[] and sigma_s[], density, resistance_v
+     * and ground_v were malloc'd by the caller and ohm_solve takes them,
+     * whether it succeeds or fails (the caller must not free them): the
+     * solution keeps them instead of copies (4 B per cell and coefficient
+     * less).  Zero: the caller keeps them alive as long as the solver. */
     int give_media;
     /* paper mode with per-cell resistances (transfer functions): n each */
     const ohm_coeff *resistance_v, *ground_v;
@@ -97,6 +105,11 @@ typedef struct ohm_solution {
      * lists each distinct array once, for ohm_solution_free. */
     const ohm_coeff *medium_sa[OHM_MAX_CHANNELS], *medium_ss[OHM_MAX_CHANNELS];
     ohm_coeff *medium_owned[2 * OHM_MAX_CHANNELS];
+    /* Or a scan's: the density per unknown (owned) and the curves of it
+     * (their knots and values in curve_store), as the params gave them. */
+    float *medium_density;
+    ohm_curve medium_sa_curve[OHM_MAX_CHANNELS], medium_ss_curve[OHM_MAX_CHANNELS];
+    double *curve_store;
     /* statistics (DESIGN.md §7) */
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */
@@ -196,6 +209,15 @@ void ohm_solver_free(ohm_solver *s); /* NULL is fine */
  * not stored: a stored copy was 8 B per cell per channel and frame, held
  * through the solve, for values that are nonzero only on the surface. */
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
+
+/* Channel c's sigma_a (ss = 0) or reduced scattering sigma_s' (ss = 1), 1/mm,
+ * per unknown into out[n], when it varies cell by cell (returns 1; for the
+ * sigma_a / sigma_s output grids); 0, out untouched, when it is the
+ * material's constant. */
+int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss);
+
+/* Whether any coefficient varies cell by cell (ohm_solution_medium). */
+int ohm_solution_medium_varies(const ohm_solution *sol);
 
 /* |in - absorbed - out| / in */
 double ohm_solution_conservation_error(const ohm_solution *sol);

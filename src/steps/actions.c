@@ -649,18 +649,21 @@ static const ohm_opt_spec solve_opts[] = {
      "0|1", 0, 0, 0},
     {0}};
 
-/* Per-cell coefficients from the volume through the transfer function: the
- * density at each interior cell (trilinear at its centre, or the mean over
- * the cell when the grid is coarser than the scan), then the transfer
- * function.  Arrays in unknown order (interior cells, x fastest). */
-static int material_from_scan(ohm_state *s, ohm_solve_params *p, ohm_coeff **percell, double **eta_cell,
-                              double **g_cell, ohm_error *err)
+/* The material from the volume through the transfer function: the density
+ * at each interior cell (trilinear at its centre, or the mean over the cell
+ * when the grid is coarser than the scan), in unknown order (interior cells,
+ * x fastest), with the transfer function's curves of it (solve.h); paper
+ * mode's resistances, and the index and anisotropy columns, per cell. */
+static int material_from_scan(ohm_state *s, ohm_solve_params *p, float **density, ohm_coeff **percell,
+                              double **eta_cell, double **g_cell, ohm_error *err)
 {
     const ohm_voxel_grid *g = &s->grid;
     const ohm_transfer *t = &s->transfer;
     size_t n = g->interior_cells;
     int nc = t->resistance_mode ? 1 : t->channels;
-    for (int q = 0; q < 2 * nc; ++q) {
+    *density = malloc((n ? n : 1) * sizeof **density);
+    if (!*density) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the density");
+    for (int q = 0; q < 2 * nc && t->resistance_mode; ++q) {
         percell[q] = malloc((n ? n : 1) * sizeof *percell[q]);
         if (!percell[q]) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the material");
     }
@@ -683,33 +686,40 @@ static int material_from_scan(ohm_state *s, ohm_solve_params *p, ohm_coeff **per
             for (int32_t i = 0; i < g->dims[0]; ++i) {
                 if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
                 double c[3] = {g->origin[0] + g->h * i, g->origin[1] + g->h * j, g->origin[2] + g->h * k};
-                double density;
                 if (average) {
                     double lo[3], hi[3];
                     for (int a = 0; a < 3; ++a) lo[a] = c[a] - 0.5 * g->h, hi[a] = c[a] + 0.5 * g->h;
-                    density = ohm_scan_box_mean(&s->scan, lo, hi);
+                    (*density)[u++] = (float)ohm_scan_box_mean(&s->scan, lo, hi);
                 } else {
-                    density = ohm_scan_sample(&s->scan, c);
+                    (*density)[u++] = (float)ohm_scan_sample(&s->scan, c);
                 }
-                double sa[OHM_MAX_CHANNELS], ss[OHM_MAX_CHANNELS];
-                ohm_transfer_eval(t, density, sa, ss);
-                for (int ch = 0; ch < nc; ++ch) {
-                    percell[ch][u] = (ohm_coeff)sa[ch];
-                    percell[nc + ch][u] = (ohm_coeff)ss[ch];
-                }
-                if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, density);
-                if (*g_cell) (*g_cell)[u] = ohm_transfer_eval_g(t, density);
-                ++u;
             }
+    /* the coefficients come from the density as it is kept (a float, like
+     * the scan's values), wherever they are evaluated */
+    for (u = 0; u < n; ++u) {
+        double d = (*density)[u];
+        if (*eta_cell) (*eta_cell)[u] = ohm_transfer_eval_eta(t, d);
+        if (*g_cell) (*g_cell)[u] = ohm_transfer_eval_g(t, d);
+        if (t->resistance_mode) {
+            double r, ground;
+            ohm_transfer_eval(t, d, &r, &ground);
+            percell[0][u] = (ohm_coeff)r;
+            percell[1][u] = (ohm_coeff)ground;
+        }
+    }
+    p->give_media = 1; /* the solver keeps what it is given (solve.h): no copies */
     if (t->resistance_mode) {
         p->resistance_v = percell[0];
         p->ground_v = percell[1];
+        free(*density); /* the resistances are all the network needs */
+        *density = NULL;
     } else {
+        /* the transfer function itself, not a coefficient per cell (solve.h) */
+        p->density = *density;
         for (int ch = 0; ch < nc; ++ch) {
-            p->sigma_a[ch] = percell[ch];
-            p->sigma_s[ch] = percell[nc + ch];
+            p->density_sa[ch] = ohm_transfer_curve(t, ch, 0);
+            p->density_ss[ch] = ohm_transfer_curve(t, ch, 1);
         }
-        p->give_media = 1; /* the solution keeps them for its sigma_a / sigma_s grids: no copies */
         p->eta_v = *eta_cell;
         p->g_v = *g_cell;
     }
@@ -969,19 +979,24 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
              ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows));
     double t0 = ohm_now();
     ohm_coeff *percell[2 * OHM_MAX_CHANNELS] = {NULL};
+    float *density = NULL;
     if (s->have_transfer) {
         if (!s->have_scan)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
                             inv->where);
         /* the index and anisotropy per cell stay the state's for the solver's life (solve.h) */
-        rc = material_from_scan(s, &p, percell, &s->solver_eta, &s->solver_g, err);
+        rc = material_from_scan(s, &p, &density, percell, &s->solver_eta, &s->solver_g, err);
     }
     if (!rc) {
         int keep = strcmp(ohm_opt_str(inv, "keep"), "1") == 0;
         rc = ohm_solver_create(&s->solver, &s->grid, &s->material, &p, keep, &s->log, err);
-        if (p.give_media) memset(percell, 0, sizeof percell); /* the solver took them (solve.h) */
+        if (p.give_media) { /* the solver took them (solve.h) */
+            density = NULL;
+            memset(percell, 0, sizeof percell);
+        }
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(percell[q]);
+    free(density);
     if (!rc && p.mc.handoff > 0 && strcmp(ohm_opt_str(inv, "hybrid"), "auto") == 0)
         rc = ohm_solver_settle_auto_hybrid(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
@@ -1091,11 +1106,11 @@ static int run_write(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     char grids[160] = "";
     if (sol) {
         const char *rgb = sol->channels == 1 ? "" : "_r/g/b";
+        int varies = ohm_solution_medium_varies(sol);
         snprintf(grids, sizeof grids, ", fluence%s, exitance%s%s%s%s%s%s%s%s%s", rgb, rgb,
                  sol->fluence_se[0] ? ", fluence_se" : "", sol->fluence_se[0] ? rgb : "",
                  sol->fluence_se[0] ? ", exitance_se" : "", sol->fluence_se[0] ? rgb : "",
-                 sol->medium_sa[0] ? ", sigma_a" : "", sol->medium_sa[0] ? rgb : "",
-                 sol->medium_sa[0] ? ", sigma_s" : "", sol->medium_sa[0] ? rgb : "");
+                 varies ? ", sigma_a" : "", varies ? rgb : "", varies ? ", sigma_s" : "", varies ? rgb : "");
     }
     if (frames == 1) ohm_log_info(&s->log, "wrote %s (grids: surface, density%s), %.2f s", path, grids, t);
     else
