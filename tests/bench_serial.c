@@ -10,7 +10,9 @@
  *                                band of 3 + 1): build, then one channel
  *                                assembled homogeneous and per-cell, and the
  *                                per-cell one refilled into an existing matrix
- *                                (ohm_network_assemble_into); best of 5, thread CPU time
+ *                                (ohm_network_assemble_into), then a scan's
+ *                                medium (a density through a transfer
+ *                                function's curves); best of 5, thread CPU time
  *   bench_serial digest          FNV-1a hashes of every array the network and
  *                                the assembly produce, over scenes that reach
  *                                every branch (mirror planes, a depth band,
@@ -325,7 +327,7 @@ static int time_one(double cells)
         }
     /* refilling one matrix, as ohm_solve does for every channel material
      * after the first (the heterogeneous medium into the homogeneous one's) */
-    double t_refill = INFINITY;
+    double t_refill = INFINITY, t_scan = INFINITY;
     {
         ohm_channel_medium hom = {0}, het = {0};
         hom.sigma_a0 = 0.0041, hom.sigma_s0 = 2.62, hom.eta = 1.3;
@@ -343,6 +345,26 @@ static int time_one(double cells)
             }
             t_refill = best_of(t_refill, cpu_now() - t0);
         }
+        /* a scan's medium: a density per cell through samples/walnut.transfer's
+         * red channel (six knots), evaluated by the assembly (network.h) */
+        static const double knots[6] = {0, 3000, 6000, 11000, 15000, 22526};
+        static const double wsa[6] = {0.5, 0.5, 0.02, 0.02, 0.3, 0.3}, wss[6] = {0.01, 0.01, 1.5, 1.5, 2.0, 2.0};
+        float *density = malloc((size_t)(n ? n : 1) * sizeof *density);
+        if (!density) return -1;
+        for (int64_t v = 0; v < n; ++v) density[v] = (float)(22526.0 * unit((uint64_t)v + 0x200000000ull));
+        ohm_channel_medium scan = hom;
+        scan.density = density;
+        scan.sigma_a_curve = (ohm_curve){6, knots, wsa, 1};
+        scan.sigma_s_curve = (ohm_curve){6, knots, wss, 1};
+        for (int rep = 0; rep < REPS; ++rep) {
+            double t0 = cpu_now();
+            if (ohm_network_assemble_into(A, ga, gb, &net, &scan, OHM_BOUNDARY_ROBIN, &err)) {
+                fprintf(stderr, "bench_serial: %s\n", err.msg);
+                return -1;
+            }
+            t_scan = best_of(t_scan, cpu_now() - t0);
+        }
+        free(density);
         cholmod_l_free_sparse(&A, &cc);
     }
     cholmod_l_finish(&cc);
@@ -351,9 +373,10 @@ static int time_one(double cells)
                        (double)n * (double)(sizeof *net.cell + (net.piece ? sizeof *net.piece : 0)) +
                        (double)net.nfaces * (sizeof *net.face_unknown + sizeof *net.face_dir);
     double nn = (double)n;
-    printf("| %lld | %d×%d×%d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n", (long long)n,
-           g.dims[0], g.dims[1], g.dims[2], (double)ncells / nn, 1e9 * t_build1 / nn, 1e9 * t_build / nn,
-           1e9 * t_hom1 / nn, 1e9 * t_hom / nn, 1e9 * t_het / nn, 1e9 * t_refill / nn, net_bytes / nn, A_bytes / nn);
+    printf("| %lld | %d×%d×%d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",
+           (long long)n, g.dims[0], g.dims[1], g.dims[2], (double)ncells / nn, 1e9 * t_build1 / nn,
+           1e9 * t_build / nn, 1e9 * t_hom1 / nn, 1e9 * t_hom / nn, 1e9 * t_het / nn, 1e9 * t_refill / nn,
+           1e9 * t_scan / nn, net_bytes / nn, A_bytes / nn);
     free(sa), free(ss), free(ga), free(gb);
     ohm_network_free(&net);
     ohm_voxel_grid_free(&g);
@@ -366,8 +389,9 @@ int main(int argc, char **argv)
     if (argc >= 3 && strcmp(argv[1], "time") == 0) {
         printf("| interior cells | grid | grid cells per cell | build, first (ns/cell) | build, best (ns/cell) | "
                "assemble, first (ns/cell) | assemble, best (ns/cell) | assemble per-cell medium, best (ns/cell) | "
-               "refill per-cell medium, best (ns/cell) | network (B/cell) | matrix A (B/cell) |\n");
-        printf("|---|---|---|---|---|---|---|---|---|---|---|\n");
+               "refill per-cell medium, best (ns/cell) | refill scan medium, best (ns/cell) | network (B/cell) | "
+               "matrix A (B/cell) |\n");
+        printf("|---|---|---|---|---|---|---|---|---|---|---|---|\n");
         for (int a = 2; a < argc; ++a)
             if (time_one(atof(argv[a]))) return 1;
         return 0;

@@ -47,7 +47,9 @@ void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
 
 static inline double med_sigma_t(const ohm_channel_medium *m, int64_t v)
 {
-    return ohm_medium_sigma_a(m, v) + ohm_medium_sigma_s(m, v);
+    double sa, ss;
+    ohm_medium_coefficients(m, v, &sa, &ss);
+    return sa + ss;
 }
 static inline double med_albedo(const ohm_channel_medium *m, int64_t v)
 {
@@ -184,7 +186,9 @@ void ohm_source_unscattered_face(double *phi, const ohm_network *net, int64_t f,
         if (u < 0) break;
         /* the full sigma_t = sigma_a + sigma_s' / (1 - g): the unscattered beam
          * loses every photon that scatters, forward or not */
-        double st = ohm_medium_sigma_a(med, u) + ohm_medium_sigma_s(med, u) / (1.0 - med->g), t1 = tau + st * h / mu;
+        double sa, ss;
+        ohm_medium_coefficients(med, u, &sa, &ss);
+        double st = sa + ss / (1.0 - med->g), t1 = tau + st * h / mu;
         /* track length in the cell along the ray, P int e^-st s ds, per volume */
         phi[u] += P * (exp(-tau) - exp(-t1)) / (st * volume);
         tau = t1;

@@ -95,9 +95,10 @@ static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, 
 {
     const ohm_channel_medium *m = sc->med;
     double h = sc->net->grid->h;
-    *sa = ohm_medium_sigma_a(m, v) * h;
+    ohm_medium_coefficients(m, v, sa, ss);
     double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
-    *ss = ohm_medium_sigma_s(m, v) * scale * h;
+    *sa *= h;
+    *ss *= scale * h;
 }
 
 /* ---- one thread's tallies ------------------------------------------------------ */

@@ -238,18 +238,28 @@ typedef struct coeffs {
     const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
     int uniform; /* no per-cell array: every conductance is one constant  */
     double g_edge, g_ground, g_bound, g_closure;
+    const double *D; /* a scan's D per unknown, evaluated once (each is a
+                        neighbour's six times), or NULL: med_D */
 } coeffs;
 
-static inline double med_sa(const ohm_channel_medium *m, int64_t v) { return ohm_medium_sigma_a(m, v); }
-static inline double med_ss(const ohm_channel_medium *m, int64_t v) { return ohm_medium_sigma_s(m, v); }
-static inline double med_D(const ohm_channel_medium *m, int64_t v) { return 1.0 / (3.0 * (med_sa(m, v) + med_ss(m, v))); }
+static inline double med_D(const ohm_channel_medium *m, int64_t v)
+{
+    double sa, ss;
+    ohm_medium_coefficients(m, v, &sa, &ss);
+    return 1.0 / (3.0 * (sa + ss));
+}
 
-/* Conductance between neighbouring unknowns v and w (Dv = med_D(m, v)). */
-static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w, double dv)
+static inline double cell_D(const coeffs *k, const ohm_channel_medium *m, int64_t v)
+{
+    return k->D ? k->D[v] : med_D(m, v);
+}
+
+/* Conductance between neighbouring unknowns v and w (their D: dv, dw). */
+static inline double edge_conductance(const ohm_channel_medium *m, double h, int64_t v, int64_t w, double dv,
+                                      double dw)
 {
     if (m->resistance_mode)
         return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
-    double dw = med_D(m, w);
     return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
 }
 
@@ -268,11 +278,11 @@ static double interface_resistance(const ohm_fresnel_table *tab, double ev, doub
 
 /* edge_conductance with a per-cell index (network.h). */
 static inline double edge_conductance_eta(const coeffs *k, const ohm_channel_medium *m, double h, int64_t v,
-                                          int64_t w, double dv)
+                                          int64_t w, double dv, double dw)
 {
     double ev = m->eta_v[v], ew = m->eta_v[w];
     double sv = ohm_network_unknown_scale(m, v), sw = ohm_network_unknown_scale(m, w);
-    double r = h / (2.0 * dv * sv) + h / (2.0 * med_D(m, w) * sw);
+    double r = h / (2.0 * dv * sv) + h / (2.0 * dw * sw);
     if (ev != ew) r += interface_resistance(k->tab, ev, ew, m->eta);
     return h * h / r;
 }
@@ -290,7 +300,7 @@ static inline double cell_A(const coeffs *k, const ohm_channel_medium *m, int64_
 static inline double ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
 {
     if (m->resistance_mode) return 1.0 / (m->ground_v ? m->ground_v[v] : m->ground);
-    return med_sa(m, v) * h * h * h;
+    return ohm_medium_sigma_a(m, v) * h * h * h;
 }
 
 double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int64_t v)
@@ -319,7 +329,9 @@ static inline double boundary_conductance(const ohm_channel_medium *m, double h,
  * series with the absorbing half-space's impedance 1 / (D sigma_tr). */
 static inline double closure_conductance(const ohm_channel_medium *m, double h, int64_t v, double D)
 {
-    double sa = med_sa(m, v), st = sa + med_ss(m, v);
+    double sa, ss;
+    ohm_medium_coefficients(m, v, &sa, &ss);
+    double st = sa + ss;
     double sigma_tr = sqrt(3.0 * sa * st);
     if (!(sigma_tr > 0)) return 0.0; /* no absorption: the core reflects (zero flux) */
     return h * h / (h / (2.0 * D) + 1.0 / (D * sigma_tr));
@@ -336,7 +348,7 @@ static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_bo
                  (m->resistance_mode || !m->eta_v);
     if (k->uniform) {
         double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */
-        k->g_edge = edge_conductance(m, h, 0, 0, D);
+        k->g_edge = edge_conductance(m, h, 0, 0, D, D);
         k->g_ground = ground_conductance(m, h, 0);
         k->g_bound = boundary_conductance(m, h, 0, D, b, k->A);
         k->g_closure = closure_conductance(m, h, 0, D);
@@ -385,6 +397,14 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
     if (tab) ohm_fresnel_table_init(tab);
     coeffs co;
     coeffs_init(&co, med, h, boundary, tab);
+    /* A scan's D from its density, once per unknown rather than once per
+     * face (the curves' search is most of a cell's cost, bench_serial): 8 B
+     * per cell held while assembling; without the memory, on demand. */
+    double *dcache = NULL;
+    if (!co.uniform && !med->resistance_mode && med->density && (dcache = malloc((size_t)(n ? n : 1) * 8))) {
+        for (int64_t v = 0; v < n; ++v) dcache[v] = med_D(med, v);
+        co.D = dcache;
+    }
     int64_t *Ap = M->p, *Ai = M->i;
     double *Ax = M->x;
     int64_t pos = 0;
@@ -398,15 +418,16 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
         int64_t nb[6];
         double ge[6];
         int nfaces_v = 0, nclosure_v = 0;
-        double dv = co.uniform ? 0.0 : med_D(med, v);
+        double dv = co.uniform ? 0.0 : cell_D(&co, med, v);
         double sv = per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
         for (int d = 0; d < 6; ++d) {
             nb[d] = walk_across(&w, d);
-            if (nb[d] >= 0)
-                ge[d] = co.uniform     ? co.g_edge
-                        : per_cell_eta ? edge_conductance_eta(&co, med, h, v, nb[d], dv)
-                                       : edge_conductance(med, h, v, nb[d], dv);
-            else if (nb[d] == -1) ++nfaces_v;
+            if (nb[d] >= 0 && co.uniform) ge[d] = co.g_edge;
+            else if (nb[d] >= 0) {
+                double dw = cell_D(&co, med, nb[d]);
+                ge[d] = per_cell_eta ? edge_conductance_eta(&co, med, h, v, nb[d], dv, dw)
+                                     : edge_conductance(med, h, v, nb[d], dv, dw);
+            } else if (nb[d] == -1) ++nfaces_v;
             else if (nb[d] == -3) ++nclosure_v;
         }
         /* lower neighbours in the order -z, -y, -x give ascending rows */
@@ -455,6 +476,7 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         free(sink);
         free(tab);
+        free(dcache);
         if (med->resistance_mode)
             return ohm_fail(err, OHM_ERR_NUMERIC,
                             "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
@@ -467,5 +489,6 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
     }
     free(sink);
     free(tab);
+    free(dcache);
     return OHM_OK;
 }

@@ -148,6 +148,25 @@ static inline double ohm_medium_sigma_s(const ohm_channel_medium *m, int64_t v)
     return m->density && m->sigma_s_curve.n ? ohm_curve_at(&m->sigma_s_curve, m->density[v]) : m->sigma_s0;
 }
 
+/* Both at once: a scan's two curves share their knots (the transfer
+ * function's densities), so one search serves both. */
+static inline void ohm_medium_coefficients(const ohm_channel_medium *m, int64_t v, double *sa, double *ss)
+{
+    const ohm_curve *a = &m->sigma_a_curve, *s = &m->sigma_s_curve;
+    if (m->sigma_a || m->sigma_s || !m->density || !a->n || a->x != s->x || a->n != s->n) {
+        *sa = ohm_medium_sigma_a(m, v);
+        *ss = ohm_medium_sigma_s(m, v);
+        return;
+    }
+    size_t i0, i1;
+    double w;
+    ohm_curve_bracket(a->x, a->n, m->density[v], &i0, &i1, &w);
+    double a0 = a->y[i0 * a->stride], a1 = a->y[i1 * a->stride];
+    double s0 = s->y[i0 * s->stride], s1 = s->y[i1 * s->stride];
+    *sa = a0 + w * (a1 - a0); /* ohm_curve_at's formula */
+    *ss = s0 + w * (s1 - s0);
+}
+
 /* Whether the optical coefficients vary cell by cell. */
 static inline int ohm_medium_varies(const ohm_channel_medium *m)
 {

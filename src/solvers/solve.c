@@ -269,16 +269,27 @@ static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
     if (!p->density || total == 0) return OHM_OK;
     double *store = sol->curve_store = malloc(total * sizeof *store);
     if (!store) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the transfer function");
+    /* knots shared by given curves stay shared (ohm_medium_coefficients
+     * searches them once for both coefficients) */
+    const double *from[2 * OHM_MAX_CHANNELS];
+    double *to[2 * OHM_MAX_CHANNELS];
+    size_t nfrom = 0;
     for (int q = 0; q < 2; ++q)
         for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
             ohm_curve *k = &given[q][c];
             if (!k->n) continue;
-            double *x = store, *y = store + k->n;
-            store += 2 * k->n;
-            for (size_t i = 0; i < k->n; ++i) {
-                x[i] = k->x[i];
-                y[i] = k->y[i * k->stride];
+            double *x = NULL, *y = store;
+            store += k->n;
+            for (size_t j = 0; j < nfrom && !x; ++j)
+                if (from[j] == k->x) x = to[j];
+            if (!x) {
+                x = store;
+                store += k->n;
+                memcpy(x, k->x, k->n * sizeof *x);
+                from[nfrom] = k->x;
+                to[nfrom++] = x;
             }
+            for (size_t i = 0; i < k->n; ++i) y[i] = k->y[i * k->stride];
             ohm_curve copy = {k->n, x, y, 1};
             *k = kept[q][c] = copy;
         }
