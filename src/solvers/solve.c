@@ -983,7 +983,8 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     /* ga only where closure faces add to the ground (ground_of) */
     if (!m->ga && net->nclosure > 0) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
     if (!m->gb) m->gb = malloc(nf * sizeof *m->gb);
-    if ((!m->ga && net->nclosure > 0) || !m->gb) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
+    if ((!m->ga && net->nclosure > 0) || !m->gb)
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
     if (rc) return rc;
     ohm_channel_medium med;
