@@ -4,7 +4,7 @@
 #   sbatch --nodes=4 pipelines/slurm-amg.sh pipelines/head.ohm
 # The pipeline's `solve` line must say solver=amg.  Size the job from
 # docs/scale.md's model: about 450 bytes per cell per rank for the solver,
-# plus rank 0's ~100-200 bytes per cell for the grid, material and outputs.
+# plus rank 0's ~50-90 bytes per cell for the grid, material and outputs.
 #SBATCH --job-name=ohm-amg
 #SBATCH --ntasks-per-node=2
 #SBATCH --cpus-per-task=1
@@ -14,4 +14,7 @@ set -euo pipefail
 pipeline=${1:?usage: sbatch pipelines/slurm-amg.sh PIPELINE.ohm}
 # one OpenBLAS thread per rank: the ranks are the parallelism
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
+# Where fresh 4 KiB pages are slow to fault (virtual nodes), 2 MiB pages for the
+# whole process can halve a large run; measure once (README, "Page faults"):
+# export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
 srun --mpi=pmix ohm run "$pipeline"
