@@ -181,9 +181,14 @@ int read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
     }
     const int use = nc >= 3 ? 3 : 1; // grey, or R, G and B: never alpha nor extra channels
     std::vector<float> buf(size_t(pw * ph * use));
-    if (!in->read_image(0, 0, 0, use, OIIO::TypeDesc::FLOAT, buf.data())) {
+    // A decoder that meets a short strip (libtiff's TIFFReadEncodedStrip on a
+    // truncated file) still returns true from read_image, with the rest of
+    // the slice left as it was: an error recorded on the way is a failed read.
+    const bool read = in->read_image(0, 0, 0, use, OIIO::TypeDesc::FLOAT, buf.data());
+    if (!read || in->has_error()) {
         std::string msg = one_line(in->geterror());
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels: %s", path,
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels (%s): %s", path,
+                        read ? "the image is incomplete" : "the decoder failed",
                         msg.empty() ? "unknown error" : msg.c_str());
     }
     in->close();

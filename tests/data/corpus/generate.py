@@ -512,6 +512,48 @@ for name, crash_file, pattern, what in (
          "GDCM asserted in Attribute::SetFromDataSet (PixelRepresentation)")):
     add_slice_folder(name, crash("dicom", crash_file), 1, ".*" + pattern, "fuzz finding (regression): " + what)
 
+# ---- slice folders (issue 33): four slices, the last cut to half its bytes.
+# The decoders read what is there and, for TIFF, returned success with the
+# rest of the slice left undecoded; a partial slice must fail the read and
+# be named.  Written by hand (struct, zlib): 16 x 12 8-bit grey, pixels that
+# deflate cannot shrink much, so half a PNG ends inside its image data.
+SLICE_W, SLICE_H = 16, 12
+
+def slice_pixels(z):
+    return bytes((x * 37 + y * 101 + z * 53) * 7 % 251 for y in range(SLICE_H) for x in range(SLICE_W))
+
+def tiff_slice(px):
+    """Baseline TIFF, little-endian: one uncompressed strip after the IFD."""
+    entries = [(256, 3, 1, SLICE_W), (257, 3, 1, SLICE_H), (258, 3, 1, 8), (259, 3, 1, 1), (262, 3, 1, 1),
+               (273, 4, 1, 0), (277, 3, 1, 1), (278, 3, 1, SLICE_H), (279, 4, 1, len(px))]
+    data_at = 8 + 2 + 12 * len(entries) + 4
+    ifd = struct.pack("<H", len(entries))
+    for tag, typ, count, value in entries:
+        value = data_at if tag == 273 else value
+        ifd += struct.pack("<HHI", tag, typ, count) + (struct.pack("<HH", value, 0) if typ == 3 else struct.pack("<I", value))
+    return b"II*\x00" + struct.pack("<I", 8) + ifd + struct.pack("<I", 0) + px
+
+def png_slice(px):
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body) & 0xffffffff)
+    rows = b"".join(b"\x00" + px[y * SLICE_W:(y + 1) * SLICE_W] for y in range(SLICE_H))
+    return (b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", SLICE_W, SLICE_H, 8, 0, 0, 0, 0))
+            + chunk(b"IDAT", zlib.compress(rows, 9)) + chunk(b"IEND", b""))
+
+def truncated_stack(folder, ext, encode):
+    import shutil
+    shutil.rmtree(os.path.join(D, folder), ignore_errors=True)
+    os.makedirs(os.path.join(D, folder))
+    for z in range(4):
+        data = encode(slice_pixels(z))
+        with open(os.path.join(D, folder, "s%02d%s" % (z, ext)), "wb") as f:
+            f.write(data[:len(data) // 2] if z == 3 else data)
+    rows.append((folder, "scan", "1", esc(folder + "/s03" + ext) + ": cannot read pixels",
+                 "issue 33: a slice cut to half its bytes"))
+
+truncated_stack("stack-truncated-tif", ".tif", tiff_slice)
+truncated_stack("stack-truncated-png", ".png", png_slice)
+
 with open(os.path.join(D, "MANIFEST.tsv"), "w") as f:
     f.write("# file\thow\texit\tregex (grep -E) for the ohm: error: line\tnote\n")
     for r in rows:
