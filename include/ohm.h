@@ -163,7 +163,9 @@ OHM_API int ohm_scene_set_mesh(ohm_scene *scene, const double *positions, size_t
  * (index_to_world[4 * row + col]), at voxel centres.  Copied; replaces the
  * scene's volume, as -read of a volume file does.  A transfer function
  * (-material transfer=FILE) maps it to optical coefficients; alone,
- * -voxelize threshold= makes the object from it. */
+ * -voxelize threshold= makes the object from it: the cells between its
+ * outermost voxel centres whose value passes, never one outside them.
+ * Outside them the volume reads as its lowest value. */
 OHM_API int ohm_scene_set_density(ohm_scene *scene, const float *values, const int64_t dims[3],
                                   const double index_to_world[12], const char *name);
 

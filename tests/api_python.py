@@ -171,6 +171,13 @@ def main():
                 check(a.grid == b.grid and (a.inside() == b.inside()).all(), "array %s, file %s" % (a.grid, b.grid))
                 volume = a.grid["interior_cells"] * 0.5 ** 3
                 check(abs(volume - 12 * 16 * 8) <= 0.25 * 832, "object %.1f mm^3 against the 1536 mm^3 box" % volume)
+            # a uniform array is its box (22 mm a side between its outermost
+            # voxel centres), never the grid's margin (issue 33)
+            with ohm.Scene(ctx) as u:
+                u.set_density(np.full((n, n, n), 100.0, dtype=np.float32), [[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, 2, 0]])
+                u.run("voxelize", threshold=50, voxel=1)
+                cells = u.grid["interior_cells"]
+                check(cells == 22 ** 3, "uniform array: %d cells, expected 22^3" % cells)
     print("api_python: %d failure(s)" % failures)
     return 1 if failures else 0
 

@@ -14,7 +14,8 @@
  * orientation, a truncated file, two series and none chosen): each a
  * one-line error naming the file or folder. */
 #include "check.h"
-#include "tmp_files.h"
+#include "tmp_files.h" /* zlib.h before cholmod.h, which defines _LARGEFILE64_SOURCE */
+#include "run_chain.h"
 #include "base/ohm_error.h"
 #include "input/scan.h"
 
@@ -34,20 +35,23 @@
 #define PI 3.14159265358979323846
 enum { NX = 6, NY = 5, NZ = 4, NV = NX * NY * NZ };
 
-static int16_t value_at(int v) { return (int16_t)((v * 37) % 211 - 90); }
+static int16_t uniform; /* nonzero: every voxel holds it (test_uniform_extent) */
+static int16_t value_at(int v) { return uniform ? uniform : (int16_t)((v * 37) % 211 - 90); }
 
 static unsigned char le[2 * NV], be[2 * NV]; /* the voxels, little- and big-endian */
-static double M[3][4];                       /* the oblique index -> world (RAS) map */
-static const double SPACING[3] = {0.6, 0.7, 1.3}, ORIGIN[3] = {-12.5, 30.25, 7.0};
+static double M[3][4];                       /* the index -> world (RAS) map: oblique, unless turned off */
+static double SPACING[3] = {0.6, 0.7, 1.3};
+static const double ORIGIN[3] = {-12.5, 30.25, 7.0};
 
-static void make_volume(void)
+static void make_volume(int turned)
 {
     for (int v = 0; v < NV; ++v) {
         uint16_t u = (uint16_t)value_at(v);
         le[2 * v] = be[2 * v + 1] = (unsigned char)(u & 0xff);
         le[2 * v + 1] = be[2 * v] = (unsigned char)(u >> 8);
     }
-    const double cz = cos(20 * PI / 180), sz = sin(20 * PI / 180), cx = cos(10 * PI / 180), sx = sin(10 * PI / 180);
+    const double z = turned ? 20 * PI / 180 : 0, x = turned ? 10 * PI / 180 : 0;
+    const double cz = cos(z), sz = sin(z), cx = cos(x), sx = sin(x);
     const double rz[3][3] = {{cz, -sz, 0}, {sz, cz, 0}, {0, 0, 1}}, rx[3][3] = {{1, 0, 0}, {0, cx, -sx}, {0, sx, cx}};
     for (int r = 0; r < 3; ++r) {
         for (int a = 0; a < 3; ++a) {
@@ -451,15 +455,67 @@ static void test_bad_input(void)
     expect_error(write_text_then("magic.nrrd", "NRRD000-pi\n", NULL, 0, 0), OHM_ERR_PARSE, "not a NRRD file");
 }
 
+/* Slices of the volume (8-bit: every voxel's value must fit) as .tif or .png
+ * files in folder `name`, written by Pillow. */
+static const char *write_slices(const char *name, const char *ext)
+{
+    const char *dir = tmp_path(name);
+    char cmd[1024];
+    snprintf(cmd, sizeof cmd,
+             "%s -c \"import os, sys; from PIL import Image; os.makedirs(sys.argv[1]); "
+             "[Image.new('L', (%d, %d), %d).save('%%s/s%%02d.%%s' %% (sys.argv[1], z, sys.argv[2])) "
+             "for z in range(%d)]\" %s %s",
+             OHM_TEST_PYTHON, NX, NY, (int)uniform, NZ, dir, ext);
+    int rc = system(cmd);
+    CHECK_MSG(rc == 0, "writing slices failed (status %d): %s", rc, cmd);
+    return dir;
+}
+
+/* A scan's object ends where the scan ends (issue 33, scan.h): a uniform
+ * volume in every format, axis-aligned at 0.5 mm, is exactly the cells of
+ * 0.5 mm between its outermost voxel centres, (NX-1)(NY-1)(NZ-1), at any
+ * threshold up to its value (the grid's margin used to fill with it too). */
+static void test_uniform_extent(void)
+{
+    uniform = 200;
+    for (int a = 0; a < 3; ++a) SPACING[a] = 0.5;
+    make_volume(0);
+    const char *raw = write_tmp("vol.raw", le, sizeof le); /* the DICOM writer's source too */
+    const char *const path[] = {
+        raw,
+        write_nifti(),
+        write_nrrd("u.nrrd", 0, "raw", "little", NULL, le, sizeof le, 0),
+        write_meta("u.mha", "ElementByteOrderMSB = False\n", "LOCAL", le, sizeof le),
+        write_inr("u.inr.gz", "signed fixed", "pc", le, sizeof le, 1, 1),
+        write_dicom("u_dicom", "--slope 0.5 --intercept -1024"),
+        write_slices("u_tif", "tif"),
+        write_slices("u_png", "png"),
+    };
+    /* DICOM's rescale: every stored 200 reads as 0.5 * 200 - 1024 */
+    const double value[] = {200, 200, 200, 200, 200, -924, 200, 200};
+    const long long box = (NX - 1LL) * (NY - 1) * (NZ - 1);
+    for (size_t f = 0; f < sizeof path / sizeof *path; ++f)
+        for (int t = 0; t < 3; ++t) {
+            const double threshold = t == 0 ? value[f] : t == 1 ? value[f] - 1 : -1e6;
+            char lines[1024];
+            snprintf(lines, sizeof lines, "read file=%s%s\nvoxelize voxel=0.5 threshold=%.17g\n", path[f],
+                     f == 0 ? " dims=6,5,4 type=i16 spacing=0.5" : f >= 6 ? " spacing=0.5" : "", threshold);
+            long long cells = object_cells(lines);
+            CHECK_MSG(cells == box, "%s, uniform %g, threshold %g: %lld cells, expected its box's %lld", path[f],
+                      value[f], threshold, cells, box);
+        }
+}
+
 int main(void)
 {
     if (tmp_begin("ohm_test_scan_formats")) return 1;
     nifti_set_debug_level(0);
-    make_volume();
+    make_volume(1);
     test_same_volume();
     test_dicom();
     test_bad_input();
     test_bad_dicom();
+    test_uniform_extent(); /* last: it rewrites the volume */
     cleanup_tmp();
     return check_summary();
 }

@@ -189,7 +189,9 @@ class Scene(_Handle):
 
     def set_density(self, values, index_to_world=None, name=None):
         """A density volume indexed [k, j, i] and its voxel-to-world map in
-        mm, a (3, 4) matrix at voxel centres (None: 1 mm voxels at 0)."""
+        mm, a (3, 4) matrix at voxel centres (None: 1 mm voxels at 0).
+        run("voxelize", threshold=T) then makes the object from it: the
+        cells between its outermost voxel centres whose value is >= T."""
         a = np.ascontiguousarray(values, dtype=np.float32)
         if a.ndim != 3:
             raise UsageError(ERR_USAGE, "ohm.Scene.set_density: values must be a 3-D array [k, j, i]")

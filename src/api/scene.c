@@ -170,6 +170,7 @@ int ohm_scene_set_density(ohm_scene *scene, const float *values, const int64_t d
         scan.min = fmin(scan.min, values[v]);
         scan.max = fmax(scan.max, values[v]);
     }
+    scan.background = scan.min; /* an array states no background: its lowest value (scan.h) */
     for (int a = 0; a < 3; ++a) {
         scan.dims[a] = (int32_t)dims[a];
         for (int c = 0; c < 4; ++c) scan.index_to_world[a][c] = M[4 * a + c];

@@ -689,7 +689,7 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     return keep_band(out, dist, err);
 }
 
-int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, const double lo[3], const double hi[3],
+int ohm_voxelize_field(ohm_voxel_grid *out, const ohm_field *field, const double lo[3], const double hi[3],
                        double threshold, const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
 {
     memset(out, 0, sizeof *out);
@@ -720,8 +720,9 @@ int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, cons
                 double p[3];
                 cell_centre(out, i, j, k, p);
                 size_t idx = ohm_voxel_index(out, i, j, k);
-                f[idx] = field(user, p);
-                out->inside[idx] = f[idx] >= threshold;
+                f[idx] = field->value(field->user, p);
+                int in_domain = !field->domain || field->domain(field->user, p) <= 0;
+                out->inside[idx] = in_domain && f[idx] >= threshold;
                 interior += out->inside[idx];
             }
     }
@@ -735,8 +736,14 @@ int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, cons
                                f[ohm_voxel_index(out, i, j + 1, k)] - f[ohm_voxel_index(out, i, j - 1, k)],
                                f[ohm_voxel_index(out, i, j, k + 1)] - f[ohm_voxel_index(out, i, j, k - 1)]};
                 double grad = sqrt(g[0] * g[0] + g[1] * g[1] + g[2] * g[2]) / (2.0 * out->h);
-                if (!(grad > 0)) continue;
-                double d = fabs(f[idx] - threshold) / grad;
+                /* signed, positive outside; a flat field is wholly in or out */
+                double s = grad > 0 ? (threshold - f[idx]) / grad : f[idx] >= threshold ? -INFINITY : INFINITY;
+                if (field->domain) {
+                    double p[3];
+                    cell_centre(out, i, j, k, p);
+                    s = fmax(s, field->domain(field->user, p)); /* the intersection's distance */
+                }
+                double d = fabs(s);
                 if (d <= out->band) dist[idx] = (float)d;
             }
     free(f);

@@ -70,13 +70,22 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
 void ohm_voxel_grid_free(ohm_voxel_grid *g);
 
 /* An object from a scalar field instead of a mesh (a CT's iso-surface): the
- * cells whose centre value is >= threshold, on a grid laid out over the world
- * box [lo, hi] like ohm_voxelize's (dim / voxel / fit, margin).  The distance
- * band is the first-order estimate |f - T| / |grad f| (central differences at
- * h), so the surface level set and the smooth normals follow the iso-surface
- * between cell centres. */
-typedef double (*ohm_field_fn)(void *user, const double world[3]);
-int ohm_voxelize_field(ohm_voxel_grid *out, ohm_field_fn field, void *user, const double lo[3], const double hi[3],
+ * cells whose centre lies in the field's domain and whose value there is
+ * >= threshold, on a grid laid out over the world box [lo, hi] like
+ * ohm_voxelize's (dim / voxel / fit, margin).  The distance band is the
+ * first-order estimate of the signed distance to that intersection,
+ * max((T - f) / |grad f|, domain distance) (central differences at h), so
+ * the surface level set and the smooth normals follow the iso-surface
+ * between cell centres and the domain's faces where they cut it. */
+typedef struct ohm_field {
+    double (*value)(void *user, const double world[3]);
+    /* signed distance, mm, from a point to where the field is defined
+     * (negative inside); no cell outside is in the object.  NULL: the field
+     * is defined everywhere. */
+    double (*domain)(void *user, const double world[3]);
+    void *user;
+} ohm_field;
+int ohm_voxelize_field(ohm_voxel_grid *out, const ohm_field *field, const double lo[3], const double hi[3],
                        double threshold, const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err);
 
 static inline size_t ohm_voxel_index(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)

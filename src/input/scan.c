@@ -41,7 +41,8 @@ static size_t scan_count(const ohm_scan *s)
     return (size_t)s->dims[0] * (size_t)s->dims[1] * (size_t)s->dims[2];
 }
 
-/* NaN/Inf check and range. */
+/* NaN/Inf check and range; a scan whose format states no background
+ * (every one but .vdb) reads as its lowest value outside its box. */
 static int finish_values(ohm_scan *s, const char *path, ohm_error *err)
 {
     size_t n = scan_count(s);
@@ -58,6 +59,7 @@ static int finish_values(ohm_scan *s, const char *path, ohm_error *err)
     }
     s->min = lo;
     s->max = hi;
+    if (isnan(s->background)) s->background = lo;
     return 0;
 }
 
@@ -149,6 +151,13 @@ static int read_vdb(ohm_scan *s, const char *path, const ohm_scan_params *p, ohm
     if (!rc) rc = ohm_scan_check_budget(path, p, dense, 0, stat(path, &st) == 0 ? (double)st.st_size : 0, err);
     if (!rc) rc = ohm_scan_alloc(s, path, d, err);
     if (rc) goto done;
+    if (!isfinite(info.background)) {
+        rc = ohm_fail(err, OHM_ERR_PARSE, "%s: grid '%s' has background value %g, expected a finite value", path, want,
+                      (double)info.background);
+        goto done;
+    }
+    /* the grid's outside, inactive voxels in its box and all past it */
+    s->background = info.background;
     size_t nv = scan_count(s);
     for (size_t i = 0; i < nv; ++i) s->values[i] = info.background;
     densify ds = {s, {info.bbox_min[0], info.bbox_min[1], info.bbox_min[2]}};
@@ -663,6 +672,7 @@ int ohm_scan_is_volume_path(const char *path)
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err)
 {
     memset(out, 0, sizeof *out);
+    out->background = NAN; /* stated by the reader (.vdb), else finish_values' lowest value */
     if (!path) return ohm_fail(err, OHM_ERR_USAGE, "scan read: no file name given");
     struct stat st;
     if (stat(path, &st) != 0) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
@@ -725,14 +735,17 @@ static float voxel(const ohm_scan *s, int32_t i, int32_t j, int32_t k)
     return s->values[((size_t)k * (size_t)s->dims[1] + (size_t)j) * (size_t)s->dims[0] + (size_t)i];
 }
 
+/* NIfTI-1 stores the sform in float32: a point this far (in voxels) past
+ * the outermost centres is still on them. */
+#define BOX_SLACK 1e-5
+
 static double sample_index(const ohm_scan *s, const double x[3])
 {
-    const double eps = 1e-5; /* NIfTI-1 stores the sform in float32 */
     int32_t i0[3];
     double t[3];
     for (int a = 0; a < 3; ++a) {
         double n1 = (double)s->dims[a] - 1;
-        if (!(x[a] >= -eps && x[a] <= n1 + eps)) return s->min; /* outside: the background */
+        if (!(x[a] >= -BOX_SLACK && x[a] <= n1 + BOX_SLACK)) return s->background; /* outside the box */
         double c = x[a] < 0 ? 0 : x[a] > n1 ? n1 : x[a];
         double fl = floor(c);
         if (fl >= n1) fl = n1 > 0 ? n1 - 1 : 0;
@@ -757,8 +770,32 @@ double ohm_scan_sample(const ohm_scan *s, const double world[3])
 {
     if (!s || !s->values) return 0;
     double x[3];
-    if (!world_to_index(s, world, x)) return s->min;
+    if (!world_to_index(s, world, x)) return s->background;
     return sample_index(s, x);
+}
+
+double ohm_scan_sample_clamped(const ohm_scan *s, const double world[3])
+{
+    if (!s || !s->values) return 0;
+    double x[3];
+    if (!world_to_index(s, world, x)) return s->background;
+    for (int a = 0; a < 3; ++a) x[a] = fmin(fmax(x[a], 0.0), (double)s->dims[a] - 1);
+    return sample_index(s, x);
+}
+
+double ohm_scan_box_distance(const ohm_scan *s, const double world[3])
+{
+    double x[3], spacing[3];
+    if (!s || !s->values || !world_to_index(s, world, x)) return INFINITY;
+    ohm_scan_spacing(s, spacing);
+    double d = -INFINITY;
+    for (int a = 0; a < 3; ++a) {
+        /* voxels past the nearer face of axis a, the slack counted inside
+         * as sample_index counts it */
+        double past = fmax(-x[a], x[a] - ((double)s->dims[a] - 1)) - BOX_SLACK;
+        d = fmax(d, past * spacing[a]);
+    }
+    return d;
 }
 
 double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[3])
@@ -768,7 +805,7 @@ double ohm_scan_box_mean(const ohm_scan *s, const double lo[3], const double hi[
     double ilo[3] = {INFINITY, INFINITY, INFINITY}, ihi[3] = {-INFINITY, -INFINITY, -INFINITY};
     for (int c = 0; c < 8; ++c) {
         double w[3] = {c & 1 ? hi[0] : lo[0], c & 2 ? hi[1] : lo[1], c & 4 ? hi[2] : lo[2]}, x[3];
-        if (!world_to_index(s, w, x)) return s->min;
+        if (!world_to_index(s, w, x)) return s->background;
         for (int a = 0; a < 3; ++a) {
             if (x[a] < ilo[a]) ilo[a] = x[a];
             if (x[a] > ihi[a]) ihi[a] = x[a];

@@ -35,6 +35,8 @@ typedef struct ohm_scan {
     float *values;                /* dims[0]*dims[1]*dims[2], x fastest, scaled values */
     double index_to_world[3][4];  /* world mm = M (i, j, k, 1)^T, at voxel centres     */
     double min, max;              /* range of values                                   */
+    double background;            /* the value outside the box: a .vdb's background
+                                     value, else the lowest value (see below)          */
     char detail[192];             /* what the reader chose, for the log ("" if nothing) */
 } ohm_scan;
 
@@ -65,10 +67,30 @@ int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm
 int ohm_scan_is_volume_path(const char *path);
 void ohm_scan_free(ohm_scan *s);
 
-/* Value at a world point: trilinear between voxel centres; outside them the
- * scan's lowest value, its background (0 for most scans, air's -1000 or so
- * for CT in Hounsfield units: outside the scan is never denser than in it). */
+/* A scan's extent, one rule for every reader: its box is the hull of its
+ * voxel centres, where its values are known.  An object made from the scan
+ * alone (-voxelize threshold=) is the cells of that box whose value passes
+ * the threshold, never a cell outside it, whatever the threshold (a uniform
+ * or cropped scan is its box, not the whole grid).  Outside the box a scan
+ * reads as its background: a .vdb states its own (the grid's background
+ * value, which its inactive voxels also hold); for other formats it is the
+ * lowest value (0 for most scans, air's -1000 or so for CT in Hounsfield
+ * units), so a material sampled past such a scan, or a cell straddling its
+ * box's face, is never denser than the scan is. */
+
+/* Value at a world point: trilinear between voxel centres; outside the box
+ * the scan's background. */
 double ohm_scan_sample(const ohm_scan *s, const double world[3]);
+
+/* Value at the point of the scan's box nearest to a world point (in index
+ * space): the scan continued outwards without a step, for an iso-surface
+ * that the box then cuts (ohm_scan_box_distance). */
+double ohm_scan_sample_clamped(const ohm_scan *s, const double world[3]);
+
+/* Signed distance, mm, from a world point to the scan's box: negative
+ * inside, positive outside.  Exact inside and straight out from a face; past
+ * an edge or a corner the largest distance along one axis (a lower bound). */
+double ohm_scan_box_distance(const ohm_scan *s, const double world[3]);
 
 /* Mean over the axis-aligned world box [lo, hi] (box filter, for grids
  * coarser than the scan): averages the voxels whose centres fall inside,

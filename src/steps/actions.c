@@ -241,7 +241,21 @@ static const ohm_opt_spec voxelize_opts[] = {
 /* -voxelize error= solves the scene: it waits for the material and lights */
 static int voxelize_waits(const ohm_invocation *inv) { return ohm_opt_given(inv, "error"); }
 
-static double scan_field(void *user, const double world[3]) { return ohm_scan_sample(user, world); }
+/* A scan's object ends at its box (scan.h).  Where the scan's background is
+ * below the threshold, the scan ends it there by itself: past the box its
+ * values step down to the background, and the iso-surface estimate sees
+ * that step.  Where it is not (a uniform or cropped scan, a .vdb whose
+ * background passes), the scan is continued past its box without a step
+ * and the box cuts it: the surface is the box's face. */
+static double scan_value(void *user, const double world[3]) { return ohm_scan_sample(user, world); }
+static double scan_value_clamped(void *user, const double world[3]) { return ohm_scan_sample_clamped(user, world); }
+static double scan_domain(void *user, const double world[3]) { return ohm_scan_box_distance(user, world); }
+
+static ohm_field scan_object_field(ohm_scan *scan, double threshold)
+{
+    if (scan->background < threshold) return (ohm_field){scan_value, NULL, scan};
+    return (ohm_field){scan_value_clamped, scan_domain, scan};
+}
 
 static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
@@ -291,7 +305,9 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     } else {
         double lo[3], hi[3];
         ohm_scan_bounds(&s->scan, lo, hi);
-        rc = ohm_voxelize_field(&g, scan_field, &s->scan, lo, hi, ohm_opt_real(inv, "threshold"), &p, &s->log, err);
+        const double threshold = ohm_opt_real(inv, "threshold");
+        const ohm_field field = scan_object_field(&s->scan, threshold);
+        rc = ohm_voxelize_field(&g, &field, lo, hi, threshold, &p, &s->log, err);
     }
     /* name the file the object came from (DESIGN.md §6) */
     if (rc) return ohm_error_name(err, rc, s->have_mesh ? s->mesh_path : s->scan_path);

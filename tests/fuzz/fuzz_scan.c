@@ -151,6 +151,10 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         }
         double v1 = ohm_scan_sample(&s, mid), v2 = ohm_scan_sample(&s, blo), v3 = ohm_scan_box_mean(&s, blo, bhi);
         if (!isfinite(v1) || !isfinite(v2) || !isfinite(v3)) abort();
+        /* the extent (scan.h): a finite background, the box's middle inside it */
+        const double far[3] = {bhi[0] + 1e3, bhi[1], bhi[2]};
+        if (!isfinite(s.background) || ohm_scan_sample(&s, far) != s.background) abort();
+        if (!(ohm_scan_box_distance(&s, mid) <= 0) || !isfinite(ohm_scan_sample_clamped(&s, far))) abort();
         ohm_scan_free(&s);
     } else {
         if (s.values || s.dims[0] || s.dims[1] || s.dims[2]) abort();
