@@ -546,6 +546,39 @@ static int cmp_names(const void *a, const void *b)
     return strcmp(*(char *const *)a, *(char *const *)b);
 }
 
+/* A PNG slice's chunks, walked before the decoder sees it: each must lie
+ * within the file, and the last be IEND.  A truncated slice is then one
+ * error naming it, and libpng never reaches its end of file (OpenImageIO
+ * 2.4's reader leaks the message when libpng longjmps out there). */
+static int png_complete(const char *path, ohm_error *err)
+{
+    FILE *f = fopen(path, "rb");
+    if (!f) return ohm_fail(err, OHM_ERR_IO, "%s: cannot open: %s", path, strerror(errno));
+    struct stat st;
+    int64_t size = fstat(fileno(f), &st) == 0 ? (int64_t)st.st_size : 0, at = 8;
+    unsigned char b[8];
+    int rc = OHM_OK;
+    int png = fread(b, 1, 8, f) == 8 && memcmp(b, "\x89PNG\r\n\x1a\n", 8) == 0;
+    while (png) { /* (not a PNG at all: the decoder says so) */
+        if (at + 8 > size || fseek(f, (long)at, SEEK_SET) != 0 || fread(b, 1, 8, f) != 8) {
+            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels: truncated (the file ends at byte %lld, with no "
+                          "IEND chunk)", path, (long long)size);
+            break;
+        }
+        int64_t len = (int64_t)b[0] << 24 | (int64_t)b[1] << 16 | (int64_t)b[2] << 8 | b[3];
+        int64_t end = at + 12 + len; /* length, type, data, CRC */
+        if (end > size) {
+            rc = ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels: truncated (the file ends at byte %lld, inside "
+                          "a chunk that runs to byte %lld)", path, (long long)size, (long long)end);
+            break;
+        }
+        if (memcmp(b + 4, "IEND", 4) == 0) break;
+        at = end;
+    }
+    fclose(f);
+    return rc;
+}
+
 /* The stack's volume, sized from the first slice's header, under the
  * readers' budget: the slices' files against the volume they declare, and
  * beside it one decoded slice (up to 3 channels, then grey). */
@@ -611,6 +644,8 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
                       "%s: no DICOM files, DICOMDIR or .tif, .tiff or .png images in the folder, expected a DICOM "
                       "series or an image stack", path);
     if (!rc) qsort(names, n, sizeof *names, cmp_names);
+    for (size_t z = 0; z < n && !rc; ++z) /* every PNG slice whole before any is decoded */
+        if (ohm_scan_ends_with(names[z], ".png")) rc = png_complete(names[z], err);
     if (!rc) rc = stack_alloc(s, path, p, (const char *const *)names, n, err);
     const int w0 = s->dims[0], h0 = s->dims[1];
     for (size_t z = 0; z < n && !rc; ++z) {
