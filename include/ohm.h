@@ -104,7 +104,9 @@ typedef void (*ohm_log_callback)(void *user, int level, const char *text);
 
 /* Progress of a long step: what it is ("voxelize", "solve", ...) and the
  * fraction done, in [0, 1]; 1 when it ends.  Called from the thread that
- * called into ohm; it should return quickly. */
+ * called into ohm (or, for some steps, a thread of ohm's own), at least about
+ * ten times a second while a long step runs; it should return quickly.  It
+ * may call ohm_context_cancel to stop the call. */
 typedef void (*ohm_progress_callback)(void *user, const char *what, double fraction);
 
 /* A new context into *out: verbosity 1, messages and progress on stderr.
@@ -122,6 +124,20 @@ OHM_API void ohm_context_set_log(ohm_context *ctx, ohm_log_callback fn, void *us
 
 /* fn NULL: progress lines on stderr for steps longer than a second. */
 OHM_API void ohm_context_set_progress(ohm_context *ctx, ohm_progress_callback fn, void *user);
+
+/* Ask the call running on a scene of this context to stop: it returns
+ * OHM_ERR_CANCELLED within about a second, having freed what it made and
+ * written no file (a run's outputs are staged and put in place only when
+ * it succeeds); the scene keeps what it held before that step and solves
+ * again normally.  Any thread may call this, and so may the progress
+ * callback and a signal handler (it is one lock-free atomic store).  A
+ * request made while no call runs stops the next one; the call that
+ * returns OHM_ERR_CANCELLED takes the request back.  Stopped at once:
+ * reading slices, voxelizing, factorizing (between CHOLMOD's supernodes),
+ * conjugate gradients (every iteration), Monte Carlo (every few hundred
+ * photons) and between a run's steps and output files; the METIS ordering
+ * and PETSc/hypre's set-up finish their current piece first. */
+OHM_API void ohm_context_cancel(ohm_context *ctx);
 
 /* ---- scene: steps --------------------------------------------------------- */
 

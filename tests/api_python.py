@@ -9,12 +9,20 @@
   - a mesh handed over as numpy arrays voxelizes and solves like a file;
   - fluence and exitance come back as [k, j, i] arrays, zero outside the
     object; a density volume as an array voxelizes by threshold like the
-    same values read from a raw file.
+    same values read from a raw file;
+  - Ctrl-C (SIGINT to this process) during scene.solve() raises
+    KeyboardInterrupt, Context.cancel() from another thread ohm.Cancelled,
+    an exception in the progress callable reaches the caller, each soon
+    after it happens, and the scene then solves; closing a context with a
+    live scene closes the scene first.
 Run from the repository root with PYTHONPATH naming the built package."""
 import os
+import signal
 import subprocess
 import sys
 import tempfile
+import threading
+import time
 
 import numpy as np
 
@@ -54,6 +62,76 @@ def scene_with(ctx, light):
 
 def conserves(r):
     return abs(r["power_in"] - r["power_absorbed"] - r["power_out"]) <= 1e-12 * r["power_in"]
+
+
+# a limit that only catches a call that ran on to its end (seconds, far
+# above the ~0.05 s measured; the sanitizers' build runs this too)
+SAFETY_S = 20.0
+
+
+def long_scene(ctx):
+    """A scene whose Monte Carlo solve with 1e9 photons would take hours."""
+    s = ohm.Scene(ctx)
+    s.run("read", file="samples/cow.obj", size=30)
+    s.run("voxelize", dim=16)
+    s.run("material", preset="marble")
+    s.add_light(type="directional", dir=(0, -1, 0))
+    return s
+
+
+def stopped(what, scene, kind, request):
+    """Solve for hours unless stopped; request() (None: the solve stops
+    itself), made 0.3 s in from another thread, asks it to stop.  Checks
+    that `kind` is raised soon after, then that the scene solves."""
+    asked = []
+
+    def ask():
+        asked.append(time.monotonic())
+        request()
+    if request:
+        threading.Timer(0.3, ask).start()
+    t0 = time.monotonic()
+    try:
+        scene.solve(solver="mc", photons=1e9)
+        check(False, "%s: the solve ran to its end" % what)
+    except kind:
+        took = time.monotonic() - (asked[0] if asked else t0)
+        print("%s: %s %.3f s after the request" % (what, kind.__name__, took))
+        check(took < SAFETY_S, "%s: took %.1f s" % (what, took))
+    scene.solve(solver="mc", photons=10000)
+    r = scene.result()
+    check(r["power_in"] > 0 and conserves(r), "%s: the scene does not solve afterwards" % what)
+
+
+def interruptions():
+    ctx = ohm.Context(verbosity=0)
+    scene = long_scene(ctx)
+    # Ctrl-C: SIGINT to this process
+    stopped("Ctrl-C", scene, KeyboardInterrupt, lambda: os.kill(os.getpid(), signal.SIGINT))
+    # Context.cancel() from another thread
+    stopped("Context.cancel()", scene, ohm.Cancelled, ctx.cancel)
+
+    # an exception in the progress callable
+    class Boom(Exception):
+        pass
+
+    raised = []
+
+    def progress(what, fraction):
+        if "monte carlo" in what and not raised:
+            raised.append(what)
+            raise Boom(what)
+    ctx.set_progress(progress)
+    stopped("an exception in progress()", scene, Boom, None)
+    ctx.set_progress(None)
+
+    # closing the context closes its live scene first (no use after free)
+    ctx.close()
+    try:
+        scene.solve()
+        check(False, "a scene of a closed context still ran")
+    except ohm.Error as e:
+        check("used after close" in str(e), "after Context.close(): %s" % e)
 
 
 def main():
@@ -178,6 +256,7 @@ def main():
                 u.run("voxelize", threshold=50, voxel=1)
                 cells = u.grid["interior_cells"]
                 check(cells == 22 ** 3, "uniform array: %d cells, expected 22^3" % cells)
+    interruptions()
     print("api_python: %d failure(s)" % failures)
     return 1 if failures else 0
 

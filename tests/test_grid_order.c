@@ -103,7 +103,7 @@ static int solve_with(double *x, double *lnz, char *chosen, cholmod_sparse *A, c
     double berr = 1;
     int rc = ohm_cholesky_start(&s, &err);
     if (!rc) rc = ohm_cholesky_analyze(&s, A, ordering, layout, costs, NULL, &err);
-    if (!rc) rc = ohm_cholesky_factorize(&L, &s, A, NULL, &err);
+    if (!rc) rc = ohm_cholesky_factorize(&L, &s, A, NULL, NULL, &err);
     if (!rc) rc = ohm_cholesky_solve(x, &s, L, A, b, 1, &berr, NULL, &err);
     if (rc) fprintf(stderr, "ordering=%s: %s\n", ordering, err.msg);
     *lnz = s.nnz_L;

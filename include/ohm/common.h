@@ -15,7 +15,8 @@ enum {
     OHM_ERR_NOMEM = -4,    /* an allocation failed or would be too large    */
     OHM_ERR_USAGE = -5,    /* bad action, option or value                   */
     OHM_ERR_NUMERIC = -6,  /* singular matrix, residual too large, NaN      */
-    OHM_ERR_INTERNAL = -7  /* a library threw, or a bug                     */
+    OHM_ERR_INTERNAL = -7, /* a library threw, or a bug                     */
+    OHM_ERR_CANCELLED = -8 /* ohm_context_cancel (or Ctrl-C) stopped the call */
 };
 
 /* The level of a message handed to a log callback. */

@@ -23,8 +23,17 @@ options keyword arguments (a tuple or list becomes "x,y,z").  Arrays over
 the grid are indexed [k, j, i] (x fastest in memory, as ohm stores them);
 lengths are millimetres.  A failing call raises ohm.Error (UsageError for a
 bad action, option or value) carrying ohm's one-line message.
+
+Long steps report progress to Context(progress=fn) and stop within about a
+second when asked: Ctrl-C during scene.solve() raises KeyboardInterrupt,
+Context.cancel() (from another thread, or from fn) makes the running call
+raise ohm.Cancelled, and an exception raised in fn or in the log callable
+stops the call and reaches its caller.  The scene stays usable either way.
 """
 import ctypes
+import sys
+import threading
+import weakref
 
 import numpy as np
 
@@ -32,9 +41,10 @@ from . import _library
 
 _lib = _library.load()
 
-__all__ = ["Context", "Scene", "Error", "UsageError", "version"]
+__all__ = ["Context", "Scene", "Error", "UsageError", "Cancelled", "version"]
 
 OK, ERR_IO, ERR_PARSE, ERR_INVALID, ERR_NOMEM, ERR_USAGE, ERR_NUMERIC, ERR_INTERNAL = 0, -1, -2, -3, -4, -5, -6, -7
+ERR_CANCELLED = -8
 LOG_WARNING, LOG_INFO = 1, 2
 
 
@@ -50,10 +60,38 @@ class UsageError(Error, ValueError):
     """A bad action, option or value (the command line's exit code 2)."""
 
 
+class Cancelled(Error):
+    """The call was stopped by Context.cancel()."""
+
+
 def _check(rc):
     if rc != OK:
         message = _lib.ohm_error_last().decode("utf-8", "replace")
-        raise (UsageError if rc == ERR_USAGE else Error)(rc, message)
+        kind = UsageError if rc == ERR_USAGE else Cancelled if rc == ERR_CANCELLED else Error
+        raise kind(rc, message)
+
+
+# An exception raised in a callable ohm calls back (log, progress; and
+# KeyboardInterrupt, which Python raises in whatever Python code runs next on
+# the main thread, often as the callback is entered) cannot cross the C
+# library: ctypes hands it to sys.unraisablehook.  This hook takes the ones
+# from a context's callbacks, stops the context's running call, and keeps
+# the exception for the call's caller (Context._settle); any other goes to
+# the hook that was there before.
+_callback_owner = weakref.WeakKeyDictionary()  # trampoline function -> weakref to its Context
+_previous_unraisablehook = sys.unraisablehook
+
+
+def _unraisable(unraisable):
+    owner = _callback_owner.get(unraisable.object) if unraisable.object is not None else None
+    context = owner() if owner else None
+    if context is None or unraisable.exc_value is None:
+        _previous_unraisablehook(unraisable)
+        return
+    context._stop_with(unraisable.exc_value)
+
+
+sys.unraisablehook = _unraisable
 
 
 def version():
@@ -105,8 +143,10 @@ class _Handle:
 class Context(_Handle):
     """Verbosity (0 warnings only, 1 normal, 2 verbose) and where messages
     and progress go: log(level, text) and progress(what, fraction) are
-    called from the thread that called into ohm; an exception raised in
-    them is dropped (it cannot cross the C library)."""
+    called from the thread that called into ohm (a long step calls progress
+    at least about ten times a second).  An exception either raises stops
+    the call, which then raises it; so does Ctrl-C.  Closing a context
+    closes its scenes first."""
 
     _free = staticmethod(_lib.ohm_context_free)
 
@@ -115,11 +155,12 @@ class Context(_Handle):
         _check(_lib.ohm_context_new(ctypes.byref(handle)))
         self._handle = handle
         self._log = self._progress = None
+        self._pending = None  # the exception a callback raised, for the caller
+        self._lock = threading.Lock()
+        self._scenes = weakref.WeakSet()
         self.verbosity = verbosity
-        if log is not None:
-            self.set_log(log)
-        if progress is not None:
-            self.set_progress(progress)
+        self.set_log(log)
+        self.set_progress(progress)
 
     @property
     def verbosity(self):
@@ -130,23 +171,54 @@ class Context(_Handle):
         self._verbosity = int(value)
         _lib.ohm_context_set_verbosity(self._live(), self._verbosity)
 
+    def cancel(self):
+        """Stop the call running on one of this context's scenes: it raises
+        ohm.Cancelled within about a second.  Any thread may call this."""
+        _lib.ohm_context_cancel(self._live())
+
     def set_log(self, fn):
-        def call(_user, level, text):
-            try:
+        """fn(level, text) for every message; None: on stderr, as ohm: lines."""
+        if fn is None:
+            self._log = _library.LOG_CALLBACK()
+        else:
+            def call(_user, level, text):
                 fn(level, text.decode("utf-8", "replace"))
-            except Exception:  # noqa: BLE001 -- must not cross into C
-                pass
-        self._log = _library.LOG_CALLBACK(call) if fn else _library.LOG_CALLBACK()
+            self._log = self._trampoline(_library.LOG_CALLBACK, call)
         _lib.ohm_context_set_log(self._live(), self._log, None)
 
     def set_progress(self, fn):
+        """fn(what, fraction) for every progress report; None: none.  A
+        trampoline is installed either way: Ctrl-C takes effect in it."""
         def call(_user, what, fraction):
-            try:
+            if fn is not None:
                 fn(what.decode("utf-8", "replace"), fraction)
-            except Exception:  # noqa: BLE001
-                pass
-        self._progress = _library.PROGRESS_CALLBACK(call) if fn else _library.PROGRESS_CALLBACK()
+        self._progress = self._trampoline(_library.PROGRESS_CALLBACK, call)
         _lib.ohm_context_set_progress(self._live(), self._progress, None)
+
+    def _trampoline(self, kind, call):
+        _callback_owner[call] = weakref.ref(self)
+        return kind(call)
+
+    def _stop_with(self, exc):
+        with self._lock:
+            if self._pending is None:
+                self._pending = exc
+        if self._handle:
+            _lib.ohm_context_cancel(self._handle)
+
+    def _settle(self, rc):
+        """A scene call's result: the exception a callback raised, if one
+        did (its call stopped), else ohm's error, if any."""
+        with self._lock:
+            pending, self._pending = self._pending, None
+        if pending is not None:
+            raise pending
+        _check(rc)
+
+    def close(self):
+        for scene in list(self._scenes):
+            scene.close()
+        super().close()
 
 
 class Scene(_Handle):
@@ -159,23 +231,24 @@ class Scene(_Handle):
         _check(_lib.ohm_scene_new(ctypes.byref(handle), context._live()))
         self._handle = handle
         self._context = context  # keeps it (and its callbacks) alive
+        context._scenes.add(self)
 
     # ---- steps ------------------------------------------------------------
 
     def run(self, action, **options):
         """Run one action with its options: run("voxelize", dim=64)."""
         array, _keep = _words(options)
-        _check(_lib.ohm_scene_run(self._live(), action.encode(), array))
+        self._context._settle(_lib.ohm_scene_run(self._live(), action.encode(), array))
 
     def run_args(self, words):
         """Run a chain of command-line words: ["-read", "file=a.obj", ...]."""
         encoded = [w.encode() for w in words]
         array = (ctypes.c_char_p * (len(encoded) + 1))(*encoded, None)
-        _check(_lib.ohm_scene_run_args(self._live(), len(encoded), array))
+        self._context._settle(_lib.ohm_scene_run_args(self._live(), len(encoded), array))
 
     def run_file(self, path):
         """Run a pipeline file."""
-        _check(_lib.ohm_scene_run_file(self._live(), str(path).encode()))
+        self._context._settle(_lib.ohm_scene_run_file(self._live(), str(path).encode()))
 
     def set_mesh(self, vertices, triangles, name=None):
         """A triangle mesh in mm: vertices (n, 3), triangles (m, 3) 0-based."""
@@ -183,9 +256,9 @@ class Scene(_Handle):
         t = np.ascontiguousarray(triangles, dtype=np.int64)
         if v.ndim != 2 or v.shape[1] != 3 or t.ndim != 2 or t.shape[1] != 3:
             raise UsageError(ERR_USAGE, "ohm.Scene.set_mesh: vertices and triangles must be (n, 3) arrays")
-        _check(_lib.ohm_scene_set_mesh(self._live(), v.ctypes.data_as(_library.c_double_p), v.shape[0],
-                                       t.ctypes.data_as(_library.c_int64_p), t.shape[0],
-                                       name.encode() if name else None))
+        rc = _lib.ohm_scene_set_mesh(self._live(), v.ctypes.data_as(_library.c_double_p), v.shape[0],
+                                     t.ctypes.data_as(_library.c_int64_p), t.shape[0], name.encode() if name else None)
+        self._context._settle(rc)
 
     def set_density(self, values, index_to_world=None, name=None):
         """A density volume indexed [k, j, i] and its voxel-to-world map in
@@ -200,13 +273,14 @@ class Scene(_Handle):
             raise UsageError(ERR_USAGE, "ohm.Scene.set_density: index_to_world must be 3 x 4")
         m = np.ascontiguousarray(m)
         dims = (ctypes.c_int64 * 3)(a.shape[2], a.shape[1], a.shape[0])
-        _check(_lib.ohm_scene_set_density(self._live(), a.ctypes.data_as(_library.c_float_p), dims,
-                                          m.ctypes.data_as(_library.c_double_p), name.encode() if name else None))
+        rc = _lib.ohm_scene_set_density(self._live(), a.ctypes.data_as(_library.c_float_p), dims,
+                                        m.ctypes.data_as(_library.c_double_p), name.encode() if name else None)
+        self._context._settle(rc)
 
     def add_light(self, **options):
         """Add a light: add_light(type="point", pos=(0, 80, 0), intensity=1000)."""
         array, _keep = _words(options)
-        _check(_lib.ohm_scene_add_light(self._live(), array))
+        self._context._settle(_lib.ohm_scene_add_light(self._live(), array))
 
     def clear_lights(self):
         _check(_lib.ohm_scene_clear_lights(self._live()))
@@ -214,11 +288,11 @@ class Scene(_Handle):
     def solve(self, **options):
         """Solve the lights, keeping the factor for relight() (keep=0 does not)."""
         array, _keep = _words(options)
-        _check(_lib.ohm_scene_solve(self._live(), array))
+        self._context._settle(_lib.ohm_scene_solve(self._live(), array))
 
     def relight(self):
         """Solve the current lights with the last solve's factor."""
-        _check(_lib.ohm_scene_relight(self._live()))
+        self._context._settle(_lib.ohm_scene_relight(self._live()))
 
     # ---- results ----------------------------------------------------------
 

@@ -72,6 +72,7 @@ def _declare(lib):
         "ohm_context_set_verbosity": (None, [vp, i]),
         "ohm_context_set_log": (None, [vp, LOG_CALLBACK, vp]),
         "ohm_context_set_progress": (None, [vp, PROGRESS_CALLBACK, vp]),
+        "ohm_context_cancel": (None, [vp]),
         "ohm_scene_new": (i, [ctypes.POINTER(vp), vp]),
         "ohm_scene_free": (None, [vp]),
         "ohm_scene_run": (i, [vp, ctypes.c_char_p, c_char_pp]),

@@ -10,7 +10,10 @@
 #include "steps/state.h"
 
 struct ohm_context {
-    ohm_log log;            /* verbosity and the caller's callbacks */
+    ohm_log log;            /* verbosity and the caller's callbacks; log.cancel
+                               points at `cancel`                             */
+    atomic_int cancel;      /* ohm_context_cancel's request, until a call
+                               returns OHM_ERR_CANCELLED for it               */
 };
 
 struct ohm_scene {
@@ -31,5 +34,9 @@ int ohm_api_fail(int code, const char *fmt, ...)
 
 /* The scene's log follows its context's (set before every step). */
 void ohm_api_sync_log(ohm_scene *scene);
+
+/* ohm_api_return for a call that ran steps on the scene: a cancelled one
+ * also takes back the request it answered, so the next call runs. */
+int ohm_api_scene_return(ohm_scene *scene, int rc, const ohm_error *err);
 
 #endif

@@ -55,7 +55,15 @@ int ohm_context_new(ohm_context **out)
     *out = calloc(1, sizeof **out);
     if (!*out) return ohm_api_fail(OHM_ERR_NOMEM, "ohm_context_new: out of memory");
     (*out)->log.verbosity = 1;
+    atomic_init(&(*out)->cancel, 0);
+    (*out)->log.cancel = &(*out)->cancel;
     return OHM_OK;
+}
+
+void ohm_context_cancel(ohm_context *ctx)
+{
+    /* a lock-free store: async-signal-safe (the CLI calls it from SIGINT) */
+    if (ctx) atomic_store(&ctx->cancel, 1);
 }
 
 void ohm_context_free(ohm_context *ctx)

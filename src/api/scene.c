@@ -34,6 +34,12 @@ void ohm_scene_free(ohm_scene *scene)
     free(scene);
 }
 
+int ohm_api_scene_return(ohm_scene *scene, int rc, const ohm_error *err)
+{
+    if (rc == OHM_ERR_CANCELLED) atomic_store(&scene->ctx->cancel, 0);
+    return ohm_api_return(rc, err);
+}
+
 static int run_chain(ohm_scene *scene, ohm_chain *chain)
 {
     ohm_api_sync_log(scene);
@@ -41,7 +47,7 @@ static int run_chain(ohm_scene *scene, ohm_chain *chain)
     ohm_error_clear(&err);
     int rc = ohm_chain_run(chain, &scene->state, &err);
     ohm_chain_free(chain);
-    return ohm_api_return(rc, &err);
+    return ohm_api_scene_return(scene, rc, &err);
 }
 
 int ohm_scene_run_args(ohm_scene *scene, int argc, const char *const *argv)
@@ -208,5 +214,5 @@ int ohm_scene_relight(ohm_scene *scene)
     ohm_api_sync_log(scene);
     ohm_error err;
     ohm_error_clear(&err);
-    return ohm_api_return(ohm_state_relight(&scene->state, &err), &err);
+    return ohm_api_scene_return(scene, ohm_state_relight(&scene->state, &err), &err);
 }

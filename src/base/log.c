@@ -51,18 +51,25 @@ void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what)
     p->printed = 0;
 }
 
-void ohm_progress_update(ohm_progress *p, double fraction)
+int ohm_progress_update(ohm_progress *p, double fraction)
 {
-    if (p && p->log && p->log->progress) {
+    if (!p) return 0;
+    if (p->log && p->log->progress) {
         p->log->progress(p->log->progress_user, p->what, fraction);
-        return;
+        return ohm_log_cancelled(p->log);
     }
-    if (!p || (p->log && p->log->verbosity < 1)) return;
+    if (p->log && p->log->verbosity < 1) return ohm_log_cancelled(p->log);
     double t = ohm_now();
-    if (t - p->t_begin < 1.0 || t - p->t_last < 1.0) return;
+    if (t - p->t_begin < 1.0 || t - p->t_last < 1.0) return ohm_log_cancelled(p->log);
     p->t_last = t;
     p->printed = 1;
     fprintf(log_stream(p->log), "ohm: %s: %3.0f%% (%.1f s)\n", p->what, 100.0 * fraction, t - p->t_begin);
+    return ohm_log_cancelled(p->log);
+}
+
+int ohm_fail_cancelled(ohm_error *err, const char *step)
+{
+    return ohm_fail(err, OHM_ERR_CANCELLED, "%s: cancelled", step);
 }
 
 void ohm_progress_end(ohm_progress *p)

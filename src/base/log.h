@@ -8,9 +8,10 @@
 #ifndef OHM_LOG_H
 #define OHM_LOG_H
 
+#include <stdatomic.h>
 #include <stdio.h>
 
-#include "ohm/common.h" /* OHM_LOG_WARNING, OHM_LOG_INFO */
+#include "base/ohm_error.h" /* OHM_LOG_WARNING, OHM_LOG_INFO, OHM_ERR_CANCELLED */
 
 typedef struct ohm_log {
     FILE *stream;    /* where messages go; NULL = stderr                  */
@@ -21,7 +22,23 @@ typedef struct ohm_log {
     void (*message)(void *user, int level, const char *text);
     void (*progress)(void *user, const char *what, double fraction);
     void *user, *progress_user; /* passed to message and to progress */
+    /* The run's cancellation request (the API context's, set by
+     * ohm_context_cancel from any thread or a signal handler), or NULL:
+     * never cancelled.  Long steps poll it, through ohm_progress_update or
+     * ohm_log_cancelled, at least about every 0.1 s of work, and return
+     * OHM_ERR_CANCELLED, having freed what they made. */
+    const atomic_int *cancel;
 } ohm_log;
+
+/* 1 when the run has been asked to stop. */
+static inline int ohm_log_cancelled(const ohm_log *log)
+{
+    return log && log->cancel && atomic_load_explicit(log->cancel, memory_order_relaxed);
+}
+
+/* OHM_ERR_CANCELLED with the message every cancelled step gives, naming the
+ * step ("voxelize", "factorize", ...). */
+int ohm_fail_cancelled(ohm_error *err, const char *step);
 
 void ohm_log_info(const ohm_log *log, const char *fmt, ...)
 #if defined(__GNUC__)
@@ -45,7 +62,9 @@ typedef struct ohm_progress {
 } ohm_progress;
 
 void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what);
-void ohm_progress_update(ohm_progress *p, double fraction);
+/* Report the fraction done; 1 when the run has been asked to stop (checked
+ * after the progress callback, which may itself ask), else 0. */
+int ohm_progress_update(ohm_progress *p, double fraction);
 void ohm_progress_end(ohm_progress *p);
 
 #endif

@@ -3,6 +3,7 @@
 #include <errno.h>
 #include <fcntl.h>
 #include <signal.h>
+#include <stdatomic.h>
 #include <time.h>
 #include <stdlib.h>
 #include <string.h>
@@ -15,27 +16,31 @@
  * one file per output (an orbit's frames each), so the table is sized for
  * long sequences. */
 enum { IN_FLIGHT_MAX = 4096 };
-static const char *volatile in_flight[IN_FLIGHT_MAX];
+/* Process-wide, as signals are: each slot is claimed and released with an
+ * atomic compare-and-swap, so scenes writing on several threads never lose
+ * or share a slot, and the handler reads each slot in one lock-free load. */
+static _Atomic(const char *) in_flight[IN_FLIGHT_MAX];
 
 static void in_flight_add(const char *tmp)
 {
-    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
-        if (!in_flight[i]) {
-            in_flight[i] = tmp;
-            return;
-        }
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i) {
+        const char *none = NULL;
+        if (atomic_compare_exchange_strong(&in_flight[i], &none, tmp)) return;
+    }
 }
 
 static void in_flight_remove(const char *tmp)
 {
-    for (int i = 0; i < IN_FLIGHT_MAX; ++i)
-        if (in_flight[i] == tmp) in_flight[i] = NULL;
+    for (int i = 0; i < IN_FLIGHT_MAX; ++i) {
+        const char *mine = tmp;
+        atomic_compare_exchange_strong(&in_flight[i], &mine, NULL);
+    }
 }
 
 static void cleanup_and_die(int sig)
 {
     for (int i = 0; i < IN_FLIGHT_MAX; ++i) {
-        const char *tmp = in_flight[i];
+        const char *tmp = atomic_load(&in_flight[i]);
         if (tmp) unlink(tmp); /* async-signal-safe */
     }
     signal(sig, SIG_DFL);
@@ -166,12 +171,15 @@ static void batch_clear(ohm_output_batch *b)
     b->n = b->cap = 0;
 }
 
-int ohm_output_batch_commit(ohm_output_batch *b, ohm_error *err)
+int ohm_output_batch_commit(ohm_output_batch *b, const ohm_log *log, ohm_error *err)
 {
     int rc = OHM_OK;
     for (size_t i = 0; i < b->n; ++i) {
         ohm_staged_output *it = &b->items[i];
         if (!rc) test_delay();
+        /* a cancelled run renames nothing more: the files not yet in place
+         * keep their old contents (each file is whole, old or new) */
+        if (!rc && ohm_log_cancelled(log)) rc = ohm_fail_cancelled(err, "writing the outputs");
         if (!rc && rename(it->tmp, it->path) != 0)
             rc = ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", it->path, strerror(errno));
         if (rc) unlink(it->tmp);

@@ -7,6 +7,7 @@
 
 #include <stdio.h>
 
+#include "base/log.h"
 #include "base/ohm_error.h"
 
 #define OHM_PATH_MAX 4096
@@ -51,7 +52,7 @@ int ohm_output_commit(ohm_output *o, ohm_error *err);
 /* The staged outputs renamed over their targets, in the order they were
  * written; the batch is left empty.  A failed rename removes the temporaries
  * not yet renamed and says which file. */
-int ohm_output_batch_commit(ohm_output_batch *b, ohm_error *err);
+int ohm_output_batch_commit(ohm_output_batch *b, const ohm_log *log, ohm_error *err);
 
 /* The staged temporaries removed; the targets untouched; the batch empty. */
 void ohm_output_batch_abort(ohm_output_batch *b);

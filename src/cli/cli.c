@@ -3,12 +3,48 @@
  * chains of actions, with their results mapped to exit codes. */
 #include "cli/cli.h"
 
+#include <signal.h>
 #include <stdio.h>
 #include <string.h>
 
 #include "ohm.h"
 
-static int exit_code(int rc) { return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1; }
+/* 130: stopped by Ctrl-C (128 + SIGINT, as shells report it) */
+static int exit_code(int rc)
+{
+    return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : rc == OHM_ERR_CANCELLED ? 128 + SIGINT : 1;
+}
+
+/* Ctrl-C: the first asks the running scene to stop (it returns
+ * OHM_ERR_CANCELLED within about a second, its staged outputs removed); a
+ * second one, if the first is not answered, does what it did before the
+ * scene ran: the library's clean-up of temporaries, then the default
+ * action.  The context is the process's one running scene's. */
+static ohm_context *volatile interrupted_ctx;
+static struct sigaction before_scene;
+
+static void on_interrupt(int sig)
+{
+    (void)sig;
+    ohm_context_cancel(interrupted_ctx); /* one atomic store: async-signal-safe */
+    sigaction(SIGINT, &before_scene, NULL);
+}
+
+static void catch_interrupt(ohm_context *ctx)
+{
+    interrupted_ctx = ctx;
+    struct sigaction sa;
+    memset(&sa, 0, sizeof sa);
+    sa.sa_handler = on_interrupt;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, &before_scene);
+}
+
+static void release_interrupt(void)
+{
+    sigaction(SIGINT, &before_scene, NULL);
+    interrupted_ctx = NULL;
+}
 
 static int report(int rc)
 {
@@ -27,7 +63,11 @@ static int run_scene(int verbosity, const char *path, int argc, char **argv)
         rc = ohm_scene_new(&scene, ctx);
     }
     /* (char ** to const char *const *: the words are only read) */
-    if (!rc) rc = path ? ohm_scene_run_file(scene, path) : ohm_scene_run_args(scene, argc, (const char *const *)argv);
+    if (!rc) {
+        catch_interrupt(ctx);
+        rc = path ? ohm_scene_run_file(scene, path) : ohm_scene_run_args(scene, argc, (const char *const *)argv);
+        release_interrupt();
+    }
     ohm_scene_free(scene);
     ohm_context_free(ctx);
     return report(rc);

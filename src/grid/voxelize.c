@@ -352,13 +352,14 @@ static inline void cell_centre(const ohm_voxel_grid *g, int32_t i, int32_t j, in
 }
 
 /* Fill dist (dense, grid g's cells) with the exact distance to the mesh for
- * every cell within the band of some triangle. */
-static void distance_band(float *dist, const ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *log)
+ * every cell within the band of some triangle.  1 when the run was
+ * cancelled on the way (dist is then partial). */
+static int distance_band(float *dist, const ohm_voxel_grid *g, const ohm_mesh *m, const ohm_log *log)
 {
     ohm_progress prog;
     ohm_progress_begin(&prog, log, "voxelize: distance band");
     for (size_t t = 0; t < m->ntris; ++t) {
-        if ((t & 1023) == 0) ohm_progress_update(&prog, (double)t / (double)m->ntris);
+        if ((t & 1023) == 0 && ohm_progress_update(&prog, (double)t / (double)m->ntris)) return 1;
         const double *a = tri_vertex(m, t, 0), *b = tri_vertex(m, t, 1), *c = tri_vertex(m, t, 2);
         int32_t lo[3], hi[3];
         for (int d = 0; d < 3; ++d) {
@@ -379,6 +380,7 @@ static void distance_band(float *dist, const ohm_voxel_grid *g, const ohm_mesh *
                 }
     }
     ohm_progress_end(&prog);
+    return 0;
 }
 
 /* Block size of the coarse pass: a block whose cells are all farther than h
@@ -567,7 +569,11 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         ohm_voxel_grid_free(out);
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
     }
-    distance_band(dist, out, mesh, log);
+    if (distance_band(dist, out, mesh, log)) {
+        free(dist);
+        ohm_voxel_grid_free(out);
+        return ohm_fail_cancelled(err, "voxelize");
+    }
 
     bvh tree;
     int rc = bvh_build(&tree, mesh, err);
@@ -619,8 +625,9 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
 
     ohm_progress prog;
     ohm_progress_begin(&prog, log, "voxelize: inside test");
-    for (int32_t bz = 0; bz < nb[2]; ++bz) {
-        ohm_progress_update(&prog, 0.5 * bz / nb[2]);
+    int cancelled = 0;
+    for (int32_t bz = 0; bz < nb[2] && !cancelled; ++bz) {
+        cancelled = ohm_progress_update(&prog, 0.5 * bz / nb[2]);
         for (int32_t by = 0; by < nb[1]; ++by)
             for (int32_t bx = 0; bx < nb[0]; ++bx) {
                 if (block_near[(size_t)bx + (size_t)nb[0] * ((size_t)by + (size_t)nb[1] * (size_t)bz)]) continue;
@@ -665,8 +672,8 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     fine_pass fine = {.grid = out, .tree = &tree, .decided = decided, .orient = orient, .counts = slice_counts};
     int threads = ohm_usable_cores();
     int32_t round = FINE_ROUND * threads;
-    for (int32_t k0 = 0; k0 < dims[2]; k0 += round) {
-        ohm_progress_update(&prog, 0.5 + 0.5 * k0 / dims[2]);
+    for (int32_t k0 = 0; k0 < dims[2] && !cancelled; k0 += round) {
+        cancelled = ohm_progress_update(&prog, 0.5 + 0.5 * k0 / dims[2]);
         fine.k0 = k0;
         ohm_parallel_for(k0 + round < dims[2] ? round : dims[2] - k0, threads, fine_pass_slice, &fine);
     }
@@ -675,16 +682,21 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
         rep.ambiguous += slice_counts[2 * (size_t)k + 1];
     }
     free(slice_counts);
+    free(block_near);
+    free(lattice_w);
+    free(decided);
+    bvh_free(&tree);
+    if (cancelled) {
+        free(dist);
+        ohm_voxel_grid_free(out);
+        return ohm_fail_cancelled(err, "voxelize");
+    }
     ohm_progress_end(&prog);
 
     size_t interior = 0;
     for (size_t c = 0; c < n; ++c) interior += out->inside[c];
     out->interior_cells = interior;
 
-    free(block_near);
-    free(lattice_w);
-    free(decided);
-    bvh_free(&tree);
     if (report) *report = rep;
     return keep_band(out, dist, err);
 }
@@ -714,7 +726,12 @@ int ohm_voxelize_field(ohm_voxel_grid *out, const ohm_field *field, const double
     ohm_progress_begin(&prog, log, "voxelize: sampling the volume");
     size_t interior = 0;
     for (int32_t k = 0; k < out->dims[2]; ++k) {
-        ohm_progress_update(&prog, (double)k / out->dims[2]);
+        if (ohm_progress_update(&prog, (double)k / out->dims[2])) {
+            free(f);
+            free(dist);
+            ohm_voxel_grid_free(out);
+            return ohm_fail_cancelled(err, "voxelize");
+        }
         for (int32_t j = 0; j < out->dims[1]; ++j)
             for (int32_t i = 0; i < out->dims[0]; ++i) {
                 double p[3];

@@ -113,6 +113,7 @@ typedef struct mc_tally {
     double *handoff; /* n: weight handed to diffusion (mc.h), over every batch; NULL without */
     double handed;
     double absorbed, out, gated; /* weight, over every batch */
+    int cancelled;               /* it stopped early: the run was cancelled */
     double batch_absorbed, batch_out; /* at the last batch's start, for: */
     double absorbed_sq, out_sq;       /* sums of squares of batch totals */
     int64_t truncated, events;
@@ -391,22 +392,38 @@ static void fold_batch(mc_tally *t)
     memset(t->face, 0, (size_t)(net->nfaces ? net->nfaces : 1) * sizeof *t->face);
 }
 
+/* Photons between looks at the run's cancellation (and thread 0's progress):
+ * a few milliseconds of tracing. */
+enum { MC_CHUNK = 256 };
+
 static void *thread_main(void *arg)
 {
     mc_tally *t = arg;
     const mc_scene *sc = t->sc;
     ohm_progress prog;
     if (t->thread == 0) ohm_progress_begin(&prog, sc->log, sc->what);
+    double t_reported = ohm_now();
     int mine = 0, done = 0;
     for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) ++mine;
-    for (int b = t->thread; b < OHM_MC_BATCHES; b += sc->nthreads) {
+    for (int b = t->thread; b < OHM_MC_BATCHES && !t->cancelled; b += sc->nthreads) {
         rng r;
         rng_seed(&r, sc->seed, (uint64_t)b);
-        for (int64_t k = 0; k < sc->per_batch; ++k) trace_photon(sc, t, &r);
+        for (int64_t k = 0; k < sc->per_batch; ++k) {
+            trace_photon(sc, t, &r);
+            if ((k + 1) % MC_CHUNK) continue;
+            if (ohm_log_cancelled(sc->log)) {
+                t->cancelled = 1;
+                break;
+            }
+            if (t->thread == 0 && ohm_now() - t_reported >= 0.05) {
+                t_reported = ohm_now();
+                ohm_progress_update(&prog, (done + (double)k / (double)sc->per_batch) / mine);
+            }
+        }
         fold_batch(t);
-        if (t->thread == 0) ohm_progress_update(&prog, (double)++done / mine);
+        ++done;
     }
-    if (t->thread == 0) ohm_progress_end(&prog);
+    if (t->thread == 0 && !t->cancelled) ohm_progress_end(&prog);
     return NULL;
 }
 
@@ -577,6 +594,8 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
         }
     if (!rc) thread_main(&tally[0]);
     for (int k = 1; k <= started; ++k) pthread_join(tid[k], NULL);
+    for (int k = 0; k < nthreads && !rc; ++k)
+        if (tally[k].cancelled) rc = ohm_fail_cancelled(err, "monte carlo");
     if (!rc) {
         merge_tallies(tally, nthreads, net);
         write_result(res, &tally[0], &sc, P);

@@ -179,6 +179,10 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
     }
     int64_t it = 0;
     int restarts = 0;
+    /* progress: the residual's fall so far against the fall asked for */
+    ohm_progress prog;
+    ohm_progress_begin(&prog, cg->log, "solve: cg");
+    double t_reported = prog.t_begin;
     for (;;) {
         /* the true residual; CG's recursive one drifts from it, so every
          * (re)start and the final test use b - A x */
@@ -215,6 +219,14 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
             }
             ++it;
             nr = sqrt(dot(r, r, n));
+            if (ohm_log_cancelled(cg->log)) {
+                *iters = it;
+                return ohm_fail_cancelled(err, "cg");
+            }
+            if (cg->log && ohm_now() - t_reported >= 0.05) {
+                t_reported = ohm_now();
+                ohm_progress_update(&prog, fmin(1.0, fmax(0.0, log(nr / nb) / log(tol))));
+            }
             precondition(cg, r, z);
             double rz_new = dot(r, z, n);
             double beta = rz_new / rz;
@@ -223,6 +235,7 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
         }
     }
     *iters = it;
+    ohm_progress_end(&prog);
     return OHM_OK;
 }
 
@@ -268,6 +281,7 @@ static int cg_backend_setup(void *state, cholmod_sparse *A, ohm_backend_report *
     ohm_cg_free(&s->cg);
     rc = ohm_cg_setup(&s->cg, A, err);
     if (rc) return rc;
+    s->cg.log = s->cfg.log;
     rep->t_precond += s->cg.t_setup;
     rep->precond_setups++;
     snprintf(rep->solver, sizeof rep->solver, "cg");

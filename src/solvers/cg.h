@@ -21,6 +21,7 @@
 
 #include <cholmod.h>
 
+#include "base/log.h"
 #include "base/ohm_error.h"
 
 typedef struct ohm_cg {
@@ -31,6 +32,8 @@ typedef struct ohm_cg {
     double omega;            /* modification weight (0 = IC(0), 1 = full MIC)    */
     double norm_A;           /* ||A||_inf, for the scaled backward error          */
     double t_setup;          /* seconds                                          */
+    const ohm_log *log;      /* progress by residual, and cancellation checked
+                                every iteration; NULL: neither                   */
 } ohm_cg;
 
 /* Build the preconditioner for A (the network's matrix: symmetric, upper

@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "base/log.h"
+#include "solvers/factor_watch.h"
 #include "base/memory.h"
 #include "solvers/cg.h"
 #include "solvers/substitute.h"
@@ -217,7 +218,8 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
     return OHM_OK;
 }
 
-int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, ohm_error *err)
+int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, const ohm_log *log,
+                           ohm_error *err)
 {
     cholmod_common *cc = &s->cc;
     if (!s->symbolic) return ohm_fail(err, OHM_ERR_INTERNAL, "factorize before analyze");
@@ -226,14 +228,18 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     if (!F) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory copying the symbolic factor");
     s->norm_A = cholmod_l_norm_sparse(A, 0, cc); /* for every solve's backward error */
     double t0 = ohm_now();
+    ohm_factor_watch watch;
+    ohm_factor_watch_begin(&watch, s->flops, log, "solve: factorize");
     int ok = cholmod_l_factorize(A, F, cc);
+    ohm_factor_watch_end(&watch);
     if (t) *t = ohm_now() - t0;
     /* cholmod_factorize returns TRUE on an indefinite matrix: the status and
-     * L->minor say so. */
+     * L->minor say so (and a cancelled run stops it the same way). */
     if (!ok || cc->status == CHOLMOD_NOT_POSDEF || F->minor < F->n) {
         long long minor = (long long)F->minor;
         int status = cc->status;
         cholmod_l_free_factor(&F, cc);
+        if (watch.cancelled) return ohm_fail_cancelled(err, "factorize");
         if (status == CHOLMOD_OUT_OF_MEMORY)
             return ohm_fail(err, OHM_ERR_NOMEM, "out of memory factorizing (nnz(L) = %.3g)", s->nnz_L);
         return ohm_fail(err, OHM_ERR_NUMERIC,
@@ -372,7 +378,7 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
     /* the next material refactorizes into the same L: same pattern, and its
      * memory is already mapped */
     double tf = 0;
-    rc = ohm_cholesky_factorize(&d->L, s, A, &tf, err);
+    rc = ohm_cholesky_factorize(&d->L, s, A, &tf, d->cfg.log, err);
     if (rc) return rc;
     rep->t_factor += tf;
     rep->factors++;

@@ -65,8 +65,10 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
 
 /* Numeric factor of A (same pattern as analysed): into *L when it holds an
  * earlier factor of this analysis (refactorized in place), else into a new
- * copy of the symbolic factor.  t: seconds.  On failure *L is freed. */
-int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, ohm_error *err);
+ * copy of the symbolic factor.  t: seconds.  On failure *L is freed.  log:
+ * progress, and its cancellation stops the factorization (factor_watch.h). */
+int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, const ohm_log *log,
+                           ohm_error *err);
 
 /* Solve A X = B for ncols columns (column-major, n rows each): by
  * substitution over a supernodal factor for a few columns (substitute.h),

@@ -985,6 +985,7 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     if (!m->gb) m->gb = malloc(nf * sizeof *m->gb);
     if ((!m->ga && net->nclosure > 0) || !m->gb)
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
+    if (ohm_log_cancelled(s->log)) return ohm_fail_cancelled(err, "solve");
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
     if (rc) return rc;
     ohm_channel_medium med;
@@ -1173,6 +1174,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
     size_t n = (size_t)sol->n, frames = (size_t)sol->frames;
     int rc = OHM_OK;
     for (size_t f0 = 0; f0 < frames && !rc; f0 += run->batch) {
+        if (ohm_log_cancelled(s->log)) return ohm_fail_cancelled(err, "solve");
         size_t nb = frames - f0 < run->batch ? frames - f0 : run->batch;
         double t0 = ohm_now();
         const face_powers *fp = &run->fp;

@@ -475,10 +475,18 @@ static int run_step(const ohm_invocation *inv, ohm_state *s, ohm_error *err)
     if (reads_staged(inv, s->outputs)) { /* it must find the file on disk: the run's outputs so far go first */
         ohm_log_info(&s->log, "%s: reads a file this run wrote: its outputs so far are put in place first",
                      inv->where);
-        int rc = ohm_output_batch_commit(s->outputs, err);
+        int rc = ohm_output_batch_commit(s->outputs, &s->log, err);
         if (rc) return rc;
     }
-    return inv->action->run(s, inv, err);
+    if (ohm_log_cancelled(&s->log))
+        return ohm_fail(err, OHM_ERR_CANCELLED, "%s: -%s: cancelled before it began", inv->where, inv->action->name);
+    int rc = inv->action->run(s, inv, err);
+    if (rc == OHM_ERR_CANCELLED) { /* the step's own words, and where it stood */
+        char said[sizeof err->msg];
+        snprintf(said, sizeof said, "%s", err->msg);
+        ohm_fail(err, rc, "%s: -%s: %s", inv->where, inv->action->name, said);
+    }
+    return rc;
 }
 
 /* The chain's steps in order, except that a step that waits for the scene
@@ -519,7 +527,7 @@ int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
         ohm_output_batch_abort(&batch);
         return rc;
     }
-    return ohm_output_batch_commit(&batch, err);
+    return ohm_output_batch_commit(&batch, &s->log, err);
 }
 
 /* ---- help ---------------------------------------------------------------------- */
