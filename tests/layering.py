@@ -82,11 +82,54 @@ bad = []
 checked = 0
 
 
-def angle_offence(where, header):
-    bad.append('%s: #include <%s>: one of ohm\'s own headers in angle brackets: write "%s"' % (where, header, header))
+def check(rel, rule):
+    """Each include of the root-relative file rel through rule(header, angled):
+    None when the header is not ohm's (not counted), "" when the include is
+    fine, else what is wrong with it."""
+    global checked
+    for lineno, header, is_angled in includes(rel):
+        verdict = rule(header, is_angled)
+        if verdict is None:
+            continue
+        checked += 1
+        if verdict:
+            shown = "<%s>" % header if is_angled else '"%s"' % header
+            bad.append("%s:%d: #include %s: %s" % (rel, lineno, shown, verdict))
+
+
+def in_angle_brackets(header, rel, helpers_too=False):
+    """The verdict on an angle-bracket include outside examples/: an offence
+    when it names one of ohm's own headers, not counted otherwise."""
+    if own_header(header) or (helpers_too and beside(rel, header)):
+        return 'one of ohm\'s own headers in angle brackets: write "%s"' % header
+    return None
 
 
 # ---- src/: the stages ----------------------------------------------------------
+def stage_rule(stage):
+    level = STAGES.index(stage)
+
+    def rule(header, is_angled):
+        if is_angled:
+            return in_angle_brackets(header, None)
+        if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
+            return "the command line uses the public API (ohm.h) only"
+        if header in BELOW_ALL:
+            return ""
+        if header == "ohm.h":
+            to = "api"
+        elif "/" in header:
+            to = header.split("/")[0]
+        else:
+            return "names no stage folder"
+        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header != "ohm.h":
+            return "no such header under src/"
+        if STAGES.index(to) > level:
+            return "stage %s reaches up to %s" % (stage, to)
+        return ""
+    return rule
+
+
 folders = sorted(d for d in os.listdir(src) if os.path.isdir(os.path.join(src, d)))
 for d in folders:
     if d not in STAGES:
@@ -97,87 +140,61 @@ for f in sorted(os.listdir(src)):
 for stage in folders:
     if stage not in STAGES:
         continue
-    level = STAGES.index(stage)
     for name in sorted(os.listdir(os.path.join(src, stage))):
-        if not name.endswith((".c", ".h")):
-            continue
-        rel = "src/%s/%s" % (stage, name)
-        for lineno, header, is_angled in includes(rel):
-            where = "%s:%d" % (rel, lineno)
-            if is_angled:
-                if own_header(header):
-                    checked += 1
-                    angle_offence(where, header)
-                continue
-            checked += 1
-            if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
-                bad.append('%s: #include "%s": the command line uses the public API (ohm.h) only' % (where, header))
-                continue
-            if header in BELOW_ALL:
-                continue
-            if header == "ohm.h":
-                to = "api"
-            elif "/" in header:
-                to = header.split("/")[0]
-            else:
-                bad.append('%s: #include "%s" names no stage folder' % (where, header))
-                continue
-            if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header != "ohm.h":
-                bad.append('%s: #include "%s": no such header under src/' % (where, header))
-            elif STAGES.index(to) > level:
-                bad.append('%s: #include "%s": stage %s reaches up to %s' % (where, header, stage, to))
+        if name.endswith((".c", ".h")):
+            check("src/%s/%s" % (stage, name), stage_rule(stage))
+
 
 # ---- wrappers/: each shim on its own ----------------------------------------------
-for rel in files_under(root, "wrappers"):
-    for lineno, header, is_angled in includes(rel):
-        where = "%s:%d" % (rel, lineno)
+def wrapper_rule(rel):
+    def rule(header, is_angled):
         if is_angled:
-            if own_header(header):
-                checked += 1
-                angle_offence(where, header)
-            continue
-        checked += 1
+            return in_angle_brackets(header, rel)
         if header in ERROR_VOCABULARY or ("/" not in header and beside(rel, header)):
-            continue
-        bad.append('%s: #include "%s": a wrapper includes its own folder\'s headers and ohm\'s error vocabulary '
-                   '(%s) only' % (where, header, ", ".join(sorted(ERROR_VOCABULARY))))
+            return ""
+        return "a wrapper includes its own folder's headers and ohm's error vocabulary (%s) only" % ", ".join(
+            sorted(ERROR_VOCABULARY))
+    return rule
+
+
+for rel in files_under(root, "wrappers"):
+    check(rel, wrapper_rule(rel))
+
 
 # ---- tests/: any stage, the wrappers' C headers, the public API ---------------------
-for rel in files_under(root, "tests"):
-    for lineno, header, is_angled in includes(rel):
-        where = "%s:%d" % (rel, lineno)
+def test_rule(rel):
+    def rule(header, is_angled):
         if is_angled:
-            if own_header(header) or beside(rel, header):
-                checked += 1
-                angle_offence(where, header)
-            continue
-        checked += 1
+            return in_angle_brackets(header, rel, helpers_too=True)
         if in_src(header) or header in BELOW_ALL or header in PUBLIC or beside(rel, header):
-            continue
+            return ""
         if header in WRAPPER_HEADERS:
-            bad.append('%s: #include "%s": a wrapper\'s own header; tests use its C header (%s)'
-                       % (where, header, ", ".join(sorted(WRAPPER_API))))
-        else:
-            bad.append('%s: #include "%s": no such header under src/ or include/, nor beside the test'
-                       % (where, header))
+            return "a wrapper's own header; tests use its C header (%s)" % ", ".join(sorted(WRAPPER_API))
+        return "no such header under src/ or include/, nor beside the test"
+    return rule
+
+
+for rel in files_under(root, "tests"):
+    check(rel, test_rule(rel))
+
 
 # ---- examples/: clients of the installed header -------------------------------------
+def example_rule(rel):
+    def rule(header, is_angled):
+        if is_angled:
+            if not own_header(header):
+                return None  # the C library's, or another library's
+            return "" if header in PUBLIC else "examples use the public API only (<ohm.h>)"
+        if header in PUBLIC:
+            return "an example includes the installed header: write <%s>" % header
+        if not own_header(header) and beside(rel, header):
+            return ""  # the example's own helper
+        return "examples use the public API only (<ohm.h>)"
+    return rule
+
+
 for rel in files_under(root, "examples"):
-    for lineno, header, is_angled in includes(rel):
-        where = "%s:%d" % (rel, lineno)
-        if is_angled and not own_header(header):
-            continue  # the C library's, or another library's
-        checked += 1
-        if is_angled and header in PUBLIC:
-            continue
-        if not is_angled and not own_header(header) and beside(rel, header):
-            continue  # the example's own helper
-        if not is_angled and header in PUBLIC:
-            bad.append('%s: #include "%s": an example includes the installed header: write <%s>'
-                       % (where, header, header))
-        else:
-            bad.append('%s: #include %s: examples use the public API only (<ohm.h>)'
-                       % (where, "<%s>" % header if is_angled else '"%s"' % header))
+    check(rel, example_rule(rel))
 
 for b in bad:
     print(b)
