@@ -8,19 +8,128 @@ vocabulary include/ohm/common.h (status codes) are below every stage.  The
 public API (include/ohm.h, implemented in src/api/) is above them all but the
 command line, and the command line is its client: src/cli/ includes ohm.h and
 nothing else of ohm's.
+
+Around src/:
+- wrappers/: a shim includes the headers of its own folder ("ohm_oiio.h"),
+  ohm's error vocabulary (base/ohm_error.h, ohm/common.h) and its library's
+  headers, nothing else of ohm's: no stage, no other wrapper.
+- tests/ (with tests/fuzz/): any stage's header, the wrappers' C headers,
+  ohm_version.h, the public ohm.h and ohm/common.h, and the helpers beside
+  the test ("check.h").
+- examples/: clients of the installed library: they include the public
+  headers as <ohm.h> (or <ohm/common.h>) and nothing else of ohm's.
+
+ohm's own headers are included in quotes everywhere but examples/: an
+angle-bracket include that names one (<base/log.h>, <ohm_vdb.h>, <ohm.h>) is
+an offence in src/, wrappers/ and tests/.
+
 Prints each offending include as FILE:LINE and exits 1."""
 import os
 import re
 import sys
 
 STAGES = ["base", "input", "grid", "physics", "solvers", "outputs", "studies", "steps", "api", "cli"]
-BELOW_ALL = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h", "ohm_version.h", "ohm/common.h"}
+WRAPPER_API = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h"}
+BELOW_ALL = WRAPPER_API | {"ohm_version.h", "ohm/common.h"}
+ERROR_VOCABULARY = {"base/ohm_error.h", "ohm/common.h"}  # what a wrapper may include of ohm's
+SOURCES = (".c", ".h", ".cpp", ".hpp", ".cc")
 
-root = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..")
+root = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
 src = os.path.join(root, "src")
-include = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
+quoted = re.compile(r'^\s*#\s*include\s+"([^"]+)"')
+angled = re.compile(r'^\s*#\s*include\s+<([^>]+)>')
+
+
+def files_under(top, name):
+    """Relative paths (root-based) of the sources in top/name, with subfolders."""
+    out = []
+    for d, dirs, files in os.walk(os.path.join(top, name)):
+        dirs.sort()
+        out += [os.path.relpath(os.path.join(d, f), top) for f in sorted(files) if f.endswith(SOURCES)]
+    return out
+
+
+PUBLIC = set(files_under(os.path.join(root, "include"), "."))  # ohm.h, ohm/common.h
+WRAPPER_HEADERS = {os.path.basename(f) for f in files_under(root, "wrappers") if f.endswith((".h", ".hpp"))}
+
+
+def in_src(header):
+    return "/" in header and header.split("/")[0] in STAGES and os.path.isfile(os.path.join(src, header))
+
+
+def own_header(header):
+    """Does this include name one of ohm's own headers (not a system or library one)?"""
+    return in_src(header) or header in PUBLIC or header in WRAPPER_HEADERS or header == "ohm_version.h"
+
+
+def includes(rel):
+    """(line number, header, in angle brackets?) of each include in a root-relative file."""
+    for lineno, line in enumerate(open(os.path.join(root, rel), encoding="utf-8"), 1):
+        m = quoted.match(line)
+        if m:
+            yield lineno, m.group(1), False
+            continue
+        m = angled.match(line)
+        if m:
+            yield lineno, m.group(1), True
+
+
+def beside(rel, header):
+    return os.path.isfile(os.path.join(root, os.path.dirname(rel), header))
+
+
 bad = []
 checked = 0
+
+
+def check(rel, rule):
+    """Each include of the root-relative file rel through rule(header, angled):
+    None when the header is not ohm's (not counted), "" when the include is
+    fine, else what is wrong with it."""
+    global checked
+    for lineno, header, is_angled in includes(rel):
+        verdict = rule(header, is_angled)
+        if verdict is None:
+            continue
+        checked += 1
+        if verdict:
+            shown = "<%s>" % header if is_angled else '"%s"' % header
+            bad.append("%s:%d: #include %s: %s" % (rel, lineno, shown, verdict))
+
+
+def in_angle_brackets(header, rel, helpers_too=False):
+    """The verdict on an angle-bracket include outside examples/: an offence
+    when it names one of ohm's own headers, not counted otherwise."""
+    if own_header(header) or (helpers_too and beside(rel, header)):
+        return 'one of ohm\'s own headers in angle brackets: write "%s"' % header
+    return None
+
+
+# ---- src/: the stages ----------------------------------------------------------
+def stage_rule(stage):
+    level = STAGES.index(stage)
+
+    def rule(header, is_angled):
+        if is_angled:
+            return in_angle_brackets(header, None)
+        if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
+            return "the command line uses the public API (ohm.h) only"
+        if header in BELOW_ALL:
+            return ""
+        if header == "ohm.h":
+            to = "api"
+        elif "/" in header:
+            to = header.split("/")[0]
+        else:
+            return "names no stage folder"
+        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header != "ohm.h":
+            return "no such header under src/"
+        if STAGES.index(to) > level:
+            return "stage %s reaches up to %s" % (stage, to)
+        return ""
+    return rule
+
+
 folders = sorted(d for d in os.listdir(src) if os.path.isdir(os.path.join(src, d)))
 for d in folders:
     if d not in STAGES:
@@ -31,35 +140,64 @@ for f in sorted(os.listdir(src)):
 for stage in folders:
     if stage not in STAGES:
         continue
-    level = STAGES.index(stage)
     for name in sorted(os.listdir(os.path.join(src, stage))):
-        if not name.endswith((".c", ".h")):
-            continue
-        path = os.path.join(src, stage, name)
-        for lineno, line in enumerate(open(path, encoding="utf-8"), 1):
-            m = include.match(line)
-            if not m:
-                continue
-            checked += 1
-            header = m.group(1)
-            where = "src/%s/%s:%d" % (stage, name, lineno)
-            if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
-                bad.append('%s: #include "%s": the command line uses the public API (ohm.h) only' % (where, header))
-                continue
-            if header in BELOW_ALL:
-                continue
-            if header == "ohm.h":
-                to = "api"
-            elif "/" in header:
-                to = header.split("/")[0]
-            else:
-                bad.append('%s: #include "%s" names no stage folder' % (where, header))
-                continue
-            if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header != "ohm.h":
-                bad.append('%s: #include "%s": no such header under src/' % (where, header))
-            elif STAGES.index(to) > level:
-                bad.append('%s: #include "%s": stage %s reaches up to %s' % (where, header, stage, to))
+        if name.endswith((".c", ".h")):
+            check("src/%s/%s" % (stage, name), stage_rule(stage))
+
+
+# ---- wrappers/: each shim on its own ----------------------------------------------
+def wrapper_rule(rel):
+    def rule(header, is_angled):
+        if is_angled:
+            return in_angle_brackets(header, rel)
+        if header in ERROR_VOCABULARY or ("/" not in header and beside(rel, header)):
+            return ""
+        return "a wrapper includes its own folder's headers and ohm's error vocabulary (%s) only" % ", ".join(
+            sorted(ERROR_VOCABULARY))
+    return rule
+
+
+for rel in files_under(root, "wrappers"):
+    check(rel, wrapper_rule(rel))
+
+
+# ---- tests/: any stage, the wrappers' C headers, the public API ---------------------
+def test_rule(rel):
+    def rule(header, is_angled):
+        if is_angled:
+            return in_angle_brackets(header, rel, helpers_too=True)
+        if in_src(header) or header in BELOW_ALL or header in PUBLIC or beside(rel, header):
+            return ""
+        if header in WRAPPER_HEADERS:
+            return "a wrapper's own header; tests use its C header (%s)" % ", ".join(sorted(WRAPPER_API))
+        return "no such header under src/ or include/, nor beside the test"
+    return rule
+
+
+for rel in files_under(root, "tests"):
+    check(rel, test_rule(rel))
+
+
+# ---- examples/: clients of the installed header -------------------------------------
+def example_rule(rel):
+    def rule(header, is_angled):
+        if is_angled:
+            if not own_header(header):
+                return None  # the C library's, or another library's
+            return "" if header in PUBLIC else "examples use the public API only (<ohm.h>)"
+        if header in PUBLIC:
+            return "an example includes the installed header: write <%s>" % header
+        if not own_header(header) and beside(rel, header):
+            return ""  # the example's own helper
+        return "examples use the public API only (<ohm.h>)"
+    return rule
+
+
+for rel in files_under(root, "examples"):
+    check(rel, example_rule(rel))
+
 for b in bad:
     print(b)
-print("layering: %d includes in %d stages checked, %d problem(s)" % (checked, len(folders), len(bad)))
+print("layering: %d includes in %d stages, wrappers/, tests/ and examples/ checked, %d problem(s)"
+      % (checked, len(folders), len(bad)))
 sys.exit(1 if bad or checked == 0 else 0)

@@ -36,8 +36,8 @@
 #include "check.h"
 #include "physics/light.h"
 #include "physics/material.h"
-#include "physics/reference.h"
 #include "solvers/solve.h"
+#include "studies/reference.h"
 #include "input/transfer.h"
 
 static const ohm_log quiet = {.verbosity = 0};

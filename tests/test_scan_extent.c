@@ -17,7 +17,7 @@
  *    transfer function, voxel=0.5, lit from above: the object has the data's
  *    volume within a voxel layer, and the exitance at the top's centre is
  *    within 3% of the exact two-layer 1-D diffusion solution
- *    (physics/reference.h).  That needs the slab's lateral walls where the
+ *    (studies/reference.h).  That needs the slab's lateral walls where the
  *    data ends: grown into the margin the slab was 8.6% off. */
 #include "check.h"
 #include "tmp_files.h" /* zlib.h before cholmod.h, which defines _LARGEFILE64_SOURCE */
@@ -26,8 +26,8 @@
 #include "input/scan.h"
 #include "input/transfer.h"
 #include "physics/fresnel.h"
-#include "physics/reference.h"
 #include "solvers/solve.h"
+#include "studies/reference.h"
 
 #include <math.h>
 #include <stdint.h>

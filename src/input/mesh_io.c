@@ -721,7 +721,92 @@ static void ply_free(ply *P)
     free(P->elems);
 }
 
-static int ply_header(ply *P, lines *L)
+/* 'format ascii|binary_little_endian|binary_big_endian VERSION'; the version is not read. */
+static int ply_format_line(ply *P, lines *L)
+{
+    mb *b = P->b;
+    tok t = {NULL, 0}; /* stays empty when the line ends here */
+    line_tok(L, &t);
+    if (tok_eq(t, "ascii")) P->format = 0;
+    else if (tok_eq(t, "binary_little_endian")) P->format = 1;
+    else if (tok_eq(t, "binary_big_endian")) P->format = 2;
+    else
+        return ohm_fail(b->err, OHM_ERR_PARSE,
+                        "%s:%zu: unknown format '%s' (expected ascii, binary_little_endian or binary_big_endian)",
+                        b->name, L->line, show(t).s);
+    return 0;
+}
+
+/* 'element NAME COUNT': a new element, which the property lines after it describe. */
+static int ply_element_line(ply *P, lines *L)
+{
+    mb *b = P->b;
+    tok nm, cnt;
+    int64_t count;
+    if (!line_tok(L, &nm) || !line_tok(L, &cnt))
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: expected 'element NAME COUNT'", b->name, L->line);
+    int rc = count_tok(b, L->line, cnt, "element count", &count);
+    if (rc) return rc;
+    if ((rc = grow_to(b, (void **)&P->elems, &P->cap, P->nelems + 1, sizeof(ply_elem), "PLY elements"))) return rc;
+    ply_elem *e = &P->elems[P->nelems++];
+    memset(e, 0, sizeof *e);
+    e->name = nm;
+    e->count = count;
+    e->line = L->line;
+    return 0;
+}
+
+/* The rest of 'property list COUNT_TYPE ITEM_TYPE NAME' into p. */
+static int ply_list_property(const ply *P, lines *L, ply_prop *p)
+{
+    mb *b = P->b;
+    tok ct, it;
+    if (!line_tok(L, &ct) || !line_tok(L, &it) || !line_tok(L, &p->name))
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: expected 'property list COUNT_TYPE ITEM_TYPE NAME'", b->name,
+                        L->line);
+    p->ctype = (unsigned char)ply_type(ct);
+    p->type = (unsigned char)ply_type(it);
+    if (!ply_is_int(p->ctype))
+        return ohm_fail(b->err, OHM_ERR_PARSE,
+                        "%s:%zu: list count type '%s' is not an integer type (expected uchar, ushort, uint, ...)",
+                        b->name, L->line, show(ct).s);
+    if (p->type == PT_NONE)
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: unknown property type '%s'", b->name, L->line, show(it).s);
+    return 0;
+}
+
+/* 'property TYPE NAME' or 'property list ...': one more property of the last element. */
+static int ply_property_line(ply *P, lines *L)
+{
+    mb *b = P->b;
+    if (P->nelems == 0)
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: property before any element", b->name, L->line);
+    ply_elem *e = &P->elems[P->nelems - 1];
+    ply_prop p = {{NULL, 0}, PT_NONE, PT_NONE};
+    tok ty;
+    if (!line_tok(L, &ty))
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: expected 'property TYPE NAME'", b->name, L->line);
+    if (tok_eq(ty, "list")) {
+        int rc = ply_list_property(P, L, &p);
+        if (rc) return rc;
+    } else {
+        p.type = (unsigned char)ply_type(ty);
+        if (p.type == PT_NONE)
+            return ohm_fail(b->err, OHM_ERR_PARSE,
+                            "%s:%zu: unknown property type '%s' (expected char uchar short ushort int uint float "
+                            "double, or int8 ... float64)",
+                            b->name, L->line, show(ty).s);
+        if (!line_tok(L, &p.name))
+            return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: expected 'property TYPE NAME'", b->name, L->line);
+    }
+    int rc = grow_to(b, (void **)&e->props, &e->cap, e->nprops + 1, sizeof(ply_prop), "PLY properties");
+    if (rc) return rc;
+    e->props[e->nprops++] = p;
+    return 0;
+}
+
+/* The header's lines from 'ply' to 'end_header', into P's format and elements. */
+static int ply_header_lines(ply *P, lines *L)
 {
     mb *b = P->b;
     ohm_error *err = b->err;
@@ -736,127 +821,99 @@ static int ply_header(ply *P, lines *L)
         if (!line_tok(L, &t)) continue; /* blank line */
         if (tok_eq(t, "comment") || tok_eq(t, "obj_info")) continue;
         if (tok_eq(t, "end_header")) break;
+        int rc;
         if (tok_eq(t, "format")) {
-            if (!line_tok(L, &t)) t.n = 0;
-            if (tok_eq(t, "ascii")) P->format = 0;
-            else if (tok_eq(t, "binary_little_endian")) P->format = 1;
-            else if (tok_eq(t, "binary_big_endian")) P->format = 2;
-            else
-                return ohm_fail(err, OHM_ERR_PARSE,
-                                "%s:%zu: unknown format '%s' (expected ascii, binary_little_endian or "
-                                "binary_big_endian)",
-                                b->name, L->line, show(t).s);
+            rc = ply_format_line(P, L);
             have_format = 1;
-        } else if (tok_eq(t, "element")) {
-            tok nm, cnt;
-            int64_t count;
-            if (!line_tok(L, &nm) || !line_tok(L, &cnt))
-                return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: expected 'element NAME COUNT'", b->name,
-                                L->line);
-            int rc = count_tok(b, L->line, cnt, "element count", &count);
-            if (rc) return rc;
-            if ((rc = grow_to(b, (void **)&P->elems, &P->cap, P->nelems + 1, sizeof(ply_elem),
-                              "PLY elements")))
-                return rc;
-            ply_elem *e = &P->elems[P->nelems++];
-            memset(e, 0, sizeof *e);
-            e->name = nm;
-            e->count = count;
-            e->line = L->line;
-        } else if (tok_eq(t, "property")) {
-            if (P->nelems == 0)
-                return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: property before any element", b->name, L->line);
-            ply_elem *e = &P->elems[P->nelems - 1];
-            ply_prop p = {{NULL, 0}, PT_NONE, PT_NONE};
-            tok ty;
-            if (!line_tok(L, &ty))
-                return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: expected 'property TYPE NAME'", b->name,
-                                L->line);
-            if (tok_eq(ty, "list")) {
-                tok ct, it;
-                if (!line_tok(L, &ct) || !line_tok(L, &it) || !line_tok(L, &p.name))
-                    return ohm_fail(err, OHM_ERR_PARSE,
-                                    "%s:%zu: expected 'property list COUNT_TYPE ITEM_TYPE NAME'", b->name,
-                                    L->line);
-                p.ctype = (unsigned char)ply_type(ct);
-                p.type = (unsigned char)ply_type(it);
-                if (!ply_is_int(p.ctype))
-                    return ohm_fail(err, OHM_ERR_PARSE,
-                                    "%s:%zu: list count type '%s' is not an integer type (expected uchar, "
-                                    "ushort, uint, ...)",
-                                    b->name, L->line, show(ct).s);
-                if (p.type == PT_NONE)
-                    return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: unknown property type '%s'", b->name,
-                                    L->line, show(it).s);
-            } else {
-                p.type = (unsigned char)ply_type(ty);
-                if (p.type == PT_NONE)
-                    return ohm_fail(err, OHM_ERR_PARSE,
-                                    "%s:%zu: unknown property type '%s' (expected char uchar short ushort "
-                                    "int uint float double, or int8 ... float64)",
-                                    b->name, L->line, show(ty).s);
-                if (!line_tok(L, &p.name))
-                    return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: expected 'property TYPE NAME'", b->name,
-                                    L->line);
-            }
-            int rc = grow_to(b, (void **)&e->props, &e->cap, e->nprops + 1, sizeof(ply_prop),
-                             "PLY properties");
-            if (rc) return rc;
-            e->props[e->nprops++] = p;
-        } else {
-            return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s:%zu: unknown header line '%s' (expected format, element, property, comment "
-                            "or end_header)",
-                            b->name, L->line, show(t).s);
-        }
+        } else if (tok_eq(t, "element"))
+            rc = ply_element_line(P, L);
+        else if (tok_eq(t, "property"))
+            rc = ply_property_line(P, L);
+        else
+            rc = ohm_fail(err, OHM_ERR_PARSE,
+                          "%s:%zu: unknown header line '%s' (expected format, element, property, comment or "
+                          "end_header)",
+                          b->name, L->line, show(t).s);
+        if (rc) return rc;
     }
     if (!have_format)
         return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: header has no 'format' line", b->name, L->line);
+    return 0;
+}
 
-    /* Find what we need: x y z in 'vertex', the index list in 'face'. */
+/* The elements ohm reads: 'vertex' (required) and 'face', each at most once. */
+static int ply_find_elements(ply *P, size_t end_line)
+{
+    mb *b = P->b;
     for (size_t i = 0; i < P->nelems; ++i) {
         ply_elem *e = &P->elems[i];
         ply_elem **slot = tok_eq(e->name, "vertex") ? &P->vert : tok_eq(e->name, "face") ? &P->face : NULL;
         if (!slot) continue;
         if (*slot)
-            return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: a second '%s' element (the first is on line %zu)",
+            return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: a second '%s' element (the first is on line %zu)",
                             b->name, e->line, show(e->name).s, (*slot)->line);
         *slot = e;
     }
     if (!P->vert)
-        return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: header has no 'vertex' element", b->name, L->line);
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: header has no 'vertex' element", b->name, end_line);
+    return 0;
+}
+
+/* The scalar properties x, y and z of 'vertex', into P->ix. */
+static int ply_vertex_xyz(ply *P)
+{
+    mb *b = P->b;
+    const ply_elem *v = P->vert;
     for (int k = 0; k < 3; ++k) {
         size_t j;
-        for (j = 0; j < P->vert->nprops; ++j)
-            if (tok_eq(P->vert->props[j].name, axis_name[k])) break;
-        if (j == P->vert->nprops)
-            return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: element 'vertex' has no property '%s'", b->name,
-                            P->vert->line, axis_name[k]);
-        if (P->vert->props[j].ctype != PT_NONE)
-            return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: vertex property '%s' is a list, expected a scalar",
-                            b->name, P->vert->line, axis_name[k]);
+        for (j = 0; j < v->nprops; ++j)
+            if (tok_eq(v->props[j].name, axis_name[k])) break;
+        if (j == v->nprops)
+            return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: element 'vertex' has no property '%s'", b->name, v->line,
+                            axis_name[k]);
+        if (v->props[j].ctype != PT_NONE)
+            return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: vertex property '%s' is a list, expected a scalar",
+                            b->name, v->line, axis_name[k]);
         P->ix[k] = j;
     }
-    if (P->face) {
-        size_t j, first_list = SIZE_MAX;
-        for (j = 0; j < P->face->nprops; ++j) {
-            const ply_prop *p = &P->face->props[j];
-            if (p->ctype == PT_NONE) continue;
-            if (first_list == SIZE_MAX) first_list = j;
-            if (tok_eq(p->name, "vertex_indices") || tok_eq(p->name, "vertex_index")) break;
-        }
-        if (j == P->face->nprops) j = first_list;
-        if (j == SIZE_MAX)
-            return ohm_fail(err, OHM_ERR_PARSE,
-                            "%s:%zu: element 'face' has no list property (expected 'property list uchar int "
-                            "vertex_indices')",
-                            b->name, P->face->line);
-        if (!ply_is_int(P->face->props[j].type))
-            return ohm_fail(err, OHM_ERR_PARSE, "%s:%zu: face list '%s' holds non-integer vertex indices",
-                            b->name, P->face->line, show(P->face->props[j].name).s);
-        P->iface = j;
-    }
     return 0;
+}
+
+/* The list of vertex indices in 'face', into P->iface: the one named
+ * vertex_indices or vertex_index, else the first list. */
+static int ply_face_list(ply *P)
+{
+    mb *b = P->b;
+    const ply_elem *f = P->face;
+    size_t j, first_list = SIZE_MAX;
+    for (j = 0; j < f->nprops; ++j) {
+        const ply_prop *p = &f->props[j];
+        if (p->ctype == PT_NONE) continue;
+        if (first_list == SIZE_MAX) first_list = j;
+        if (tok_eq(p->name, "vertex_indices") || tok_eq(p->name, "vertex_index")) break;
+    }
+    if (j == f->nprops) j = first_list;
+    if (j == SIZE_MAX)
+        return ohm_fail(b->err, OHM_ERR_PARSE,
+                        "%s:%zu: element 'face' has no list property (expected 'property list uchar int "
+                        "vertex_indices')",
+                        b->name, f->line);
+    if (!ply_is_int(f->props[j].type))
+        return ohm_fail(b->err, OHM_ERR_PARSE, "%s:%zu: face list '%s' holds non-integer vertex indices", b->name,
+                        f->line, show(f->props[j].name).s);
+    P->iface = j;
+    return 0;
+}
+
+/* The header, read and checked: what the body holds and where ohm finds x, y,
+ * z and the faces' vertex indices in it. */
+static int ply_header(ply *P, lines *L)
+{
+    int rc = ply_header_lines(P, L);
+    if (!rc) rc = ply_find_elements(P, L->line);
+    if (!rc) rc = ply_vertex_xyz(P);
+    if (!rc && P->face) rc = ply_face_list(P);
+    return rc;
 }
 
 /* Reserve storage for element e once its count is known to fit the data. */

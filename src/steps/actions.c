@@ -12,13 +12,13 @@
 #endif
 
 #include "base/vec3.h"
-#include "studies/accuracy.h"
 #include "steps/export_action.h"
 #include "outputs/export_vdb.h"
 #include "ohm_vdb.h"
 #include "ohm_version.h"
 #include "steps/pipeline.h"
 #include "steps/render.h"
+#include "steps/resolution.h"
 
 /* ---- state --------------------------------------------------------------------- */
 

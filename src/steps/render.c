@@ -261,220 +261,358 @@ static int cmp_double(const void *a, const void *b)
     return (x > y) - (x < y);
 }
 
-/* ---- the action ----------------------------------------------------------------- */
+/* ---- the request -------------------------------------------------------------- */
 
-int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+/* What one -render asked for, checked against the state it runs on. */
+typedef struct render_request {
+    const char *path;
+    int W, H;    /* the whole image */
+    int pw, ph;  /* one panel: the whole image, or its left half with compare=1 */
+    int compare;
+    int frame;   /* 1-based, as given */
+} render_request;
+
+static int read_request(render_request *q, const ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
-    const char *path = ohm_opt_str(inv, "file");
-    if (!ohm_image_format_supported(path))
+    q->path = ohm_opt_str(inv, "file");
+    if (!ohm_image_format_supported(q->path))
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -render file=%s: unsupported image format: use .png or .exr",
-                        inv->where, path);
-    int W, H;
-    if (!parse_size(ohm_opt_str(inv, "size"), &W, &H))
+                        inv->where, q->path);
+    if (!parse_size(ohm_opt_str(inv, "size"), &q->W, &q->H))
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -render size=%s: expected W,H (integers 1..16384)", inv->where,
                         ohm_opt_str(inv, "size"));
-    int compare = (int)ohm_opt_int(inv, "compare");
-    if (compare && W < 2)
+    q->compare = (int)ohm_opt_int(inv, "compare");
+    if (q->compare && q->W < 2)
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -render compare=1 needs a width of at least 2", inv->where);
     if (!s->have_solution)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: no solution yet: put -solve before it", inv->where);
     if (!s->have_mesh || s->mesh.ntris == 0)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -render: needs the mesh the solution was computed on", inv->where);
     const ohm_solution *sol = ohm_state_solution(s);
-    int frame = (int)ohm_opt_int(inv, "frame");
-    if (frame > sol->frames)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render frame=%d: the solution has %d frame(s)", inv->where, frame,
+    q->frame = (int)ohm_opt_int(inv, "frame");
+    if (q->frame > sol->frames)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -render frame=%d: the solution has %d frame(s)", inv->where, q->frame,
                         sol->frames);
-    double t0 = ohm_now();
+    q->pw = q->compare ? q->W / 2 : q->W;
+    q->ph = q->H;
+    return OHM_OK;
+}
 
-    render_ctx r;
-    memset(&r, 0, sizeof r);
-    r.s = s;
-    r.net = &sol->net;
-    r.frame = frame - 1;
-    r.channels = sol->channels;
+/* ---- the camera ----------------------------------------------------------------- */
 
-    /* camera */
-    double lo[3], hi[3], centre[3], radius = 0;
-    ohm_mesh_bounds(&s->mesh, lo, hi);
-    for (int a = 0; a < 3; ++a) {
-        centre[a] = 0.5 * (lo[a] + hi[a]);
-        radius += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
-    }
-    radius = sqrt(radius);
-    r.eps = 1e-4 * (radius > 0 ? radius : 1.0);
-    double f[3] = {0, 0, -1};
+/* Orthographic, looking along f at the centre of the mesh's box, framing the box
+ * with 5% to spare; rays start 2 radii + 1 mm before the centre. */
+typedef struct camera {
+    double centre[3], radius; /* the mesh's bounding box: centre, half diagonal (mm) */
+    double f[3], right[3], up[3];
+    double hw, hh;            /* half width and height of the view (mm) */
+} camera;
+
+/* view=, else the way the frame's first light travels (towards the centre for
+ * a light with a position), else down -z. */
+static int view_direction(double f[3], const render_ctx *r, const double centre[3], const ohm_invocation *inv,
+                          ohm_error *err)
+{
+    const ohm_state *s = r->s;
+    f[0] = 0, f[1] = 0, f[2] = -1;
     if (ohm_opt_given(inv, "view")) {
         ohm_opt_vec3(inv, "view", f);
-        if (!ohm_vec3_normalize(f)) return ohm_fail(err, OHM_ERR_USAGE, "%s: -render view=0,0,0 has no direction", inv->where);
-    } else {
-        for (size_t i = 0; i < s->nlights; ++i) {
-            const ohm_light *L = &s->lights[i];
-            if (!light_in_frame(L, r.frame)) continue;
-            double d[3];
-            if (L->type == OHM_LIGHT_DIRECTIONAL) memcpy(d, L->dir, sizeof d);
-            else
-                for (int a = 0; a < 3; ++a) d[a] = centre[a] - L->pos[a];
-            if (!ohm_vec3_normalize(d)) memcpy(d, L->dir, sizeof d);
-            if (ohm_vec3_normalize(d)) memcpy(f, d, sizeof f);
-            break;
-        }
+        if (!ohm_vec3_normalize(f))
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: -render view=0,0,0 has no direction", inv->where);
+        return OHM_OK;
     }
+    for (size_t i = 0; i < s->nlights; ++i) {
+        const ohm_light *L = &s->lights[i];
+        if (!light_in_frame(L, r->frame)) continue;
+        double d[3];
+        if (L->type == OHM_LIGHT_DIRECTIONAL) memcpy(d, L->dir, sizeof d);
+        else
+            for (int a = 0; a < 3; ++a) d[a] = centre[a] - L->pos[a];
+        if (!ohm_vec3_normalize(d)) memcpy(d, L->dir, sizeof d);
+        if (ohm_vec3_normalize(d)) memcpy(f, d, sizeof d);
+        break;
+    }
+    return OHM_OK;
+}
+
+static int camera_setup(camera *cam, const render_ctx *r, const render_request *q, const ohm_invocation *inv,
+                        ohm_error *err)
+{
+    double lo[3], hi[3];
+    ohm_mesh_bounds(&r->s->mesh, lo, hi);
+    cam->radius = 0;
+    for (int a = 0; a < 3; ++a) {
+        cam->centre[a] = 0.5 * (lo[a] + hi[a]);
+        cam->radius += 0.25 * (hi[a] - lo[a]) * (hi[a] - lo[a]);
+    }
+    cam->radius = sqrt(cam->radius);
+    int rc = view_direction(cam->f, r, cam->centre, inv, err);
+    if (rc) return rc;
+    const double *f = cam->f;
     double uphint[3] = {0, 1, 0};
     if (fabs(f[1]) > 0.99) uphint[1] = 0, uphint[2] = f[1] > 0 ? 1 : -1;
-    double right[3], up[3];
-    cross3(f, uphint, right);
-    ohm_vec3_normalize(right);
-    cross3(right, f, up);
-    int pw = compare ? W / 2 : W, ph = H;
+    cross3(f, uphint, cam->right);
+    ohm_vec3_normalize(cam->right);
+    cross3(cam->right, f, cam->up);
     double xr = 0, yr = 0;
-    for (int q = 0; q < 8; ++q) {
-        double c[3] = {(q & 1) ? hi[0] : lo[0], (q & 2) ? hi[1] : lo[1], (q & 4) ? hi[2] : lo[2]};
-        for (int a = 0; a < 3; ++a) c[a] -= centre[a];
-        xr = fmax(xr, fabs(dot3(c, right)));
-        yr = fmax(yr, fabs(dot3(c, up)));
+    for (int k = 0; k < 8; ++k) {
+        double c[3] = {(k & 1) ? hi[0] : lo[0], (k & 2) ? hi[1] : lo[1], (k & 4) ? hi[2] : lo[2]};
+        for (int a = 0; a < 3; ++a) c[a] -= cam->centre[a];
+        xr = fmax(xr, fabs(dot3(c, cam->right)));
+        yr = fmax(yr, fabs(dot3(c, cam->up)));
     }
-    double aspect = (double)pw / ph;
-    double hw = 1.05 * fmax(fmax(xr, yr * aspect), 1e-9), hh = hw / aspect;
+    double aspect = (double)q->pw / q->ph;
+    cam->hw = 1.05 * fmax(fmax(xr, yr * aspect), 1e-9);
+    cam->hh = cam->hw / aspect;
+    return OHM_OK;
+}
 
-    int rc = scene_build(&r, &s->mesh, err);
-    if (rc) return rc;
-    double albedo[3] = {0, 0, 0};
-    if (compare) {
-        lambert_albedo(&r, albedo);
-        r.vnormal = vertex_normals(&s->mesh);
-        if (!r.vnormal) {
-            scene_free(&r);
-            return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for vertex normals");
-        }
-    }
+/* ---- tracing -------------------------------------------------------------------- */
 
-    size_t npx = (size_t)pw * (size_t)ph;
-    double *scat = calloc(npx * 3, sizeof *scat), *lamb = calloc(npx * 3, sizeof *lamb);
-    unsigned char *hits = calloc(npx, 1);
-    float *img = malloc((size_t)W * (size_t)H * 3 * sizeof *img);
-    int no_exitance = 0;
-    for (int c = 0; c < r.channels; ++c) {
-        r.exitance[c] = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *r.exitance[c]);
-        if (r.exitance[c]) ohm_solution_exitance_frame(r.exitance[c], sol, c, r.frame);
-        else no_exitance = 1;
+/* Per pixel of a panel, sums over its SUPERSAMPLE^2 rays: what the scattering
+ * panel sees and, with compare=1, what the no-scattering one does. */
+typedef struct samples {
+    size_t npx;
+    double *scat;        /* 3 per pixel: the exitance seen */
+    double *lamb;        /* 3 per pixel: the no-scattering radiance (compare=1) */
+    unsigned char *hits; /* rays that met the mesh */
+} samples;
+
+static int samples_alloc(samples *sm, int pw, int ph)
+{
+    sm->npx = (size_t)pw * (size_t)ph;
+    sm->scat = calloc(sm->npx * 3, sizeof *sm->scat);
+    sm->lamb = calloc(sm->npx * 3, sizeof *sm->lamb);
+    sm->hits = calloc(sm->npx, 1);
+    return sm->scat && sm->lamb && sm->hits;
+}
+
+static void samples_free(samples *sm)
+{
+    free(sm->scat), free(sm->lamb), free(sm->hits);
+    sm->scat = sm->lamb = NULL;
+    sm->hits = NULL;
+}
+
+/* The frame's exitance per unknown and channel, for exitance_at. */
+static int exitance_load(render_ctx *r)
+{
+    const ohm_solution *sol = ohm_state_solution(r->s);
+    int ok = 1;
+    for (int c = 0; c < r->channels; ++c) {
+        r->exitance[c] = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *r->exitance[c]);
+        if (r->exitance[c]) ohm_solution_exitance_frame(r->exitance[c], sol, c, r->frame);
+        else ok = 0;
     }
-    if (!scat || !lamb || !hits || !img || no_exitance) {
-        free(scat), free(lamb), free(hits), free(img), free(r.vnormal);
-        for (int c = 0; c < 3; ++c) free(r.exitance[c]);
-        scene_free(&r);
-        return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for a %d x %d image", W, H);
-    }
-    const int S = SUPERSAMPLE;
+    return ok;
+}
+
+/* The scene, the vertex normals and the exitance: what tracing holds. */
+static void tracing_free(render_ctx *r)
+{
+    scene_free(r);
+    free(r->vnormal);
+    r->vnormal = NULL;
+    for (int c = 0; c < 3; ++c) free(r->exitance[c]), r->exitance[c] = NULL;
+}
+
+/* The smooth normal at barycentric (u, v) of triangle t, turned to the side of
+ * the geometric normal n (which faces the camera). */
+static void smooth_normal(const render_ctx *r, size_t t, double u, double v, const double n[3], double ns[3])
+{
+    const int64_t *ti = r->s->mesh.tris + 3 * t;
+    for (int a = 0; a < 3; ++a)
+        ns[a] = (1 - u - v) * r->vnormal[3 * ti[0] + a] + u * r->vnormal[3 * ti[1] + a] + v * r->vnormal[3 * ti[2] + a];
+    if (!ohm_vec3_normalize(ns)) memcpy(ns, n, 3 * sizeof *ns);
+    if (dot3(ns, n) < 0)
+        for (int a = 0; a < 3; ++a) ns[a] = -ns[a];
+}
+
+/* One camera ray through (X, Y) on the view plane: what it sees is added to
+ * pixel px of sm (the no-scattering radiance too when albedo is given). */
+static void trace_ray(const render_ctx *r, const camera *cam, double X, double Y, const double *albedo, samples *sm,
+                      size_t px)
+{
+    const double *f = cam->f;
+    double o[3];
+    for (int a = 0; a < 3; ++a)
+        o[a] = cam->centre[a] + X * cam->right[a] + Y * cam->up[a] - (2.0 * cam->radius + 1.0) * f[a];
     struct RTCIntersectContext ctx;
+    struct RTCRayHit rh;
+    memset(&rh, 0, sizeof rh);
+    rh.ray.org_x = (float)o[0];
+    rh.ray.org_y = (float)o[1];
+    rh.ray.org_z = (float)o[2];
+    rh.ray.dir_x = (float)f[0];
+    rh.ray.dir_y = (float)f[1];
+    rh.ray.dir_z = (float)f[2];
+    rh.ray.tnear = 0.0f;
+    rh.ray.tfar = INFINITY;
+    rh.ray.mask = 0xFFFFFFFFu;
+    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
+    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
+    rtcInitIntersectContext(&ctx);
+    rtcIntersect1(r->scene, &ctx, &rh);
+    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) return;
+    double p[3], n[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
+    for (int a = 0; a < 3; ++a) p[a] = o[a] + (double)rh.ray.tfar * f[a];
+    if (!ohm_vec3_normalize(n)) return;
+    if (dot3(n, f) > 0)
+        for (int a = 0; a < 3; ++a) n[a] = -n[a]; /* face the camera */
+    double e[3];
+    exitance_at(r, p, e);
+    for (int c = 0; c < 3; ++c) sm->scat[3 * px + c] += e[c];
+    if (albedo) {
+        double ns[3], E[3];
+        smooth_normal(r, (size_t)rh.hit.primID, rh.hit.u, rh.hit.v, n, ns);
+        irradiance_at(r, p, ns, E);
+        for (int c = 0; c < 3; ++c) sm->lamb[3 * px + c] += albedo[c] * E[c];
+    }
+    ++sm->hits[px];
+}
+
+/* Every pixel of a pw x ph panel, SUPERSAMPLE^2 rays each on a regular grid. */
+static void trace_panel(const render_ctx *r, const camera *cam, int pw, int ph, const double *albedo, samples *sm)
+{
+    const int S = SUPERSAMPLE;
     for (int y = 0; y < ph; ++y)
         for (int x = 0; x < pw; ++x) {
             size_t px = (size_t)y * pw + x;
             for (int sy = 0; sy < S; ++sy)
                 for (int sx = 0; sx < S; ++sx) {
-                    double X = (-1.0 + 2.0 * (x + (sx + 0.5) / S) / pw) * hw;
-                    double Y = (1.0 - 2.0 * (y + (sy + 0.5) / S) / ph) * hh;
-                    double o[3];
-                    for (int a = 0; a < 3; ++a)
-                        o[a] = centre[a] + X * right[a] + Y * up[a] - (2.0 * radius + 1.0) * f[a];
-                    struct RTCRayHit rh;
-                    memset(&rh, 0, sizeof rh);
-                    rh.ray.org_x = (float)o[0];
-                    rh.ray.org_y = (float)o[1];
-                    rh.ray.org_z = (float)o[2];
-                    rh.ray.dir_x = (float)f[0];
-                    rh.ray.dir_y = (float)f[1];
-                    rh.ray.dir_z = (float)f[2];
-                    rh.ray.tnear = 0.0f;
-                    rh.ray.tfar = INFINITY;
-                    rh.ray.mask = 0xFFFFFFFFu;
-                    rh.hit.geomID = RTC_INVALID_GEOMETRY_ID;
-                    rh.hit.instID[0] = RTC_INVALID_GEOMETRY_ID;
-                    rtcInitIntersectContext(&ctx);
-                    rtcIntersect1(r.scene, &ctx, &rh);
-                    if (rh.hit.geomID == RTC_INVALID_GEOMETRY_ID) continue;
-                    double p[3], n[3] = {rh.hit.Ng_x, rh.hit.Ng_y, rh.hit.Ng_z};
-                    for (int a = 0; a < 3; ++a) p[a] = o[a] + (double)rh.ray.tfar * f[a];
-                    if (!ohm_vec3_normalize(n)) continue;
-                    if (dot3(n, f) > 0)
-                        for (int a = 0; a < 3; ++a) n[a] = -n[a]; /* face the camera */
-                    double e[3];
-                    exitance_at(&r, p, e);
-                    for (int c = 0; c < 3; ++c) scat[3 * px + c] += e[c];
-                    if (compare) {
-                        /* smooth normal (barycentric over the vertices), on the camera's side */
-                        const int64_t *ti = s->mesh.tris + 3 * (size_t)rh.hit.primID;
-                        double bu = rh.hit.u, bv = rh.hit.v, ns[3];
-                        for (int a = 0; a < 3; ++a)
-                            ns[a] = (1 - bu - bv) * r.vnormal[3 * ti[0] + a] + bu * r.vnormal[3 * ti[1] + a] +
-                                    bv * r.vnormal[3 * ti[2] + a];
-                        if (!ohm_vec3_normalize(ns)) memcpy(ns, n, sizeof ns);
-                        if (dot3(ns, n) < 0)
-                            for (int a = 0; a < 3; ++a) ns[a] = -ns[a];
-                        double E[3];
-                        irradiance_at(&r, p, ns, E);
-                        for (int c = 0; c < 3; ++c) lamb[3 * px + c] += albedo[c] * E[c];
-                    }
-                    ++hits[px];
+                    double X = (-1.0 + 2.0 * (x + (sx + 0.5) / S) / pw) * cam->hw;
+                    double Y = (1.0 - 2.0 * (y + (sy + 0.5) / S) / ph) * cam->hh;
+                    trace_ray(r, cam, X, Y, albedo, sm, px);
                 }
         }
-    scene_free(&r);
-    free(r.vnormal);
-    for (int c = 0; c < 3; ++c) free(r.exitance[c]);
+}
 
-    /* exposure */
-    double exposure = 1.0, p99 = 0;
+/* The scene, the shading's inputs and the buffers; then every ray of the
+ * panel (both panels with compare=1) into sm.  img is allocated here, before
+ * tracing, so that a lack of memory shows before the work. */
+static int trace_image(samples *sm, float **img, render_ctx *r, const camera *cam, const render_request *q,
+                       ohm_error *err)
+{
+    int rc = scene_build(r, &r->s->mesh, err);
+    if (rc) return rc;
+    double albedo[3] = {0, 0, 0};
+    if (q->compare) {
+        lambert_albedo(r, albedo);
+        r->vnormal = vertex_normals(&r->s->mesh);
+        if (!r->vnormal) {
+            scene_free(r);
+            return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for vertex normals");
+        }
+    }
+    int ok = samples_alloc(sm, q->pw, q->ph);
+    *img = malloc((size_t)q->W * (size_t)q->H * 3 * sizeof **img);
+    ok = exitance_load(r) && ok && *img;
+    if (ok) trace_panel(r, cam, q->pw, q->ph, q->compare ? albedo : NULL, sm);
+    tracing_free(r);
+    if (ok) return OHM_OK;
+    samples_free(sm);
+    free(*img);
+    *img = NULL;
+    return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for a %d x %d image", q->W, q->H);
+}
+
+/* ---- exposure and tone mapping --------------------------------------------------- */
+
+/* exposure=, else the one that maps the 99th percentile of the brightest
+ * channel over the pixels that see the object to 1. */
+static int expose(double *exposure, const samples *sm, const ohm_invocation *inv, ohm_log *log, ohm_error *err)
+{
+    *exposure = 1.0;
     size_t nhit = 0;
-    for (size_t i = 0; i < npx; ++i) nhit += hits[i] > 0;
+    for (size_t i = 0; i < sm->npx; ++i) nhit += sm->hits[i] > 0;
     if (ohm_opt_given(inv, "exposure")) {
-        exposure = ohm_opt_real(inv, "exposure");
+        *exposure = ohm_opt_real(inv, "exposure");
     } else if (nhit > 0) {
         double *v = malloc(nhit * sizeof *v);
-        if (!v) {
-            free(scat), free(lamb), free(hits), free(img);
-            return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory");
-        }
+        if (!v) return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory");
         size_t k = 0;
-        for (size_t i = 0; i < npx; ++i)
-            if (hits[i]) {
-                const double *c = scat + 3 * i;
-                v[k++] = fmax(c[0], fmax(c[1], c[2])) / hits[i];
+        for (size_t i = 0; i < sm->npx; ++i)
+            if (sm->hits[i]) {
+                const double *c = sm->scat + 3 * i;
+                v[k++] = fmax(c[0], fmax(c[1], c[2])) / sm->hits[i];
             }
         qsort(v, nhit, sizeof *v, cmp_double);
-        p99 = v[(size_t)floor(0.99 * (double)(nhit - 1))];
+        double p99 = v[(size_t)floor(0.99 * (double)(nhit - 1))];
         free(v);
-        if (p99 > 0) exposure = 1.0 / p99;
-        else ohm_log_warn(&s->log, "-render: no light leaves the visible surface: the image is black");
+        if (p99 > 0) *exposure = 1.0 / p99;
+        else ohm_log_warn(log, "-render: no light leaves the visible surface: the image is black");
     }
-    if (nhit == 0) ohm_log_warn(&s->log, "-render: the object is not in view");
+    if (nhit == 0) ohm_log_warn(log, "-render: the object is not in view");
+    return OHM_OK;
+}
 
-    for (size_t i = 0; i < (size_t)W * H * 3; ++i) img[i] = BACKGROUND;
+/* Linear RGB, W x H: the scattering panel on the left, the no-scattering one
+ * beside it with compare=1; rays that miss are the background. */
+static void tone_map(float *img, const render_request *q, const samples *sm, double exposure)
+{
+    const int S = SUPERSAMPLE, W = q->W, pw = q->pw;
+    for (size_t i = 0; i < (size_t)W * q->H * 3; ++i) img[i] = BACKGROUND;
     const double inv_ss = 1.0 / (S * S);
-    for (int y = 0; y < ph; ++y)
+    for (int y = 0; y < q->ph; ++y)
         for (int x = 0; x < pw; ++x) {
             size_t px = (size_t)y * pw + x;
-            double bgw = (S * S - hits[px]) * inv_ss * BACKGROUND;
+            double bgw = (S * S - sm->hits[px]) * inv_ss * BACKGROUND;
             for (int c = 0; c < 3; ++c) {
-                img[3 * ((size_t)y * W + x) + c] = (float)(exposure * scat[3 * px + c] * inv_ss + bgw);
-                if (compare)
-                    img[3 * ((size_t)y * W + pw + x) + c] = (float)(exposure * lamb[3 * px + c] * inv_ss + bgw);
+                img[3 * ((size_t)y * W + x) + c] = (float)(exposure * sm->scat[3 * px + c] * inv_ss + bgw);
+                if (q->compare)
+                    img[3 * ((size_t)y * W + pw + x) + c] = (float)(exposure * sm->lamb[3 * px + c] * inv_ss + bgw);
             }
         }
-    free(scat), free(lamb), free(hits);
+}
 
+/* The image to its file, through a temporary one renamed into place. */
+static int write_image(const render_request *q, const float *img, ohm_output_batch *batch, ohm_error *err)
+{
     ohm_output out;
-    rc = ohm_output_begin(&out, path, s->outputs, err);
-    if (!rc) {
-        rc = ohm_image_write_to(path, ohm_output_tmp_path(&out), img, W, H, 3, err);
-        if (rc) ohm_output_abort(&out);
-        else rc = ohm_output_commit(&out, err);
-    }
+    int rc = ohm_output_begin(&out, q->path, batch, err);
+    if (rc) return rc;
+    rc = ohm_image_write_to(q->path, ohm_output_tmp_path(&out), img, q->W, q->H, 3, err);
+    if (rc) ohm_output_abort(&out);
+    else rc = ohm_output_commit(&out, err);
+    return rc;
+}
+
+/* ---- the action ----------------------------------------------------------------- */
+
+int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    render_request q;
+    int rc = read_request(&q, s, inv, err);
+    if (rc) return rc;
+    double t0 = ohm_now();
+
+    const ohm_solution *sol = ohm_state_solution(s);
+    render_ctx r;
+    memset(&r, 0, sizeof r);
+    r.s = s;
+    r.net = &sol->net;
+    r.frame = q.frame - 1;
+    r.channels = sol->channels;
+    camera cam;
+    rc = camera_setup(&cam, &r, &q, inv, err);
+    if (rc) return rc;
+    r.eps = 1e-4 * (cam.radius > 0 ? cam.radius : 1.0);
+
+    samples sm = {0};
+    float *img = NULL;
+    rc = trace_image(&sm, &img, &r, &cam, &q, err);
+    if (rc) return rc;
+    double exposure;
+    rc = expose(&exposure, &sm, inv, &s->log, err);
+    if (!rc) tone_map(img, &q, &sm, exposure);
+    samples_free(&sm);
+    if (!rc) rc = write_image(&q, img, s->outputs, err);
     free(img);
     if (rc) return rc;
     double t = ohm_now() - t0;
-    ohm_log_info(&s->log, "rendered %s: %d x %d%s, frame %d, view %.3g,%.3g,%.3g, exposure %.4g mm^2/W%s, %.2f s", path,
-                 W, H, compare ? " (scattering | no scattering)" : "", frame, f[0], f[1], f[2], exposure,
-                 ohm_opt_given(inv, "exposure") ? "" : " (auto)", t);
+    ohm_log_info(&s->log, "rendered %s: %d x %d%s, frame %d, view %.3g,%.3g,%.3g, exposure %.4g mm^2/W%s, %.2f s",
+                 q.path, q.W, q.H, q.compare ? " (scattering | no scattering)" : "", q.frame, cam.f[0], cam.f[1],
+                 cam.f[2], exposure, ohm_opt_given(inv, "exposure") ? "" : " (auto)", t);
     ohm_stats_add(&s->stats, "t_render", t);
     return OHM_OK;
 }

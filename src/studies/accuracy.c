@@ -19,7 +19,8 @@
  * exact solution instead.  Depth bands are compared with the full solve on the
  * same grid.  Peak memory is per row (VmHWM, reset before each row).  CSV on
  * csv=, Markdown on stdout, progress on stderr; nothing is asserted here
- * (tests/cli_accuracy.sh does that on a small run). */
+ * (tests/cli_accuracy.sh does that on a small run).  The lattice and the
+ * scene's solve are outputs/exitance_probe.c's, which -voxelize error= uses. */
 #include "studies/accuracy.h"
 
 #include <math.h>
@@ -35,6 +36,7 @@
 #include "input/mesh.h"
 #include "base/ohm_error.h"
 #include "base/output.h"
+#include "outputs/exitance_probe.h"
 #include "solvers/solve.h"
 #include "studies/subcommand.h"
 #include "studies/validate.h"
@@ -254,68 +256,7 @@ static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
     return OHM_OK;
 }
 
-/* ---- binning ----------------------------------------------------------------- */
-
-void ohm_exitance_lattice_for(ohm_exitance_lattice *L, const ohm_mesh *mesh)
-{
-    double lo[3], hi[3];
-    ohm_mesh_bounds(mesh, lo, hi);
-    double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
-    L->step = ext / OHM_EXITANCE_NBINS;
-    L->nodes = 1;
-    for (int a = 0; a < 3; ++a) {
-        L->lo[a] = lo[a] - L->step; /* one node of margin: faces lie half a cell outside */
-        L->n[a] = (int)ceil((hi[a] - lo[a]) / L->step) + 3;
-        L->nodes *= (size_t)L->n[a];
-    }
-}
-
-/* P[c * nodes + node] += face powers of frame 0, trilinear. */
-double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *sol, const ohm_voxel_grid *g)
-{
-    size_t len = L->nodes * 3;
-    double *P = calloc(len, sizeof *P);
-    if (!P) return NULL;
-    const double h = g->h;
-    for (int64_t f = 0; f < sol->net.nfaces; ++f) {
-        int32_t ijk[3];
-        ohm_voxel_coords(g, sol->net.cell[sol->net.face_unknown[f]], ijk);
-        int d = sol->net.face_dir[f];
-        double t[3];
-        int i0[3];
-        for (int a = 0; a < 3; ++a) {
-            double x = g->origin[a] + h * ijk[a] + 0.5 * h * ohm_face_offset[d][a];
-            double u = (x - L->lo[a]) / L->step;
-            i0[a] = (int)floor(u);
-            if (i0[a] < 0) i0[a] = 0;
-            if (i0[a] > L->n[a] - 2) i0[a] = L->n[a] - 2;
-            t[a] = fmin(1.0, fmax(0.0, u - i0[a]));
-        }
-        for (int c = 0; c < 3; ++c) {
-            int sc = sol->channels == 1 ? 0 : c;
-            double p = sol->face_exitance[sc][f] * h * h;
-            for (int corner = 0; corner < 8; ++corner) {
-                double w = 1;
-                size_t idx = 0, stride = 1;
-                for (int a = 0; a < 3; ++a) {
-                    int bit = (corner >> a) & 1;
-                    w *= bit ? t[a] : 1 - t[a];
-                    idx += (size_t)(i0[a] + bit) * stride;
-                    stride *= (size_t)L->n[a];
-                }
-                P[(size_t)c * L->nodes + idx] += w * p;
-            }
-        }
-    }
-    return P;
-}
-
-static double l1_diff(const double *a, const double *b, size_t n)
-{
-    double s = 0;
-    for (size_t i = 0; i < n; ++i) s += fabs(a[i] - b[i]);
-    return s;
-}
+/* ---- errors ------------------------------------------------------------------ */
 
 static void errors(const double *P, const double *ref, size_t n, double *rel_l1, double *worst)
 {
@@ -324,7 +265,7 @@ static void errors(const double *P, const double *ref, size_t n, double *rel_l1,
         top = fmax(top, ref[i]);
         sum += fabs(ref[i]);
     }
-    *rel_l1 = sum > 0 ? l1_diff(P, ref, n) / sum : 0;
+    *rel_l1 = sum > 0 ? ohm_exitance_l1_diff(P, ref, n) / sum : 0;
     *worst = 0;
     for (size_t i = 0; i < n; ++i)
         if (ref[i] > 0.01 * top) *worst = fmax(*worst, fabs(P[i] - ref[i]) / ref[i]);
@@ -349,55 +290,6 @@ static double observed_order(double d12, double d23, double h1, double h2, doubl
 }
 
 /* ---- one solve ---------------------------------------------------------------- */
-
-/* Voxelize the mesh at dim and solve it (Robin, METIS, exponential deposit,
- * mesh shadows): the scene every accuracy figure and error= probe uses.
- * *t_voxelize gets the voxelization's seconds.  On success the caller frees
- * *g and *sol. */
-/* The scene's solve on grid g (Robin, METIS, exponential deposit, mesh
- * shadows): solver "direct", "cg" or "mc" (then photons per solve). */
-static int solve_scene(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
-                       const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver,
-                       double band, int64_t photons, ohm_error *err)
-{
-    static const ohm_log quiet = {.verbosity = 0};
-    ohm_solve_params p;
-    memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = "metis";
-    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
-    p.shadows = OHM_SHADOWS_MESH;
-    p.mesh = mesh;
-    p.orientation = flipped ? -1 : 1;
-    p.solver = solver;
-    p.band_k = band;
-    p.mc.photons = photons;
-    p.mc.seed = 1;
-    return ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
-}
-
-/* Voxelize the mesh at dim and solve it (solve_scene): the scene every
- * accuracy figure and error= probe uses.  *t_voxelize gets the
- * voxelization's seconds, *flipped the mesh's orientation.  On success the
- * caller frees *g and *sol. */
-static int voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_voxelize, int *flipped,
-                              const ohm_mesh *mesh, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                              int dim, int use_cg, double band, ohm_error *err)
-{
-    static const ohm_log quiet = {.verbosity = 0};
-    ohm_voxelize_params vp;
-    memset(&vp, 0, sizeof vp);
-    vp.dim = dim;
-    ohm_voxelize_report vr;
-    double t0 = ohm_now();
-    int rc = ohm_voxelize(g, &vr, mesh, &vp, &quiet, err);
-    *t_voxelize = ohm_now() - t0;
-    if (rc) return rc;
-    *flipped = vr.flipped;
-    rc = solve_scene(sol, g, vr.flipped, mesh, mat, lights, nlights, use_cg ? "cg" : "direct", band, 0, err);
-    if (rc) ohm_voxel_grid_free(g);
-    return rc;
-}
 
 /* The noise of a Monte Carlo solution's binned exitance as a part of it:
  * each face's variance (its cell's standard error squared) spread with the
@@ -448,7 +340,8 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
     ohm_solution sol;
     reset_peak_rss();
     int flipped;
-    int rc = voxelize_and_solve(&g, &sol, &row->t_voxelize, &flipped, mesh, mat, &light, 1, dim, use_cg, band, err);
+    int rc = ohm_probe_voxelize_and_solve(&g, &sol, &row->t_voxelize, &flipped, mesh, mat, &light, 1, dim, use_cg,
+                                          band, err);
     if (rc) return rc;
     row->dim = dim;
     row->h = g.h;
@@ -475,7 +368,7 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
         ohm_log_info(log, "accuracy: %s dim %d: Monte Carlo, %.3g photons", row->material, dim, (double)mc_photons);
         ohm_solution t;
         double t0 = ohm_now();
-        rc = solve_scene(&t, &g, flipped, mesh, mat, &light, 1, "mc", 0, mc_photons, err);
+        rc = ohm_probe_solve(&t, &g, flipped, mesh, mat, &light, 1, "mc", 0, mc_photons, err);
         if (!rc) {
             row->t_mc = ohm_now() - t0;
             double *Pmc = ohm_exitance_binned(Lat, &t, &g);
@@ -616,7 +509,8 @@ static int compare_to_reference(acc_row *rows, size_t first, size_t iref, const 
     double *Pinf = NULL, order = 0;
     if (i1 != SIZE_MAX && i2 != SIZE_MAX) {
         const acc_row *a = &rows[i1], *b = &rows[i2];
-        order = observed_order(l1_diff(a->P, b->P, len), l1_diff(b->P, Pref, len), a->h, b->h, rows[iref].h);
+        order = observed_order(ohm_exitance_l1_diff(a->P, b->P, len), ohm_exitance_l1_diff(b->P, Pref, len), a->h,
+                               b->h, rows[iref].h);
         if (order >= 0.5 && order <= 4) {
             Pinf = malloc(len * sizeof *Pinf);
             if (!Pinf) return ohm_fail(err, OHM_ERR_NOMEM, "accuracy: out of memory");
@@ -754,74 +648,4 @@ int ohm_accuracy_main(int argc, char **argv)
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
     return ohm_subcommand_exit(rc, &err, "accuracy failed");
-}
-
-/* ---- -voxelize error=: the coarsest grid predicted to meet an error target ---- */
-
-/* Orders of the binned-exitance error in h measured on spot at 12.5..200 mm
- * with marble, skin1 and ketchup (docs/accuracy.md): 1.3..1.6 between dim 16
- * and 32 (not yet asymptotic), 1.5..1.75 from 32 to 64.  The probe pair's
- * difference is turned into the error at 32 with the lower order (which
- * over-estimates it) and extrapolated with 1.5: both choices err on the side
- * of a finer grid. */
-static const double PICK_PROBE_ORDER = 1.3;
-static const double PICK_ORDER = 1.5;
-static const int PICK_PROBE = 16;
-
-static int probe_solve(double **P, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
-                       const ohm_light *lights, size_t nlights, int dim, ohm_error *err)
-{
-    ohm_voxel_grid g;
-    ohm_solution sol;
-    double t;
-    int flipped;
-    int rc = voxelize_and_solve(&g, &sol, &t, &flipped, mesh, mat, lights, nlights, dim, 1, 0, err);
-    if (rc) return rc;
-    *P = ohm_exitance_binned(Lat, &sol, &g);
-    if (!*P) rc = ohm_fail(err, OHM_ERR_NOMEM, "voxelize error=: out of memory");
-    ohm_solution_free(&sol);
-    ohm_voxel_grid_free(&g);
-    return rc;
-}
-
-int ohm_pick_resolution(ohm_resolution_pick *out, const ohm_mesh *mesh, const ohm_material *mat,
-                        const ohm_light *lights, size_t nlights, double target, const ohm_log *log, ohm_error *err)
-{
-    memset(out, 0, sizeof *out);
-    ohm_exitance_lattice Lat;
-    ohm_exitance_lattice_for(&Lat, mesh);
-    double *P0 = NULL, *P1 = NULL;
-    double t0 = ohm_now();
-    int rc = probe_solve(&P0, &Lat, mesh, mat, lights, nlights, PICK_PROBE, err);
-    if (!rc) rc = probe_solve(&P1, &Lat, mesh, mat, lights, nlights, 2 * PICK_PROBE, err);
-    if (rc) {
-        free(P0);
-        free(P1);
-        return rc;
-    }
-    size_t len = Lat.nodes * 3;
-    double sum = 0;
-    for (size_t i = 0; i < len; ++i) sum += fabs(P1[i]);
-    double change = sum > 0 ? l1_diff(P0, P1, len) / sum : 0;
-    free(P0);
-    free(P1);
-    /* Richardson: e(h) = C h^p, so P(h) - P(h/2) = C h^p (1 - 2^-p) and the
-     * error left at h/2 is that difference / (2^p - 1) */
-    double e1 = change / (pow(2.0, PICK_PROBE_ORDER) - 1.0);
-    out->probe_dims[0] = PICK_PROBE;
-    out->probe_dims[1] = 2 * PICK_PROBE;
-    out->probe_error = e1;
-    out->t_probe = ohm_now() - t0;
-    double d = 2.0 * PICK_PROBE * pow(e1 / target, 1.0 / PICK_ORDER);
-    int dim = (int)ceil(d);
-    if (dim < 8) dim = 8;
-    if (dim > 4096) dim = 4096;
-    out->dim = dim;
-    out->predicted = e1 * pow(2.0 * PICK_PROBE / dim, PICK_ORDER);
-    ohm_log_info(log,
-                 "voxelize error=%g: probes at dim %d and %d (%.2f s) differ by %.3g, so dim %d has about %.3g; "
-                 "order %.1f predicts %.3g at dim %d",
-                 target, PICK_PROBE, 2 * PICK_PROBE, out->t_probe, change, 2 * PICK_PROBE, e1, PICK_ORDER,
-                 out->predicted, dim);
-    return OHM_OK;
 }

@@ -5,9 +5,9 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "physics/reference.h"
-#include "studies/scene.h"
 #include "solvers/solve.h"
+#include "studies/reference.h"
+#include "studies/scene.h"
 
 /* ---- rows ---------------------------------------------------------------- */
 

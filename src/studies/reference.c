@@ -1,4 +1,4 @@
-#include "physics/reference.h"
+#include "studies/reference.h"
 
 #include <math.h>
 #include <string.h>

@@ -1,0 +1,109 @@
+/* exitance_probe.c — see exitance_probe.h. */
+#include "outputs/exitance_probe.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/log.h"
+
+void ohm_exitance_lattice_for(ohm_exitance_lattice *L, const ohm_mesh *mesh)
+{
+    double lo[3], hi[3];
+    ohm_mesh_bounds(mesh, lo, hi);
+    double ext = fmax(hi[0] - lo[0], fmax(hi[1] - lo[1], hi[2] - lo[2]));
+    L->step = ext / OHM_EXITANCE_NBINS;
+    L->nodes = 1;
+    for (int a = 0; a < 3; ++a) {
+        L->lo[a] = lo[a] - L->step; /* one node of margin: faces lie half a cell outside */
+        L->n[a] = (int)ceil((hi[a] - lo[a]) / L->step) + 3;
+        L->nodes *= (size_t)L->n[a];
+    }
+}
+
+/* P[c * nodes + node] += face powers of frame 0, trilinear. */
+double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *sol, const ohm_voxel_grid *g)
+{
+    size_t len = L->nodes * 3;
+    double *P = calloc(len, sizeof *P);
+    if (!P) return NULL;
+    const double h = g->h;
+    for (int64_t f = 0; f < sol->net.nfaces; ++f) {
+        int32_t ijk[3];
+        ohm_voxel_coords(g, sol->net.cell[sol->net.face_unknown[f]], ijk);
+        int d = sol->net.face_dir[f];
+        double t[3];
+        int i0[3];
+        for (int a = 0; a < 3; ++a) {
+            double x = g->origin[a] + h * ijk[a] + 0.5 * h * ohm_face_offset[d][a];
+            double u = (x - L->lo[a]) / L->step;
+            i0[a] = (int)floor(u);
+            if (i0[a] < 0) i0[a] = 0;
+            if (i0[a] > L->n[a] - 2) i0[a] = L->n[a] - 2;
+            t[a] = fmin(1.0, fmax(0.0, u - i0[a]));
+        }
+        for (int c = 0; c < 3; ++c) {
+            int sc = sol->channels == 1 ? 0 : c;
+            double p = sol->face_exitance[sc][f] * h * h;
+            for (int corner = 0; corner < 8; ++corner) {
+                double w = 1;
+                size_t idx = 0, stride = 1;
+                for (int a = 0; a < 3; ++a) {
+                    int bit = (corner >> a) & 1;
+                    w *= bit ? t[a] : 1 - t[a];
+                    idx += (size_t)(i0[a] + bit) * stride;
+                    stride *= (size_t)L->n[a];
+                }
+                P[(size_t)c * L->nodes + idx] += w * p;
+            }
+        }
+    }
+    return P;
+}
+
+double ohm_exitance_l1_diff(const double *a, const double *b, size_t n)
+{
+    double s = 0;
+    for (size_t i = 0; i < n; ++i) s += fabs(a[i] - b[i]);
+    return s;
+}
+
+int ohm_probe_solve(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
+                    const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver, double band,
+                    int64_t photons, ohm_error *err)
+{
+    static const ohm_log quiet = {.verbosity = 0};
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.boundary = OHM_BOUNDARY_ROBIN;
+    p.ordering = "metis";
+    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
+    p.shadows = OHM_SHADOWS_MESH;
+    p.mesh = mesh;
+    p.orientation = flipped ? -1 : 1;
+    p.solver = solver;
+    p.band_k = band;
+    p.mc.photons = photons;
+    p.mc.seed = 1;
+    return ohm_solve(sol, g, mat, lights, nlights, &p, &quiet, err);
+}
+
+int ohm_probe_voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t_voxelize, int *flipped,
+                                 const ohm_mesh *mesh, const ohm_material *mat, const ohm_light *lights,
+                                 size_t nlights, int dim, int use_cg, double band, ohm_error *err)
+{
+    static const ohm_log quiet = {.verbosity = 0};
+    ohm_voxelize_params vp;
+    memset(&vp, 0, sizeof vp);
+    vp.dim = dim;
+    ohm_voxelize_report vr;
+    double t0 = ohm_now();
+    int rc = ohm_voxelize(g, &vr, mesh, &vp, &quiet, err);
+    *t_voxelize = ohm_now() - t0;
+    if (rc) return rc;
+    *flipped = vr.flipped;
+    rc = ohm_probe_solve(sol, g, vr.flipped, mesh, mat, lights, nlights, use_cg ? "cg" : "direct", band, 0, err);
+    if (rc) ohm_voxel_grid_free(g);
+    return rc;
+}
+
