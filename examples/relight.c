@@ -42,8 +42,8 @@ static int set_light(ohm_scene *scene, double a, char dir[128])
 /* The fluence of every channel of the latest solve, cell by cell. */
 static int write_fluence(FILE *f, const ohm_scene *scene, int frame)
 {
-    ohm_grid_info g;
-    ohm_result_info r;
+    ohm_grid_info g = OHM_GRID_INFO_INIT;
+    ohm_result_info r = OHM_RESULT_INFO_INIT;
     int rc = ohm_scene_grid(&g, scene);
     if (!rc) rc = ohm_scene_result(&r, scene);
     double *phi = rc ? NULL : malloc((size_t)g.cells * (size_t)r.channels * sizeof *phi);
@@ -98,7 +98,7 @@ int main(int argc, char **argv)
     if (!rc) rc = set_light(scene, 0.0, dir);
     double t0 = now();
     if (!rc) rc = ohm_scene_solve(scene, NULL); /* analysis + factorization, kept */
-    ohm_result_info r;
+    ohm_result_info r = OHM_RESULT_INFO_INIT;
     if (!rc) rc = ohm_scene_result(&r, scene);
     if (!rc)
         printf("frame 1: %s: setup and solve %.3f s, %lld cells, %d factorizations\n", dir, now() - t0,

@@ -35,8 +35,8 @@ int main(int argc, char **argv)
     if (!rc) rc = ohm_scene_add_light(scene, light);
     if (!rc) rc = ohm_scene_solve(scene, NULL);
 
-    ohm_result_info r;
-    ohm_grid_info g;
+    ohm_result_info r = OHM_RESULT_INFO_INIT;
+    ohm_grid_info g = OHM_GRID_INFO_INIT;
     if (!rc) rc = ohm_scene_result(&r, scene);
     if (!rc) rc = ohm_scene_grid(&g, scene);
     double *fluence = NULL, fluence_sum = 0;

@@ -26,8 +26,24 @@
  *     git_error_last).  Messages name the file, line, action or option that
  *     is wrong and what was expected.
  *   - Output parameters come first; a handle's free function accepts NULL.
- *   - No global state: everything lives in the context and the scene (the
- *     last-error message is per thread).  No C++ exception crosses this API.
+ *   - No hidden global state: everything lives in the context and the
+ *     scene.  What is per process or per thread, and why: the last-error
+ *     message (per thread); the list of output files being written, for
+ *     ohm_cleanup_outputs_on_signal (ohm/cli.h; updated with atomic
+ *     operations, safe from any thread); while a thread factorizes, a
+ *     thread-local pointer through which CHOLMOD's BLAS calls report
+ *     progress and see cancellation (libohm defines dsyrk_, dgemm_, dtrsm_
+ *     and dpotrf_ in front of the BLAS: other callers pass straight
+ *     through); MPI and PETSc's start (ohm/cli.h).  No C++ exception crosses
+ *     this API.
+ *   - The ABI only grows within a major version (the SONAME is
+ *     libohm.so.MAJOR; CMake's package accepts any MINOR.PATCH of the
+ *     MAJOR asked for): functions are added, never changed or removed, and
+ *     a struct the caller allocates begins with its size (set it with the
+ *     struct's *_INIT), so that fields added at its end later are neither
+ *     written past an older caller's struct nor expected from an older
+ *     library (it fills the fields it knows and leaves the rest as
+ *     initialised).
  *   - Lengths are in millimetres, powers in watts, fluence and exitance in
  *     W/mm^2.  Arrays over the grid are x fastest: cell (i, j, k) is at
  *     i + dims[0] * (j + dims[1] * k), its centre at origin + voxel * (i, j, k).
@@ -62,13 +78,12 @@
 
 #include <stddef.h>
 #include <stdint.h>
-#include <stdio.h>
 
 #include "ohm/common.h"
 
 /* The version of this header; ohm_version() gives the library's. */
-#define OHM_VERSION_MAJOR 0
-#define OHM_VERSION_MINOR 2
+#define OHM_VERSION_MAJOR 1
+#define OHM_VERSION_MINOR 0
 #define OHM_VERSION_PATCH 0
 
 #if defined(__GNUC__) || defined(__clang__)
@@ -206,14 +221,19 @@ OHM_API int ohm_scene_relight(ohm_scene *scene);
 /* ---- scene: results ------------------------------------------------------ */
 
 typedef struct ohm_grid_info {
+    size_t size;            /* sizeof(ohm_grid_info): OHM_GRID_INFO_INIT sets it */
     int32_t dims[3];        /* cells per axis                                  */
     double origin[3];       /* centre of cell (0, 0, 0), mm                    */
     double voxel;           /* cell edge, mm                                   */
     int64_t cells;          /* dims[0] * dims[1] * dims[2]                     */
     int64_t interior_cells; /* cells inside the object                         */
+    /* (1.0's fields end here; later ones are added below) */
 } ohm_grid_info;
+#define OHM_GRID_INFO_INIT {sizeof(ohm_grid_info), {0, 0, 0}, {0, 0, 0}, 0, 0, 0}
 
-/* The scene's voxel grid (OHM_ERR_INVALID before voxelize). */
+/* The scene's voxel grid (OHM_ERR_INVALID before voxelize) into *out,
+ * whose size member says how much of it the caller has
+ * (OHM_GRID_INFO_INIT); OHM_ERR_USAGE when it is smaller than 1.0's. */
 OHM_API int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene);
 
 /* inside[cell] = 1 for the object's cells, 0 elsewhere; count must be the
@@ -221,6 +241,7 @@ OHM_API int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene);
 OHM_API int ohm_scene_inside(uint8_t *inside, size_t count, const ohm_scene *scene);
 
 typedef struct ohm_result_info {
+    size_t size;             /* sizeof(ohm_result_info): OHM_RESULT_INFO_INIT   */
     int channels;            /* 1 (grey) or 3 (r, g, b)                         */
     int frames;              /* lights' frames solved (1 without orbits)        */
     int64_t unknowns;        /* cells solved                                    */
@@ -234,10 +255,13 @@ typedef struct ohm_result_info {
     double power_out;        /* W leaving: power_in = absorbed + out           */
     double seconds_setup;    /* analysis + factorization (or preconditioner)    */
     double seconds_solve;    /* the latest solve's sources and solves           */
+    /* (1.0's fields end here; later ones are added below) */
 } ohm_result_info;
+#define OHM_RESULT_INFO_INIT {sizeof(ohm_result_info), 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0}
 
 /* The latest solve's figures (OHM_ERR_INVALID when there is no current
- * solution: none yet, or lights changed since). */
+ * solution: none yet, or lights changed since) into *out, sized as
+ * ohm_scene_grid's. */
 OHM_API int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene);
 
 /* The fluence rate per grid cell (W/mm^2) for one channel and frame
@@ -263,36 +287,6 @@ OHM_API int ohm_scene_stat(double *out, const ohm_scene *scene, const char *key)
  * *text, the scene's own string, valid until the scene's next call;
  * OHM_ERR_INVALID for a key it does not hold or that holds a number. */
 OHM_API int ohm_scene_stat_text(const char **text, const ohm_scene *scene, const char *key);
-
-/* ---- the command line's other entry points --------------------------------- */
-
-/* `ohm help` (action NULL) or `ohm help ACTION`, generated from the action
- * table, written to stream. */
-OHM_API int ohm_help(FILE *stream, const char *action);
-
-/* The studies: `ohm validate|bench|accuracy ARGS` (argv[0] is the study's
- * name).  Tables go to stdout, messages to stderr at ctx's verbosity (ctx
- * may be NULL: normal).  Returns the command line's exit code: 0 done (and
- * every check passed), 1 failed, 2 bad usage. */
-OHM_API int ohm_study(ohm_context *ctx, int argc, char **argv);
-
-/* Distributed solves (solver=amg under mpirun): first thing in main.
- * Returns 0 on the rank that runs the program, positive on a rank that
- * serves the others' solves (it calls ohm_parallel_serve, then exits with
- * its status), negative when MPI could not start (it said why on stderr).
- * Without MPI (or outside mpirun) a no-op returning 0. */
-OHM_API int ohm_parallel_start(void);
-
-/* On a serving rank: take part in the program rank's solves until it calls
- * ohm_parallel_finish; returns the exit status for that rank. */
-OHM_API int ohm_parallel_serve(void);
-
-/* On the program rank, at the end: release the serving ranks. */
-OHM_API void ohm_parallel_finish(void);
-
-/* Remove half-written output files when the process is interrupted (SIGINT,
- * SIGTERM): for programs, not for libraries that own their signals. */
-OHM_API void ohm_cleanup_outputs_on_signal(void);
 
 #ifdef __cplusplus
 }

@@ -214,7 +214,7 @@ static void *run_job(void *arg)
     const char *light[] = {"type=point", "pos=0,40,30", "intensity=100", NULL};
     const char *solve[] = {"solver=direct", NULL};
     const char *out[] = {write, NULL};
-    ohm_grid_info gi;
+    ohm_grid_info gi = OHM_GRID_INFO_INIT;
     j->rc = ohm_context_new(&ctx);
     if (!j->rc) ohm_context_set_verbosity(ctx, 0);
     if (!j->rc) j->rc = ohm_scene_new(&scene, ctx);

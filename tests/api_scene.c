@@ -85,7 +85,7 @@ static void errors(void)
     CHECK_MSG(strstr(ohm_error_last(), "no-such-file.obj") != NULL, "%s", ohm_error_last());
     CHECK(ohm_scene_relight(scene) == OHM_ERR_INVALID);
     CHECK_MSG(strstr(ohm_error_last(), "solve first") != NULL, "%s", ohm_error_last());
-    ohm_grid_info gi;
+    ohm_grid_info gi = OHM_GRID_INFO_INIT;
     CHECK(ohm_scene_grid(&gi, scene) == OHM_ERR_INVALID);
     CHECK_MSG(strstr(ohm_error_last(), "voxelize first") != NULL, "%s", ohm_error_last());
     const double pos[] = {0, 0, 0, 1, 0, 0, 0, 1, 0};
@@ -104,7 +104,7 @@ static void errors(void)
 /* Fluence of channel 0, frame 0, over the grid (malloc'd), or NULL. */
 static double *fluence_of(const ohm_scene *scene, size_t *count)
 {
-    ohm_grid_info gi;
+    ohm_grid_info gi = OHM_GRID_INFO_INIT;
     if (ohm_scene_grid(&gi, scene)) return NULL;
     *count = (size_t)gi.cells;
     double *phi = malloc(*count * sizeof *phi);
@@ -144,7 +144,7 @@ static void solve_and_relight(void)
     CHECK(ohm_scene_solve(scene, NULL) == OHM_OK);
     CHECK_MSG(strstr(cap.last, "") != NULL && cap.messages > 5, "%d messages", cap.messages);
     CHECK_MSG(cap.progress_calls >= 1, "%d progress calls", cap.progress_calls);
-    ohm_result_info r;
+    ohm_result_info r = OHM_RESULT_INFO_INIT;
     CHECK(ohm_scene_result(&r, scene) == OHM_OK);
     int factors = r.factorizations;
     CHECK_MSG(factors == 3, "%d factorizations for skin1's 3 channels", factors);
@@ -312,7 +312,7 @@ static void mesh_arrays(void)
     CHECK_MSG(ohm_scene_run(e, "read", read_raw) == OHM_OK, "%s", ohm_error_last());
     CHECK_MSG(ohm_scene_run(d, "voxelize", thr) == OHM_OK && ohm_scene_run(e, "voxelize", thr) == OHM_OK, "%s",
               ohm_error_last());
-    ohm_grid_info gd, ge;
+    ohm_grid_info gd = OHM_GRID_INFO_INIT, ge = OHM_GRID_INFO_INIT;
     CHECK(ohm_scene_grid(&gd, d) == OHM_OK && ohm_scene_grid(&ge, e) == OHM_OK);
     CHECK_MSG(gd.interior_cells == ge.interior_cells && gd.cells == ge.cells && gd.voxel == ge.voxel,
               "array: %lld of %lld cells, file: %lld of %lld", (long long)gd.interior_cells, (long long)gd.cells,

@@ -12,7 +12,7 @@ P="$T/prefix"
 cmake --install "$BUILD" --prefix "$P" >/dev/null
 LIBDIR=$(dirname "$(find "$P" -name libohm.so -print -quit)")
 check "header installed" test -f "$P/include/ohm.h" -a -f "$P/include/ohm/common.h"
-check "library with SONAME" bash -c "objdump -p '$LIBDIR/libohm.so' | grep -q 'SONAME *libohm.so.0'"
+check "library with SONAME" bash -c "objdump -p '$LIBDIR/libohm.so' | grep -q 'SONAME *libohm.so.1'"
 check "pkg-config file" test -f "$LIBDIR/pkgconfig/ohm.pc"
 check "CMake package" test -f "$LIBDIR/cmake/ohm/ohmConfig.cmake"
 # (and the four BLAS/LAPACK routines ohm puts in front of CHOLMOD's calls,
@@ -31,7 +31,7 @@ check "examples build by find_package(ohm)" bash -c \
   "cmake -S examples -B '$T/ex-build' -DCMAKE_PREFIX_PATH='$P' -DCMAKE_C_FLAGS='$CFLAGS_EXTRA' >/dev/null && cmake --build '$T/ex-build' >/dev/null"
 
 # the installed command, from the prefix alone (its RPATH finds the library)
-check "installed ohm runs" bash -c "env -u LD_LIBRARY_PATH '$P/bin/ohm' --version | grep -q '^ohm 0\\.'"
+check "installed ohm runs" bash -c "env -u LD_LIBRARY_PATH '$P/bin/ohm' --version | grep -q '^ohm 1\\.'"
 # images come from the module beside the library, loaded on first use
 check "image module installed beside libohm" test -f "$LIBDIR/libohm_oiio.so"
 check "installed ohm renders a PNG" env -u LD_LIBRARY_PATH "$P/bin/ohm" -q -read file=samples/cow.obj -voxelize dim=16 \
@@ -70,7 +70,7 @@ if [ "$SANITIZED" = 1 ]; then
   PYENV+=(LD_PRELOAD="$(cc -print-file-name=libasan.so):$(cc -print-file-name=libubsan.so)" ASAN_OPTIONS=detect_leaks=0)
 fi
 check "python package installed under the prefix" test -f "$PYDIR/__init__.py" -a -f "$PYDIR/_location.py"
-check "import ohm from the prefix" bash -c "cd '$T' && $(printf '%q ' "${PYENV[@]}") $PY -c 'import ohm, sys; assert ohm.__file__.startswith(\"$P\"), ohm.__file__; print(ohm.version())' | grep -q '^0\.'"
+check "import ohm from the prefix" bash -c "cd '$T' && $(printf '%q ' "${PYENV[@]}") $PY -c 'import ohm, sys; assert ohm.__file__.startswith(\"$P\"), ohm.__file__; print(ohm.version())' | grep -q '^1\.'"
 # spot in marble, two lights, one factorization per channel: each frame's
 # per-cell fluence from the API equals the command's (-export csv=) to 1e-12
 out=$("$T/relight" samples/spot.obj 2 32 "$T/relight.txt")

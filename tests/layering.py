@@ -6,7 +6,8 @@ own headers name the folder ("grid/voxelize.h"); the C++ shims in wrappers/
 (ohm_vdb.h, ohm_oiio.h, ohm_gdcm.h), the generated ohm_version.h and the public
 vocabulary include/ohm/common.h (status codes) are below every stage.  The
 public API (include/ohm.h, implemented in src/api/) is above them all but the
-command line, and the command line is its client: src/cli/ includes ohm.h and
+command line, and the command line is its client: src/cli/ includes ohm.h
+(and ohm/cli.h, the command line's own entry points) and
 nothing else of ohm's.
 
 Around src/:
@@ -32,6 +33,7 @@ STAGES = ["base", "input", "grid", "physics", "solvers", "outputs", "studies", "
 WRAPPER_API = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h"}
 BELOW_ALL = WRAPPER_API | {"ohm_version.h", "ohm/common.h"}
 ERROR_VOCABULARY = {"base/ohm_error.h", "ohm/common.h"}  # what a wrapper may include of ohm's
+PUBLIC_API = {"ohm.h", "ohm/cli.h"}  # implemented in src/api/: above every stage but the command line
 SOURCES = (".c", ".h", ".cpp", ".hpp", ".cc")
 
 root = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -112,17 +114,17 @@ def stage_rule(stage):
     def rule(header, is_angled):
         if is_angled:
             return in_angle_brackets(header, None)
-        if stage == "cli" and header != "ohm.h" and not header.startswith("cli/"):
-            return "the command line uses the public API (ohm.h) only"
+        if stage == "cli" and header not in PUBLIC_API and not header.startswith("cli/"):
+            return "the command line uses the public API (ohm.h, ohm/cli.h) only"
         if header in BELOW_ALL:
             return ""
-        if header == "ohm.h":
+        if header in PUBLIC_API:
             to = "api"
         elif "/" in header:
             to = header.split("/")[0]
         else:
             return "names no stage folder"
-        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header != "ohm.h":
+        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header not in PUBLIC_API:
             return "no such header under src/"
         if STAGES.index(to) > level:
             return "stage %s reaches up to %s" % (stage, to)

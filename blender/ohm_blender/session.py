@@ -10,7 +10,7 @@ import numpy as np
 
 from . import bridge
 
-try:  # the package bundled into the add-on's zip (lib/libohm.so.0 beside it)
+try:  # the package bundled into the add-on's zip (lib/libohm.so.1 beside it)
     from . import ohm as ohmlib
 except ImportError:  # running from a source tree with ohm on sys.path
     import ohm as ohmlib

@@ -299,7 +299,7 @@ class Scene(_Handle):
     @property
     def grid(self):
         """dims (nx, ny, nz), origin (mm, centre of cell 0), voxel (mm), cells, interior_cells."""
-        g = _library.GridInfo()
+        g = _library.sized(_library.GridInfo)
         _check(_lib.ohm_scene_grid(ctypes.byref(g), self._live()))
         return {"dims": tuple(g.dims), "origin": tuple(g.origin), "voxel": g.voxel, "cells": g.cells,
                 "interior_cells": g.interior_cells}
@@ -317,9 +317,9 @@ class Scene(_Handle):
     def result(self):
         """The latest solve's figures: channels, frames, unknowns, factorizations, solves, residual,
         power_incident/entered/in/absorbed/out (W), seconds_setup, seconds_solve."""
-        r = _library.ResultInfo()
+        r = _library.sized(_library.ResultInfo)
         _check(_lib.ohm_scene_result(ctypes.byref(r), self._live()))
-        return {name: getattr(r, name) for name, _ in r._fields_}
+        return {name: getattr(r, name) for name, _ in r._fields_ if name != "size"}
 
     def _cells(self, fn, channel, frame):
         out = np.zeros(self._shape(), dtype=np.float64)

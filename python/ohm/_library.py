@@ -46,18 +46,26 @@ LOG_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_int, ctypes.c_ch
 PROGRESS_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_char_p, ctypes.c_double)
 
 
+# The sized structs of ohm.h (its ABI rule): the library fills the fields
+# of the size given, so this copy of 1.0's layout stays right against any
+# 1.x library, which may know more fields; sized() sets the size.
 class GridInfo(ctypes.Structure):
-    _fields_ = [("dims", ctypes.c_int32 * 3), ("origin", ctypes.c_double * 3), ("voxel", ctypes.c_double),
+    _fields_ = [("size", ctypes.c_size_t), ("dims", ctypes.c_int32 * 3), ("origin", ctypes.c_double * 3), ("voxel", ctypes.c_double),
                 ("cells", ctypes.c_int64), ("interior_cells", ctypes.c_int64)]
 
 
 class ResultInfo(ctypes.Structure):
-    _fields_ = [("channels", ctypes.c_int), ("frames", ctypes.c_int), ("unknowns", ctypes.c_int64),
+    _fields_ = [("size", ctypes.c_size_t), ("channels", ctypes.c_int), ("frames", ctypes.c_int), ("unknowns", ctypes.c_int64),
                 ("factorizations", ctypes.c_int), ("solves", ctypes.c_int64), ("residual", ctypes.c_double),
                 ("power_incident", ctypes.c_double), ("power_entered", ctypes.c_double),
                 ("power_in", ctypes.c_double), ("power_absorbed", ctypes.c_double),
                 ("power_out", ctypes.c_double), ("seconds_setup", ctypes.c_double),
                 ("seconds_solve", ctypes.c_double)]
+
+
+def sized(kind):
+    """A struct of ohm.h's with its size member set (its *_INIT)."""
+    return kind(size=ctypes.sizeof(kind))
 
 
 def _declare(lib):

@@ -2,6 +2,7 @@
  * (include/ohm.h). */
 #include "api/api.h"
 
+#include <stddef.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -19,20 +20,36 @@ static size_t grid_cells(const ohm_voxel_grid *g)
     return (size_t)g->dims[0] * (size_t)g->dims[1] * (size_t)g->dims[2];
 }
 
+/* A caller's sized struct (ohm.h's ABI rule) holds at least 1.0's fields,
+ * the first end_of_1_0 bytes. */
+static int sized_ok(size_t size, size_t end_of_1_0, const char *fn, const char *init)
+{
+    if (size < end_of_1_0)
+        return ohm_api_fail(OHM_ERR_USAGE, "%s: out->size is %zu, less than the %zu bytes of ohm 1.0's struct: set "
+                            "it with %s", fn, size, end_of_1_0, init);
+    return OHM_OK;
+}
+
 int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene)
 {
     if (!out) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_grid: out is NULL");
-    memset(out, 0, sizeof *out);
-    int rc = need_grid(scene, "ohm_scene_grid");
+    const size_t size = out->size;
+    int rc = sized_ok(size, offsetof(ohm_grid_info, interior_cells) + sizeof out->interior_cells, "ohm_scene_grid",
+                      "OHM_GRID_INFO_INIT");
+    if (!rc) rc = need_grid(scene, "ohm_scene_grid");
     if (rc) return rc;
     const ohm_voxel_grid *g = &scene->state.grid;
+    ohm_grid_info info = OHM_GRID_INFO_INIT;
     for (int a = 0; a < 3; ++a) {
-        out->dims[a] = g->dims[a];
-        out->origin[a] = g->origin[a];
+        info.dims[a] = g->dims[a];
+        info.origin[a] = g->origin[a];
     }
-    out->voxel = g->h;
-    out->cells = (int64_t)grid_cells(g);
-    out->interior_cells = (int64_t)g->interior_cells;
+    info.voxel = g->h;
+    info.cells = (int64_t)grid_cells(g);
+    info.interior_cells = (int64_t)g->interior_cells;
+    /* the fields this caller has; its size stays its own */
+    memcpy((char *)out + sizeof info.size, (const char *)&info + sizeof info.size,
+           (size < sizeof info ? size : sizeof info) - sizeof info.size);
     return OHM_OK;
 }
 
@@ -62,12 +79,26 @@ static const ohm_solution *need_solution(const ohm_scene *scene, const char *fn)
     return sol;
 }
 
+static void result_of(ohm_result_info *out, const ohm_solution *sol);
+
 int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene)
 {
     if (!out) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_result: out is NULL");
-    memset(out, 0, sizeof *out);
+    const size_t size = out->size;
+    int rc = sized_ok(size, offsetof(ohm_result_info, seconds_solve) + sizeof out->seconds_solve, "ohm_scene_result",
+                      "OHM_RESULT_INFO_INIT");
+    if (rc) return rc;
     const ohm_solution *sol = need_solution(scene, "ohm_scene_result");
     if (!sol) return ohm_error_last_code();
+    ohm_result_info info = OHM_RESULT_INFO_INIT;
+    result_of(&info, sol);
+    memcpy((char *)out + sizeof info.size, (const char *)&info + sizeof info.size,
+           (size < sizeof info ? size : sizeof info) - sizeof info.size);
+    return OHM_OK;
+}
+
+static void result_of(ohm_result_info *out, const ohm_solution *sol)
+{
     out->channels = sol->channels;
     out->frames = sol->frames;
     out->unknowns = sol->n;
@@ -81,7 +112,6 @@ int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene)
     out->power_out = sol->power_out;
     out->seconds_setup = sol->t_analyze + sol->t_factor + sol->t_cg_setup;
     out->seconds_solve = sol->t_source + sol->t_solve;
-    return OHM_OK;
 }
 
 /* A per-cell array of one channel and frame: arguments checked. */

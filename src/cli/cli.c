@@ -8,6 +8,7 @@
 #include <string.h>
 
 #include "ohm.h"
+#include "ohm/cli.h"
 
 /* 130: stopped by Ctrl-C (128 + SIGINT, as shells report it) */
 static int exit_code(int rc)
@@ -99,9 +100,9 @@ int ohm_cli_main(int argc, char **argv)
         ohm_context *ctx = NULL;
         if (ohm_context_new(&ctx)) return report(OHM_ERR_NOMEM);
         ohm_context_set_verbosity(ctx, verbosity);
-        int code = ohm_study(ctx, argc - first, argv + first);
+        int rc = ohm_study(ctx, argc - first, argv + first); /* it printed its own errors */
         ohm_context_free(ctx);
-        return code;
+        return exit_code(rc);
     }
     if (strcmp(cmd, "run") == 0) {
         if (first + 2 != argc) {
