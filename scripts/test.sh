@@ -11,13 +11,13 @@ scripts/install-deps.sh
 echo "== build (warnings are errors) =="
 # Release, as the README's first command (scripts/demo.sh) builds: -O3 is where
 # -Wmaybe-uninitialized speaks, and a newcomer's first build must print nothing
-cmake -S . -B build-test -DOHM_WERROR=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
+cmake -S . -B build-test -DOHM_WERROR=ON -DOHM_TEST_HOOKS=ON -DCMAKE_BUILD_TYPE=Release >/dev/null
 cmake --build build-test -j"$jobs"
 echo "== tests =="
 ctest --test-dir build-test --output-on-failure -j"$jobs"
 
 echo "== build with ASan + UBSan =="
-cmake -S . -B build-asan -DOHM_WERROR=ON -DOHM_SANITIZE=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
+cmake -S . -B build-asan -DOHM_WERROR=ON -DOHM_SANITIZE=ON -DOHM_TEST_HOOKS=ON -DCMAKE_BUILD_TYPE=RelWithDebInfo >/dev/null
 cmake --build build-asan -j"$jobs"
 echo "== tests under ASan + UBSan =="
 export ASAN_OPTIONS=detect_leaks=1:abort_on_error=1:strict_string_checks=1

@@ -53,3 +53,12 @@ require_blender() {
   fi
 }
 finish() { echo "$passed passed, $failed failed"; [ "$failed" = 0 ]; }
+# require_test_hooks WHAT: the OHM_TEST_* hooks are compiled in (CMake's
+# OHM_TEST_HOOKS, which scripts/test.sh turns on), or WHAT is skipped with a
+# note; under CI=true a build without them fails.
+require_test_hooks() {
+  [ "${OHM_HAVE_TEST_HOOKS:-0}" = 1 ] && return 0
+  if [ "${CI:-}" = true ]; then bad "$1 needs the test hooks: configure with -DOHM_TEST_HOOKS=ON"; return 1; fi
+  echo "SKIP: $1 (no test hooks in this build: configure with -DOHM_TEST_HOOKS=ON, as scripts/test.sh does)"
+  return 1
+}

@@ -109,13 +109,16 @@ const char *ohm_output_tmp_path(ohm_output *o)
     return o->tmp;
 }
 
-/* Test hook (output.h): OHM_TEST_COMMIT_DELAY_MS before each rename. */
+/* Test hook (output.h): OHM_TEST_COMMIT_DELAY_MS before each rename, in
+ * builds for the test suite only (CMake's OHM_TEST_HOOKS). */
 static void test_delay(void)
 {
+#ifdef OHM_TEST_HOOKS
     const char *delay = getenv("OHM_TEST_COMMIT_DELAY_MS");
     long ms = delay ? strtol(delay, NULL, 10) : 0;
     struct timespec ts = {ms / 1000, (ms % 1000) * 1000000L};
     if (ms > 0) nanosleep(&ts, NULL);
+#endif
 }
 
 static void staged_free(ohm_staged_output *it)
