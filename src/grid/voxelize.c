@@ -528,6 +528,171 @@ static void fine_pass_slice(void *user, int64_t job)
     f->counts[2 * (size_t)k + 1] = ambiguous;
 }
 
+/* The mesh's box and its longest side, checked: finite, not a point, not
+ * flat. */
+static int mesh_box(double lo[3], double hi[3], double *extent, const ohm_mesh *mesh, ohm_error *err)
+{
+    ohm_mesh_bounds(mesh, lo, hi);
+    *extent = 0.0;
+    for (int d = 0; d < 3; ++d) {
+        if (!isfinite(lo[d]) || !isfinite(hi[d]))
+            return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh bounds are not finite");
+        if (hi[d] - lo[d] > *extent) *extent = hi[d] - lo[d];
+    }
+    if (!(*extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
+    /* a sheet in a coordinate plane encloses nothing: every cell near it has
+     * a winding number of about 1/2, and rounding would pick a few at random */
+    for (int d = 0; d < 3; ++d)
+        if (!(hi[d] - lo[d] > 1e-9 * *extent))
+            return ohm_fail(err, OHM_ERR_INVALID,
+                            "voxelize: the mesh is flat (zero thickness along %c, at %g): it encloses no volume",
+                            "xyz"[d], lo[d]);
+    return OHM_OK;
+}
+
+/* The inside test's working state: blocks of BLOCK^3 cells with winding
+ * numbers at their lattice corners (the coarse pass), and which cells they
+ * decided (the fine pass evaluates the rest). */
+typedef struct inside_test {
+    ohm_voxel_grid *grid;
+    const bvh *tree;
+    double orient;                  /* -1: the mesh is wound inside-out        */
+    int32_t nb[3], nl[3];           /* blocks, lattice points per axis          */
+    uint8_t *block_near;            /* a block holds a cell within h of the mesh */
+    double *lattice_w;              /* winding numbers at lattice points (NaN: not yet) */
+    uint8_t *decided;               /* per cell: the coarse pass set it         */
+    size_t *slice_counts;           /* the fine pass's, 2 per slice             */
+    ohm_voxelize_report *rep;
+} inside_test;
+
+static size_t block_index(const inside_test *t, int32_t bx, int32_t by, int32_t bz)
+{
+    return (size_t)bx + (size_t)t->nb[0] * ((size_t)by + (size_t)t->nb[1] * (size_t)bz);
+}
+
+static void inside_test_free(inside_test *t)
+{
+    free(t->block_near);
+    free(t->lattice_w);
+    free(t->decided);
+    free(t->slice_counts);
+}
+
+static int inside_test_alloc(inside_test *t, ohm_voxel_grid *g, ohm_error *err)
+{
+    size_t n = (size_t)g->dims[0] * (size_t)g->dims[1] * (size_t)g->dims[2];
+    for (int d = 0; d < 3; ++d) {
+        t->nb[d] = (g->dims[d] - 1 + BLOCK - 1) / BLOCK; /* blocks per axis */
+        t->nl[d] = t->nb[d] + 1;                         /* lattice points  */
+    }
+    size_t nblocks = (size_t)t->nb[0] * (size_t)t->nb[1] * (size_t)t->nb[2];
+    size_t nlattice = (size_t)t->nl[0] * (size_t)t->nl[1] * (size_t)t->nl[2];
+    t->block_near = calloc(nblocks ? nblocks : 1, 1);
+    t->lattice_w = malloc((nlattice ? nlattice : 1) * sizeof *t->lattice_w);
+    t->decided = calloc(n, 1);
+    t->slice_counts = calloc(2 * (size_t)g->dims[2], sizeof *t->slice_counts);
+    if (!t->block_near || !t->lattice_w || !t->decided || !t->slice_counts) {
+        inside_test_free(t);
+        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the inside test");
+    }
+    for (size_t l = 0; l < nlattice; ++l) t->lattice_w[l] = NAN;
+    return OHM_OK;
+}
+
+/* Mark every block whose closed cell range holds a cell within h of the
+ * mesh (> sqrt(3)/2 h: no triangle slips between far cells). */
+static void mark_near_blocks(inside_test *t, const float *dist)
+{
+    const ohm_voxel_grid *g = t->grid;
+    const float near_dist = (float)g->h;
+    for (int32_t k = 0; k < g->dims[2]; ++k)
+        for (int32_t j = 0; j < g->dims[1]; ++j)
+            for (int32_t i = 0; i < g->dims[0]; ++i) {
+                if (!(dist[ohm_voxel_index(g, i, j, k)] <= near_dist)) continue;
+                int32_t c[3] = {i, j, k}, b0[3], b1[3];
+                for (int d = 0; d < 3; ++d) {
+                    b1[d] = c[d] / BLOCK;
+                    b0[d] = (c[d] % BLOCK == 0 && c[d] > 0) ? b1[d] - 1 : b1[d];
+                    if (b1[d] >= t->nb[d]) b1[d] = t->nb[d] - 1;
+                }
+                for (int32_t bz = b0[2]; bz <= b1[2]; ++bz)
+                    for (int32_t by = b0[1]; by <= b1[1]; ++by)
+                        for (int32_t bx = b0[0]; bx <= b1[0]; ++bx)
+                            t->block_near[block_index(t, bx, by, bz)] = 1;
+            }
+}
+
+/* Block (bx, by, bz), far from the mesh: when its corners' winding numbers
+ * agree, every cell of it takes that side. */
+static void coarse_block(inside_test *t, int32_t bx, int32_t by, int32_t bz)
+{
+    ohm_voxel_grid *g = t->grid;
+    const int32_t *dims = g->dims, *nb = t->nb, *nl = t->nl;
+    double wmin = INFINITY, wmax = -INFINITY;
+    for (int corner = 0; corner < 8; ++corner) {
+        int32_t lx = bx + (corner & 1), ly = by + ((corner >> 1) & 1), lz = bz + ((corner >> 2) & 1);
+        size_t li = (size_t)lx + (size_t)nl[0] * ((size_t)ly + (size_t)nl[1] * (size_t)lz);
+        if (isnan(t->lattice_w[li])) {
+            double p[3];
+            int32_t ci = lx * BLOCK, cj = ly * BLOCK, ck = lz * BLOCK;
+            if (ci > dims[0] - 1) ci = dims[0] - 1;
+            if (cj > dims[1] - 1) cj = dims[1] - 1;
+            if (ck > dims[2] - 1) ck = dims[2] - 1;
+            cell_centre(g, ci, cj, ck, p);
+            t->lattice_w[li] = t->orient * bvh_winding(t->tree, p);
+            t->rep->winding_exact++;
+        }
+        wmin = fmin(wmin, t->lattice_w[li]);
+        wmax = fmax(wmax, t->lattice_w[li]);
+    }
+    int side;
+    if (wmin > 0.5 + FILL_MARGIN) side = 1;
+    else if (wmax < 0.5 - FILL_MARGIN) side = 0;
+    else return;
+    int32_t i1 = (bx + 1) * BLOCK, j1 = (by + 1) * BLOCK, k1 = (bz + 1) * BLOCK;
+    if (bx == nb[0] - 1) i1 = dims[0];
+    if (by == nb[1] - 1) j1 = dims[1];
+    if (bz == nb[2] - 1) k1 = dims[2];
+    for (int32_t k = bz * BLOCK; k < k1; ++k)
+        for (int32_t j = by * BLOCK; j < j1; ++j)
+            for (int32_t i = bx * BLOCK; i < i1; ++i) {
+                size_t idx = ohm_voxel_index(g, i, j, k);
+                g->inside[idx] = (uint8_t)side;
+                t->decided[idx] = 1;
+                t->rep->winding_filled++;
+            }
+}
+
+/* Coarse pass, then fine pass: inside[] for every cell.  1 when the run was
+ * cancelled on the way. */
+static int inside_test_run(inside_test *t, ohm_progress *prog)
+{
+    const int32_t *dims = t->grid->dims, *nb = t->nb;
+    for (int32_t bz = 0; bz < nb[2]; ++bz) {
+        if (ohm_progress_update(prog, 0.5 * bz / nb[2])) return 1;
+        for (int32_t by = 0; by < nb[1]; ++by)
+            for (int32_t bx = 0; bx < nb[0]; ++bx)
+                if (!t->block_near[block_index(t, bx, by, bz)]) coarse_block(t, bx, by, bz);
+    }
+    /* Fine pass: every cell the blocks did not decide, slice by slice on
+     * every core, a round of FINE_ROUND slices per thread between progress
+     * updates (the progress line is the caller's thread's alone). */
+    fine_pass fine = {
+        .grid = t->grid, .tree = t->tree, .decided = t->decided, .orient = t->orient, .counts = t->slice_counts};
+    int threads = ohm_usable_cores();
+    int32_t round = FINE_ROUND * threads;
+    for (int32_t k0 = 0; k0 < dims[2]; k0 += round) {
+        if (ohm_progress_update(prog, 0.5 + 0.5 * k0 / dims[2])) return 1;
+        fine.k0 = k0;
+        ohm_parallel_for(k0 + round < dims[2] ? round : dims[2] - k0, threads, fine_pass_slice, &fine);
+    }
+    for (int32_t k = 0; k < dims[2]; ++k) {
+        t->rep->winding_exact += t->slice_counts[2 * (size_t)k];
+        t->rep->ambiguous += t->slice_counts[2 * (size_t)k + 1];
+    }
+    return 0;
+}
+
 int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mesh *mesh,
                  const ohm_voxelize_params *params, const ohm_log *log, ohm_error *err)
 {
@@ -535,168 +700,46 @@ int ohm_voxelize(ohm_voxel_grid *out, ohm_voxelize_report *report, const ohm_mes
     ohm_voxelize_report rep;
     memset(&rep, 0, sizeof rep);
     if (!mesh || mesh->ntris == 0) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: no mesh with triangles was read");
-
-    double lo[3], hi[3];
-    ohm_mesh_bounds(mesh, lo, hi);
-    double extent = 0.0;
-    for (int d = 0; d < 3; ++d) {
-        if (!isfinite(lo[d]) || !isfinite(hi[d]))
-            return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh bounds are not finite");
-        if (hi[d] - lo[d] > extent) extent = hi[d] - lo[d];
-    }
-    if (!(extent > 0)) return ohm_fail(err, OHM_ERR_INVALID, "voxelize: mesh has zero extent (all vertices coincide)");
-    /* a sheet in a coordinate plane encloses nothing: every cell near it has
-     * a winding number of about 1/2, and rounding would pick a few at random */
-    for (int d = 0; d < 3; ++d)
-        if (!(hi[d] - lo[d] > 1e-9 * extent))
-            return ohm_fail(err, OHM_ERR_INVALID,
-                            "voxelize: the mesh is flat (zero thickness along %c, at %g): it encloses no volume",
-                            "xyz"[d], lo[d]);
-
-    int lrc = layout_grid(out, lo, hi, extent, params, err);
-    if (lrc) return lrc;
+    double lo[3], hi[3], extent;
+    int rc = mesh_box(lo, hi, &extent, mesh, err);
+    if (!rc) rc = layout_grid(out, lo, hi, extent, params, err);
+    if (rc) return rc;
     size_t n = (size_t)out->dims[0] * (size_t)out->dims[1] * (size_t)out->dims[2];
 
     rep.signed_volume = ohm_mesh_signed_volume(mesh);
-    double orient = 1.0;
-    if (rep.signed_volume < 0) {
-        rep.flipped = 1;
-        orient = -1.0;
-    }
-
+    rep.flipped = rep.signed_volume < 0;
     float *dist = dense_distance(n);
     if (!dist) {
         ohm_voxel_grid_free(out);
         return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for %zu cells", n);
     }
-    if (distance_band(dist, out, mesh, log)) {
-        free(dist);
-        ohm_voxel_grid_free(out);
-        return ohm_fail_cancelled(err, "voxelize");
-    }
-
     bvh tree;
-    int rc = bvh_build(&tree, mesh, err);
+    inside_test t = {.grid = out, .tree = &tree, .orient = rep.flipped ? -1.0 : 1.0, .rep = &rep};
+    if (distance_band(dist, out, mesh, log)) rc = ohm_fail_cancelled(err, "voxelize");
+    if (!rc) rc = bvh_build(&tree, mesh, err);
     if (rc) {
         free(dist);
         ohm_voxel_grid_free(out);
         return rc;
     }
-
-    /* Coarse pass: blocks of BLOCK^3 cells with lattice corners. */
-    const int32_t *dims = out->dims;
-    int32_t nb[3];
-    for (int d = 0; d < 3; ++d) nb[d] = (dims[d] - 1 + BLOCK - 1) / BLOCK; /* blocks per axis */
-    size_t nblocks = (size_t)nb[0] * (size_t)nb[1] * (size_t)nb[2];
-    int32_t nl[3] = {nb[0] + 1, nb[1] + 1, nb[2] + 1};                   /* lattice points   */
-    size_t nlattice = (size_t)nl[0] * (size_t)nl[1] * (size_t)nl[2];
-    uint8_t *block_near = calloc(nblocks ? nblocks : 1, 1);
-    double *lattice_w = malloc((nlattice ? nlattice : 1) * sizeof *lattice_w);
-    uint8_t *decided = calloc(n, 1);
-    size_t *slice_counts = calloc(2 * (size_t)dims[2], sizeof *slice_counts); /* the fine pass's, below */
-    if (!block_near || !lattice_w || !decided || !slice_counts) {
-        free(block_near);
-        free(lattice_w);
-        free(decided);
-        free(slice_counts);
-        bvh_free(&tree);
-        free(dist);
-        ohm_voxel_grid_free(out);
-        return ohm_fail(err, OHM_ERR_NOMEM, "voxelize: out of memory for the inside test");
+    rc = inside_test_alloc(&t, out, err);
+    if (!rc) {
+        mark_near_blocks(&t, dist);
+        ohm_progress prog;
+        ohm_progress_begin(&prog, log, "voxelize: inside test");
+        if (inside_test_run(&t, &prog)) rc = ohm_fail_cancelled(err, "voxelize");
+        else ohm_progress_end(&prog);
+        inside_test_free(&t);
     }
-    for (size_t l = 0; l < nlattice; ++l) lattice_w[l] = NAN;
-    const float near_dist = (float)out->h; /* > sqrt(3)/2 h: no triangle slips between far cells */
-    for (int32_t k = 0; k < dims[2]; ++k)
-        for (int32_t j = 0; j < dims[1]; ++j)
-            for (int32_t i = 0; i < dims[0]; ++i) {
-                if (!(dist[ohm_voxel_index(out, i, j, k)] <= near_dist)) continue;
-                /* mark every block whose closed cell range holds (i,j,k) */
-                int32_t c[3] = {i, j, k}, b0[3], b1[3];
-                for (int d = 0; d < 3; ++d) {
-                    b1[d] = c[d] / BLOCK;
-                    b0[d] = (c[d] % BLOCK == 0 && c[d] > 0) ? b1[d] - 1 : b1[d];
-                    if (b1[d] >= nb[d]) b1[d] = nb[d] - 1;
-                }
-                for (int32_t bz = b0[2]; bz <= b1[2]; ++bz)
-                    for (int32_t by = b0[1]; by <= b1[1]; ++by)
-                        for (int32_t bx = b0[0]; bx <= b1[0]; ++bx)
-                            block_near[(size_t)bx + (size_t)nb[0] * ((size_t)by + (size_t)nb[1] * (size_t)bz)] = 1;
-            }
-
-    ohm_progress prog;
-    ohm_progress_begin(&prog, log, "voxelize: inside test");
-    int cancelled = 0;
-    for (int32_t bz = 0; bz < nb[2] && !cancelled; ++bz) {
-        cancelled = ohm_progress_update(&prog, 0.5 * bz / nb[2]);
-        for (int32_t by = 0; by < nb[1]; ++by)
-            for (int32_t bx = 0; bx < nb[0]; ++bx) {
-                if (block_near[(size_t)bx + (size_t)nb[0] * ((size_t)by + (size_t)nb[1] * (size_t)bz)]) continue;
-                double wmin = INFINITY, wmax = -INFINITY;
-                for (int corner = 0; corner < 8; ++corner) {
-                    int32_t lx = bx + (corner & 1), ly = by + ((corner >> 1) & 1), lz = bz + ((corner >> 2) & 1);
-                    size_t li = (size_t)lx + (size_t)nl[0] * ((size_t)ly + (size_t)nl[1] * (size_t)lz);
-                    if (isnan(lattice_w[li])) {
-                        double p[3];
-                        int32_t ci = lx * BLOCK, cj = ly * BLOCK, ck = lz * BLOCK;
-                        if (ci > dims[0] - 1) ci = dims[0] - 1;
-                        if (cj > dims[1] - 1) cj = dims[1] - 1;
-                        if (ck > dims[2] - 1) ck = dims[2] - 1;
-                        cell_centre(out, ci, cj, ck, p);
-                        lattice_w[li] = orient * bvh_winding(&tree, p);
-                        rep.winding_exact++;
-                    }
-                    wmin = fmin(wmin, lattice_w[li]);
-                    wmax = fmax(wmax, lattice_w[li]);
-                }
-                int side;
-                if (wmin > 0.5 + FILL_MARGIN) side = 1;
-                else if (wmax < 0.5 - FILL_MARGIN) side = 0;
-                else continue;
-                int32_t i1 = (bx + 1) * BLOCK, j1 = (by + 1) * BLOCK, k1 = (bz + 1) * BLOCK;
-                if (bx == nb[0] - 1) i1 = dims[0];
-                if (by == nb[1] - 1) j1 = dims[1];
-                if (bz == nb[2] - 1) k1 = dims[2];
-                for (int32_t k = bz * BLOCK; k < k1; ++k)
-                    for (int32_t j = by * BLOCK; j < j1; ++j)
-                        for (int32_t i = bx * BLOCK; i < i1; ++i) {
-                            size_t idx = ohm_voxel_index(out, i, j, k);
-                            out->inside[idx] = (uint8_t)side;
-                            decided[idx] = 1;
-                            rep.winding_filled++;
-                        }
-            }
-    }
-    /* Fine pass: every cell the blocks did not decide, slice by slice on
-     * every core, a round of FINE_ROUND slices per thread between progress
-     * updates (the progress line is the caller's thread's alone). */
-    fine_pass fine = {.grid = out, .tree = &tree, .decided = decided, .orient = orient, .counts = slice_counts};
-    int threads = ohm_usable_cores();
-    int32_t round = FINE_ROUND * threads;
-    for (int32_t k0 = 0; k0 < dims[2] && !cancelled; k0 += round) {
-        cancelled = ohm_progress_update(&prog, 0.5 + 0.5 * k0 / dims[2]);
-        fine.k0 = k0;
-        ohm_parallel_for(k0 + round < dims[2] ? round : dims[2] - k0, threads, fine_pass_slice, &fine);
-    }
-    for (int32_t k = 0; k < dims[2]; ++k) {
-        rep.winding_exact += slice_counts[2 * (size_t)k];
-        rep.ambiguous += slice_counts[2 * (size_t)k + 1];
-    }
-    free(slice_counts);
-    free(block_near);
-    free(lattice_w);
-    free(decided);
     bvh_free(&tree);
-    if (cancelled) {
+    if (rc) {
         free(dist);
         ohm_voxel_grid_free(out);
-        return ohm_fail_cancelled(err, "voxelize");
+        return rc;
     }
-    ohm_progress_end(&prog);
-
     size_t interior = 0;
     for (size_t c = 0; c < n; ++c) interior += out->inside[c];
     out->interior_cells = interior;
-
     if (report) *report = rep;
     return keep_band(out, dist, err);
 }
