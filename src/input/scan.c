@@ -648,7 +648,13 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
         if (ohm_scan_ends_with(names[z], ".png")) rc = png_complete(names[z], err);
     if (!rc) rc = stack_alloc(s, path, p, (const char *const *)names, n, err);
     const int w0 = s->dims[0], h0 = s->dims[1];
+    ohm_progress prog;
+    ohm_progress_begin(&prog, p ? p->log : NULL, "read: slices");
     for (size_t z = 0; z < n && !rc; ++z) {
+        if (p && p->log && ohm_progress_update(&prog, (double)z / (double)n)) {
+            rc = ohm_fail_cancelled(err, "read");
+            break;
+        }
         float *px = NULL;
         int w = 0, h = 0, channels = 0;
         /* each later slice's size from its header before its pixels are
@@ -667,6 +673,7 @@ static int read_stack(ohm_scan *s, const char *path, const ohm_scan_params *p, o
     for (size_t i = 0; i < n; ++i) free(names[i]);
     free(names);
     if (rc) return rc;
+    ohm_progress_end(&prog);
     memset(s->index_to_world, 0, sizeof s->index_to_world);
     for (int k = 0; k < 3; ++k) s->index_to_world[k][k] = sp[k];
     return 0;

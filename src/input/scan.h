@@ -28,6 +28,7 @@
 #include <stddef.h>
 #include <stdint.h>
 
+#include "base/log.h"
 #include "base/ohm_error.h"
 
 typedef struct ohm_scan {
@@ -49,6 +50,8 @@ typedef struct ohm_scan_params {
     const char *series;           /* DICOM: SeriesInstanceUID (NULL: the only one)      */
     double max_expansion;         /* voxels per byte of file a large scan may have
                                      (0: OHM_SCAN_MAX_EXPANSION; see scan_io.h)         */
+    const ohm_log *log;           /* slice stacks: progress per slice, and the run's
+                                     cancellation (NULL: neither)                       */
 } ohm_scan_params;
 
 /* A scan needing more than OHM_SCAN_BOMB_FLOOR bytes to read may hold at

@@ -100,6 +100,7 @@ static int read_volume(ohm_state *s, const ohm_invocation *inv, const char *path
     p.grid = ohm_opt_str(inv, "grid");
     p.series = ohm_opt_str(inv, "series");
     p.max_expansion = ohm_opt_real(inv, "max_expansion");
+    p.log = &s->log;
     p.type = ohm_opt_str(inv, "type");
     p.endian = ohm_opt_str(inv, "endian");
     ohm_opt_real13(inv, "spacing", p.spacing);
