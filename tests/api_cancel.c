@@ -119,33 +119,51 @@ static void *cancel_later(void *arg)
     return NULL;
 }
 
+/* Solve with opts twice, stopped each time: from the progress callback
+ * once `step` has reported `stop_after` of its work, then from a second
+ * thread 0.2 s into the step; w is the context's progress watch. */
+static void cancel_both_ways(ohm_scene *scene, watch *w, const char *const *opts, const char *step,
+                             double stop_after, const char *what)
+{
+    char label[128];
+    *w = (watch){.ctx = w->ctx, .stop_in = step, .stop_after = stop_after};
+    int rc = ohm_scene_solve(scene, opts);
+    snprintf(label, sizeof label, "%s, cancelled from the progress callback", what);
+    expect_cancelled(rc, w, now(), label);
+    *w = (watch){.ctx = w->ctx, .stop_in = step, .stop_after = -1};
+    canceller c = {w, 0.2};
+    pthread_t t;
+    CHECK(pthread_create(&t, NULL, cancel_later, &c) == 0);
+    rc = ohm_scene_solve(scene, opts);
+    double t_return = now();
+    pthread_join(t, NULL);
+    snprintf(label, sizeof label, "%s, cancelled from another thread", what);
+    expect_cancelled(rc, w, t_return, label);
+}
+
+/* A context watched by w (quiet) and a box scene on it; NULL on failure. */
+static ohm_scene *watched_box(ohm_context **ctx, watch *w, int nx, int ny, int nz)
+{
+    *ctx = NULL;
+    CHECK(ohm_context_new(ctx) == OHM_OK);
+    ohm_context_set_verbosity(*ctx, 0);
+    *w = (watch){.ctx = *ctx};
+    ohm_context_set_progress(*ctx, on_progress, w);
+    ohm_scene *scene = box(*ctx, nx, ny, nz);
+    if (!scene) ohm_context_free(*ctx);
+    return scene;
+}
+
 static void cancel_factorization(void)
 {
-    ohm_context *ctx = NULL;
-    CHECK(ohm_context_new(&ctx) == OHM_OK);
-    ohm_context_set_verbosity(ctx, 0);
-    watch w = {.ctx = ctx, .stop_in = "factorize", .stop_after = 0.05};
-    ohm_context_set_progress(ctx, on_progress, &w);
-    ohm_scene *scene = box(ctx, 96, 96, 12);
-    if (!scene) {
-        ohm_context_free(ctx);
-        return;
-    }
+    ohm_context *ctx;
+    watch w;
+    ohm_scene *scene = watched_box(&ctx, &w, 96, 96, 12);
+    if (!scene) return;
     double cells = 0;
     CHECK(ohm_scene_stat(&cells, scene, "cells") == OHM_OK && cells >= 1e5);
     const char *direct[] = {"solver=direct", "ordering=metis", NULL};
-    /* from the progress callback */
-    int rc = ohm_scene_solve(scene, direct);
-    expect_cancelled(rc, &w, now(), "factorization, cancelled from the progress callback");
-    /* from a second thread, 0.2 s into the factorization */
-    w = (watch){.ctx = ctx, .stop_in = "factorize", .stop_after = -1};
-    canceller c = {&w, 0.2};
-    pthread_t t;
-    CHECK(pthread_create(&t, NULL, cancel_later, &c) == 0);
-    rc = ohm_scene_solve(scene, direct);
-    double t_return = now();
-    pthread_join(t, NULL);
-    expect_cancelled(rc, &w, t_return, "factorization, cancelled from another thread");
+    cancel_both_ways(scene, &w, direct, "factorize", 0.05, "factorization");
     /* and then the whole factorization */
     w = (watch){.ctx = ctx, .stop_in = "factorize", .stop_after = -1};
     double t0 = now();
@@ -158,28 +176,13 @@ static void cancel_factorization(void)
 
 static void cancel_monte_carlo(void)
 {
-    ohm_context *ctx = NULL;
-    CHECK(ohm_context_new(&ctx) == OHM_OK);
-    ohm_context_set_verbosity(ctx, 0);
-    watch w = {.ctx = ctx, .stop_in = "monte carlo", .stop_after = 1e-9}; /* its first report */
-    ohm_context_set_progress(ctx, on_progress, &w);
-    ohm_scene *scene = box(ctx, 12, 12, 12);
-    if (!scene) {
-        ohm_context_free(ctx);
-        return;
-    }
-    /* 1e9 photons: hours, unless stopped */
+    ohm_context *ctx;
+    watch w;
+    ohm_scene *scene = watched_box(&ctx, &w, 12, 12, 12);
+    if (!scene) return;
+    /* 1e9 photons: hours, unless stopped (from the callback at its first report) */
     const char *mc[] = {"solver=mc", "photons=1e9", NULL};
-    int rc = ohm_scene_solve(scene, mc);
-    expect_cancelled(rc, &w, now(), "Monte Carlo, cancelled from the progress callback");
-    w = (watch){.ctx = ctx, .stop_in = "monte carlo", .stop_after = -1};
-    canceller c = {&w, 0.2};
-    pthread_t t;
-    CHECK(pthread_create(&t, NULL, cancel_later, &c) == 0);
-    rc = ohm_scene_solve(scene, mc);
-    double t_return = now();
-    pthread_join(t, NULL);
-    expect_cancelled(rc, &w, t_return, "Monte Carlo, cancelled from another thread");
+    cancel_both_ways(scene, &w, mc, "monte carlo", 1e-9, "Monte Carlo");
     const char *short_mc[] = {"solver=mc", "photons=20000", NULL};
     solves_normally(scene, short_mc, "Monte Carlo");
 

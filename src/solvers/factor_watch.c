@@ -42,7 +42,11 @@ static int watch_call(double flops)
     double t = ohm_now();
     if (t - w->t_reported >= 0.05) {
         w->t_reported = t;
-        ohm_progress_update(&w->progress, w->flops > 0 ? fmin(1.0, w->done / w->flops) : 0);
+        /* the callback may cancel: then this call is skipped too */
+        if (ohm_progress_update(&w->progress, w->flops > 0 ? fmin(1.0, w->done / w->flops) : 0)) {
+            w->cancelled = 1;
+            return 1;
+        }
     }
     return 0;
 }
