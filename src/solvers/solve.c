@@ -2,6 +2,7 @@
 
 #include "grid/band.h"
 #include "solvers/backend.h"
+#include "solvers/solver_impl.h"
 #include "solvers/cg.h"
 #include "solvers/direct.h"
 #include "base/memory.h"
@@ -21,19 +22,6 @@
  * mode so the discrete conservation law holds exactly; the shift is reported
  * and the backward error is checked again afterwards. */
 static const double NEAR_SINGULAR = 1e-5;
-
-/* What solving one channel adds to the solution's sums and counts.  Each
- * channel books into its own tally, added to the solution in channel order
- * afterwards (tally_add), so that channels solved on separate threads give
- * the same sums, to the bit, as one after the other. */
-typedef struct channel_tally {
-    double power_incident, power_entered;         /* the sources' light        */
-    double power_in, power_absorbed, power_out;   /* the solved fluence's      */
-    double t_source, t_solve;                     /* seconds, this channel's   */
-    double residual;                              /* largest backward error    */
-    double mode_shift;                            /* largest constant-mode shift */
-    int64_t solves, solves_skipped, mode_corrections;
-} channel_tally;
 
 static void tally_add(ohm_solution *sol, const channel_tally *t, int c)
 {
@@ -665,14 +653,6 @@ static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_
     return OHM_OK;
 }
 
-/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
- * channel: per column, what the photons tallied before their handoff. */
-typedef struct hybrid_part {
-    double *fluence, *face;       /* n and nf per column                   */
-    double *fluence_se, *exit_se; /* scratch for the tracer                */
-    double *power;                /* 3 per column: in, absorbed, out (W)    */
-} hybrid_part;
-
 static int hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err)
 {
     memset(h, 0, sizeof *h);
@@ -847,35 +827,6 @@ static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params 
     return OHM_OK;
 }
 
-/* One distinct channel material's matrix and its set-up backend (a factor,
- * or a preconditioner): what a change of light reuses. */
-typedef struct medium_slot {
-    void *state;            /* the backend's, or NULL                     */
-    cholmod_sparse *A;      /* the network's matrix for this medium        */
-    double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
-    int ready;              /* A holds this medium's values, set up        */
-} medium_slot;
-
-struct ohm_solver {
-    ohm_solution sol;            /* topology, media, statistics; then results */
-    ohm_solve_params params;     /* the caller's, with the band's arrays and
-                                    the solver's own copies of its strings    */
-    char solver_name[16], ordering[16];
-    char *petsc_options;
-    ohm_material mat;
-    const ohm_voxel_grid *grid;
-    const ohm_log *log;
-    int keep;                    /* keep every medium's setup between solves   */
-    ohm_occluder *occ;
-    cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
-    int cc_started;
-    const ohm_backend_ops *backend;
-    ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
-    ohm_backend_report rep;      /* summed over the solver's life             */
-    medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
-    int held;                    /* keep = 0: the one slot holding resources, or -1 */
-};
-
 static void slot_release(ohm_solver *s, medium_slot *m)
 {
     if (m->state) s->backend->destroy(m->state);
@@ -1025,15 +976,6 @@ static void solution_reset(ohm_solution *sol, ohm_backend_report *rep)
     rep->refined = 0;
 }
 
-/* Shadow rays and Fresnel do not depend on the channel: every frame's lights
- * traced once into per-face powers for all channels (when they fit in the
- * budget, else *cached = 0 and fill_sources traces per channel). */
-typedef struct face_powers {
-    double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
-    double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
-    int cached;
-} face_powers;
-
 static void face_powers_free(face_powers *fp)
 {
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -1114,15 +1056,6 @@ static size_t batch_frames(const ohm_solver *s, int hybrid)
     return batch > (size_t)sol->frames ? (size_t)sol->frames : batch;
 }
 
-/* What solving a medium's channels allocates: the right-hand sides of a
- * batch, and the bookkeeping of frames whose light did not change. */
-typedef struct batch_work {
-    double *B;        /* n x batch                                         */
-    size_t *col_of;   /* batch column -> distinct column                   */
-    double *prev_b;   /* the last frame's right-hand side, for a later batch */
-    hybrid_part hy;
-} batch_work;
-
 static void batch_work_free(batch_work *w)
 {
     free(w->B);
@@ -1142,19 +1075,6 @@ static int batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", batch, n);
     return hybrid ? hybrid_alloc(&w->hy, n, nf, batch, err) : OHM_OK;
 }
-
-/* What every channel's diffusion solve reads: the lights, the batching, the
- * face powers traced for all channels, and the channels' media classes
- * (cls[c]: the first channel with c's medium, whose slot it solves with). */
-typedef struct diffusion_run {
-    ohm_solver *s;
-    const ohm_light *lights;
-    size_t nlights;
-    int hybrid;
-    size_t batch;
-    face_powers fp;
-    int channels, cls[OHM_MAX_CHANNELS];
-} diffusion_run;
 
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and

@@ -1,0 +1,103 @@
+/* solvers/solver_impl.h — private to src/solvers/: the solver object and the
+ * structs its files share (in the spirit of PETSc's private kspimpl.h);
+ * solve.h is the public face.  The files, one per job:
+ *
+ *   solve.c      the driver: create and set up (the network, the media, the
+ *                backend per distinct channel material), each channel's
+ *                batches, the media in turn or on several threads at once
+ *
+ * Ownership: the solver owns its solution, its copies of the parameters'
+ * strings, the occluder, every slot's matrix and backend state. */
+#ifndef OHM_SOLVERS_SOLVER_IMPL_H
+#define OHM_SOLVERS_SOLVER_IMPL_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#include <cholmod.h>
+
+#include "solvers/backend.h"
+#include "solvers/solve.h"
+
+/* What solving one channel adds to the solution's sums and counts.  Each
+ * channel books into its own tally, added to the solution in channel order
+ * afterwards (tally_add), so that channels solved on separate threads give
+ * the same sums, to the bit, as one after the other. */
+typedef struct channel_tally {
+    double power_incident, power_entered;         /* the sources' light        */
+    double power_in, power_absorbed, power_out;   /* the solved fluence's      */
+    double t_source, t_solve;                     /* seconds, this channel's   */
+    double residual;                              /* largest backward error    */
+    double mode_shift;                            /* largest constant-mode shift */
+    int64_t solves, solves_skipped, mode_corrections;
+} channel_tally;
+
+/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
+ * channel: per column, what the photons tallied before their handoff. */
+typedef struct hybrid_part {
+    double *fluence, *face;       /* n and nf per column                   */
+    double *fluence_se, *exit_se; /* scratch for the tracer                */
+    double *power;                /* 3 per column: in, absorbed, out (W)    */
+} hybrid_part;
+
+/* One distinct channel material's matrix and its set-up backend (a factor,
+ * or a preconditioner): what a change of light reuses. */
+typedef struct medium_slot {
+    void *state;            /* the backend's, or NULL                     */
+    cholmod_sparse *A;      /* the network's matrix for this medium        */
+    double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
+    int ready;              /* A holds this medium's values, set up        */
+} medium_slot;
+
+struct ohm_solver {
+    ohm_solution sol;            /* topology, media, statistics; then results */
+    ohm_solve_params params;     /* the caller's, with the band's arrays and
+                                    the solver's own copies of its strings    */
+    char solver_name[16], ordering[16];
+    char *petsc_options;
+    ohm_material mat;
+    const ohm_voxel_grid *grid;
+    const ohm_log *log;
+    int keep;                    /* keep every medium's setup between solves   */
+    ohm_occluder *occ;
+    cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
+    int cc_started;
+    const ohm_backend_ops *backend;
+    ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
+    ohm_backend_report rep;      /* summed over the solver's life             */
+    medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
+    int held;                    /* keep = 0: the one slot holding resources, or -1 */
+};
+
+/* Shadow rays and Fresnel do not depend on the channel: every frame's lights
+ * traced once into per-face powers for all channels (when they fit in the
+ * budget, else *cached = 0 and fill_sources traces per channel). */
+typedef struct face_powers {
+    double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
+    double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
+    int cached;
+} face_powers;
+
+/* What solving a medium's channels allocates: the right-hand sides of a
+ * batch, and the bookkeeping of frames whose light did not change. */
+typedef struct batch_work {
+    double *B;        /* n x batch                                         */
+    size_t *col_of;   /* batch column -> distinct column                   */
+    double *prev_b;   /* the last frame's right-hand side, for a later batch */
+    hybrid_part hy;
+} batch_work;
+
+/* What every channel's diffusion solve reads: the lights, the batching, the
+ * face powers traced for all channels, and the channels' media classes
+ * (cls[c]: the first channel with c's medium, whose slot it solves with). */
+typedef struct diffusion_run {
+    ohm_solver *s;
+    const ohm_light *lights;
+    size_t nlights;
+    int hybrid;
+    size_t batch;
+    face_powers fp;
+    int channels, cls[OHM_MAX_CHANNELS];
+} diffusion_run;
+
+#endif
