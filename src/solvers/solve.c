@@ -328,72 +328,6 @@ static int keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact
     return keep_curves(sol, p, err);
 }
 
-/* The mean of face_exitance over faces [f, end) (one cell's run). */
-static double run_mean(const double *fx, int64_t f, int64_t end)
-{
-    double sum = 0;
-    for (int64_t q = f; q < end; ++q) sum += fx[q];
-    return end > f ? sum / (double)(end - f) : 0.0;
-}
-
-void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
-{
-    const ohm_network *net = &sol->net;
-    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    const double *fx = sol->face_exitance[channel] + (size_t)frame * nf;
-    memset(out, 0, (size_t)sol->n * sizeof *out);
-    for (int64_t f = 0, end; f < net->nfaces; f = end) {
-        end = ohm_network_face_run_end(net, f);
-        out[net->face_unknown[f]] = run_mean(fx, f, end);
-    }
-}
-
-void ohm_solution_free(ohm_solution *sol)
-{
-    if (!sol) return;
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(sol->fluence[c]);
-        free(sol->face_exitance[c]);
-        free(sol->fluence_se[c]);
-        free(sol->exitance_se[c]);
-    }
-    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
-    free(sol->medium_density);
-    free(sol->curve_store);
-    ohm_network_free(&sol->net);
-    free(sol->band_active);
-    free(sol->band_eta);
-    free(sol->band_g);
-    memset(sol, 0, sizeof *sol);
-}
-
-int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss)
-{
-    const ohm_coeff *values = ss ? sol->medium_ss[c] : sol->medium_sa[c];
-    const ohm_curve *curve = ss ? &sol->medium_ss_curve[c] : &sol->medium_sa_curve[c];
-    if (values) {
-        for (int64_t v = 0; v < sol->n; ++v) out[v] = values[v];
-        return 1;
-    }
-    if (!sol->medium_density || !curve->n) return 0;
-    for (int64_t v = 0; v < sol->n; ++v) out[v] = ohm_curve_at(curve, sol->medium_density[v]);
-    return 1;
-}
-
-int ohm_solution_medium_varies(const ohm_solution *sol)
-{
-    for (int c = 0; c < sol->channels; ++c)
-        if (sol->medium_sa[c] || sol->medium_ss[c] || sol->medium_sa_curve[c].n || sol->medium_ss_curve[c].n)
-            return 1;
-    return 0;
-}
-
-double ohm_solution_conservation_error(const ohm_solution *sol)
-{
-    if (!(sol->power_in > 0)) return 0.0;
-    return fabs(sol->power_in - sol->power_absorbed - sol->power_out) / sol->power_in;
-}
-
 /* Whether curves a and b are one function (knot for knot). */
 static int same_curve(const ohm_curve *a, const ohm_curve *b)
 {
@@ -591,40 +525,6 @@ static void scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_
         double s = ohm_network_unknown_scale(med, (int64_t)v);
         for (size_t j = 0; j < ncols; ++j) X[j * n + v] = to_phi ? X[j * n + v] * s : X[j * n + v] / s;
     }
-}
-
-/* The backend's report into the solution's statistics. */
-static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
-{
-    snprintf(sol->solver, sizeof sol->solver, "%s", rep->solver);
-    snprintf(sol->solver_reason, sizeof sol->solver_reason, "%s", rep->reason);
-    snprintf(sol->ordering, sizeof sol->ordering, "%s", rep->ordering);
-    sol->factors = rep->factors;
-    sol->analyses = rep->analyses;
-    sol->t_analyze = rep->t_analyze;
-    sol->t_factor = rep->t_factor;
-    sol->t_cg_setup = rep->t_precond;
-    sol->nnz_A = rep->nnz_A;
-    sol->nnz_L = rep->nnz_L;
-    sol->flops = rep->flops;
-    sol->cg_iterations = rep->iterations;
-    sol->cg_relres = rep->relres;
-    sol->refined = rep->refined;
-    sol->solver_bytes = rep->bytes;
-    sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
-}
-
-/* The solution's fluence and face exitance, every channel and frame, zeroed. */
-static int alloc_solution(ohm_solution *sol, ohm_error *err)
-{
-    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
-    for (int c = 0; c < sol->channels; ++c) {
-        sol->fluence[c] = calloc(n * frames, sizeof(double));
-        sol->face_exitance[c] = calloc(nf * frames, sizeof(double));
-        if (!sol->fluence[c] || !sol->face_exitance[c])
-            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", sol->frames);
-    }
-    return OHM_OK;
 }
 
 /* The light arriving and entering in channel c, booked from a frame's entries. */
@@ -951,31 +851,6 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     return rc;
 }
 
-/* The results of the solve before, and its per-solve statistics, cleared;
- * what the solver keeps (topology, media, setup statistics) stays. */
-static void solution_reset(ohm_solution *sol, ohm_backend_report *rep)
-{
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(sol->fluence[c]);
-        free(sol->face_exitance[c]);
-        free(sol->fluence_se[c]);
-        free(sol->exitance_se[c]);
-        sol->fluence[c] = sol->face_exitance[c] = sol->fluence_se[c] = sol->exitance_se[c] = NULL;
-        sol->power_out_channel[c] = sol->power_in_channel[c] = 0;
-    }
-    sol->solves = sol->solves_skipped = 0;
-    sol->mc_photons = sol->mc_events = sol->mc_truncated = 0;
-    sol->mc_threads = 0;
-    sol->t_source = sol->t_solve = 0;
-    sol->residual = 0;
-    sol->mode_corrections = 0;
-    sol->mode_shift = 0;
-    sol->power_incident = sol->power_entered = sol->power_in = sol->power_absorbed = sol->power_out = 0;
-    rep->iterations = 0;
-    rep->relres = 0;
-    rep->refined = 0;
-}
-
 static void face_powers_free(face_powers *fp)
 {
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -1288,7 +1163,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
         rc = media_together(&run, nclasses) ? solve_media_together(&run, tally, nclasses, &bcfg, err)
                                             : solve_media_in_turn(&run, tally, &bcfg, err);
     for (int c = 0; c < run.channels; ++c) tally_add(sol, &tally[c], c);
-    report_backend(sol, &s->rep);
+    ohm_solution_report_backend(sol, &s->rep);
     face_powers_free(&run.fp);
     return rc;
 }
@@ -1297,7 +1172,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
-    solution_reset(sol, &s->rep);
+    ohm_solution_reset(sol, &s->rep);
     if (nlights == 0 && !params->custom_source)
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
     int channels = s->mat.channels, frames = 1;
@@ -1307,7 +1182,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
     }
     sol->channels = channels;
     sol->frames = frames;
-    int rc = alloc_solution(sol, err);
+    int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
     if (!s->backend) return solve_mc(sol, &s->mat, lights, nlights, params, s->occ, err);
     rc = solve_diffusion(s, lights, nlights, err);

@@ -5,6 +5,8 @@
  *   solve.c      the driver: create and set up (the network, the media, the
  *                backend per distinct channel material), each channel's
  *                batches, the media in turn or on several threads at once
+ *   solution.c   the solution object: allocation, reset, the backend's
+ *                report, exitance, conservation error, the medium read back
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -99,5 +101,10 @@ typedef struct diffusion_run {
     face_powers fp;
     int channels, cls[OHM_MAX_CHANNELS];
 } diffusion_run;
+
+/* solution.c */
+void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *rep);
+int ohm_solution_alloc(ohm_solution *sol, ohm_error *err);
+void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep);
 
 #endif
