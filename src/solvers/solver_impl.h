@@ -7,6 +7,8 @@
  *                batches, the media in turn or on several threads at once
  *   solution.c   the solution object: allocation, reset, the backend's
  *                report, exitance, conservation error, the medium read back
+ *   media.c      the media: per-channel medium, depth-band compaction, the
+ *                arrays and curves the solution keeps, which channels share one
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -106,5 +108,16 @@ typedef struct diffusion_run {
 void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *rep);
 int ohm_solution_alloc(ohm_solution *sol, ohm_error *err);
 void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep);
+
+/* media.c */
+void ohm_medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c);
+int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
+                      const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
+                      const ohm_log *log, ohm_error *err);
+void ohm_take_media(ohm_solution *sol, const ohm_solve_params *p);
+int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
+                      ohm_error *err);
+int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e);
+int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err);
 
 #endif
