@@ -9,6 +9,9 @@
  *                report, exitance, conservation error, the medium read back
  *   media.c      the media: per-channel medium, depth-band compaction, the
  *                arrays and curves the solution keeps, which channels share one
+ *   sources.c    right-hand sides: the lights' sources, frame entries, the
+ *                per-face powers traced once for every channel, the
+ *                unscattered beam
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -119,5 +122,21 @@ int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 
                       ohm_error *err);
 int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e);
 int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err);
+
+/* sources.c */
+int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
+                        const ohm_channel_medium *med,
+                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
+                        const ohm_occluder *occ, ohm_error *err);
+int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
+                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
+                         ohm_error *err);
+int ohm_add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
+                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
+                           ohm_error *err);
+void ohm_face_powers_free(face_powers *fp);
+int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
+                             ohm_error *err);
 
 #endif
