@@ -12,6 +12,7 @@
  *   sources.c    right-hand sides: the lights' sources, frame entries, the
  *                per-face powers traced once for every channel, the
  *                unscattered beam
+ *   transport.c  Monte Carlo: solver=mc and the hybrid's transport part
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -138,5 +139,17 @@ int ohm_add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int 
 void ohm_face_powers_free(face_powers *fp);
 int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
                              ohm_error *err);
+
+/* transport.c */
+int ohm_hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err);
+void ohm_hybrid_free(hybrid_part *h);
+int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
+                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
+                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
+void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
+                       int c);
+int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
+                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
+int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err);
 
 #endif
