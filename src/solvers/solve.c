@@ -94,59 +94,6 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     return any;
 }
 
-/* Frames whose light did not change (the same right-hand side as the frame
- * before) are not solved again: B's nb columns are compacted to the distinct
- * ones, in order; col_of[j] is the distinct column frame j takes, or SIZE_MAX
- * for "the previous batch's last frame" (prev_b, NULL in the first batch).
- * Returns how many are distinct. */
-static size_t distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
-                               size_t n)
-{
-    size_t nu = 0;
-    for (size_t j = 0; j < nb; ++j) {
-        const double *bj = B + j * n;
-        const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * n : prev_b;
-        if (bp && !memcmp(bj, bp, n * sizeof *B)) {
-            col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
-            t->solves_skipped++;
-            continue;
-        }
-        if (nu != j) memcpy(B + nu * n, bj, n * sizeof *B);
-        col_of[j] = nu++;
-    }
-    return nu;
-}
-
-/* The starting guess of the batch's first column (the backends start every
- * later one from the column before it: consecutive frames): the frame before
- * (the last batch's last), else this frame of channel warm_from (same light,
- * another colour or medium), else zero. */
-static void warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n)
-{
-    if (f0 > 0) memcpy(X, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
-    else if (warm_from >= 0) memcpy(X, sol->fluence[warm_from], n * sizeof *X);
-    else memset(X, 0, n * sizeof *X);
-}
-
-/* Undo distinct_columns: column j of X and B becomes distinct column
- * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
- * this batch's last right-hand side (NULL: there is no later batch). */
-static void expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
-                           int c, double *prev_b, size_t n)
-{
-    for (size_t j = nb; j-- > 0;) {
-        double *xj = X + j * n, *bj = B + j * n;
-        if (col_of[j] == SIZE_MAX) {
-            memcpy(xj, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
-            memcpy(bj, prev_b, n * sizeof *B);
-        } else if (col_of[j] != j) {
-            memcpy(xj, X + col_of[j] * n, n * sizeof *X);
-            memcpy(bj, B + col_of[j] * n, n * sizeof *B);
-        }
-    }
-    if (prev_b) memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
-}
-
 /* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
  * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
@@ -190,17 +137,6 @@ static int conserve_exactly(channel_tally *t, const ohm_network *net, double *X,
     if (!(*berr <= 1e-10))
         return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
     return OHM_OK;
-}
-
-/* With a per-cell index the matrix's unknowns are psi = phi / s (network.h):
- * ncols columns of X from phi to psi (to_phi = 0: a starting guess) or back. */
-static void scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi)
-{
-    if (!med->eta_v) return;
-    for (size_t v = 0; v < n; ++v) {
-        double s = ohm_network_unknown_scale(med, (int64_t)v);
-        for (size_t j = 0; j < ncols; ++j) X[j * n + v] = to_phi ? X[j * n + v] * s : X[j * n + v] / s;
-    }
 }
 
 static void slot_release(ohm_solver *s, medium_slot *m)
@@ -327,41 +263,6 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     return rc;
 }
 
-/* Frames per batch: B and X together within the memory cap (X, the
- * solution, is no array of its own: each batch is solved in place in its
- * frames' columns of sol->fluence, -8 B per cell and column); the hybrid
- * keeps its transport part's fluence and faces per column too. */
-static size_t batch_frames(const ohm_solver *s, int hybrid)
-{
-    const ohm_solution *sol = &s->sol;
-    double n = (double)sol->n, nf = (double)(sol->net.nfaces ? sol->net.nfaces : 1);
-    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
-    double per_column = hybrid ? 3.0 * n + nf : 2.0 * n;
-    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
-    if (batch < 1) batch = 1;
-    return batch > (size_t)sol->frames ? (size_t)sol->frames : batch;
-}
-
-static void batch_work_free(batch_work *w)
-{
-    free(w->B);
-    free(w->col_of);
-    free(w->prev_b);
-    ohm_hybrid_free(&w->hy);
-}
-
-static int batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err)
-{
-    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
-    memset(w, 0, sizeof *w);
-    w->B = malloc((n ? n : 1) * batch * sizeof *w->B);
-    w->col_of = malloc(batch * sizeof *w->col_of);
-    w->prev_b = batch < frames ? malloc((n ? n : 1) * sizeof *w->prev_b) : NULL;
-    if (!w->B || !w->col_of || (batch < frames && !w->prev_b))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", batch, n);
-    return hybrid ? ohm_hybrid_alloc(&w->hy, n, nf, batch, err) : OHM_OK;
-}
-
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and
  * what is added after the solve (the hybrid's part, the unscattered beam).
@@ -395,23 +296,23 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         /* (the hybrid and fluence=total add to each frame after the solve: a
          * frame is not taken whole from the batch before, whose fluence
          * already holds that part) */
-        size_t nu = distinct_columns(t, w->B, w->col_of, nb,
+        size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
                                      f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
-        warm_start(X, sol, f0, c, warm_from, n);
-        scale_unknowns(X, 1, n, &med, 0);
+        ohm_warm_start(X, sol, f0, c, warm_from, n);
+        ohm_scale_unknowns(X, 1, n, &med, 0);
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
         double berr = 0;
         if (nu > 0) rc = s->backend->solve(m->state, m->A, w->B, X, nu, &berr, rep, err);
         if (!rc && nu > 0) rc = conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
-        scale_unknowns(X, nu, n, &med, 1);
+        ohm_scale_unknowns(X, nu, n, &med, 1);
         /* a backend that set up inside solve (auto switching) books that as
          * analysis / factor / preconditioner, not as solve */
         t->t_solve += ohm_now() - t0 - (rep->t_analyze + rep->t_factor + rep->t_precond - t_setups);
         if (rc) break;
         if (berr > t->residual) t->residual = berr;
         t->solves += (int64_t)nu;
-        expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
+        ohm_expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
         book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
         if (run->hybrid) ohm_hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
@@ -428,7 +329,7 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
 {
     ohm_solver *s = run->s;
     batch_work w;
-    int rc = batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
+    int rc = ohm_batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
     int solved[OHM_MAX_CHANNELS] = {0};
     for (int k = 0; k < run->channels && !rc; ++k) {
         if (run->cls[k] != k) continue; /* not the first channel of its class */
@@ -444,7 +345,7 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
             solved[c] = 1;
         }
     }
-    batch_work_free(&w);
+    ohm_batch_work_free(&w);
     return rc;
 }
 
@@ -463,10 +364,10 @@ static void solve_medium_job(void *arg, int64_t i)
     medium_job *job = (medium_job *)arg + i;
     const diffusion_run *run = job->run;
     batch_work w;
-    job->rc = batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
+    job->rc = ohm_batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
     for (int c = job->k; c < run->channels && !job->rc; ++c)
         if (run->cls[c] == job->k) job->rc = solve_channel(run, &w, &job->tally[c], &job->rep, c, job->k, -1, &job->err);
-    batch_work_free(&w);
+    ohm_batch_work_free(&w);
 }
 
 /* Below this many unknowns a medium's solve takes too little time to pay
@@ -544,7 +445,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     run.hybrid = params->mc.handoff > 0 && !params->custom_source;
     int rc = run.hybrid ? ohm_hybrid_applies(s, err) : OHM_OK;
     if (rc) return rc;
-    run.batch = batch_frames(s, run.hybrid);
+    run.batch = ohm_batch_frames(s, run.hybrid);
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
     if (!params->custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
     int nclasses = 0;

@@ -13,6 +13,8 @@
  *                per-face powers traced once for every channel, the
  *                unscattered beam
  *   transport.c  Monte Carlo: solver=mc and the hybrid's transport part
+ *   batch.c      batches of frames: their size and work arrays, frames whose
+ *                light did not change, warm starts, the scaled unknowns
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -151,5 +153,16 @@ void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid
 int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
                     const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
 int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err);
+
+/* batch.c */
+size_t ohm_distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
+                               size_t n);
+void ohm_warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n);
+void ohm_expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
+                           int c, double *prev_b, size_t n);
+void ohm_scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi);
+size_t ohm_batch_frames(const ohm_solver *s, int hybrid);
+void ohm_batch_work_free(batch_work *w);
+int ohm_batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err);
 
 #endif
