@@ -14,7 +14,7 @@
  * for "the previous batch's last frame" (prev_b, NULL in the first batch).
  * Returns how many are distinct. */
 size_t ohm_distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
-                               size_t n)
+                            size_t n)
 {
     size_t nu = 0;
     for (size_t j = 0; j < nb; ++j) {
@@ -42,11 +42,11 @@ void ohm_warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int wa
     else memset(X, 0, n * sizeof *X);
 }
 
-/* Undo distinct_columns: column j of X and B becomes distinct column
+/* Undo ohm_distinct_columns: column j of X and B becomes distinct column
  * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
  * this batch's last right-hand side (NULL: there is no later batch). */
 void ohm_expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
-                           int c, double *prev_b, size_t n)
+                        int c, double *prev_b, size_t n)
 {
     for (size_t j = nb; j-- > 0;) {
         double *xj = X + j * n, *bj = B + j * n;

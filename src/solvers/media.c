@@ -60,8 +60,8 @@ static void *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid
  * into compact[] (the same array for the same input, so channels that share
  * a medium still share a factor).  *out is params with those arrays. */
 int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
-                      const ohm_log *log, ohm_error *err)
+                   const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
+                   const ohm_log *log, ohm_error *err)
 {
     *out = *params;
     if (!(params->band_k > 0)) return OHM_OK;
@@ -207,7 +207,7 @@ static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
  * the solution; given originals are freed now, no longer needed); given
  * arrays are kept as they are; others are copied once each. */
 int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      ohm_error *err)
+                   ohm_error *err)
 {
     if (sol->band_active) {
         for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) {

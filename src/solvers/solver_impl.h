@@ -15,6 +15,8 @@
  *   transport.c  Monte Carlo: solver=mc and the hybrid's transport part
  *   batch.c      batches of frames: their size and work arrays, frames whose
  *                light did not change, warm starts, the scaled unknowns
+ *   booking.c    power booked per solve, the constant-mode correction of
+ *                nearly singular pieces, a channel's tally
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -31,7 +33,7 @@
 
 /* What solving one channel adds to the solution's sums and counts.  Each
  * channel books into its own tally, added to the solution in channel order
- * afterwards (tally_add), so that channels solved on separate threads give
+ * afterwards (ohm_tally_add), so that channels solved on separate threads give
  * the same sums, to the bit, as one after the other. */
 typedef struct channel_tally {
     double power_incident, power_entered;         /* the sources' light        */
@@ -81,7 +83,7 @@ struct ohm_solver {
 
 /* Shadow rays and Fresnel do not depend on the channel: every frame's lights
  * traced once into per-face powers for all channels (when they fit in the
- * budget, else *cached = 0 and fill_sources traces per channel). */
+ * budget, else *cached = 0 and ohm_fill_sources traces per channel). */
 typedef struct face_powers {
     double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
     double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
@@ -118,51 +120,59 @@ void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep);
 /* media.c */
 void ohm_medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c);
 int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
-                      const ohm_log *log, ohm_error *err);
+                   const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
+                   const ohm_log *log, ohm_error *err);
 void ohm_take_media(ohm_solution *sol, const ohm_solve_params *p);
 int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      ohm_error *err);
+                   ohm_error *err);
 int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e);
 int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err);
 
 /* sources.c */
 int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
-                        const ohm_channel_medium *med,
-                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
-                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
-                        const ohm_occluder *occ, ohm_error *err);
+                     const ohm_channel_medium *med,
+                     const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                     double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
+                     const ohm_occluder *occ, ohm_error *err);
 int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
-                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
-                         ohm_error *err);
+                      size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
+                      ohm_error *err);
 int ohm_add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
-                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
-                           ohm_error *err);
+                        const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
+                        ohm_error *err);
 void ohm_face_powers_free(face_powers *fp);
 int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
-                             ohm_error *err);
+                          ohm_error *err);
 
 /* transport.c */
 int ohm_hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err);
 void ohm_hybrid_free(hybrid_part *h);
 int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
-                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
-                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
+                       const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
+                       size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
 void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
-                       int c);
+                    int c);
 int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
+                 const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
 int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err);
 
 /* batch.c */
 size_t ohm_distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
-                               size_t n);
+                            size_t n);
 void ohm_warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n);
 void ohm_expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
-                           int c, double *prev_b, size_t n);
+                        int c, double *prev_b, size_t n);
 void ohm_scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi);
 size_t ohm_batch_frames(const ohm_solver *s, int hybrid);
 void ohm_batch_work_free(batch_work *w);
 int ohm_batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err);
+
+/* booking.c */
+void ohm_tally_add(ohm_solution *sol, const channel_tally *t, int c);
+void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
+                    const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c);
+int ohm_conserve_exactly(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t nu,
+                         const double *ga, const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med,
+                         double *berr, ohm_error *err);
 
 #endif

@@ -12,10 +12,10 @@
  * the cached per-face powers (traced once for every channel) or, for pencil
  * beams and when the cache did not fit, the lights themselves. */
 int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
-                        const ohm_channel_medium *med,
-                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
-                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
-                        const ohm_occluder *occ, ohm_error *err)
+                     const ohm_channel_medium *med,
+                     const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                     double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
+                     const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -50,8 +50,8 @@ int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_
 
 /* in = the entries (light.h) of every light of frame fr (0-based). */
 int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
-                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
-                         ohm_error *err)
+                      size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
+                      ohm_error *err)
 {
     in->count = 0;
     int rc = OHM_OK;
@@ -64,8 +64,8 @@ int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_l
 /* fluence=total: frames f0..f0+nb of channel c (X) get the unscattered beam
  * of every light's entries (light.h). */
 int ohm_add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
-                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
-                           ohm_error *err)
+                        const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
+                        ohm_error *err)
 {
     ohm_light_entries in = {0};
     int rc = OHM_OK;
@@ -89,7 +89,7 @@ void ohm_face_powers_free(face_powers *fp)
 }
 
 int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
-                             ohm_error *err)
+                          ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;

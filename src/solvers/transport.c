@@ -55,10 +55,10 @@ void ohm_hybrid_free(hybrid_part *h)
 
 /* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
  * channel c: the frame's light entries traced to their handoff (mc.h); the
- * photons' own fluence, exitance and power go to h for hybrid_add. */
+ * photons' own fluence, exitance and power go to h for ohm_hybrid_add. */
 int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
-                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
-                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+                       const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
+                       size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -83,11 +83,11 @@ int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_pa
     return rc;
 }
 
-/* After book_power: the hybrid's transport part added to frames f0..f0+nb of
- * channel c (X their fluence).  book_power counted the handed-off weight as
+/* After ohm_book_power: the hybrid's transport part added to frames f0..f0+nb of
+ * channel c (X their fluence).  ohm_book_power counted the handed-off weight as
  * in; the photons' absorption and escape before it complete in = entered. */
 void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
-                       int c)
+                    int c)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
@@ -137,7 +137,7 @@ static int same_transport(const ohm_material *mat, const ohm_solve_params *p, co
 /* Monte Carlo transport instead of diffusion (mc.h): every frame's light
  * entries traced per channel; the same solution arrays, plus standard errors. */
 int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+                 const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
 {
     int rc = mc_applies(sol, mat, params, err);
     if (rc) return rc;
