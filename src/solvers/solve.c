@@ -7,7 +7,6 @@
 
 #include "solvers/backend.h"
 #include "solvers/solver_impl.h"
-#include "solvers/direct.h"
 #include "base/parallel.h"
 
 #include <stdint.h>
@@ -252,17 +251,16 @@ enum { MEDIA_TOGETHER_MIN_UNKNOWNS = 4096 };
 static const double MEDIA_TOGETHER_MAX_RHS_BYTES = 64.0 * 1048576.0;
 
 /* Whether the media may be solved on several threads at once: each must
- * hold its own setup (keep=1, what a relight reuses), the backend must be
- * the factor (a medium's solves then touch only its own factor and work
- * space; cg warm-starts from other channels, and amg's PETSc is not
- * thread-safe), no solve may call back into the caller (custom_source) or
- * start threads of its own (the hybrid's Monte Carlo), and the machine must
- * have a core to spare. */
+ * hold its own setup (keep=1, what a relight reuses), the backend must
+ * allow it (backend.h, OHM_BACKEND_CONCURRENT_SOLVES: the factor, whose
+ * solves touch only their own factor and work space), no solve may call
+ * back into the caller (custom_source) or start threads of its own (the
+ * hybrid's Monte Carlo), and the machine must have a core to spare. */
 static int media_together(const diffusion_run *run, int nclasses)
 {
     const ohm_solver *s = run->s;
     double extra_rhs = (double)(nclasses - 1) * (double)run->batch * (double)s->sol.n * sizeof(double);
-    return nclasses > 1 && s->keep && s->backend == &ohm_backend_direct && !run->hybrid &&
+    return nclasses > 1 && s->keep && (s->backend->caps & OHM_BACKEND_CONCURRENT_SOLVES) && !run->hybrid &&
            !s->params.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
            extra_rhs <= MEDIA_TOGETHER_MAX_RHS_BYTES && ohm_usable_cores() > 1;
 }
@@ -271,7 +269,8 @@ static int media_together(const diffusion_run *run, int nclasses)
  * BLAS's own threads), then the media's channels solved on the cores at
  * once, one medium per thread at a time: the paper's relight, three colours
  * for the wall time of about two (issue 15, item 3).  Only while each solve
- * is a one-core substitution over a small factor (direct.h); a larger
+ * runs on one core (the backend's concurrent_max_bytes: direct's
+ * substitution over a small factor, direct.h); a larger
  * factor's solve already runs on every core through the BLAS and is bound
  * by memory, and two at once took twice as long (Spot, 297 250 cells,
  * relight 370 -> 764 ms): those are solved in turn. */
@@ -287,7 +286,7 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
             job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
         }
     if (rc) return rc;
-    if (s->rep.bytes > OHM_SUBSTITUTE_MAX_BYTES) return solve_media_in_turn(run, tally, bcfg, err);
+    if (s->rep.bytes > s->backend->concurrent_max_bytes) return solve_media_in_turn(run, tally, bcfg, err);
     double t0 = ohm_now();
     int threads = ohm_usable_cores() < nclasses ? ohm_usable_cores() : nclasses;
     s->sol.solve_threads = ohm_parallel_for(njobs, threads, solve_medium_job, job);
