@@ -160,11 +160,11 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         size_t nb = frames - f0 < run->batch ? frames - f0 : run->batch;
         double t0 = ohm_now();
         const face_powers *fp = &run->fp;
-        rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights, params,
-                                          s->occ, err)
+        rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights,
+                                              params, s->occ, err)
                          : ohm_fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, params,
-                                        fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
-                                        s->occ, err);
+                                            fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
+                                            s->occ, err);
         t->t_source += ohm_now() - t0;
         if (rc) break;
         double *X = sol->fluence[c] + f0 * n;
@@ -172,7 +172,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
          * frame is not taken whole from the batch before, whose fluence
          * already holds that part) */
         size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
-                                     f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
+                                         f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
         ohm_warm_start(X, sol, f0, c, warm_from, n);
         ohm_scale_unknowns(X, 1, n, &med, 0);
         t0 = ohm_now();
