@@ -1,6 +1,6 @@
-/* solvers/backend.h — the seam between the light-transport driver (solve.c:
- * sources, batching, booking, outputs) and the linear solvers behind it
- * (DESIGN.md §2 "Solving", §8 "Size").
+/* solvers/backend.h — the seam between the light-transport driver (solve.c,
+ * with sources.c, batch.c and booking.c: solver_impl.h) and the linear
+ * solvers behind it (DESIGN.md §2 "Solving", §8 "Size").
  *
  * A backend solves A X = B for the network's matrix A (symmetric positive
  * definite, upper triangle stored, CHOLMOD compressed-column form, 64-bit
