@@ -628,7 +628,7 @@ static int amg_solve(void *state, cholmod_sparse *A, const double *B, double *X,
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_amg = {"amg", amg_create, amg_setup, amg_solve, amg_destroy};
+const ohm_backend_ops ohm_backend_amg = {"amg", amg_create, amg_setup, amg_solve, amg_destroy, 0, 0};
 
 #else /* no PETSc */
 int ohm_backend_amg_available(void) { return 0; }
@@ -649,7 +649,7 @@ static int amg_unavailable(void **state, const ohm_backend_config *cfg, ohm_erro
 
 static void amg_none(void *state) { (void)state; }
 
-const ohm_backend_ops ohm_backend_amg = {"amg", amg_unavailable, NULL, NULL, amg_none};
+const ohm_backend_ops ohm_backend_amg = {"amg", amg_unavailable, NULL, NULL, amg_none, 0, 0};
 
 
 int ohm_mpi_start(void)

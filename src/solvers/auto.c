@@ -199,4 +199,4 @@ static int auto_solve(void *state, cholmod_sparse *A, const double *B, double *X
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_auto = {"auto", auto_create, auto_setup, auto_solve, auto_destroy};
+const ohm_backend_ops ohm_backend_auto = {"auto", auto_create, auto_setup, auto_solve, auto_destroy, 0, 0};

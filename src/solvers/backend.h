@@ -1,6 +1,6 @@
-/* solvers/backend.h — the seam between the light-transport driver (solve.c:
- * sources, batching, booking, outputs) and the linear solvers behind it
- * (DESIGN.md §2 "Solving", §8 "Size").
+/* solvers/backend.h — the seam between the light-transport driver (solve.c,
+ * with sources.c, batch.c and booking.c: solver_impl.h) and the linear
+ * solvers behind it (DESIGN.md §2 "Solving", §8 "Size").
  *
  * A backend solves A X = B for the network's matrix A (symmetric positive
  * definite, upper triangle stored, CHOLMOD compressed-column form, 64-bit
@@ -85,7 +85,25 @@ typedef struct ohm_backend_ops {
     int (*solve)(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
                  ohm_backend_report *rep, ohm_error *err);
     void (*destroy)(void *state); /* NULL is fine */
+    unsigned caps;                /* OHM_BACKEND_* below: what the driver may do */
+    /* With OHM_BACKEND_CONCURRENT_SOLVES: only while the backend holds at
+     * most this many bytes (its report's bytes, every set-up together) */
+    double concurrent_max_bytes;
 } ohm_backend_ops;
+
+/* What a backend allows the driver (solve.c), asked instead of which backend
+ * it is.
+ *
+ * OHM_BACKEND_CONCURRENT_SOLVES: solves with different set-ups may run on
+ * separate threads at once — each touches only its own set-up's state and
+ * work space, calls nothing that is not thread-safe, and (while the backend
+ * holds at most concurrent_max_bytes) runs on one core, so two at once take
+ * the time of about one.  direct: a substitution over a small factor
+ * (OHM_SUBSTITUTE_MAX_BYTES, direct.h); a larger factor's solve already
+ * runs on every core through the BLAS.  Not cg (it warm-starts a channel
+ * from the channel solved before it), not amg (PETSc is not thread-safe),
+ * not auto (it may switch backends inside a solve). */
+enum { OHM_BACKEND_CONCURRENT_SOLVES = 1u << 0 };
 
 extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_auto;
 

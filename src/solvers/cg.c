@@ -311,4 +311,4 @@ static int cg_backend_solve(void *state, cholmod_sparse *A, const double *B, dou
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_cg = {"cg", cg_create, cg_backend_setup, cg_backend_solve, cg_destroy};
+const ohm_backend_ops ohm_backend_cg = {"cg", cg_create, cg_backend_setup, cg_backend_solve, cg_destroy, 0, 0};

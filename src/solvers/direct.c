@@ -398,4 +398,6 @@ static int direct_solve(void *state, cholmod_sparse *A, const double *B, double 
     return rc;
 }
 
-const ohm_backend_ops ohm_backend_direct = {"direct", direct_create, direct_setup, direct_solve, direct_destroy};
+/* solves over a small factor substitute on one core: media may be solved at once */
+const ohm_backend_ops ohm_backend_direct = {"direct", direct_create, direct_setup, direct_solve, direct_destroy,
+                                            OHM_BACKEND_CONCURRENT_SOLVES, OHM_SUBSTITUTE_MAX_BYTES};

@@ -1,880 +1,18 @@
+/* solvers/solve.c — the solver's driver (solve.h; the files it calls:
+ * solver_impl.h): create and set up (the depth band, the network, the media
+ * kept, the occluder, the backend), each distinct channel material's matrix
+ * and backend set up in its slot, each channel's frames solved batch by
+ * batch, the media one after another or on several threads at once. */
 #include "solvers/solve.h"
 
-#include "grid/band.h"
 #include "solvers/backend.h"
-#include "solvers/cg.h"
-#include "solvers/direct.h"
-#include "base/memory.h"
+#include "solvers/solver_impl.h"
 #include "base/parallel.h"
 
-#include <math.h>
 #include <stdint.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
-
-/* A piece whose sinks (ground + boundary conductance) are this small next to
- * its diagonal is nearly singular (e.g. sigma_a = 1e-9 with boundary=neumann):
- * x is a huge constant mode plus the variation that matters, and in double
- * precision sum(b - A x) = in - absorbed - out cannot fall below ~kappa eps,
- * however small the backward error (measured: 3.6e-9 at sink/diagonal ~ 1e-7,
- * 6e-10 at ~1e-6; tests/cli_extremes.sh).  For such pieces only, shift the constant
- * mode so the discrete conservation law holds exactly; the shift is reported
- * and the backward error is checked again afterwards. */
-static const double NEAR_SINGULAR = 1e-5;
-
-/* What solving one channel adds to the solution's sums and counts.  Each
- * channel books into its own tally, added to the solution in channel order
- * afterwards (tally_add), so that channels solved on separate threads give
- * the same sums, to the bit, as one after the other. */
-typedef struct channel_tally {
-    double power_incident, power_entered;         /* the sources' light        */
-    double power_in, power_absorbed, power_out;   /* the solved fluence's      */
-    double t_source, t_solve;                     /* seconds, this channel's   */
-    double residual;                              /* largest backward error    */
-    double mode_shift;                            /* largest constant-mode shift */
-    int64_t solves, solves_skipped, mode_corrections;
-} channel_tally;
-
-static void tally_add(ohm_solution *sol, const channel_tally *t, int c)
-{
-    sol->power_incident += t->power_incident;
-    sol->power_entered += t->power_entered;
-    sol->power_in += t->power_in;
-    sol->power_absorbed += t->power_absorbed;
-    sol->power_out += t->power_out;
-    sol->power_in_channel[c] += t->power_in;
-    sol->power_out_channel[c] += t->power_out;
-    sol->t_source += t->t_source;
-    sol->t_solve += t->t_solve;
-    if (t->residual > sol->residual) sol->residual = t->residual;
-    if (t->mode_shift > sol->mode_shift) sol->mode_shift = t->mode_shift;
-    sol->solves += t->solves;
-    sol->solves_skipped += t->solves_skipped;
-    sol->mode_corrections += t->mode_corrections;
-}
-
-/* Unknown v's ground conductance: the assembly's ga when it kept one (a
- * depth band's closure faces add to it), else the medium's, by the formula
- * the assembly used (bit for bit; 8 B per cell not held). */
-static inline double ground_of(const double *ga, const ohm_network *net, const ohm_channel_medium *med, int64_t v)
-{
-    return ga ? ga[v] : ohm_network_ground_conductance(med, net->grid->h, v);
-}
-
-static int correct_constant_modes(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t ncols,
-                                  const double *ga, const double *gb, const cholmod_sparse *A,
-                                  const ohm_channel_medium *med)
-{
-    int64_t n = net->n, np = net->npieces;
-    double *sink = calloc((size_t)np, sizeof *sink), *diag = calloc((size_t)np, sizeof *diag);
-    double *defect = malloc((size_t)np * sizeof *defect), *vsink = malloc((size_t)n * sizeof *vsink);
-    if (!sink || !diag || !defect || !vsink) {
-        free(sink), free(diag), free(defect), free(vsink);
-        return -1;
-    }
-    const int64_t *Ap = A->p;
-    const double *Ax = A->x;
-    for (int64_t v = 0; v < n; ++v) vsink[v] = ground_of(ga, net, med, v);
-    for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
-    if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
-        for (int64_t v = 0; v < n; ++v) vsink[v] *= ohm_network_unknown_scale(med, v);
-    const int64_t *piece = net->piece; /* NULL: one piece, 0 */
-    for (int64_t v = 0; v < n; ++v) {
-        int64_t p = piece ? piece[v] : 0;
-        sink[p] += vsink[v];
-        diag[p] += Ax[Ap[v + 1] - 1]; /* the diagonal closes each column */
-    }
-    int any = 0;
-    for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];
-    for (size_t col = 0; any && col < ncols; ++col) {
-        double *x = X + col * (size_t)n;
-        const double *b = B + col * (size_t)n;
-        for (int64_t p = 0; p < np; ++p) defect[p] = 0;
-        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - vsink[v] * x[v];
-        double xmax = 0;
-        for (int64_t v = 0; v < n; ++v) xmax = fmax(xmax, fabs(x[v]));
-        for (int64_t p = 0; p < np; ++p) {
-            if (!(sink[p] < NEAR_SINGULAR * diag[p]) || !(sink[p] > 0)) continue;
-            double c = defect[p] / sink[p];
-            for (int64_t v = 0; v < n; ++v)
-                if (!piece || piece[v] == p) x[v] += c;
-            t->mode_corrections++;
-            if (xmax > 0 && fabs(c) / xmax > t->mode_shift) t->mode_shift = fabs(c) / xmax;
-        }
-    }
-    free(sink), free(diag), free(defect), free(vsink);
-    return any;
-}
-
-static void medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c)
-{
-    memset(med, 0, sizeof *med);
-    int mc = mat->channels == 1 ? 0 : c;
-    med->resistance_mode = mat->kind == OHM_MATERIAL_RESISTANCE;
-    med->resistance = mat->resistance;
-    med->ground = mat->ground;
-    med->sigma_a0 = mat->sigma_a[mc];
-    med->sigma_s0 = mat->sigma_s[mc];
-    med->sigma_a = p->sigma_a[c];
-    med->sigma_s = p->sigma_s[c];
-    med->density = p->density;
-    med->sigma_a_curve = p->density_sa[c];
-    med->sigma_s_curve = p->density_ss[c];
-    med->resistance_v = p->resistance_v;
-    med->ground_v = p->ground_v;
-    med->eta = mat->eta;
-    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
-    med->g = mat->g;
-    med->g_v = med->resistance_mode ? NULL : p->g_v;
-    med->fresnel = p->fresnel;
-}
-
-/* A per-interior-cell array of `size`-byte entries (the media's ohm_coeff,
- * the index's and anisotropy's doubles) compacted to the band's kept
- * unknowns (malloc'd; NULL: out of memory). */
-static void *compact_to_band(const ohm_solution *sol, const ohm_voxel_grid *grid, const void *in, size_t size,
-                             int64_t kept)
-{
-    char *o = malloc((size_t)(kept ? kept : 1) * size);
-    if (!o) return NULL;
-    const char *from = in;
-    size_t ncells = (size_t)grid->dims[0] * (size_t)grid->dims[1] * (size_t)grid->dims[2];
-    int64_t ii = 0, u = 0;
-    for (size_t cell = 0; cell < ncells; ++cell) {
-        if (!grid->inside[cell]) continue;
-        if (sol->band_active[cell]) memcpy(o + size * (size_t)u++, from + size * (size_t)ii, size);
-        ++ii;
-    }
-    return o;
-}
-
-/* The depth band (band.h): the depth band_k / sigma_tr, with sigma_tr the
- * smallest over channels and cells (the most penetrating light decides), and
- * per-cell media compacted from interior-cell order to the band's unknowns
- * into compact[] (the same array for the same input, so channels that share
- * a medium still share a factor).  *out is params with those arrays. */
-static int setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
-                      const ohm_log *log, ohm_error *err)
-{
-    *out = *params;
-    if (!(params->band_k > 0)) return OHM_OK;
-    if (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: depth_band= needs optical coefficients (its depth is k / sigma_tr); with "
-                        "resistance= leave depth_band=0");
-    int64_t ni = (int64_t)grid->interior_cells;
-    double sigma_tr = INFINITY;
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        ohm_channel_medium med;
-        medium_for(&med, mat, params, c);
-        int per_cell = ohm_medium_varies(&med);
-        if (c >= mat->channels && !per_cell) continue;
-        int mc = mat->channels == 1 || c >= mat->channels ? 0 : c;
-        med.sigma_a0 = mat->sigma_a[mc];
-        med.sigma_s0 = mat->sigma_s[mc];
-        for (int64_t v = 0; v < (per_cell ? ni : 1); ++v) {
-            double sa = ohm_medium_sigma_a(&med, v), ss = ohm_medium_sigma_s(&med, v);
-            sigma_tr = fmin(sigma_tr, sqrt(3.0 * sa * (sa + ss)));
-        }
-    }
-    if (!(sigma_tr > 0) || !isfinite(sigma_tr)) {
-        ohm_log_warn(log, "solve: depth_band=%g ignored: with sigma_a = 0 light reaches every depth", params->band_k);
-        return OHM_OK;
-    }
-    double depth = params->band_k / sigma_tr;
-    int64_t kept = 0;
-    int rc = ohm_depth_band(&sol->band_active, &kept, grid, depth, err);
-    if (rc) return rc;
-    if (kept == ni) { /* nothing is deeper: no band */
-        free(sol->band_active);
-        sol->band_active = NULL;
-        ohm_log_info(log, "solve: depth_band=%g: every cell lies within %.3g mm of the surface; nothing to drop",
-                     params->band_k, depth);
-        return OHM_OK;
-    }
-    sol->band_depth = depth;
-    sol->band_dropped = ni - kept;
-    ohm_log_info(log, "solve: depth band %.3g mm (depth_band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
-                 depth, params->band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
-    /* compact the per-cell arrays: interior order -> band order */
-    const ohm_coeff *const *src[2] = {params->sigma_a, params->sigma_s};
-    const ohm_coeff **dst[2] = {out->sigma_a, out->sigma_s};
-    int used = 0;
-    for (int q = 0; q < 2; ++q)
-        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-            const ohm_coeff *in = src[q][c];
-            if (!in) continue;
-            const ohm_coeff *same = NULL; /* compacted already? */
-            for (int q2 = 0; q2 <= q && !same; ++q2)
-                for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
-                    if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
-            if (same) {
-                dst[q][c] = same;
-                continue;
-            }
-            ohm_coeff *o = compact_to_band(sol, grid, in, sizeof *in, kept);
-            if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's material");
-            compact[used++] = o;
-            dst[q][c] = o;
-        }
-    if (params->density) {
-        float *o = compact_to_band(sol, grid, params->density, sizeof *params->density, kept);
-        if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's density");
-        free(sol->medium_density); /* a given one: no longer needed */
-        out->density = sol->medium_density = o;
-    }
-    const size_t real = sizeof(double); /* the index and the anisotropy */
-    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, real, kept)))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
-    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, real, kept)))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
-    return OHM_OK;
-}
-
-/* Add array a to the solution's owned media once (the same array may serve
- * several channels). */
-static void own_medium(ohm_solution *sol, ohm_coeff *a)
-{
-    int q = 0;
-    while (q < 2 * OHM_MAX_CHANNELS && sol->medium_owned[q] && sol->medium_owned[q] != a) ++q;
-    if (q < 2 * OHM_MAX_CHANNELS) sol->medium_owned[q] = a; /* 2 per channel at most: always fits */
-}
-
-/* give_media: the caller's arrays are the solution's from the start, so that
- * every failure path frees them with the solution. */
-static void take_media(ohm_solution *sol, const ohm_solve_params *p)
-{
-    if (!p->give_media) return;
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        /* ours now (solve.h): the const is the params' promise not to write them */
-        if (p->sigma_a[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_a[c]);
-        if (p->sigma_s[c]) own_medium(sol, (ohm_coeff *)(uintptr_t)p->sigma_s[c]);
-    }
-    /* paper mode's resistances: held for the solver's life, not output */
-    if (p->resistance_v) own_medium(sol, (ohm_coeff *)(uintptr_t)p->resistance_v);
-    if (p->ground_v) own_medium(sol, (ohm_coeff *)(uintptr_t)p->ground_v);
-    sol->medium_density = (float *)(uintptr_t)p->density;
-}
-
-/* The curves of a scan's media (solve.h) copied into the solution, which may
- * outlive the caller's transfer function; p's curves then point at the
- * copies. */
-static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
-{
-    ohm_curve *given[2] = {p->density_sa, p->density_ss}, *kept[2] = {sol->medium_sa_curve, sol->medium_ss_curve};
-    size_t total = 0;
-    for (int q = 0; q < 2; ++q)
-        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) total += 2 * given[q][c].n;
-    if (!p->density || total == 0) return OHM_OK;
-    double *store = sol->curve_store = malloc(total * sizeof *store);
-    if (!store) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the transfer function");
-    /* knots shared by given curves stay shared (ohm_medium_coefficients
-     * searches them once for both coefficients) */
-    const double *from[2 * OHM_MAX_CHANNELS];
-    double *to[2 * OHM_MAX_CHANNELS];
-    size_t nfrom = 0;
-    for (int q = 0; q < 2; ++q)
-        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-            ohm_curve *k = &given[q][c];
-            if (!k->n) continue;
-            double *x = NULL, *y = store;
-            store += k->n;
-            for (size_t j = 0; j < nfrom && !x; ++j)
-                if (from[j] == k->x) x = to[j];
-            if (!x) {
-                x = store;
-                store += k->n;
-                memcpy(x, k->x, k->n * sizeof *x);
-                from[nfrom] = k->x;
-                to[nfrom++] = x;
-            }
-            for (size_t i = 0; i < k->n; ++i) y[i] = k->y[i * k->stride];
-            ohm_curve copy = {k->n, x, y, 1};
-            *k = kept[q][c] = copy;
-        }
-    return OHM_OK;
-}
-
-/* The medium the solution keeps for its output grids (solve.h), from p (the
- * params after the band): with a band, p's arrays are compact[] (moved into
- * the solution; given originals are freed now, no longer needed); given
- * arrays are kept as they are; others are copied once each. */
-static int keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
-                      ohm_error *err)
-{
-    if (sol->band_active) {
-        for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) {
-            free(sol->medium_owned[q]);
-            sol->medium_owned[q] = compact[q];
-            compact[q] = NULL;
-        }
-    }
-    const ohm_coeff *const *src[2] = {p->sigma_a, p->sigma_s};
-    const ohm_coeff **dst[2] = {sol->medium_sa, sol->medium_ss};
-    for (int q = 0; q < 2; ++q)
-        for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-            const ohm_coeff *in = src[q][c];
-            if (!in) continue;
-            int owned = 0;
-            for (int k = 0; k < 2 * OHM_MAX_CHANNELS && !owned; ++k) owned = sol->medium_owned[k] == in;
-            const ohm_coeff *same = owned ? in : NULL; /* copied already? */
-            for (int q2 = 0; q2 <= q && !same; ++q2)
-                for (int c2 = 0; c2 < OHM_MAX_CHANNELS && !same; ++c2)
-                    if ((q2 < q || c2 < c) && src[q2][c2] == in) same = dst[q2][c2];
-            if (!same) {
-                ohm_coeff *copy = malloc((size_t)sol->net.n * sizeof *copy);
-                if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the medium");
-                memcpy(copy, in, (size_t)sol->net.n * sizeof *copy);
-                own_medium(sol, copy);
-                same = copy;
-            }
-            dst[q][c] = same;
-        }
-    if (p->density && !sol->medium_density) {
-        float *copy = malloc((size_t)(sol->net.n ? sol->net.n : 1) * sizeof *copy);
-        if (!copy) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the density");
-        memcpy(copy, p->density, (size_t)sol->net.n * sizeof *copy);
-        p->density = sol->medium_density = copy;
-    }
-    return keep_curves(sol, p, err);
-}
-
-/* The mean of face_exitance over faces [f, end) (one cell's run). */
-static double run_mean(const double *fx, int64_t f, int64_t end)
-{
-    double sum = 0;
-    for (int64_t q = f; q < end; ++q) sum += fx[q];
-    return end > f ? sum / (double)(end - f) : 0.0;
-}
-
-void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
-{
-    const ohm_network *net = &sol->net;
-    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    const double *fx = sol->face_exitance[channel] + (size_t)frame * nf;
-    memset(out, 0, (size_t)sol->n * sizeof *out);
-    for (int64_t f = 0, end; f < net->nfaces; f = end) {
-        end = ohm_network_face_run_end(net, f);
-        out[net->face_unknown[f]] = run_mean(fx, f, end);
-    }
-}
-
-void ohm_solution_free(ohm_solution *sol)
-{
-    if (!sol) return;
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(sol->fluence[c]);
-        free(sol->face_exitance[c]);
-        free(sol->fluence_se[c]);
-        free(sol->exitance_se[c]);
-    }
-    for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(sol->medium_owned[q]);
-    free(sol->medium_density);
-    free(sol->curve_store);
-    ohm_network_free(&sol->net);
-    free(sol->band_active);
-    free(sol->band_eta);
-    free(sol->band_g);
-    memset(sol, 0, sizeof *sol);
-}
-
-int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss)
-{
-    const ohm_coeff *values = ss ? sol->medium_ss[c] : sol->medium_sa[c];
-    const ohm_curve *curve = ss ? &sol->medium_ss_curve[c] : &sol->medium_sa_curve[c];
-    if (values) {
-        for (int64_t v = 0; v < sol->n; ++v) out[v] = values[v];
-        return 1;
-    }
-    if (!sol->medium_density || !curve->n) return 0;
-    for (int64_t v = 0; v < sol->n; ++v) out[v] = ohm_curve_at(curve, sol->medium_density[v]);
-    return 1;
-}
-
-int ohm_solution_medium_varies(const ohm_solution *sol)
-{
-    for (int c = 0; c < sol->channels; ++c)
-        if (sol->medium_sa[c] || sol->medium_ss[c] || sol->medium_sa_curve[c].n || sol->medium_ss_curve[c].n)
-            return 1;
-    return 0;
-}
-
-double ohm_solution_conservation_error(const ohm_solution *sol)
-{
-    if (!(sol->power_in > 0)) return 0.0;
-    return fabs(sol->power_in - sol->power_absorbed - sol->power_out) / sol->power_in;
-}
-
-/* Whether curves a and b are one function (knot for knot). */
-static int same_curve(const ohm_curve *a, const ohm_curve *b)
-{
-    if (a->n != b->n) return 0;
-    for (size_t i = 0; i < a->n; ++i)
-        if (a->x[i] != b->x[i] || a->y[i * a->stride] != b->y[i * b->stride]) return 0;
-    return 1;
-}
-
-/* Channels c and e share a factor when their coefficients are identical. */
-static int same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e)
-{
-    if (p->sigma_a[c] != p->sigma_a[e] || p->sigma_s[c] != p->sigma_s[e]) return 0;
-    if (!same_curve(&p->density_sa[c], &p->density_sa[e]) || !same_curve(&p->density_ss[c], &p->density_ss[e]))
-        return 0;
-    if (mat->kind == OHM_MATERIAL_RESISTANCE || mat->channels == 1) return 1;
-    return mat->sigma_a[c] == mat->sigma_a[e] && mat->sigma_s[c] == mat->sigma_s[e];
-}
-
-/* Column j of B (zeroed first) gets frame f0 + j's sources for channel c:
- * the cached per-face powers (traced once for every channel) or, for pencil
- * beams and when the cache did not fit, the lights themselves. */
-static int fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
-                        const ohm_channel_medium *med,
-                        const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
-                        double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
-                        const ohm_occluder *occ, ohm_error *err)
-{
-    const ohm_network *net = &sol->net;
-    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    memset(B, 0, n * nb * sizeof *B);
-    if (params->custom_source) {
-        if (params->custom_source(params->custom_user, B, nb, net, c))
-            return ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
-        return OHM_OK;
-    }
-    for (size_t j = 0; j < nb && fp_enter; ++j) {
-        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
-        ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, params->deposit);
-        for (int64_t f = 0; f < net->nfaces; ++f) {
-            t->power_incident += ar[f];
-            t->power_entered += en[f];
-        }
-    }
-    for (size_t l = 0; l < nlights; ++l) {
-        int lf = lights[l].frame;
-        if (fp_enter && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced already */
-        for (size_t j = 0; j < nb; ++j) {
-            if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
-            ohm_source_power pw = {0, 0, 0};
-            int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
-            if (rc) return rc;
-            t->power_incident += pw.incident;
-            t->power_entered += pw.entered;
-        }
-    }
-    return OHM_OK;
-}
-
-/* Frames whose light did not change (the same right-hand side as the frame
- * before) are not solved again: B's nb columns are compacted to the distinct
- * ones, in order; col_of[j] is the distinct column frame j takes, or SIZE_MAX
- * for "the previous batch's last frame" (prev_b, NULL in the first batch).
- * Returns how many are distinct. */
-static size_t distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,
-                               size_t n)
-{
-    size_t nu = 0;
-    for (size_t j = 0; j < nb; ++j) {
-        const double *bj = B + j * n;
-        const double *bp = j > 0 && col_of[j - 1] != SIZE_MAX ? B + col_of[j - 1] * n : prev_b;
-        if (bp && !memcmp(bj, bp, n * sizeof *B)) {
-            col_of[j] = bp == prev_b ? SIZE_MAX : col_of[j - 1];
-            t->solves_skipped++;
-            continue;
-        }
-        if (nu != j) memcpy(B + nu * n, bj, n * sizeof *B);
-        col_of[j] = nu++;
-    }
-    return nu;
-}
-
-/* The starting guess of the batch's first column (the backends start every
- * later one from the column before it: consecutive frames): the frame before
- * (the last batch's last), else this frame of channel warm_from (same light,
- * another colour or medium), else zero. */
-static void warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int warm_from, size_t n)
-{
-    if (f0 > 0) memcpy(X, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
-    else if (warm_from >= 0) memcpy(X, sol->fluence[warm_from], n * sizeof *X);
-    else memset(X, 0, n * sizeof *X);
-}
-
-/* Undo distinct_columns: column j of X and B becomes distinct column
- * col_of[j] (<= j), or the previous batch's last frame; prev_b then keeps
- * this batch's last right-hand side (NULL: there is no later batch). */
-static void expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
-                           int c, double *prev_b, size_t n)
-{
-    for (size_t j = nb; j-- > 0;) {
-        double *xj = X + j * n, *bj = B + j * n;
-        if (col_of[j] == SIZE_MAX) {
-            memcpy(xj, sol->fluence[c] + (f0 - 1) * n, n * sizeof *X);
-            memcpy(bj, prev_b, n * sizeof *B);
-        } else if (col_of[j] != j) {
-            memcpy(xj, X + col_of[j] * n, n * sizeof *X);
-            memcpy(bj, B + col_of[j] * n, n * sizeof *B);
-        }
-    }
-    if (prev_b) memcpy(prev_b, B + (nb - 1) * n, n * sizeof *B);
-}
-
-/* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
- * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
- * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
- * derived from its faces' when read: ohm_solution_exitance_frame). */
-static void book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
-                       const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c)
-{
-    const ohm_network *net = &sol->net;
-    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    const double area = net->grid->h * net->grid->h;
-    double in = 0, absorbed = 0, out = 0;
-    for (size_t j = 0; j < nb; ++j) {
-        size_t fr = f0 + j;
-        const double *x = X + j * n, *b = B + j * n;
-        double *fx = sol->face_exitance[c] + fr * nf;
-        for (size_t v = 0; v < n; ++v) {
-            in += b[v];
-            absorbed += ground_of(ga, net, med, (int64_t)v) * x[v];
-        }
-        for (int64_t f = 0; f < net->nfaces; ++f) {
-            double p = gb[f] * x[net->face_unknown[f]];
-            out += p;
-            fx[f] = p / area;
-        }
-    }
-    t->power_in += in;
-    t->power_absorbed += absorbed;
-    t->power_out += out;
-}
-
-/* in = the entries (light.h) of every light of frame fr (0-based). */
-static int frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,
-                         size_t fr, int channels, double eta, const double *eta_v, const ohm_occluder *occ,
-                         ohm_error *err)
-{
-    in->count = 0;
-    int rc = OHM_OK;
-    for (size_t l = 0; l < nlights && !rc; ++l)
-        if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
-            rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, eta_v, occ, err);
-    return rc;
-}
-
-/* fluence=total: frames f0..f0+nb of channel c (X) get the unscattered beam
- * of every light's entries (light.h). */
-static int add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int c, const ohm_channel_medium *med,
-                           const ohm_material *mat, const ohm_light *lights, size_t nlights, const ohm_occluder *occ,
-                           ohm_error *err)
-{
-    ohm_light_entries in = {0};
-    int rc = OHM_OK;
-    for (size_t j = 0; j < nb && !rc; ++j) {
-        rc = frame_entries(&in, &sol->net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
-        for (size_t k = 0; k < in.count && !rc; ++k)
-            ohm_source_unscattered_face(X + j * (size_t)sol->n, &sol->net, in.entry[k].face, in.entry[k].power[c],
-                                        in.entry[k].mu, med);
-    }
-    ohm_light_entries_free(&in);
-    return rc;
-}
-
-/* The constant-mode correction of nearly singular pieces, then the backward
- * error again (it must stay within the direct solver's limit). */
-static int conserve_exactly(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t nu,
-                            const double *ga, const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med,
-                            double *berr, ohm_error *err)
-{
-    int corrected = correct_constant_modes(t, net, X, B, nu, ga, gb, A, med);
-    if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-    if (corrected == 0) return OHM_OK;
-    *berr = ohm_backward_error(A, B, X, nu, 0);
-    if (!(*berr <= 1e-10))
-        return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
-    return OHM_OK;
-}
-
-/* With a per-cell index the matrix's unknowns are psi = phi / s (network.h):
- * ncols columns of X from phi to psi (to_phi = 0: a starting guess) or back. */
-static void scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi)
-{
-    if (!med->eta_v) return;
-    for (size_t v = 0; v < n; ++v) {
-        double s = ohm_network_unknown_scale(med, (int64_t)v);
-        for (size_t j = 0; j < ncols; ++j) X[j * n + v] = to_phi ? X[j * n + v] * s : X[j * n + v] / s;
-    }
-}
-
-/* The backend's report into the solution's statistics. */
-static void report_backend(ohm_solution *sol, const ohm_backend_report *rep)
-{
-    snprintf(sol->solver, sizeof sol->solver, "%s", rep->solver);
-    snprintf(sol->solver_reason, sizeof sol->solver_reason, "%s", rep->reason);
-    snprintf(sol->ordering, sizeof sol->ordering, "%s", rep->ordering);
-    sol->factors = rep->factors;
-    sol->analyses = rep->analyses;
-    sol->t_analyze = rep->t_analyze;
-    sol->t_factor = rep->t_factor;
-    sol->t_cg_setup = rep->t_precond;
-    sol->nnz_A = rep->nnz_A;
-    sol->nnz_L = rep->nnz_L;
-    sol->flops = rep->flops;
-    sol->cg_iterations = rep->iterations;
-    sol->cg_relres = rep->relres;
-    sol->refined = rep->refined;
-    sol->solver_bytes = rep->bytes;
-    sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
-}
-
-/* The solution's fluence and face exitance, every channel and frame, zeroed. */
-static int alloc_solution(ohm_solution *sol, ohm_error *err)
-{
-    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
-    for (int c = 0; c < sol->channels; ++c) {
-        sol->fluence[c] = calloc(n * frames, sizeof(double));
-        sol->face_exitance[c] = calloc(nf * frames, sizeof(double));
-        if (!sol->fluence[c] || !sol->face_exitance[c])
-            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", sol->frames);
-    }
-    return OHM_OK;
-}
-
-/* The light arriving and entering in channel c, booked from a frame's entries. */
-static void book_entries(double *incident, double *entered, const ohm_light_entries *in, int c)
-{
-    for (size_t k = 0; k < in->count; ++k) {
-        *incident += in->entry[k].incident[c];
-        *entered += in->entry[k].power[c];
-    }
-}
-
-/* Trace a frame's entries in channel c through med (mc.h) into r, with the
- * solve's fluence choice and memory cap; the tracer's counts are booked. */
-static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_medium *med,
-                         const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_error *err)
-{
-    ohm_mc_params mp = params->mc;
-    mp.total_fluence = params->total_fluence;
-    mp.max_memory = params->max_memory;
-    int rc = ohm_mc_trace(r, &sol->net, med, in->entry, in->count, c, &mp, err);
-    if (rc) return rc;
-    sol->mc_photons += r->photons;
-    sol->mc_events += r->events;
-    sol->mc_truncated += r->truncated;
-    if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
-    return OHM_OK;
-}
-
-/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
- * channel: per column, what the photons tallied before their handoff. */
-typedef struct hybrid_part {
-    double *fluence, *face;       /* n and nf per column                   */
-    double *fluence_se, *exit_se; /* scratch for the tracer                */
-    double *power;                /* 3 per column: in, absorbed, out (W)    */
-} hybrid_part;
-
-static int hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err)
-{
-    memset(h, 0, sizeof *h);
-    h->fluence = malloc(n * batch * sizeof(double));
-    h->face = malloc(nf * batch * sizeof(double));
-    h->fluence_se = malloc(n * sizeof(double));
-    h->exit_se = malloc(n * sizeof(double));
-    h->power = malloc(3 * batch * sizeof(double));
-    if (!h->fluence || !h->face || !h->fluence_se || !h->exit_se || !h->power)
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the hybrid's transport part");
-    return OHM_OK;
-}
-
-static void hybrid_free(hybrid_part *h)
-{
-    free(h->fluence), free(h->face), free(h->fluence_se), free(h->exit_se), free(h->power);
-}
-
-/* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
- * channel c: the frame's light entries traced to their handoff (mc.h); the
- * photons' own fluence, exitance and power go to h for hybrid_add. */
-static int hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
-                          const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
-                          size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
-{
-    const ohm_network *net = &sol->net;
-    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    ohm_light_entries in = {0};
-    int rc = OHM_OK;
-    for (size_t j = 0; j < nb && !rc; ++j) {
-        rc = frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
-        if (rc) break;
-        book_entries(&t->power_incident, &t->power_entered, &in, c);
-        ohm_mc_result r = {.fluence = h->fluence + j * n,
-                           .fluence_se = h->fluence_se,
-                           .face_exitance = h->face + j * nf,
-                           .exitance_se = h->exit_se,
-                           .handoff = B + j * n};
-        rc = trace_entries(sol, &r, med, &in, c, params, err);
-        if (rc) break;
-        h->power[3 * j] = r.power_in;
-        h->power[3 * j + 1] = r.power_absorbed;
-        h->power[3 * j + 2] = r.power_out;
-    }
-    ohm_light_entries_free(&in);
-    return rc;
-}
-
-/* After book_power: the hybrid's transport part added to frames f0..f0+nb of
- * channel c (X their fluence).  book_power counted the handed-off weight as
- * in; the photons' absorption and escape before it complete in = entered. */
-static void hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
-                       int c)
-{
-    const ohm_network *net = &sol->net;
-    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    for (size_t j = 0; j < nb; ++j) {
-        for (size_t v = 0; v < n; ++v) X[j * n + v] += h->fluence[j * n + v];
-        double *fx = sol->face_exitance[c] + (f0 + j) * nf;
-        for (int64_t f = 0; f < net->nfaces; ++f) fx[f] += h->face[j * nf + (size_t)f];
-        double absorbed = h->power[3 * j + 1], out = h->power[3 * j + 2];
-        t->power_in += absorbed + out;
-        t->power_absorbed += absorbed;
-        t->power_out += out;
-    }
-}
-
-/* solver=mc refuses what only diffusion has: resistances, the boundary
- * models other than the physical one, a depth band, scenes' own sources. */
-static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
-{
-    if (mat->kind == OHM_MATERIAL_RESISTANCE || p->resistance_v)
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces light through sigma_a and sigma_s', not resistances");
-    if (p->boundary != OHM_BOUNDARY_ROBIN)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: solver=mc traces the Fresnel boundary itself: boundary=%s is a diffusion model, leave "
-                        "it out",
-                        ohm_boundary_name(p->boundary));
-    if (sol->band_active)
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces every cell: leave depth_band= out");
-    if (p->custom_source)
-        return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mc needs lights, not a scene's own source vector");
-    if (p->mc.handoff > 0)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: solver=mc traces every scattering: hybrid= hands photons to diffusion, use it with "
-                        "a diffusion solver (direct, cg, amg, auto)");
-    return OHM_OK;
-}
-
-/* Channel c of a frame may take channel e's transport when both media and
- * every entry's power are the same (grey lights on a grey material). */
-static int same_transport(const ohm_material *mat, const ohm_solve_params *p, const ohm_light_entries *in, int c, int e)
-{
-    if (!same_medium(mat, p, c, e)) return 0;
-    for (size_t k = 0; k < in->count; ++k)
-        if (in->entry[k].power[c] != in->entry[k].power[e]) return 0;
-    return 1;
-}
-
-/* Monte Carlo transport instead of diffusion (mc.h): every frame's light
- * entries traced per channel; the same solution arrays, plus standard errors. */
-static int solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
-{
-    int rc = mc_applies(sol, mat, params, err);
-    if (rc) return rc;
-    const ohm_network *net = &sol->net;
-    size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1), frames = (size_t)sol->frames;
-    for (int c = 0; c < sol->channels; ++c) {
-        sol->fluence_se[c] = calloc(n * frames, sizeof(double));
-        sol->exitance_se[c] = calloc(n * frames, sizeof(double));
-        if (!sol->fluence_se[c] || !sol->exitance_se[c])
-            return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the standard errors");
-    }
-    snprintf(sol->solver, sizeof sol->solver, "mc");
-    snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
-    ohm_light_entries in = {0};
-    for (size_t fr = 0; fr < frames && !rc; ++fr) {
-        double t0 = ohm_now();
-        rc = frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, params->eta_v, occ, err);
-        sol->t_source += ohm_now() - t0;
-        ohm_mc_result res[OHM_MAX_CHANNELS];
-        for (int c = 0; c < sol->channels && !rc; ++c) {
-            ohm_mc_result *r = &res[c];
-            *r = (ohm_mc_result){.fluence = sol->fluence[c] + fr * n,
-                                 .fluence_se = sol->fluence_se[c] + fr * n,
-                                 .face_exitance = sol->face_exitance[c] + fr * nf,
-                                 .exitance_se = sol->exitance_se[c] + fr * n};
-            book_entries(&sol->power_incident, &sol->power_entered, &in, c);
-            int e = 0;
-            while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
-            if (e < c) { /* the same photons would be traced again: take channel e's */
-                memcpy(r->fluence, res[e].fluence, n * sizeof(double));
-                memcpy(r->fluence_se, res[e].fluence_se, n * sizeof(double));
-                memcpy(r->exitance_se, res[e].exitance_se, n * sizeof(double));
-                memcpy(r->face_exitance, res[e].face_exitance, nf * sizeof(double));
-                r->power_in = res[e].power_in;
-                r->power_absorbed = res[e].power_absorbed;
-                r->power_out = res[e].power_out;
-            } else {
-                ohm_channel_medium med;
-                medium_for(&med, mat, params, c);
-                rc = trace_entries(sol, r, &med, &in, c, params, err);
-                if (rc) break;
-                sol->t_solve += r->seconds;
-                sol->solves += r->photons > 0;
-            }
-            sol->power_in += r->power_in;
-            sol->power_absorbed += r->power_absorbed;
-            sol->power_out += r->power_out;
-            sol->power_in_channel[c] += r->power_in;
-            sol->power_out_channel[c] += r->power_out;
-        }
-    }
-    ohm_light_entries_free(&in);
-    return rc;
-}
-
-/* The per-cell index and anisotropy (interior cells) within their ranges:
- * the Fresnel table covers indices in [1, 3]; g = 1 has no sigma_s. */
-static int check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err)
-{
-    size_t ni = grid->interior_cells;
-    for (size_t u = 0; u < ni && p->eta_v; ++u)
-        if (!(p->eta_v[u] >= 1.0 && p->eta_v[u] <= 3.0))
-            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has refractive index %g, expected 1 .. 3",
-                            u, p->eta_v[u]);
-    for (size_t u = 0; u < ni && p->g_v; ++u)
-        if (!(p->g_v[u] > -1.0 && p->g_v[u] < 1.0))
-            return ohm_fail(err, OHM_ERR_INVALID, "solve: interior cell %zu has anisotropy g = %g, expected -1 < g < 1",
-                            u, p->g_v[u]);
-    return OHM_OK;
-}
-
-/* One distinct channel material's matrix and its set-up backend (a factor,
- * or a preconditioner): what a change of light reuses. */
-typedef struct medium_slot {
-    void *state;            /* the backend's, or NULL                     */
-    cholmod_sparse *A;      /* the network's matrix for this medium        */
-    double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
-    int ready;              /* A holds this medium's values, set up        */
-} medium_slot;
-
-struct ohm_solver {
-    ohm_solution sol;            /* topology, media, statistics; then results */
-    ohm_solve_params params;     /* the caller's, with the band's arrays and
-                                    the solver's own copies of its strings    */
-    char solver_name[16], ordering[16];
-    char *petsc_options;
-    ohm_material mat;
-    const ohm_voxel_grid *grid;
-    const ohm_log *log;
-    int keep;                    /* keep every medium's setup between solves   */
-    ohm_occluder *occ;
-    cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
-    int cc_started;
-    const ohm_backend_ops *backend;
-    ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
-    ohm_backend_report rep;      /* summed over the solver's life             */
-    medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
-    int held;                    /* keep = 0: the one slot holding resources, or -1 */
-};
 
 static void slot_release(ohm_solver *s, medium_slot *m)
 {
@@ -901,12 +39,12 @@ void ohm_solver_free(ohm_solver *s)
 static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
-    int rc = check_cell_optics(s->grid, params, err);
+    int rc = ohm_check_cell_optics(s->grid, params, err);
     if (rc) return rc;
     double t0 = ohm_now();
     /* per-cell media compacted to the band's unknowns (when there is one) */
     ohm_coeff *compact[2 * OHM_MAX_CHANNELS] = {NULL};
-    rc = setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
+    rc = ohm_setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
     snprintf(s->solver_name, sizeof s->solver_name, "%s", params->solver ? params->solver : "direct");
     snprintf(s->ordering, sizeof s->ordering, "%s", params->ordering ? params->ordering : "metis");
     s->params.solver = s->solver_name;
@@ -918,7 +56,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         sol->n = sol->net.n;
         sol->t_network = ohm_now() - t0;
         s->layout = ohm_grid_layout_of(&sol->net);
-        rc = keep_media(sol, &s->params, compact, err);
+        rc = ohm_keep_media(sol, &s->params, compact, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
     if (rc) return rc;
@@ -946,11 +84,11 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
     if (!s) {
         ohm_solution taken; /* give_media: freed whether it succeeds or fails */
         memset(&taken, 0, sizeof taken);
-        take_media(&taken, params);
+        ohm_take_media(&taken, params);
         ohm_solution_free(&taken);
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     }
-    take_media(&s->sol, params);
+    ohm_take_media(&s->sol, params);
     s->mat = *mat;
     s->grid = grid;
     s->log = log;
@@ -989,7 +127,7 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
     if (rc) return rc;
     ohm_channel_medium med;
-    medium_for(&med, &s->mat, &s->params, k);
+    ohm_medium_for(&med, &s->mat, &s->params, k);
     double t0 = ohm_now();
     /* a refilled A keeps its pattern: the backend's setup sees the new values */
     rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
@@ -999,162 +137,6 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     m->ready = !rc;
     return rc;
 }
-
-/* The results of the solve before, and its per-solve statistics, cleared;
- * what the solver keeps (topology, media, setup statistics) stays. */
-static void solution_reset(ohm_solution *sol, ohm_backend_report *rep)
-{
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(sol->fluence[c]);
-        free(sol->face_exitance[c]);
-        free(sol->fluence_se[c]);
-        free(sol->exitance_se[c]);
-        sol->fluence[c] = sol->face_exitance[c] = sol->fluence_se[c] = sol->exitance_se[c] = NULL;
-        sol->power_out_channel[c] = sol->power_in_channel[c] = 0;
-    }
-    sol->solves = sol->solves_skipped = 0;
-    sol->mc_photons = sol->mc_events = sol->mc_truncated = 0;
-    sol->mc_threads = 0;
-    sol->t_source = sol->t_solve = 0;
-    sol->residual = 0;
-    sol->mode_corrections = 0;
-    sol->mode_shift = 0;
-    sol->power_incident = sol->power_entered = sol->power_in = sol->power_absorbed = sol->power_out = 0;
-    rep->iterations = 0;
-    rep->relres = 0;
-    rep->refined = 0;
-}
-
-/* Shadow rays and Fresnel do not depend on the channel: every frame's lights
- * traced once into per-face powers for all channels (when they fit in the
- * budget, else *cached = 0 and fill_sources traces per channel). */
-typedef struct face_powers {
-    double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
-    double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
-    int cached;
-} face_powers;
-
-static void face_powers_free(face_powers *fp)
-{
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(fp->enter[c]);
-        free(fp->enter_mu[c]);
-        free(fp->arrive[c]);
-    }
-}
-
-static int face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
-                             ohm_error *err)
-{
-    ohm_solution *sol = &s->sol;
-    const ohm_solve_params *params = &s->params;
-    const ohm_material *mat = &s->mat;
-    size_t nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1);
-    int channels = sol->channels, frames = sol->frames;
-    memset(fp, 0, sizeof *fp);
-    const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
-    if (3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels > face_cache_cap) return OHM_OK;
-    fp->cached = 1;
-    for (int c = 0; c < channels && fp->cached; ++c) {
-        fp->enter[c] = calloc(nf * (size_t)frames, sizeof(double));
-        fp->arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
-        fp->enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
-        if (!fp->enter[c] || !fp->arrive[c] || !fp->enter_mu[c]) fp->cached = 0; /* trace per channel */
-    }
-    double t0 = ohm_now();
-    double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
-    const double *eta_v = mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v;
-    int rc = OHM_OK;
-    for (int fr = 0; fr < frames && fp->cached && !rc; ++fr) {
-        double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
-        for (int c = 0; c < channels; ++c) {
-            en[c] = fp->enter[c] + (size_t)fr * nf;
-            emu[c] = fp->enter_mu[c] + (size_t)fr * nf;
-            ar[c] = fp->arrive[c] + (size_t)fr * nf;
-        }
-        for (size_t l = 0; l < nlights && !rc; ++l) {
-            if (lights[l].type == OHM_LIGHT_PENCIL) continue;
-            if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
-            rc = ohm_light_face_powers(en, emu, ar, channels, &sol->net, &lights[l], eta, eta_v, s->occ, err);
-        }
-    }
-    sol->t_source += ohm_now() - t0;
-    return rc;
-}
-
-/* The hybrid (solve.h, mc.handoff) applies to optical media under the
- * Fresnel boundary, every cell kept. */
-static int hybrid_applies(const ohm_solver *s, ohm_error *err)
-{
-    const ohm_solve_params *params = &s->params;
-    if (s->mat.kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
-    if (params->boundary != OHM_BOUNDARY_ROBIN)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
-                        ohm_boundary_name(params->boundary));
-    if (s->sol.band_active)
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
-    return OHM_OK;
-}
-
-/* Frames per batch: B and X together within the memory cap (X, the
- * solution, is no array of its own: each batch is solved in place in its
- * frames' columns of sol->fluence, -8 B per cell and column); the hybrid
- * keeps its transport part's fluence and faces per column too. */
-static size_t batch_frames(const ohm_solver *s, int hybrid)
-{
-    const ohm_solution *sol = &s->sol;
-    double n = (double)sol->n, nf = (double)(sol->net.nfaces ? sol->net.nfaces : 1);
-    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
-    double per_column = hybrid ? 3.0 * n + nf : 2.0 * n;
-    size_t batch = (size_t)(cap / (sizeof(double) * per_column));
-    if (batch < 1) batch = 1;
-    return batch > (size_t)sol->frames ? (size_t)sol->frames : batch;
-}
-
-/* What solving a medium's channels allocates: the right-hand sides of a
- * batch, and the bookkeeping of frames whose light did not change. */
-typedef struct batch_work {
-    double *B;        /* n x batch                                         */
-    size_t *col_of;   /* batch column -> distinct column                   */
-    double *prev_b;   /* the last frame's right-hand side, for a later batch */
-    hybrid_part hy;
-} batch_work;
-
-static void batch_work_free(batch_work *w)
-{
-    free(w->B);
-    free(w->col_of);
-    free(w->prev_b);
-    hybrid_free(&w->hy);
-}
-
-static int batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err)
-{
-    size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
-    memset(w, 0, sizeof *w);
-    w->B = malloc((n ? n : 1) * batch * sizeof *w->B);
-    w->col_of = malloc(batch * sizeof *w->col_of);
-    w->prev_b = batch < frames ? malloc((n ? n : 1) * sizeof *w->prev_b) : NULL;
-    if (!w->B || !w->col_of || (batch < frames && !w->prev_b))
-        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for %zu right-hand sides of %zu unknowns", batch, n);
-    return hybrid ? hybrid_alloc(&w->hy, n, nf, batch, err) : OHM_OK;
-}
-
-/* What every channel's diffusion solve reads: the lights, the batching, the
- * face powers traced for all channels, and the channels' media classes
- * (cls[c]: the first channel with c's medium, whose slot it solves with). */
-typedef struct diffusion_run {
-    ohm_solver *s;
-    const ohm_light *lights;
-    size_t nlights;
-    int hybrid;
-    size_t batch;
-    face_powers fp;
-    int channels, cls[OHM_MAX_CHANNELS];
-} diffusion_run;
 
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and
@@ -1170,7 +152,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
     size_t nlights = run->nlights;
     medium_slot *m = &s->slot[k];
     ohm_channel_medium med;
-    medium_for(&med, &s->mat, params, k);
+    ohm_medium_for(&med, &s->mat, params, k);
     size_t n = (size_t)sol->n, frames = (size_t)sol->frames;
     int rc = OHM_OK;
     for (size_t f0 = 0; f0 < frames && !rc; f0 += run->batch) {
@@ -1178,38 +160,38 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         size_t nb = frames - f0 < run->batch ? frames - f0 : run->batch;
         double t0 = ohm_now();
         const face_powers *fp = &run->fp;
-        rc = run->hybrid ? hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights, params,
-                                          s->occ, err)
-                         : fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, params,
-                                        fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
-                                        s->occ, err);
+        rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights,
+                                              params, s->occ, err)
+                         : ohm_fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, params,
+                                            fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
+                                            s->occ, err);
         t->t_source += ohm_now() - t0;
         if (rc) break;
         double *X = sol->fluence[c] + f0 * n;
         /* (the hybrid and fluence=total add to each frame after the solve: a
          * frame is not taken whole from the batch before, whose fluence
          * already holds that part) */
-        size_t nu = distinct_columns(t, w->B, w->col_of, nb,
-                                     f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
-        warm_start(X, sol, f0, c, warm_from, n);
-        scale_unknowns(X, 1, n, &med, 0);
+        size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
+                                         f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
+        ohm_warm_start(X, sol, f0, c, warm_from, n);
+        ohm_scale_unknowns(X, 1, n, &med, 0);
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
         double berr = 0;
         if (nu > 0) rc = s->backend->solve(m->state, m->A, w->B, X, nu, &berr, rep, err);
-        if (!rc && nu > 0) rc = conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
-        scale_unknowns(X, nu, n, &med, 1);
+        if (!rc && nu > 0) rc = ohm_conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
+        ohm_scale_unknowns(X, nu, n, &med, 1);
         /* a backend that set up inside solve (auto switching) books that as
          * analysis / factor / preconditioner, not as solve */
         t->t_solve += ohm_now() - t0 - (rep->t_analyze + rep->t_factor + rep->t_precond - t_setups);
         if (rc) break;
         if (berr > t->residual) t->residual = berr;
         t->solves += (int64_t)nu;
-        expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
-        book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
-        if (run->hybrid) hybrid_add(sol, t, X, &w->hy, f0, nb, c);
+        ohm_expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
+        ohm_book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
+        if (run->hybrid) ohm_hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
-            rc = add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
+            rc = ohm_add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
     }
     return rc;
 }
@@ -1222,7 +204,7 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
 {
     ohm_solver *s = run->s;
     batch_work w;
-    int rc = batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
+    int rc = ohm_batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
     int solved[OHM_MAX_CHANNELS] = {0};
     for (int k = 0; k < run->channels && !rc; ++k) {
         if (run->cls[k] != k) continue; /* not the first channel of its class */
@@ -1238,7 +220,7 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
             solved[c] = 1;
         }
     }
-    batch_work_free(&w);
+    ohm_batch_work_free(&w);
     return rc;
 }
 
@@ -1257,10 +239,10 @@ static void solve_medium_job(void *arg, int64_t i)
     medium_job *job = (medium_job *)arg + i;
     const diffusion_run *run = job->run;
     batch_work w;
-    job->rc = batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
+    job->rc = ohm_batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
     for (int c = job->k; c < run->channels && !job->rc; ++c)
         if (run->cls[c] == job->k) job->rc = solve_channel(run, &w, &job->tally[c], &job->rep, c, job->k, -1, &job->err);
-    batch_work_free(&w);
+    ohm_batch_work_free(&w);
 }
 
 /* Below this many unknowns a medium's solve takes too little time to pay
@@ -1269,17 +251,16 @@ enum { MEDIA_TOGETHER_MIN_UNKNOWNS = 4096 };
 static const double MEDIA_TOGETHER_MAX_RHS_BYTES = 64.0 * 1048576.0;
 
 /* Whether the media may be solved on several threads at once: each must
- * hold its own setup (keep=1, what a relight reuses), the backend must be
- * the factor (a medium's solves then touch only its own factor and work
- * space; cg warm-starts from other channels, and amg's PETSc is not
- * thread-safe), no solve may call back into the caller (custom_source) or
- * start threads of its own (the hybrid's Monte Carlo), and the machine must
- * have a core to spare. */
+ * hold its own setup (keep=1, what a relight reuses), the backend must
+ * allow it (backend.h, OHM_BACKEND_CONCURRENT_SOLVES: the factor, whose
+ * solves touch only their own factor and work space), no solve may call
+ * back into the caller (custom_source) or start threads of its own (the
+ * hybrid's Monte Carlo), and the machine must have a core to spare. */
 static int media_together(const diffusion_run *run, int nclasses)
 {
     const ohm_solver *s = run->s;
     double extra_rhs = (double)(nclasses - 1) * (double)run->batch * (double)s->sol.n * sizeof(double);
-    return nclasses > 1 && s->keep && s->backend == &ohm_backend_direct && !run->hybrid &&
+    return nclasses > 1 && s->keep && (s->backend->caps & OHM_BACKEND_CONCURRENT_SOLVES) && !run->hybrid &&
            !s->params.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
            extra_rhs <= MEDIA_TOGETHER_MAX_RHS_BYTES && ohm_usable_cores() > 1;
 }
@@ -1288,7 +269,8 @@ static int media_together(const diffusion_run *run, int nclasses)
  * BLAS's own threads), then the media's channels solved on the cores at
  * once, one medium per thread at a time: the paper's relight, three colours
  * for the wall time of about two (issue 15, item 3).  Only while each solve
- * is a one-core substitution over a small factor (direct.h); a larger
+ * runs on one core (the backend's concurrent_max_bytes: direct's
+ * substitution over a small factor, direct.h); a larger
  * factor's solve already runs on every core through the BLAS and is bound
  * by memory, and two at once took twice as long (Spot, 297 250 cells,
  * relight 370 -> 764 ms): those are solved in turn. */
@@ -1304,7 +286,7 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
             job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
         }
     if (rc) return rc;
-    if (s->rep.bytes > OHM_SUBSTITUTE_MAX_BYTES) return solve_media_in_turn(run, tally, bcfg, err);
+    if (s->rep.bytes > s->backend->concurrent_max_bytes) return solve_media_in_turn(run, tally, bcfg, err);
     double t0 = ohm_now();
     int threads = ohm_usable_cores() < nclasses ? ohm_usable_cores() : nclasses;
     s->sol.solve_threads = ohm_parallel_for(njobs, threads, solve_medium_job, job);
@@ -1336,16 +318,16 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     const ohm_solve_params *params = &s->params;
     diffusion_run run = {.s = s, .lights = lights, .nlights = nlights, .channels = sol->channels};
     run.hybrid = params->mc.handoff > 0 && !params->custom_source;
-    int rc = run.hybrid ? hybrid_applies(s, err) : OHM_OK;
+    int rc = run.hybrid ? ohm_hybrid_applies(s, err) : OHM_OK;
     if (rc) return rc;
-    run.batch = batch_frames(s, run.hybrid);
+    run.batch = ohm_batch_frames(s, run.hybrid);
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
-    if (!params->custom_source && !run.hybrid) rc = face_powers_trace(&run.fp, s, lights, nlights, cap, err);
+    if (!params->custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
     int nclasses = 0;
     for (int c = 0; c < run.channels; ++c) {
         run.cls[c] = c;
         for (int e = 0; e < c; ++e)
-            if (same_medium(&s->mat, params, c, e)) {
+            if (ohm_same_medium(&s->mat, params, c, e)) {
                 run.cls[c] = run.cls[e];
                 break;
             }
@@ -1367,9 +349,9 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     if (!rc)
         rc = media_together(&run, nclasses) ? solve_media_together(&run, tally, nclasses, &bcfg, err)
                                             : solve_media_in_turn(&run, tally, &bcfg, err);
-    for (int c = 0; c < run.channels; ++c) tally_add(sol, &tally[c], c);
-    report_backend(sol, &s->rep);
-    face_powers_free(&run.fp);
+    for (int c = 0; c < run.channels; ++c) ohm_tally_add(sol, &tally[c], c);
+    ohm_solution_report_backend(sol, &s->rep);
+    ohm_face_powers_free(&run.fp);
     return rc;
 }
 
@@ -1377,7 +359,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
-    solution_reset(sol, &s->rep);
+    ohm_solution_reset(sol, &s->rep);
     if (nlights == 0 && !params->custom_source)
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
     int channels = s->mat.channels, frames = 1;
@@ -1387,9 +369,9 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
     }
     sol->channels = channels;
     sol->frames = frames;
-    int rc = alloc_solution(sol, err);
+    int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
-    if (!s->backend) return solve_mc(sol, &s->mat, lights, nlights, params, s->occ, err);
+    if (!s->backend) return ohm_solve_mc(sol, &s->mat, lights, nlights, params, s->occ, err);
     rc = solve_diffusion(s, lights, nlights, err);
     if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
         for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
