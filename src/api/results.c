@@ -79,7 +79,22 @@ static const ohm_solution *need_solution(const ohm_scene *scene, const char *fn)
     return sol;
 }
 
-static void result_of(ohm_result_info *out, const ohm_solution *sol);
+static void result_of(ohm_result_info *out, const ohm_solution *sol)
+{
+    out->channels = sol->channels;
+    out->frames = sol->frames;
+    out->unknowns = sol->n;
+    out->factorizations = sol->factors;
+    out->solves = sol->solves;
+    out->residual = sol->residual;
+    out->power_incident = sol->power_incident;
+    out->power_entered = sol->power_entered;
+    out->power_in = sol->power_in;
+    out->power_absorbed = sol->power_absorbed;
+    out->power_out = sol->power_out;
+    out->seconds_setup = sol->t_analyze + sol->t_factor + sol->t_cg_setup;
+    out->seconds_solve = sol->t_source + sol->t_solve;
+}
 
 int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene)
 {
@@ -97,22 +112,6 @@ int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene)
     return OHM_OK;
 }
 
-static void result_of(ohm_result_info *out, const ohm_solution *sol)
-{
-    out->channels = sol->channels;
-    out->frames = sol->frames;
-    out->unknowns = sol->n;
-    out->factorizations = sol->factors;
-    out->solves = sol->solves;
-    out->residual = sol->residual;
-    out->power_incident = sol->power_incident;
-    out->power_entered = sol->power_entered;
-    out->power_in = sol->power_in;
-    out->power_absorbed = sol->power_absorbed;
-    out->power_out = sol->power_out;
-    out->seconds_setup = sol->t_analyze + sol->t_factor + sol->t_cg_setup;
-    out->seconds_solve = sol->t_source + sol->t_solve;
-}
 
 /* A per-cell array of one channel and frame: arguments checked. */
 static const ohm_solution *cell_array(const ohm_scene *scene, const char *fn, const double *out, size_t count,
