@@ -628,7 +628,11 @@ static int amg_solve(void *state, cholmod_sparse *A, const double *B, double *X,
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_amg = {"amg", amg_create, amg_setup, amg_solve, amg_destroy, 0, 0};
+const ohm_backend_ops ohm_backend_amg = {.name = "amg",
+                                         .create = amg_create,
+                                         .setup = amg_setup,
+                                         .solve = amg_solve,
+                                         .destroy = amg_destroy};
 
 #else /* no PETSc */
 int ohm_backend_amg_available(void) { return 0; }
@@ -649,7 +653,7 @@ static int amg_unavailable(void **state, const ohm_backend_config *cfg, ohm_erro
 
 static void amg_none(void *state) { (void)state; }
 
-const ohm_backend_ops ohm_backend_amg = {"amg", amg_unavailable, NULL, NULL, amg_none, 0, 0};
+const ohm_backend_ops ohm_backend_amg = {.name = "amg", .create = amg_unavailable, .destroy = amg_none};
 
 
 int ohm_mpi_start(void)

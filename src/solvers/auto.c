@@ -199,4 +199,10 @@ static int auto_solve(void *state, cholmod_sparse *A, const double *B, double *X
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_auto = {"auto", auto_create, auto_setup, auto_solve, auto_destroy, 0, 0};
+/* warm starts: passed on to cg when it chose cg */
+const ohm_backend_ops ohm_backend_auto = {.name = "auto",
+                                          .create = auto_create,
+                                          .setup = auto_setup,
+                                          .solve = auto_solve,
+                                          .destroy = auto_destroy,
+                                          .caps = OHM_BACKEND_WARM_START};

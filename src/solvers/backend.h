@@ -17,6 +17,9 @@
  *           distributed over MPI ranks when ohm runs under mpirun.
  *   auto    chooses among the others by memory, then predicted time
  *           (solvers/auto.c).
+ *   mc      Monte Carlo transport instead of diffusion (solvers/transport.c):
+ *           no matrix and nothing set up; its `transport` solves the lights
+ *           in place of setup and solve (OHM_BACKEND_TRANSPORT).
  *
  * Every backend's solve leaves in *berr the largest scaled backward error
  * ||b - A x||_inf / (||A||_inf ||x||_inf + ||b||_inf) of its columns,
@@ -71,6 +74,9 @@ typedef struct ohm_backend_config {
     const ohm_log *log;
 } ohm_backend_config;
 
+struct ohm_solver; /* solver_impl.h: what a transport backend reads */
+struct ohm_light;
+
 typedef struct ohm_backend_ops {
     const char *name;
     int (*create)(void **state, const ohm_backend_config *cfg, ohm_error *err);
@@ -85,6 +91,9 @@ typedef struct ohm_backend_ops {
     int (*solve)(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
                  ohm_backend_report *rep, ohm_error *err);
     void (*destroy)(void *state); /* NULL is fine */
+    /* OHM_BACKEND_TRANSPORT only (create, setup, solve NULL): every frame
+     * and channel of these lights solved into the solver's solution. */
+    int (*transport)(struct ohm_solver *s, const struct ohm_light *lights, size_t nlights, ohm_error *err);
     unsigned caps;                /* OHM_BACKEND_* below: what the driver may do */
     /* With OHM_BACKEND_CONCURRENT_SOLVES: only while the backend holds at
      * most this many bytes (its report's bytes, every set-up together) */
@@ -105,9 +114,19 @@ typedef struct ohm_backend_ops {
  * not auto (it may switch backends inside a solve). */
 enum { OHM_BACKEND_CONCURRENT_SOLVES = 1u << 0 };
 
-extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_auto;
+/* OHM_BACKEND_WARM_START: solve uses X's first column as its starting
+ * guess, so the driver fills it (ohm_warm_start: this frame of a channel
+ * solved before, another colour of the same light); without it X is only
+ * written.  cg and amg; auto passes it on to what it chose. */
+enum { OHM_BACKEND_WARM_START = 1u << 1 };
 
-/* The backend of that name (direct | cg | amg | auto), or NULL. */
+/* OHM_BACKEND_TRANSPORT: not a linear solver: `transport` replaces create,
+ * setup and solve (mc). */
+enum { OHM_BACKEND_TRANSPORT = 1u << 2 };
+
+extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_auto, ohm_backend_mc;
+
+/* The backend of that name (direct | cg | amg | auto | mc), or NULL. */
 const ohm_backend_ops *ohm_backend_find(const char *name);
 
 /* Whether this build has the amg backend (PETSc); when not, its create fails

@@ -76,7 +76,7 @@ void ohm_scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_med
  * solution, is no array of its own: each batch is solved in place in its
  * frames' columns of sol->fluence, -8 B per cell and column); the hybrid
  * keeps its transport part's fluence and faces per column too. */
-size_t ohm_batch_frames(const ohm_solver *s, int hybrid)
+size_t ohm_batch_frames(const ohm_solver *s, size_t frames, int hybrid)
 {
     const ohm_solution *sol = &s->sol;
     double n = (double)sol->n, nf = (double)(sol->net.nfaces ? sol->net.nfaces : 1);
@@ -84,7 +84,7 @@ size_t ohm_batch_frames(const ohm_solver *s, int hybrid)
     double per_column = hybrid ? 3.0 * n + nf : 2.0 * n;
     size_t batch = (size_t)(cap / (sizeof(double) * per_column));
     if (batch < 1) batch = 1;
-    return batch > (size_t)sol->frames ? (size_t)sol->frames : batch;
+    return batch > frames ? frames : batch;
 }
 
 void ohm_batch_work_free(batch_work *w)

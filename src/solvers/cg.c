@@ -311,4 +311,9 @@ static int cg_backend_solve(void *state, cholmod_sparse *A, const double *B, dou
     return OHM_OK;
 }
 
-const ohm_backend_ops ohm_backend_cg = {"cg", cg_create, cg_backend_setup, cg_backend_solve, cg_destroy, 0, 0};
+const ohm_backend_ops ohm_backend_cg = {.name = "cg",
+                                        .create = cg_create,
+                                        .setup = cg_backend_setup,
+                                        .solve = cg_backend_solve,
+                                        .destroy = cg_destroy,
+                                        .caps = OHM_BACKEND_WARM_START};

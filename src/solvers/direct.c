@@ -399,5 +399,10 @@ static int direct_solve(void *state, cholmod_sparse *A, const double *B, double 
 }
 
 /* solves over a small factor substitute on one core: media may be solved at once */
-const ohm_backend_ops ohm_backend_direct = {"direct", direct_create, direct_setup, direct_solve, direct_destroy,
-                                            OHM_BACKEND_CONCURRENT_SOLVES, OHM_SUBSTITUTE_MAX_BYTES};
+const ohm_backend_ops ohm_backend_direct = {.name = "direct",
+                                            .create = direct_create,
+                                            .setup = direct_setup,
+                                            .solve = direct_solve,
+                                            .destroy = direct_destroy,
+                                            .caps = OHM_BACKEND_CONCURRENT_SOLVES,
+                                            .concurrent_max_bytes = OHM_SUBSTITUTE_MAX_BYTES};

@@ -69,7 +69,6 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc.print = 0;
     s->cc.error_handler = NULL;
     const char *name = s->params.solver;
-    if (strcmp(name, "mc") == 0) return OHM_OK;
     s->backend = ohm_backend_find(name);
     if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
@@ -138,6 +137,82 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     return rc;
 }
 
+/* The shape of a solve for these lights: its channels (the material's, or
+ * more when a light has more) and frames (columns). */
+static void lights_shape(const ohm_solver *s, const ohm_light *lights, size_t nlights, int *channels, int *frames)
+{
+    *channels = s->mat.channels;
+    *frames = 1;
+    for (size_t l = 0; l < nlights && lights; ++l) {
+        if (lights[l].channels > *channels) *channels = lights[l].channels;
+        if (lights[l].frame > *frames) *frames = lights[l].frame;
+    }
+}
+
+/* A diffusion solve's plan, before any light is traced: the channels grouped
+ * by medium (each distinct medium set up once: one factorization, or one
+ * preconditioner, for all its channels), the batch of frames, and the
+ * backend's configuration. */
+static int diffusion_plan(diffusion_run *run, ohm_backend_config *bcfg, ohm_solver *s, int channels, int frames,
+                          ohm_error *err)
+{
+    const ohm_solve_params *params = &s->params;
+    memset(run, 0, sizeof *run);
+    run->s = s;
+    run->channels = channels;
+    run->hybrid = params->mc.handoff > 0 && !params->custom_source;
+    int rc = run->hybrid ? ohm_hybrid_applies(s, err) : OHM_OK;
+    if (rc) return rc;
+    run->batch = ohm_batch_frames(s, (size_t)frames, run->hybrid);
+    for (int c = 0; c < channels; ++c) {
+        run->cls[c] = c;
+        for (int e = 0; e < c; ++e)
+            if (ohm_same_medium(&s->mat, params, c, e)) {
+                run->cls[c] = run->cls[e];
+                break;
+            }
+        run->nclasses += run->cls[c] == c;
+    }
+    *bcfg = (ohm_backend_config){.ordering = params->ordering,
+                                 .layout = &s->layout,
+                                 .tol = params->cg_tol,
+                                 .petsc_options = params->petsc_options,
+                                 .max_memory = params->max_memory,
+                                 .batch = run->batch,
+                                 .columns = (double)frames * (double)channels,
+                                 .materials = run->nclasses,
+                                 .from_scan = params->from_scan,
+                                 .log = s->log};
+    return OHM_OK;
+}
+
+/* The set-up phase (solve.h, ohm_solver_setup): each medium's matrix
+ * assembled and its backend set up, in medium order — every one (all), or
+ * only the first (keep = 0 holds one at a time: the others are set up in
+ * turn as the solve reaches them). */
+static int setup_media(const diffusion_run *run, const ohm_backend_config *bcfg, int all, ohm_error *err)
+{
+    for (int k = 0; k < run->channels; ++k)
+        if (run->cls[k] == k) {
+            int rc = slot_acquire(run->s, k, bcfg, err);
+            if (rc || !all) return rc;
+        }
+    return OHM_OK;
+}
+
+int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+{
+    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return OHM_OK; /* nothing to set up */
+    int channels, frames;
+    lights_shape(s, lights, nlights, &channels, &frames);
+    diffusion_run run;
+    ohm_backend_config bcfg;
+    int rc = diffusion_plan(&run, &bcfg, s, channels, frames, err);
+    if (!rc) rc = setup_media(&run, &bcfg, s->keep, err);
+    ohm_solution_report_backend(&s->sol, &s->rep);
+    return rc;
+}
+
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and
  * what is added after the solve (the hybrid's part, the unscattered beam).
@@ -173,7 +248,8 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
          * already holds that part) */
         size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
                                          f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
-        ohm_warm_start(X, sol, f0, c, warm_from, n);
+        /* (without warm starts X is only written, and starts zeroed) */
+        if (s->backend->caps & OHM_BACKEND_WARM_START) ohm_warm_start(X, sol, f0, c, warm_from, n);
         ohm_scale_unknowns(X, 1, n, &med, 0);
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
@@ -256,9 +332,10 @@ static const double MEDIA_TOGETHER_MAX_RHS_BYTES = 64.0 * 1048576.0;
  * solves touch only their own factor and work space), no solve may call
  * back into the caller (custom_source) or start threads of its own (the
  * hybrid's Monte Carlo), and the machine must have a core to spare. */
-static int media_together(const diffusion_run *run, int nclasses)
+static int media_together(const diffusion_run *run)
 {
     const ohm_solver *s = run->s;
+    int nclasses = run->nclasses;
     double extra_rhs = (double)(nclasses - 1) * (double)run->batch * (double)s->sol.n * sizeof(double);
     return nclasses > 1 && s->keep && (s->backend->caps & OHM_BACKEND_CONCURRENT_SOLVES) && !run->hybrid &&
            !s->params.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
@@ -274,18 +351,17 @@ static int media_together(const diffusion_run *run, int nclasses)
  * factor's solve already runs on every core through the BLAS and is bound
  * by memory, and two at once took twice as long (Spot, 297 250 cells,
  * relight 370 -> 764 ms): those are solved in turn. */
-static int solve_media_together(const diffusion_run *run, channel_tally *tally, int nclasses,
-                                const ohm_backend_config *bcfg, ohm_error *err)
+static int solve_media_together(const diffusion_run *run, channel_tally *tally, const ohm_backend_config *bcfg,
+                                ohm_error *err)
 {
     ohm_solver *s = run->s;
+    int nclasses = run->nclasses;
     medium_job job[OHM_MAX_CHANNELS];
-    int njobs = 0, rc = OHM_OK;
-    for (int k = 0; k < run->channels && !rc; ++k)
-        if (run->cls[k] == k) {
-            rc = slot_acquire(s, k, bcfg, err);
-            job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
-        }
+    int njobs = 0;
+    int rc = setup_media(run, bcfg, 1, err);
     if (rc) return rc;
+    for (int k = 0; k < run->channels; ++k)
+        if (run->cls[k] == k) job[njobs++] = (medium_job){.run = run, .tally = tally, .k = k};
     if (s->rep.bytes > s->backend->concurrent_max_bytes) return solve_media_in_turn(run, tally, bcfg, err);
     double t0 = ohm_now();
     int threads = ohm_usable_cores() < nclasses ? ohm_usable_cores() : nclasses;
@@ -308,47 +384,27 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
     return rc;
 }
 
-/* The diffusion solve of every channel: channels grouped by medium, each
- * distinct medium assembled and set up once (one factorization, or one
- * preconditioner) and all its channels' frames solved with it.  Grey
- * materials with grey lights have one channel. */
+/* The diffusion solve of every channel, medium by medium (diffusion_plan),
+ * every frame of its channels solved with its set-up.  Grey materials with
+ * grey lights have one channel. */
 static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
-    diffusion_run run = {.s = s, .lights = lights, .nlights = nlights, .channels = sol->channels};
-    run.hybrid = params->mc.handoff > 0 && !params->custom_source;
-    int rc = run.hybrid ? ohm_hybrid_applies(s, err) : OHM_OK;
+    diffusion_run run;
+    ohm_backend_config bcfg;
+    int rc = diffusion_plan(&run, &bcfg, s, sol->channels, sol->frames, err);
     if (rc) return rc;
-    run.batch = ohm_batch_frames(s, run.hybrid);
+    run.lights = lights;
+    run.nlights = nlights;
     double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
     if (!params->custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
-    int nclasses = 0;
-    for (int c = 0; c < run.channels; ++c) {
-        run.cls[c] = c;
-        for (int e = 0; e < c; ++e)
-            if (ohm_same_medium(&s->mat, params, c, e)) {
-                run.cls[c] = run.cls[e];
-                break;
-            }
-        nclasses += run.cls[c] == c;
-    }
-    ohm_backend_config bcfg = {.ordering = params->ordering,
-                               .layout = &s->layout,
-                               .tol = params->cg_tol,
-                               .petsc_options = params->petsc_options,
-                               .max_memory = params->max_memory,
-                               .batch = run.batch,
-                               .columns = (double)sol->frames * (double)run.channels,
-                               .materials = nclasses,
-                               .from_scan = params->from_scan,
-                               .log = s->log};
     channel_tally tally[OHM_MAX_CHANNELS];
     memset(tally, 0, sizeof tally);
     sol->solve_threads = 1;
     if (!rc)
-        rc = media_together(&run, nclasses) ? solve_media_together(&run, tally, nclasses, &bcfg, err)
-                                            : solve_media_in_turn(&run, tally, &bcfg, err);
+        rc = media_together(&run) ? solve_media_together(&run, tally, &bcfg, err)
+                                  : solve_media_in_turn(&run, tally, &bcfg, err);
     for (int c = 0; c < run.channels; ++c) ohm_tally_add(sol, &tally[c], c);
     ohm_solution_report_backend(sol, &s->rep);
     ohm_face_powers_free(&run.fp);
@@ -358,20 +414,13 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
-    const ohm_solve_params *params = &s->params;
     ohm_solution_reset(sol, &s->rep);
-    if (nlights == 0 && !params->custom_source)
+    if (nlights == 0 && !s->params.custom_source)
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
-    int channels = s->mat.channels, frames = 1;
-    for (size_t l = 0; l < nlights && lights; ++l) {
-        if (lights[l].channels > channels) channels = lights[l].channels;
-        if (lights[l].frame > frames) frames = lights[l].frame;
-    }
-    sol->channels = channels;
-    sol->frames = frames;
+    lights_shape(s, lights, nlights, &sol->channels, &sol->frames);
     int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
-    if (!s->backend) return ohm_solve_mc(sol, &s->mat, lights, nlights, params, s->occ, err);
+    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return s->backend->transport(s, lights, nlights, err);
     rc = solve_diffusion(s, lights, nlights, err);
     if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
         for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);

@@ -175,6 +175,17 @@ typedef struct ohm_solver ohm_solver;
 int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_material *mat,
                       const ohm_solve_params *params, int keep, const ohm_log *log, ohm_error *err);
 
+/* The set-up phase, timed by itself (the solution's t_assemble, t_analyze,
+ * t_factor, t_cg_setup): every distinct channel material of these lights
+ * (their channels and frames size the batches auto's choice weighs)
+ * assembled and its backend set up — factorized, or its preconditioner
+ * built — so that ohm_solver_solve only solves.  keep = 0 holds one set-up
+ * at a time: the first medium's is made here, the others as the solve
+ * reaches them.  Optional: a solve sets up what is not set up yet.
+ * solver=mc sets up nothing.  Cancellable (OHM_ERR_CANCELLED, the log's
+ * cancel flag); after a failure the solver is still usable. */
+int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err);
+
 /* Solve for these lights (frames as for ohm_solve), replacing the solver's
  * solution: its results and per-solve statistics are this call's, its setup
  * statistics (factors, analyses, setup times) summed over the solver's life.

@@ -12,7 +12,8 @@
  *   sources.c    right-hand sides: the lights' sources, frame entries, the
  *                per-face powers traced once for every channel, the
  *                unscattered beam
- *   transport.c  Monte Carlo: solver=mc and the hybrid's transport part
+ *   transport.c  Monte Carlo: the mc backend (backend.h's transport) and
+ *                the hybrid's transport part
  *   batch.c      batches of frames: their size and work arrays, frames whose
  *                light did not change, warm starts, the scaled unknowns
  *   booking.c    power booked per solve, the constant-mode correction of
@@ -110,6 +111,7 @@ typedef struct diffusion_run {
     size_t batch;
     face_powers fp;
     int channels, cls[OHM_MAX_CHANNELS];
+    int nclasses;                /* distinct media: set-ups                  */
 } diffusion_run;
 
 /* solution.c */
@@ -152,8 +154,6 @@ int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_pa
                        size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
 void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
                     int c);
-int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                 const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
 int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err);
 
 /* batch.c */
@@ -163,7 +163,7 @@ void ohm_warm_start(double *X, const ohm_solution *sol, size_t f0, int c, int wa
 void ohm_expand_columns(double *X, double *B, const ohm_solution *sol, const size_t *col_of, size_t nb, size_t f0,
                         int c, double *prev_b, size_t n);
 void ohm_scale_unknowns(double *X, size_t ncols, size_t n, const ohm_channel_medium *med, int to_phi);
-size_t ohm_batch_frames(const ohm_solver *s, int hybrid);
+size_t ohm_batch_frames(const ohm_solver *s, size_t frames, int hybrid);
 void ohm_batch_work_free(batch_work *w);
 int ohm_batch_work_alloc(batch_work *w, const ohm_solution *sol, size_t batch, int hybrid, ohm_error *err);
 

@@ -136,8 +136,8 @@ static int same_transport(const ohm_material *mat, const ohm_solve_params *p, co
 
 /* Monte Carlo transport instead of diffusion (mc.h): every frame's light
  * entries traced per channel; the same solution arrays, plus standard errors. */
-int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
-                 const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
+static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light *lights, size_t nlights,
+                    const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err)
 {
     int rc = mc_applies(sol, mat, params, err);
     if (rc) return rc;
@@ -192,6 +192,15 @@ int ohm_solve_mc(ohm_solution *sol, const ohm_material *mat, const ohm_light *li
     ohm_light_entries_free(&in);
     return rc;
 }
+
+/* solver=mc as a backend of the table (backend.h): the solver's lights
+ * traced into its solution. */
+static int mc_transport(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+{
+    return mc_solve(&s->sol, &s->mat, lights, nlights, &s->params, s->occ, err);
+}
+
+const ohm_backend_ops ohm_backend_mc = {.name = "mc", .transport = mc_transport, .caps = OHM_BACKEND_TRANSPORT};
 
 /* The hybrid (solve.h, mc.handoff) applies to optical media under the
  * Fresnel boundary, every cell kept. */

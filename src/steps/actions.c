@@ -1016,6 +1016,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     free(density);
     if (!rc && p.mc.handoff > 0 && strcmp(ohm_opt_str(inv, "hybrid"), "auto") == 0)
         rc = ohm_solver_settle_auto_hybrid(s->solver, s->lights, s->nlights, err);
+    if (!rc) rc = ohm_solver_setup(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = check_solution_finite(ohm_solver_solution(s->solver), inv->where, err);
     if (rc) {
