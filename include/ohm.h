@@ -264,6 +264,31 @@ typedef struct ohm_result_info {
  * ohm_scene_grid's. */
 OHM_API int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene);
 
+/* The layout of a sized struct as this library knows it, for bindings that
+ * cannot include this header (the Python package builds its ctypes
+ * structs from it instead of copying them, so it sees the fields a later
+ * 1.x adds).  One entry per member, in order. */
+typedef enum ohm_member_type {
+    OHM_MEMBER_SIZE = 1, /* size_t  */
+    OHM_MEMBER_INT = 2,  /* int     */
+    OHM_MEMBER_INT32 = 3,
+    OHM_MEMBER_INT64 = 4,
+    OHM_MEMBER_DOUBLE = 5
+} ohm_member_type;
+
+typedef struct ohm_struct_member {
+    const char *name; /* the member's name in this header             */
+    size_t offset;    /* offsetof(struct, member)                      */
+    int type;         /* ohm_member_type of one element                 */
+    int count;        /* elements: 3 for an array of three, else 1     */
+} ohm_struct_member;
+
+/* The members of struct `name` ("ohm_grid_info" or "ohm_result_info") as
+ * this library lays them out: *count entries, and the struct's size in
+ * *size (either pointer may be NULL).  NULL, with the last error set, for
+ * a name that is no sized struct of this library's. */
+OHM_API const ohm_struct_member *ohm_struct_members(const char *name, size_t *count, size_t *size);
+
 /* The fluence rate per grid cell (W/mm^2) for one channel and frame
  * (0-based); count = the grid's cells; 0 outside the object or below a
  * depth band. */

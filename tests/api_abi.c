@@ -3,7 +3,9 @@
  * its layout here, as an old header had it) gets its fields and not a byte
  * past its size; a caller from a later 1.x, whose struct has grown, gets
  * every field this library knows and its new field untouched; a caller
- * that forgot the size is refused with a message naming *_INIT. */
+ * that forgot the size is refused with a message naming *_INIT; and the
+ * layouts the library describes to bindings (ohm_struct_members) are the
+ * header's, member by member. */
 #include <stdint.h>
 #include <string.h>
 
@@ -26,8 +28,45 @@ typedef struct grid_info_later {
     double added_later;
 } grid_info_later;
 
+/* The library's description of a struct against this header's offsetof. */
+static void members_match(const char *name, size_t size, const char *const *names, const size_t *offsets,
+                          size_t count)
+{
+    size_t n = 0, described = 0;
+    const ohm_struct_member *m = ohm_struct_members(name, &n, &described);
+    CHECK_MSG(m && n == count && described == size, "%s: %zu members of %zu bytes described, the header has %zu of %zu",
+              name, m ? n : 0, described, count, size);
+    for (size_t k = 0; m && k < n && k < count; ++k)
+        CHECK_MSG(strcmp(m[k].name, names[k]) == 0 && m[k].offset == offsets[k], "%s member %zu: %s at %zu, header: %s at %zu",
+                  name, k, m[k].name, m[k].offset, names[k], offsets[k]);
+}
+
+static void described_layouts(void)
+{
+#define AT(type, member) offsetof(type, member)
+    const char *grid[] = {"size", "dims", "origin", "voxel", "cells", "interior_cells"};
+    const size_t grid_at[] = {AT(ohm_grid_info, size),  AT(ohm_grid_info, dims),  AT(ohm_grid_info, origin),
+                              AT(ohm_grid_info, voxel), AT(ohm_grid_info, cells), AT(ohm_grid_info, interior_cells)};
+    members_match("ohm_grid_info", sizeof(ohm_grid_info), grid, grid_at, 6);
+    const char *result[] = {"size",           "channels",       "frames",   "unknowns",       "factorizations",
+                            "solves",         "residual",       "power_incident", "power_entered", "power_in",
+                            "power_absorbed", "power_out",      "seconds_setup", "seconds_solve"};
+    const size_t result_at[] = {
+        AT(ohm_result_info, size),           AT(ohm_result_info, channels),      AT(ohm_result_info, frames),
+        AT(ohm_result_info, unknowns),       AT(ohm_result_info, factorizations), AT(ohm_result_info, solves),
+        AT(ohm_result_info, residual),       AT(ohm_result_info, power_incident), AT(ohm_result_info, power_entered),
+        AT(ohm_result_info, power_in),       AT(ohm_result_info, power_absorbed), AT(ohm_result_info, power_out),
+        AT(ohm_result_info, seconds_setup),  AT(ohm_result_info, seconds_solve)};
+    members_match("ohm_result_info", sizeof(ohm_result_info), result, result_at, 14);
+#undef AT
+    size_t n = 7;
+    CHECK(ohm_struct_members("ohm_scene", &n, NULL) == NULL && n == 7);
+    CHECK_MSG(strstr(ohm_error_last(), "'ohm_scene' is no sized struct") != NULL, "%s", ohm_error_last());
+}
+
 int main(void)
 {
+    described_layouts();
     ohm_context *ctx = NULL;
     ohm_scene *scene = NULL;
     const char *read[] = {"file=samples/cow.obj", "size=20", NULL}, *vox[] = {"dim=10", NULL};

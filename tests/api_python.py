@@ -16,6 +16,7 @@
     after it happens, and the scene then solves; closing a context with a
     live scene closes the scene first.
 Run from the repository root with PYTHONPATH naming the built package."""
+import ctypes
 import os
 import signal
 import subprocess
@@ -179,6 +180,10 @@ def main():
         with scene_with(ctx, lights[0]) as s:
             r = s.result()
             check(r["factorizations"] == 3 and r["channels"] == 3, "first solve: %s" % r)
+            # the result's members are the ones the library describes (ohm_struct_members), all of them
+            described = [name for name, _ in ohm._ResultInfo._fields_ if name != "size" and not name.startswith("_pad")]
+            check(list(r) == described and len(described) == 13 and ctypes.sizeof(ohm._ResultInfo) >= 104,
+                  "result members %s" % list(r))
             check(r["power_in"] > 0 and conserves(r), "conservation %s" % r)
             check(any("solved" in text for _, text in messages), "the log callback heard no solve")
             phi, ex, inside = s.fluence(), s.exitance(2), s.inside()

@@ -40,6 +40,9 @@ import numpy as np
 from . import _library
 
 _lib = _library.load()
+# the sized structs as this library lays them out (ohm.h's ABI rule)
+_GridInfo = _library.struct_type(_lib, "ohm_grid_info")
+_ResultInfo = _library.struct_type(_lib, "ohm_result_info")
 
 __all__ = ["Context", "Scene", "Error", "UsageError", "Cancelled", "version"]
 
@@ -299,7 +302,7 @@ class Scene(_Handle):
     @property
     def grid(self):
         """dims (nx, ny, nz), origin (mm, centre of cell 0), voxel (mm), cells, interior_cells."""
-        g = _library.sized(_library.GridInfo)
+        g = _library.sized(_GridInfo)
         _check(_lib.ohm_scene_grid(ctypes.byref(g), self._live()))
         return {"dims": tuple(g.dims), "origin": tuple(g.origin), "voxel": g.voxel, "cells": g.cells,
                 "interior_cells": g.interior_cells}
@@ -317,9 +320,9 @@ class Scene(_Handle):
     def result(self):
         """The latest solve's figures: channels, frames, unknowns, factorizations, solves, residual,
         power_incident/entered/in/absorbed/out (W), seconds_setup, seconds_solve."""
-        r = _library.sized(_library.ResultInfo)
+        r = _library.sized(_ResultInfo)
         _check(_lib.ohm_scene_result(ctypes.byref(r), self._live()))
-        return {name: getattr(r, name) for name, _ in r._fields_ if name != "size"}
+        return _library.fields_of(r)
 
     def _cells(self, fn, channel, frame):
         out = np.zeros(self._shape(), dtype=np.float64)

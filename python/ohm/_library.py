@@ -46,21 +46,45 @@ LOG_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_int, ctypes.c_ch
 PROGRESS_CALLBACK = ctypes.CFUNCTYPE(None, ctypes.c_void_p, ctypes.c_char_p, ctypes.c_double)
 
 
-# The sized structs of ohm.h (its ABI rule): the library fills the fields
-# of the size given, so this copy of 1.0's layout stays right against any
-# 1.x library, which may know more fields; sized() sets the size.
-class GridInfo(ctypes.Structure):
-    _fields_ = [("size", ctypes.c_size_t), ("dims", ctypes.c_int32 * 3), ("origin", ctypes.c_double * 3), ("voxel", ctypes.c_double),
-                ("cells", ctypes.c_int64), ("interior_cells", ctypes.c_int64)]
+class _Field(ctypes.Structure):
+    """ohm.h's ohm_struct_member: one member of a sized struct as the library lays it out."""
+    _fields_ = [("name", ctypes.c_char_p), ("offset", ctypes.c_size_t), ("type", ctypes.c_int), ("count", ctypes.c_int)]
 
 
-class ResultInfo(ctypes.Structure):
-    _fields_ = [("size", ctypes.c_size_t), ("channels", ctypes.c_int), ("frames", ctypes.c_int), ("unknowns", ctypes.c_int64),
-                ("factorizations", ctypes.c_int), ("solves", ctypes.c_int64), ("residual", ctypes.c_double),
-                ("power_incident", ctypes.c_double), ("power_entered", ctypes.c_double),
-                ("power_in", ctypes.c_double), ("power_absorbed", ctypes.c_double),
-                ("power_out", ctypes.c_double), ("seconds_setup", ctypes.c_double),
-                ("seconds_solve", ctypes.c_double)]
+# ohm.h's ohm_member_type -> the ctypes type of one element
+_FIELD_TYPES = {1: ctypes.c_size_t, 2: ctypes.c_int, 3: ctypes.c_int32, 4: ctypes.c_int64, 5: ctypes.c_double}
+
+
+def struct_type(lib, name):
+    """The ctypes struct of ohm.h's sized struct `name`, laid out as the
+    loaded library says (ohm_struct_members): its fields, a later 1.x's new
+    ones too, at the library's offsets, padded to the library's size.  Make
+    one with sized()."""
+    count, size = ctypes.c_size_t(), ctypes.c_size_t()
+    fields = lib.ohm_struct_members(name.encode(), ctypes.byref(count), ctypes.byref(size))
+    if not fields:
+        raise RuntimeError(lib.ohm_error_last().decode(errors="replace"))
+    members, pos = [], 0
+    for k in range(count.value):
+        f = fields[k]
+        if f.type not in _FIELD_TYPES:
+            raise RuntimeError(f"ohm_struct_members({name}): field {f.name!r} has a type this package does not know ({f.type})")
+        kind = _FIELD_TYPES[f.type] * f.count if f.count > 1 else _FIELD_TYPES[f.type]
+        if f.offset > pos:
+            members.append((f"_pad{k}", ctypes.c_char * (f.offset - pos)))
+        members.append((f.name.decode(), kind))
+        pos = f.offset + ctypes.sizeof(kind)
+    if size.value > pos:
+        members.append(("_pad_end", ctypes.c_char * (size.value - pos)))
+    made = type(name, (ctypes.Structure,), {"_fields_": members})
+    if ctypes.sizeof(made) != size.value:
+        raise RuntimeError(f"ohm_struct_members({name}): {ctypes.sizeof(made)} bytes laid out, the library says {size.value}")
+    return made
+
+
+def fields_of(struct):
+    """A sized struct's members by name, without its size and padding."""
+    return {name: getattr(struct, name) for name, _ in struct._fields_ if name != "size" and not name.startswith("_pad")}
 
 
 def sized(kind):
@@ -92,9 +116,10 @@ def _declare(lib):
         "ohm_scene_clear_lights": (i, [vp]),
         "ohm_scene_solve": (i, [vp, c_char_pp]),
         "ohm_scene_relight": (i, [vp]),
-        "ohm_scene_grid": (i, [ctypes.POINTER(GridInfo), vp]),
+        "ohm_struct_members": (ctypes.POINTER(_Field), [ctypes.c_char_p, ctypes.POINTER(sz), ctypes.POINTER(sz)]),
+        "ohm_scene_grid": (i, [vp, vp]),
         "ohm_scene_inside": (i, [ctypes.POINTER(ctypes.c_uint8), sz, vp]),
-        "ohm_scene_result": (i, [ctypes.POINTER(ResultInfo), vp]),
+        "ohm_scene_result": (i, [vp, vp]),
         "ohm_scene_fluence": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_exitance": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_vertex_exitance": (i, [c_float_p, sz, vp, i]),

@@ -53,6 +53,55 @@ int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene)
     return OHM_OK;
 }
 
+#define MEMBER(type, member, kind, n) {#member, offsetof(type, member), kind, n}
+
+static const ohm_struct_member grid_info_members[] = {
+    MEMBER(ohm_grid_info, size, OHM_MEMBER_SIZE, 1),         MEMBER(ohm_grid_info, dims, OHM_MEMBER_INT32, 3),
+    MEMBER(ohm_grid_info, origin, OHM_MEMBER_DOUBLE, 3),     MEMBER(ohm_grid_info, voxel, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_grid_info, cells, OHM_MEMBER_INT64, 1),       MEMBER(ohm_grid_info, interior_cells, OHM_MEMBER_INT64, 1),
+};
+
+static const ohm_struct_member result_info_members[] = {
+    MEMBER(ohm_result_info, size, OHM_MEMBER_SIZE, 1),
+    MEMBER(ohm_result_info, channels, OHM_MEMBER_INT, 1),
+    MEMBER(ohm_result_info, frames, OHM_MEMBER_INT, 1),
+    MEMBER(ohm_result_info, unknowns, OHM_MEMBER_INT64, 1),
+    MEMBER(ohm_result_info, factorizations, OHM_MEMBER_INT, 1),
+    MEMBER(ohm_result_info, solves, OHM_MEMBER_INT64, 1),
+    MEMBER(ohm_result_info, residual, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, power_incident, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, power_entered, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, power_in, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, power_absorbed, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, power_out, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, seconds_setup, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_result_info, seconds_solve, OHM_MEMBER_DOUBLE, 1),
+};
+
+#undef MEMBER
+
+const ohm_struct_member *ohm_struct_members(const char *name, size_t *count, size_t *size)
+{
+    static const struct {
+        const char *name;
+        const ohm_struct_member *fields;
+        size_t count, size;
+    } known[] = {
+        {"ohm_grid_info", grid_info_members, sizeof grid_info_members / sizeof grid_info_members[0], sizeof(ohm_grid_info)},
+        {"ohm_result_info", result_info_members, sizeof result_info_members / sizeof result_info_members[0],
+         sizeof(ohm_result_info)},
+    };
+    for (size_t k = 0; name && k < sizeof known / sizeof known[0]; ++k)
+        if (strcmp(known[k].name, name) == 0) {
+            if (count) *count = known[k].count;
+            if (size) *size = known[k].size;
+            return known[k].fields;
+        }
+    ohm_api_fail(OHM_ERR_USAGE, "ohm_struct_members: '%s' is no sized struct of ohm.h (ohm_grid_info, ohm_result_info)",
+                 name ? name : "(null)");
+    return NULL;
+}
+
 int ohm_scene_inside(uint8_t *inside, size_t count, const ohm_scene *scene)
 {
     int rc = need_grid(scene, "ohm_scene_inside");
