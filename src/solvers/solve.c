@@ -59,6 +59,9 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         rc = ohm_keep_media(sol, &s->params, compact, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
+    /* (the stages below take seconds only at 10^7 cells and more: a
+     * cancellation is taken between them) */
+    if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
     if (rc) return rc;
     t0 = ohm_now();
     rc = ohm_occluder_create(&s->occ, s->params.shadows, s->grid, s->params.mesh, s->params.orientation, err);
@@ -132,6 +135,7 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
               : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.boundary, &s->cc, err);
     s->sol.t_assemble += ohm_now() - t0;
+    if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
     if (!rc) rc = s->backend->setup(m->state, m->A, &s->rep, err);
     m->ready = !rc;
     return rc;
