@@ -373,122 +373,238 @@ int ohm_network_assemble(cholmod_sparse **Aout, double *ga, double *gb, const oh
     return OHM_OK;
 }
 
-int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const ohm_network *net,
-                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+/* What assembling one channel holds while it walks the unknowns: the
+ * coefficients, the interfaces' table (per-cell index), a scan's D per
+ * unknown, and each piece's sinks for the singularity check.  The CSC
+ * matrix and the stencil are two writers of the same rows (assembly_row). */
+typedef struct assembly {
+    const ohm_network *net;
+    const ohm_channel_medium *med;
+    ohm_boundary boundary;
+    double h;
+    int per_cell_eta;
+    ohm_fresnel_table *tab;
+    double *dcache;
+    double *sink; /* ground + boundary per piece */
+    coeffs co;
+    walk w;
+} assembly;
+
+/* Row v of the network's matrix (DESIGN.md §2): the neighbour across each
+ * face (walk_across's codes) and the link's conductance, the ground
+ * conductance (the depth band's closure faces added), the boundary
+ * conductance of each of its nfaces boundary faces, and the scale of the
+ * unknown (network.h; 1 without eta_v).  The diagonal is
+ * sum ge + (ga + nfaces gb) sv, summed in that order by the CSC writer. */
+typedef struct assembly_row {
+    int64_t nb[6];
+    double ge[6];
+    double ga, gb, sv;
+    int nfaces;
+} assembly_row;
+
+static void assembly_free(assembly *as)
 {
+    free(as->sink);
+    free(as->tab);
+    free(as->dcache);
+}
+
+static int assembly_begin(assembly *as, const ohm_network *net, const ohm_channel_medium *med, ohm_boundary boundary,
+                          ohm_error *err)
+{
+    memset(as, 0, sizeof *as);
     if (med->resistance_mode && boundary == OHM_BOUNDARY_ROBIN)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "boundary=robin needs optical coefficients (sigma_a, sigma_s, eta); with resistance= "
                         "use boundary=neumann (the paper's) or dirichlet");
-    const ohm_voxel_grid *g = net->grid;
-    const double h = g->h;
+    int64_t n = net->n;
+    as->net = net;
+    as->med = med;
+    as->boundary = boundary;
+    as->h = net->grid->h;
+    as->per_cell_eta = med->eta_v && !med->resistance_mode;
+    as->tab = as->per_cell_eta ? malloc(sizeof *as->tab) : NULL;
+    as->sink = calloc((size_t)(net->npieces ? net->npieces : 1), sizeof *as->sink);
+    if (!as->sink || (as->per_cell_eta && !as->tab)) {
+        assembly_free(as);
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
+    }
+    if (as->tab) ohm_fresnel_table_init(as->tab);
+    coeffs_init(&as->co, med, as->h, boundary, as->tab);
+    /* A scan's D from its density, once per unknown rather than once per
+     * face (the curves' search is most of a cell's cost, bench_serial): 8 B
+     * per cell held while assembling; without the memory, on demand. */
+    if (!as->co.uniform && !med->resistance_mode && med->density &&
+        (as->dcache = malloc((size_t)(n ? n : 1) * 8))) {
+        for (int64_t v = 0; v < n; ++v) as->dcache[v] = med_D(med, v);
+        as->co.D = as->dcache;
+    }
+    walk_begin(&as->w, net);
+    return OHM_OK;
+}
+
+/* Row v (visited in increasing order), its sinks booked to its piece. */
+static void assembly_next(assembly *as, int64_t v, assembly_row *r)
+{
+    const coeffs *co = &as->co;
+    const ohm_channel_medium *med = as->med;
+    const double h = as->h;
+    walk_to(&as->w, v);
+    int nclosure_v = 0;
+    r->nfaces = 0;
+    double dv = co->uniform ? 0.0 : cell_D(co, med, v);
+    r->sv = as->per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
+    for (int d = 0; d < 6; ++d) {
+        int64_t w = r->nb[d] = walk_across(&as->w, d);
+        r->ge[d] = 0.0;
+        if (w >= 0 && co->uniform) r->ge[d] = co->g_edge;
+        else if (w >= 0) {
+            double dw = cell_D(co, med, w);
+            r->ge[d] = as->per_cell_eta ? edge_conductance_eta(co, med, h, v, w, dv, dw)
+                                        : edge_conductance(med, h, v, w, dv, dw);
+        } else if (w == -1) ++r->nfaces;
+        else if (w == -3) ++nclosure_v;
+    }
+    /* the sums in face order, as the per-face formulation adds them */
+    double gav = co->uniform ? co->g_ground : ground_conductance(med, h, v);
+    double gcl = !nclosure_v ? 0.0 : co->uniform ? co->g_closure : closure_conductance(med, h, v, dv);
+    for (int d = 0; d < 6; ++d)
+        if (r->nb[d] == -3) gav += gcl;
+    r->ga = gav;
+    r->gb = !r->nfaces ? 0.0
+            : co->uniform ? co->g_bound
+                          : boundary_conductance(med, h, v, dv, as->boundary, cell_A(co, med, v));
+    double sinkv = gav;
+    for (int q = 0; q < r->nfaces; ++q) sinkv += r->gb;
+    as->sink[as->net->piece ? as->net->piece[v] : 0] += sinkv;
+}
+
+/* A piece with no ground and no leaking face has a constant null vector:
+ * light injected there can neither be absorbed nor leave. */
+static int assembly_end(assembly *as, ohm_error *err)
+{
+    const ohm_network *net = as->net;
+    for (int64_t p = 0; p < net->npieces; ++p) {
+        if (as->sink[p] > 0) continue;
+        int64_t v = 0;
+        while (net->piece && net->piece[v] != p) ++v;
+        int32_t ijk[3];
+        ohm_voxel_coords(net->grid, net->cell[v], ijk);
+        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
+        int resistance = as->med->resistance_mode;
+        const char *bname = ohm_boundary_name(as->boundary);
+        assembly_free(as);
+        if (resistance)
+            return ohm_fail(err, OHM_ERR_NUMERIC,
+                            "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
+                            "boundary=%s lets nothing out",
+                            i, j, k, bname);
+        return ohm_fail(err, OHM_ERR_NUMERIC,
+                        "singular matrix: sigma_a = 0 with boundary=%s in the piece containing cell (%d,%d,%d): light "
+                        "can neither leave nor be absorbed (use boundary=robin, or give sigma_a > 0)",
+                        bname, i, j, k);
+    }
+    assembly_free(as);
+    return OHM_OK;
+}
+
+/* ga and gb of row r (either may be NULL); *f: the row's first boundary face,
+ * advanced past its faces (they come in unknown order, as built). */
+static inline void assembly_sinks(const assembly_row *r, int64_t v, double *ga, double *gb, int64_t *f)
+{
+    if (ga) ga[v] = r->ga;
+    for (int q = 0; q < r->nfaces; ++q, ++*f)
+        if (gb) gb[*f] = r->gb;
+}
+
+int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const ohm_network *net,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
     int64_t n = net->n;
     if ((int64_t)M->nrow != n || (int64_t)M->ncol != n || (int64_t)M->nzmax < net->nnz || M->stype != 1 ||
         M->xtype != CHOLMOD_REAL || M->itype != CHOLMOD_LONG || !M->packed)
         return ohm_fail(err, OHM_ERR_INTERNAL, "network: the matrix to refill is not this network's shape");
-    const int per_cell_eta = med->eta_v && !med->resistance_mode;
-    ohm_fresnel_table *tab = per_cell_eta ? malloc(sizeof *tab) : NULL;
-    double *sink = calloc((size_t)net->npieces, sizeof *sink); /* ground + boundary per piece */
-    if (!sink || (per_cell_eta && !tab)) {
-        free(sink);
-        free(tab);
-        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
-    }
-    if (tab) ohm_fresnel_table_init(tab);
-    coeffs co;
-    coeffs_init(&co, med, h, boundary, tab);
-    /* A scan's D from its density, once per unknown rather than once per
-     * face (the curves' search is most of a cell's cost, bench_serial): 8 B
-     * per cell held while assembling; without the memory, on demand. */
-    double *dcache = NULL;
-    if (!co.uniform && !med->resistance_mode && med->density && (dcache = malloc((size_t)(n ? n : 1) * 8))) {
-        for (int64_t v = 0; v < n; ++v) dcache[v] = med_D(med, v);
-        co.D = dcache;
-    }
+    assembly as;
+    int rc = assembly_begin(&as, net, med, boundary, err);
+    if (rc) return rc;
     int64_t *Ap = M->p, *Ai = M->i;
     double *Ax = M->x;
-    int64_t pos = 0;
-    int64_t f = 0; /* boundary faces come in unknown order, as built */
-    const int64_t *piece = net->piece;
-    walk w;
-    walk_begin(&w, net);
+    int64_t pos = 0, f = 0;
     for (int64_t v = 0; v < n; ++v) {
+        assembly_row r;
+        assembly_next(&as, v, &r);
         Ap[v] = pos;
-        walk_to(&w, v);
-        int64_t nb[6];
-        double ge[6];
-        int nfaces_v = 0, nclosure_v = 0;
-        double dv = co.uniform ? 0.0 : cell_D(&co, med, v);
-        double sv = per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
-        for (int d = 0; d < 6; ++d) {
-            nb[d] = walk_across(&w, d);
-            if (nb[d] >= 0 && co.uniform) ge[d] = co.g_edge;
-            else if (nb[d] >= 0) {
-                double dw = cell_D(&co, med, nb[d]);
-                ge[d] = per_cell_eta ? edge_conductance_eta(&co, med, h, v, nb[d], dv, dw)
-                                     : edge_conductance(med, h, v, nb[d], dv, dw);
-            } else if (nb[d] == -1) ++nfaces_v;
-            else if (nb[d] == -3) ++nclosure_v;
-        }
         /* lower neighbours in the order -z, -y, -x give ascending rows */
         static const int lower[3] = {4, 2, 0};
         for (int q = 0; q < 3; ++q) {
             int d = lower[q];
-            if (nb[d] < 0) continue;
-            Ai[pos] = nb[d];
-            Ax[pos] = -ge[d];
+            if (r.nb[d] < 0) continue;
+            Ai[pos] = r.nb[d];
+            Ax[pos] = -r.ge[d];
             ++pos;
         }
-        /* the sums in face order, as the per-face formulation adds them */
-        double gav = co.uniform ? co.g_ground : ground_conductance(med, h, v);
-        double gcl = !nclosure_v ? 0.0 : co.uniform ? co.g_closure : closure_conductance(med, h, v, dv);
         double diag = 0.0;
-        for (int d = 0; d < 6; ++d) {
-            if (nb[d] >= 0) diag += ge[d];
-            else if (nb[d] == -3) gav += gcl;
-        }
-        diag += gav * sv; /* the scaled unknown's (network.h); sv = 1 without eta_v */
-        if (ga) ga[v] = gav;
-        double sinkv = gav;
-        if (nfaces_v) {
-            double gbf = co.uniform ? co.g_bound : boundary_conductance(med, h, v, dv, boundary, cell_A(&co, med, v));
-            for (int q = 0; q < nfaces_v; ++q, ++f) {
-                if (gb) gb[f] = gbf;
-                diag += gbf * sv;
-                sinkv += gbf;
-            }
-        }
-        sink[piece ? piece[v] : 0] += sinkv;
+        for (int d = 0; d < 6; ++d)
+            if (r.nb[d] >= 0) diag += r.ge[d];
+        diag += r.ga * r.sv; /* the scaled unknown's (network.h); sv = 1 without eta_v */
+        for (int q = 0; q < r.nfaces; ++q) diag += r.gb * r.sv;
+        assembly_sinks(&r, v, ga, gb, &f);
         Ai[pos] = v;
         Ax[pos] = diag;
         ++pos;
     }
     Ap[n] = pos;
+    return assembly_end(&as, err);
+}
 
-    /* A piece with no ground and no leaking face has a constant null vector:
-     * light injected there can neither be absorbed nor leave. */
-    for (int64_t p = 0; p < net->npieces; ++p) {
-        if (sink[p] > 0) continue;
-        int64_t v = 0;
-        while (piece && piece[v] != p) ++v;
-        int32_t ijk[3];
-        ohm_voxel_coords(g, net->cell[v], ijk);
-        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
-        free(sink);
-        free(tab);
-        free(dcache);
-        if (med->resistance_mode)
-            return ohm_fail(err, OHM_ERR_NUMERIC,
-                            "singular network: the piece containing cell (%d,%d,%d) has no path to ground and "
-                            "boundary=%s lets nothing out",
-                            i, j, k, ohm_boundary_name(boundary));
-        return ohm_fail(err, OHM_ERR_NUMERIC,
-                        "singular matrix: sigma_a = 0 with boundary=%s in the piece containing cell (%d,%d,%d): light "
-                        "can neither leave nor be absorbed (use boundary=robin, or give sigma_a > 0)",
-                        ohm_boundary_name(boundary), i, j, k);
+void ohm_stencil_free(ohm_stencil *st)
+{
+    if (!st) return;
+    free(st->off);
+    free(st->g);
+    free(st->sink);
+    memset(st, 0, sizeof *st);
+}
+
+int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_network *net,
+                        const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
+    int64_t n = net->n;
+    size_t m = (size_t)(n ? n : 1);
+    if (st->n != n || !st->off) { /* else a refill: same network, new values */
+        ohm_stencil_free(st);
+        st->off = malloc(m * sizeof *st->off);
+        st->g = malloc(m * sizeof *st->g);
+        st->sink = malloc(m * sizeof *st->sink);
+        st->n = n;
+        if (!st->off || !st->g || !st->sink) {
+            ohm_stencil_free(st);
+            return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil of %lld unknowns (%.0f MB)",
+                            (long long)n, (double)n * 56 / 1e6);
+        }
     }
-    free(sink);
-    free(tab);
-    free(dcache);
-    return OHM_OK;
+    assembly as;
+    int rc = assembly_begin(&as, net, med, boundary, err);
+    if (rc) return rc;
+    int64_t f = 0;
+    for (int64_t v = 0; v < n; ++v) {
+        assembly_row r;
+        assembly_next(&as, v, &r);
+        for (int d = 0; d < 6; ++d) {
+            int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
+            if (delta < INT32_MIN || delta > INT32_MAX) {
+                assembly_free(&as);
+                return ohm_fail(err, OHM_ERR_USAGE, "network: a slice of %lld unknowns is more than the stencil's "
+                                "32-bit offsets reach; use solver=direct or cg", (long long)delta);
+            }
+            st->off[v][d] = (int32_t)delta;
+        }
+        for (int a = 0; a < 3; ++a) st->g[v][a] = r.ge[2 * a + 1];
+        double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
+        for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
+        st->sink[v] = sink;
+        assembly_sinks(&r, v, ga, gb, &f);
+    }
+    return assembly_end(&as, err);
 }

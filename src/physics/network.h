@@ -223,4 +223,29 @@ double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int
 
 const char *ohm_boundary_name(ohm_boundary b);
 
+/* The network's matrix as a 7-point stencil over its unknowns, what a
+ * matrix-free solver reads instead of the assembled A (16 B of indices and
+ * 32 of values per unknown against CHOLMOD's 8 + 16 per entry, four
+ * entries per unknown): row v is
+ *   (sink[v] + sum_d g_vd) x_v - sum_d g_vd x_(v + off[v][d])
+ * over the directions d (ohm_face_offset's order) with a neighbour
+ * (off[v][d] != 0).  g_vd is g[v][d / 2] for the +x, +y, +z links (d odd)
+ * and the neighbour's g[w][d / 2] for the -x, -y, -z ones: each link's
+ * conductance is stored once, by its lower unknown.  The values are
+ * ohm_network_assemble's, by the same code: A = the stencil's matrix, up to
+ * the order its diagonal is summed in. */
+typedef struct ohm_stencil {
+    int64_t n;
+    int32_t (*off)[6]; /* neighbour's unknown minus v, per direction; 0: none */
+    double (*g)[3];    /* conductance of the +x, +y, +z links             */
+    double *sink;      /* ground + boundary (+ closure) conductance, scaled as
+                          the diagonal (network.h: s_v with eta_v)        */
+} ohm_stencil;
+
+/* Fill *st (zeroed, or this network's stencil to refill with another
+ * medium) and ga, gb as ohm_network_assemble does; the same checks. */
+int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_network *net,
+                        const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
+void ohm_stencil_free(ohm_stencil *st); /* NULL or zeroed is fine */
+
 #endif

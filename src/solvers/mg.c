@@ -1,0 +1,682 @@
+/* solvers/mg.c — geometric multigrid on the voxel grid (mg.h): the
+ * hierarchy, the K-cycle, the outer flexible CG, and the stencil's own
+ * operations (apply, diagonal, norm). */
+#include "solvers/mg.h"
+
+#include <math.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "base/parallel.h"
+
+/* Levels stop coarsening at this many cells, solved by a dense Cholesky
+ * factor: (n^3 / 3 flops, n^2 doubles: 0.04 GFlop and 2 MB at 500). */
+enum { COARSEST_MAX = 500, LEVELS_MAX = 40 };
+
+/* Below this many cells a kernel runs on one core: a thread's start
+ * (~20-50 us) would cost more than it shares.  Above, its loop is cut into
+ * CHUNKS pieces whatever the number of cores, and reductions add the pieces'
+ * sums in order, so that a solve gives the same bits on any number of
+ * cores. */
+enum { PARALLEL_MIN = 1 << 16, CHUNKS = 64 };
+
+/* The K-cycle's test (Notay and Vassilevski 2008, AGMG's t): one inner
+ * step suffices when it has cut the coarse residual to this fraction. */
+static const double KCYCLE_T = 0.25;
+
+/* A coarse level is solved by the K-cycle's two inner steps only when it
+ * has at most this fraction of its finer level's cells: two recursive
+ * cycles cost twice one, which only a coarsening by 4 or more keeps a
+ * bounded share of the whole (a thin sheet or line coarsens by 4 or 2). */
+static const double KCYCLE_MAX_RATIO = 0.25;
+
+/* Damped Jacobi's weight, and sweeps before and after each coarse
+ * correction. */
+static const double JACOBI_OMEGA = 0.8;
+enum { SWEEPS = 1 };
+
+typedef struct mg_level {
+    const ohm_stencil *st; /* this level's operator: the driver's at level 0 */
+    ohm_stencil own;       /* a coarse level's, the Galerkin sums          */
+    int64_t n;
+    int64_t *agg;          /* n: the next level's cell holding this one; NULL at the coarsest */
+    /* the next level's slabs (its z index K): this level's cells of slab K
+     * are fine_at[K] .. fine_at[K + 1] - 1, its cells coarse_at[K] ..  */
+    int64_t *fine_at, *coarse_at, nslabs;
+    double *r, *t;                     /* the cycle's temporaries           */
+    double *b, *x;                     /* a coarse level's right-hand side and correction */
+    double *c1, *v1, *c2, *v2, *rt;    /* the K-cycle's, solving this level */
+    int kcycle;                        /* this level is solved by the K-cycle */
+} mg_level;
+
+struct ohm_mg {
+    mg_level lev[LEVELS_MAX];
+    int nlevels;
+    int threads;
+    double *dense;     /* the coarsest level's Cholesky factor, n x n, lower */
+    int64_t ndense;
+    double *r, *z, *p, *q; /* the outer flexible CG's vectors              */
+    double norm_A;
+    double bytes;
+};
+
+/* ---- parallel loops ------------------------------------------------------------------ */
+
+typedef struct kernel kernel;
+struct kernel {
+    void (*fn)(kernel *k, int64_t lo, int64_t hi, int chunk);
+    const mg_level *L;
+    const double *x, *b, *y;
+    double *out;
+    double a;
+    int64_t n;
+    int chunks;
+    double partial[CHUNKS];
+};
+
+static void kernel_job(void *user, int64_t i)
+{
+    kernel *k = user;
+    int64_t lo = k->n * i / k->chunks, hi = k->n * (i + 1) / k->chunks;
+    k->fn(k, lo, hi, (int)i);
+}
+
+/* k->fn over 0 .. n-1 in k->chunks pieces; a reduction's sum of the
+ * pieces' partial sums, in order. */
+static double run(kernel *k, int64_t n, int threads)
+{
+    k->n = n;
+    k->chunks = n >= PARALLEL_MIN ? CHUNKS : 1;
+    if (k->chunks == 1 || threads <= 1)
+        for (int i = 0; i < k->chunks; ++i) kernel_job(k, i);
+    else ohm_parallel_for(k->chunks, threads, kernel_job, k);
+    double sum = 0;
+    for (int i = 0; i < k->chunks; ++i) sum += k->partial[i];
+    return sum;
+}
+
+/* ---- the stencil's operations -------------------------------------------------------- */
+
+/* Row v's diagonal and (A x)_v: the links stored by v (+x, +y, +z) and by
+ * its lower neighbours (-x, -y, -z: their +link). */
+static inline double row_apply(const ohm_stencil *st, const double *x, int64_t v, double *diag)
+{
+    const int32_t *off = st->off[v];
+    const double *g = st->g[v];
+    double d = st->sink[v], sum = 0;
+    for (int a = 0; a < 3; ++a) {
+        if (off[2 * a + 1]) {
+            d += g[a];
+            sum += g[a] * x[v + off[2 * a + 1]];
+        }
+        if (off[2 * a]) {
+            int64_t w = v + off[2 * a];
+            double gw = st->g[w][a];
+            d += gw;
+            sum += gw * x[w];
+        }
+    }
+    *diag = d;
+    return d * x[v] - sum;
+}
+
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
+{
+    double d = st->sink[v];
+    for (int a = 0; a < 3; ++a) {
+        if (st->off[v][2 * a + 1]) d += st->g[v][a];
+        if (st->off[v][2 * a]) d += st->g[v + st->off[v][2 * a]][a];
+    }
+    return d;
+}
+
+double ohm_stencil_norm_inf(const ohm_stencil *st)
+{
+    /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
+    double norm = 0;
+    for (int64_t v = 0; v < st->n; ++v) {
+        double d = ohm_stencil_diag(st, v);
+        norm = fmax(norm, 2.0 * d - st->sink[v]);
+    }
+    return norm;
+}
+
+static void apply_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    (void)chunk;
+    const ohm_stencil *st = k->L->st;
+    double d;
+    for (int64_t v = lo; v < hi; ++v) k->out[v] = row_apply(st, k->x, v, &d);
+}
+
+static void level_apply(const mg_level *L, const double *x, double *y, int threads)
+{
+    kernel k = {.fn = apply_k, .L = L, .x = x, .out = y};
+    run(&k, L->n, threads);
+}
+
+void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads)
+{
+    mg_level L = {.st = st, .n = st->n};
+    level_apply(&L, x, y, threads);
+}
+
+/* ---- vector kernels ------------------------------------------------------------------- */
+
+static void dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    double s = 0;
+    for (int64_t i = lo; i < hi; ++i) s += k->x[i] * k->y[i];
+    k->partial[chunk] = s;
+}
+
+static double dot(const double *x, const double *y, int64_t n, int threads)
+{
+    kernel k = {.fn = dot_k, .x = x, .y = y};
+    return run(&k, n, threads);
+}
+
+/* ---- the smoother and the transfers --------------------------------------------------- */
+
+/* out = x + omega D^-1 (b - A x); x NULL: from zero (out = omega D^-1 b). */
+static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    (void)chunk;
+    const ohm_stencil *st = k->L->st;
+    const double w = k->a;
+    for (int64_t v = lo; v < hi; ++v) {
+        double d;
+        if (!k->x) {
+            k->out[v] = w * k->b[v] / ohm_stencil_diag(st, v);
+        } else {
+            double ax = row_apply(st, k->x, v, &d);
+            k->out[v] = k->x[v] + w * (k->b[v] - ax) / d;
+        }
+    }
+}
+
+static void jacobi(const mg_level *L, const double *x, const double *b, double *out, int threads)
+{
+    kernel k = {.fn = jacobi_k, .L = L, .x = x, .b = b, .out = out, .a = JACOBI_OMEGA};
+    run(&k, L->n, threads);
+}
+
+/* out = b - A x */
+static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    (void)chunk;
+    const ohm_stencil *st = k->L->st;
+    double d;
+    for (int64_t v = lo; v < hi; ++v) k->out[v] = k->b[v] - row_apply(st, k->x, v, &d);
+}
+
+static void residual(const mg_level *L, const double *x, const double *b, double *out, int threads)
+{
+    kernel k = {.fn = residual_k, .L = L, .x = x, .b = b, .out = out};
+    run(&k, L->n, threads);
+}
+
+/* rc = P^T r: each coarse cell's the sum of its cells', slab by slab (a
+ * coarse slab's cells are its two fine layers' and no other's). */
+static void restrict_job(void *user, int64_t K)
+{
+    kernel *k = user;
+    const mg_level *L = k->L;
+    memset(k->out + L->coarse_at[K], 0, (size_t)(L->coarse_at[K + 1] - L->coarse_at[K]) * sizeof *k->out);
+    for (int64_t v = L->fine_at[K]; v < L->fine_at[K + 1]; ++v) k->out[L->agg[v]] += k->x[v];
+}
+
+static void restrict_residual(const mg_level *L, const double *r, double *rc, int threads)
+{
+    kernel k = {.L = L, .x = r, .out = rc};
+    if (L->n < PARALLEL_MIN || threads <= 1)
+        for (int64_t K = 0; K < L->nslabs; ++K) restrict_job(&k, K);
+    else ohm_parallel_for(L->nslabs, threads, restrict_job, &k);
+}
+
+/* out = x + P e */
+static void prolong_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    (void)chunk;
+    const int64_t *agg = k->L->agg;
+    for (int64_t v = lo; v < hi; ++v) k->out[v] = k->x[v] + k->y[agg[v]];
+}
+
+static void prolong_add(const mg_level *L, const double *x, const double *e, double *out, int threads)
+{
+    kernel k = {.fn = prolong_k, .L = L, .x = x, .y = e, .out = out};
+    run(&k, L->n, threads);
+}
+
+/* ---- the cycle ------------------------------------------------------------------------ */
+
+static void dense_solve(const ohm_mg *m, const double *b, double *x)
+{
+    int64_t n = m->ndense;
+    const double *Lf = m->dense;
+    for (int64_t i = 0; i < n; ++i) { /* L y = b */
+        double s = b[i];
+        for (int64_t j = 0; j < i; ++j) s -= Lf[i * n + j] * x[j];
+        x[i] = s / Lf[i * n + i];
+    }
+    for (int64_t i = n; i-- > 0;) { /* L^T x = y */
+        double s = x[i];
+        for (int64_t j = i + 1; j < n; ++j) s -= Lf[j * n + i] * x[j];
+        x[i] = s / Lf[i * n + i];
+    }
+}
+
+static void cycle(const ohm_mg *m, int l, const double *b, double *x);
+
+/* ec ~ A_l^-1 rc for coarse level l: exactly at the coarsest; else one
+ * cycle, or the K-cycle's up to two steps of flexible CG preconditioned by
+ * it (Notay and Vassilevski 2008, Algorithm 2.1). */
+static void coarse_solve(const ohm_mg *m, int l, const double *rc, double *ec)
+{
+    const mg_level *L = &m->lev[l];
+    int th = m->threads;
+    int64_t n = L->n;
+    if (l == m->nlevels - 1) {
+        dense_solve(m, rc, ec);
+        return;
+    }
+    if (!L->kcycle) {
+        cycle(m, l, rc, ec);
+        return;
+    }
+    cycle(m, l, rc, L->c1);
+    level_apply(L, L->c1, L->v1, th);
+    double rho1 = dot(L->c1, L->v1, n, th), alpha1 = dot(L->c1, rc, n, th);
+    if (!(rho1 > 0)) {
+        memset(ec, 0, (size_t)n * sizeof *ec);
+        return;
+    }
+    double a1 = alpha1 / rho1;
+    for (int64_t i = 0; i < n; ++i) L->rt[i] = rc[i] - a1 * L->v1[i];
+    double nrt = sqrt(dot(L->rt, L->rt, n, th)), nrc = sqrt(dot(rc, rc, n, th));
+    if (nrt <= KCYCLE_T * nrc) {
+        for (int64_t i = 0; i < n; ++i) ec[i] = a1 * L->c1[i];
+        return;
+    }
+    cycle(m, l, L->rt, L->c2);
+    level_apply(L, L->c2, L->v2, th);
+    double gamma = dot(L->c2, L->v1, n, th), beta = dot(L->c2, L->v2, n, th), alpha2 = dot(L->c2, L->rt, n, th);
+    double rho2 = beta - gamma * gamma / rho1;
+    if (!(rho2 > 0)) {
+        for (int64_t i = 0; i < n; ++i) ec[i] = a1 * L->c1[i];
+        return;
+    }
+    double w1 = a1 - gamma * alpha2 / (rho1 * rho2), w2 = alpha2 / rho2;
+    for (int64_t i = 0; i < n; ++i) ec[i] = w1 * L->c1[i] + w2 * L->c2[i];
+}
+
+/* x = M_l b: smooth from zero, correct on the next level, smooth again.
+ * b and x are not level l's temporaries. */
+static void cycle(const ohm_mg *m, int l, const double *b, double *x)
+{
+    const mg_level *L = &m->lev[l];
+    const mg_level *C = &m->lev[l + 1];
+    int th = m->threads;
+    /* pre-smoothing from zero: x, then (more sweeps) t and x in turn */
+    jacobi(L, NULL, b, x, th);
+    double *cur = x, *other = L->t;
+    for (int s = 1; s < SWEEPS; ++s) {
+        jacobi(L, cur, b, other, th);
+        double *swap = cur;
+        cur = other;
+        other = swap;
+    }
+    residual(L, cur, b, L->r, th);
+    restrict_residual(L, L->r, C->b, th);
+    coarse_solve(m, l + 1, C->b, C->x);
+    /* corrected into r, then post-smoothed back into x */
+    prolong_add(L, cur, C->x, L->r, th);
+    cur = L->r;
+    other = L->t;
+    for (int s = 0; s < SWEEPS; ++s) {
+        double *dst = s == SWEEPS - 1 ? x : other;
+        jacobi(L, cur, b, dst, th);
+        other = cur;
+        cur = dst;
+    }
+}
+
+/* ---- set-up ---------------------------------------------------------------------------- */
+
+static void level_free(mg_level *L)
+{
+    ohm_stencil_free(&L->own);
+    free(L->agg);
+    free(L->fine_at);
+    free(L->coarse_at);
+    double *v[] = {L->r, L->t, L->b, L->x, L->c1, L->v1, L->c2, L->v2, L->rt};
+    for (size_t i = 0; i < sizeof v / sizeof v[0]; ++i) free(v[i]);
+    memset(L, 0, sizeof *L);
+}
+
+void ohm_mg_free(ohm_mg *mg)
+{
+    if (!mg) return;
+    for (int l = 0; l < mg->nlevels; ++l) level_free(&mg->lev[l]);
+    free(mg->dense);
+    free(mg->r);
+    free(mg->z);
+    free(mg->p);
+    free(mg->q);
+    free(mg);
+}
+
+static double *vec(ohm_mg *m, int64_t n)
+{
+    m->bytes += (double)(n ? n : 1) * sizeof(double);
+    return malloc((size_t)(n ? n : 1) * sizeof(double));
+}
+
+/* Level l's cells aggregated into level l + 1's (mg.h): cells (dense index
+ * cell[v] in a grid of dims) in cell order; the coarse cells' dense indices
+ * into *ccell, their dims into cdims.  Slab by slab: a coarse slab's fine
+ * cells are consecutive, and its cells are numbered in its (J, I) order,
+ * which is the coarse grid's cell order. */
+static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3], int64_t **ccell, int64_t cdims[3],
+                     ohm_error *err)
+{
+    mg_level *L = &m->lev[l];
+    for (int a = 0; a < 3; ++a) cdims[a] = (dims[a] + 1) / 2;
+    int64_t n = L->n, plane = dims[0] * dims[1], cplane = cdims[0] * cdims[1];
+    L->nslabs = cdims[2];
+    L->agg = malloc((size_t)(n ? n : 1) * sizeof *L->agg);
+    L->fine_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->fine_at);
+    L->coarse_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->coarse_at);
+    int64_t *mark = malloc((size_t)cplane * sizeof *mark);
+    *ccell = malloc((size_t)(n ? n : 1) * sizeof **ccell); /* at most n coarse cells; shrunk below */
+    m->bytes += (double)n * 8;
+    if (!L->agg || !L->fine_at || !L->coarse_at || !mark || !*ccell) {
+        free(mark);
+        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
+    }
+    for (int64_t q = 0; q < cplane; ++q) mark[q] = -1;
+    int64_t v = 0, nc = 0;
+    for (int64_t K = 0; K < cdims[2]; ++K) {
+        L->fine_at[K] = v;
+        L->coarse_at[K] = nc;
+        int64_t v0 = v;
+        for (; v < n && cell[v] / plane / 2 == K; ++v) {
+            int64_t c = cell[v], i = c % dims[0], j = c / dims[0] % dims[1];
+            mark[i / 2 + cdims[0] * (j / 2)] = 0;
+        }
+        for (int64_t q = 0; q < cplane; ++q) /* the slab's coarse cells, numbered in order */
+            if (mark[q] == 0) {
+                (*ccell)[nc] = q + cplane * K;
+                mark[q] = nc++;
+            }
+        for (int64_t u = v0; u < v; ++u) {
+            int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
+            L->agg[u] = mark[i / 2 + cdims[0] * (j / 2)];
+        }
+        for (int64_t u = v0; u < v; ++u) { /* reset the marks this slab set */
+            int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
+            mark[i / 2 + cdims[0] * (j / 2)] = -1;
+        }
+    }
+    L->fine_at[cdims[2]] = v;
+    L->coarse_at[cdims[2]] = nc;
+    free(mark);
+    int64_t *shrunk = realloc(*ccell, (size_t)(nc ? nc : 1) * sizeof *shrunk);
+    if (shrunk) *ccell = shrunk;
+    m->lev[l + 1].n = nc;
+    return OHM_OK;
+}
+
+/* Level l + 1's stencil, the Galerkin product P^T A P of level l's with
+ * piecewise-constant P: exactly sums of conductances (mg.h). */
+static int galerkin(ohm_mg *m, int l, ohm_error *err)
+{
+    const mg_level *L = &m->lev[l];
+    mg_level *C = &m->lev[l + 1];
+    int64_t nc = C->n;
+    ohm_stencil *cs = &C->own;
+    cs->n = nc;
+    cs->off = calloc((size_t)(nc ? nc : 1), sizeof *cs->off);
+    cs->g = calloc((size_t)(nc ? nc : 1), sizeof *cs->g);
+    cs->sink = calloc((size_t)(nc ? nc : 1), sizeof *cs->sink);
+    m->bytes += (double)nc * 56;
+    if (!cs->off || !cs->g || !cs->sink)
+        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level of %lld cells", (long long)nc);
+    const ohm_stencil *st = L->st;
+    for (int64_t v = 0; v < L->n; ++v) {
+        int64_t I = L->agg[v];
+        cs->sink[I] += st->sink[v];
+        for (int a = 0; a < 3; ++a) {
+            int32_t o = st->off[v][2 * a + 1];
+            if (!o) continue;
+            int64_t J = L->agg[v + o];
+            if (J == I) continue; /* inside the block: neither a link nor a sink */
+            /* the blocks are neighbours across their +a face: J = I's +a neighbour */
+            int64_t delta = J - I;
+            if (delta > INT32_MAX) return ohm_fail(err, OHM_ERR_INTERNAL, "mg: a coarse offset overflows");
+            cs->off[I][2 * a + 1] = (int32_t)delta;
+            cs->off[J][2 * a] = (int32_t)-delta;
+            cs->g[I][a] += st->g[v][a];
+        }
+    }
+    C->st = cs;
+    return OHM_OK;
+}
+
+/* The coarsest level's dense Cholesky factor. */
+static int dense_factor(ohm_mg *m, ohm_error *err)
+{
+    const mg_level *L = &m->lev[m->nlevels - 1];
+    int64_t n = L->n;
+    m->ndense = n;
+    m->dense = calloc((size_t)(n ? n * n : 1), sizeof *m->dense);
+    m->bytes += (double)n * (double)n * 8;
+    if (!m->dense) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the coarsest level");
+    double *A = m->dense;
+    const ohm_stencil *st = L->st;
+    for (int64_t v = 0; v < n; ++v) {
+        A[v * n + v] = ohm_stencil_diag(st, v);
+        for (int d = 0; d < 6; ++d)
+            if (st->off[v][d]) {
+                int64_t w = v + st->off[v][d];
+                A[v * n + w] = -(d & 1 ? st->g[v][d >> 1] : st->g[w][d >> 1]);
+            }
+    }
+    for (int64_t j = 0; j < n; ++j) { /* lower factor in place, row-major */
+        double s = A[j * n + j];
+        for (int64_t k = 0; k < j; ++k) s -= A[j * n + k] * A[j * n + k];
+        if (!(s > 0))
+            return ohm_fail(err, OHM_ERR_NUMERIC, "mg: the coarsest level (%lld cells) is not positive definite",
+                            (long long)n);
+        A[j * n + j] = sqrt(s);
+        for (int64_t i = j + 1; i < n; ++i) {
+            double t = A[i * n + j];
+            for (int64_t k = 0; k < j; ++k) t -= A[i * n + k] * A[j * n + k];
+            A[i * n + j] = t / A[j * n + j];
+        }
+    }
+    return OHM_OK;
+}
+
+/* The work vectors: the cycle's at every level but the coarsest, a coarse
+ * level's right-hand side and correction, the K-cycle's where it runs. */
+static int level_vectors(ohm_mg *m, int l, ohm_error *err)
+{
+    mg_level *L = &m->lev[l];
+    int64_t n = L->n;
+    int last = l == m->nlevels - 1;
+    /* (level 0's also serve the outer iteration: A z lands in t) */
+    if ((!last || l == 0) && (!(L->r = vec(m, n)) || !(L->t = vec(m, n)))) goto nomem;
+    if (l > 0 && (!(L->b = vec(m, n)) || !(L->x = vec(m, n)))) goto nomem;
+    L->kcycle = l > 0 && !last && (double)n <= KCYCLE_MAX_RATIO * (double)m->lev[l - 1].n;
+    if (L->kcycle && (!(L->c1 = vec(m, n)) || !(L->v1 = vec(m, n)) || !(L->c2 = vec(m, n)) ||
+                      !(L->v2 = vec(m, n)) || !(L->rt = vec(m, n))))
+        goto nomem;
+    return OHM_OK;
+nomem:
+    return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's vectors (%lld cells)", l, (long long)n);
+}
+
+int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *layout, int threads, ohm_error *err)
+{
+    *out = NULL;
+    ohm_mg *m = calloc(1, sizeof *m);
+    if (!m) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
+    m->threads = threads > 0 ? threads : ohm_usable_cores();
+    m->lev[0].st = st;
+    m->lev[0].n = st->n;
+    m->nlevels = 1;
+    const int64_t *cell = layout->cell;
+    int64_t dims[3] = {layout->dims[0], layout->dims[1], layout->dims[2]};
+    int64_t *owned = NULL; /* a coarse level's cells, needed until the next is built */
+    int rc = OHM_OK;
+    while (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX && m->nlevels < LEVELS_MAX) {
+        int l = m->nlevels - 1;
+        int64_t *ccell = NULL, cdims[3];
+        rc = aggregate(m, l, cell, dims, &ccell, cdims, err);
+        if (!rc) {
+            m->nlevels++;
+            rc = galerkin(m, l, err);
+        }
+        free(owned);
+        owned = ccell;
+        cell = ccell;
+        memcpy(dims, cdims, sizeof dims);
+    }
+    free(owned);
+    if (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX)
+        rc = ohm_fail(err, OHM_ERR_INTERNAL, "mg: %d levels leave %lld cells", m->nlevels,
+                      (long long)m->lev[m->nlevels - 1].n);
+    if (!rc) rc = dense_factor(m, err);
+    for (int l = 0; l < m->nlevels && !rc; ++l) rc = level_vectors(m, l, err);
+    int64_t n = st->n;
+    if (!rc && (!(m->r = vec(m, n)) || !(m->z = vec(m, n)) || !(m->p = vec(m, n)) || !(m->q = vec(m, n))))
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for %lld unknowns", (long long)n);
+    if (rc) {
+        ohm_mg_free(m);
+        return rc;
+    }
+    m->norm_A = ohm_stencil_norm_inf(st);
+    *out = m;
+    return OHM_OK;
+}
+
+int ohm_mg_levels(const ohm_mg *mg, int64_t *cells)
+{
+    int64_t sum = 0;
+    for (int l = 0; l < mg->nlevels; ++l) sum += mg->lev[l].n;
+    if (cells) *cells = sum;
+    return mg->nlevels;
+}
+
+double ohm_mg_bytes(const ohm_mg *mg) { return mg->bytes; }
+
+double ohm_mg_bytes_estimate(int64_t n)
+{
+    /* fine: stencil 56, aggregate map 8, outer r z p q 32, the cycle's r t
+     * 16; the coarse levels together about n/7 cells of stencil 56, map 8
+     * and up to nine vectors */
+    double fine = 56 + 8 + 32 + 16, coarse = (56 + 8 + 72) / 7.0;
+    return (fine + coarse) * (double)n + 8.0 * COARSEST_MAX * COARSEST_MAX;
+}
+
+/* ---- the outer iteration --------------------------------------------------------------- */
+
+static double backward_error(const ohm_mg *m, const double *x, const double *b, const double *r, int64_t n)
+{
+    double nx = 0, nb = 0, nr = 0;
+    for (int64_t i = 0; i < n; ++i) {
+        nx = fmax(nx, fabs(x[i]));
+        nb = fmax(nb, fabs(b[i]));
+        nr = fmax(nr, fabs(r[i]));
+    }
+    double denom = m->norm_A * nx + nb;
+    return denom > 0 ? nr / denom : 0.0;
+}
+
+static void precondition(const ohm_mg *m, const double *r, double *z)
+{
+    if (m->nlevels == 1) dense_solve(m, r, z);
+    else cycle(m, 0, r, z);
+}
+
+int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
+                 int64_t *iters, double *relres, ohm_error *err)
+{
+    const mg_level *L0 = &m->lev[0];
+    int64_t n = L0->n;
+    int th = m->threads;
+    double *r = m->r, *z = m->z, *p = m->p, *q = m->q;
+    double nb = sqrt(dot(b, b, n, th));
+    *iters = 0;
+    *relres = 0.0;
+    if (!(nb > 0)) {
+        memset(x, 0, (size_t)n * sizeof *x);
+        return OHM_OK;
+    }
+    int64_t it = 0;
+    int restarts = 0;
+    ohm_progress prog;
+    ohm_progress_begin(&prog, log, "solve: mg");
+    double t_reported = prog.t_begin;
+    for (;;) {
+        /* the true residual at every (re)start and at the end */
+        residual(L0, x, b, r, th);
+        double nr = sqrt(dot(r, r, n, th));
+        if (it == 0 && !(nr <= nb)) { /* a warm start worse than zero (or not finite): start cold */
+            memset(x, 0, (size_t)n * sizeof *x);
+            memcpy(r, b, (size_t)n * sizeof *r);
+            nr = nb;
+        }
+        *relres = nr / nb;
+        if (nr <= tol * nb) break;
+        if (restarts > 0 && backward_error(m, x, b, r, n) <= 0.01 * tol) break; /* stagnated at the floor */
+        if (it >= max_iter || restarts > 5) {
+            *iters = it;
+            ohm_progress_end(&prog);
+            return ohm_fail(err, OHM_ERR_NUMERIC,
+                            "mg: did not converge: relative residual %.3g after %lld iterations (cg_tol=%.1g); use "
+                            "solver=direct, or a looser cg_tol=",
+                            nr / nb, (long long)it, tol);
+        }
+        ++restarts;
+        /* flexible CG (Notay, "Flexible conjugate gradients", SIAM J. Sci.
+         * Comput. 22, 2000), one direction kept: p = z - beta p with beta
+         * making p A-orthogonal to the last, q = A p by the same recurrence */
+        precondition(m, r, z);
+        memcpy(p, z, (size_t)n * sizeof *p);
+        level_apply(L0, p, q, th);
+        while (nr > tol * nb && it < max_iter) {
+            double pq = dot(p, q, n, th);
+            if (!(pq > 0)) break; /* converged to round-off (or A not positive definite) */
+            double alpha = dot(p, r, n, th) / pq;
+            for (int64_t i = 0; i < n; ++i) {
+                x[i] += alpha * p[i];
+                r[i] -= alpha * q[i];
+            }
+            ++it;
+            nr = sqrt(dot(r, r, n, th));
+            if (ohm_log_cancelled(log)) {
+                *iters = it;
+                ohm_progress_end(&prog);
+                return ohm_fail_cancelled(err, "mg");
+            }
+            if (log && ohm_now() - t_reported >= 0.05) {
+                t_reported = ohm_now();
+                ohm_progress_update(&prog, fmin(1.0, fmax(0.0, log10(nr / nb) / log10(tol))));
+            }
+            if (nr <= tol * nb) break;
+            precondition(m, r, z);
+            double *w = L0->t; /* A z, into the cycle's temporary (free now) */
+            level_apply(L0, z, w, th);
+            double beta = dot(z, q, n, th) / pq;
+            for (int64_t i = 0; i < n; ++i) {
+                p[i] = z[i] - beta * p[i];
+                q[i] = w[i] - beta * q[i];
+            }
+        }
+    }
+    *iters = it;
+    ohm_progress_end(&prog);
+    return OHM_OK;
+}

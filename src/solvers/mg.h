@@ -1,0 +1,79 @@
+/* solvers/mg.h — geometric multigrid on the voxel grid, matrix-free
+ * (issue 35): the hierarchy of solver=mg (backend.h).
+ *
+ * The unknowns are cells of a regular grid, so the grid is the hierarchy:
+ * a coarse cell is a 2x2x2 block of the finer grid's cells (those of the
+ * block that are unknowns: an object's irregular edge, its holes, thin
+ * parts and separate pieces need nothing special), numbered, like the
+ * fine ones, in the coarse grid's cell order.  Interpolation is piecewise
+ * constant, so the Galerkin product P^T A P is exactly a sum of
+ * conductances: a coarse link's is the sum of the fine links that cross
+ * the blocks' shared face, a coarse cell's sink the sum of its cells'
+ * sinks; each coarse level is again a 7-point stencil (ohm_stencil) and
+ * conserves power as the fine one does.  Piecewise-constant (unsmoothed)
+ * aggregation alone loses its grip as grids grow (issue 35: 17 iterations
+ * at 8.8e5 cells, 79 at 1e8 in a prototype); the K-cycle of Notay and
+ * Vassilevski ("Recursive Krylov-based multigrid cycles", Numer. Linear
+ * Algebra Appl. 15, 2008) restores it: each coarse correction is up to two
+ * steps of flexible CG preconditioned by the next level's cycle, as in
+ * AGMG (Notay, "An aggregation-based algebraic multigrid method", ETNA 37,
+ * 2010).  The smoother is damped Jacobi with the diagonal computed from the
+ * stencil as it is read (no array of its own); the coarsest level (at most
+ * a few hundred cells) is solved by a dense Cholesky factor.  The outer
+ * iteration is flexible CG (the K-cycle is not a fixed linear operator),
+ * in double precision, on the network's own stencil, stopping, like
+ * solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the true residual.
+ *
+ * Memory: the fine stencil (56 B per unknown, the driver's), per unknown
+ * the aggregate map (8 B) and five outer vectors (40 B), and the coarse
+ * levels (about an eighth as many cells each, 56 B of stencil and 8 of
+ * vectors per cell): ~110 B per unknown with the fine stencil. */
+#ifndef OHM_SOLVERS_MG_H
+#define OHM_SOLVERS_MG_H
+
+#include <stdint.h>
+
+#include "base/log.h"
+#include "base/ohm_error.h"
+#include "physics/network.h"
+#include "solvers/grid_order.h"
+
+typedef struct ohm_mg ohm_mg;
+
+/* The hierarchy for st (the network's stencil; it must outlive the
+ * hierarchy, which reads it as its finest level), whose unknowns sit where
+ * layout says.  threads: cores the cycle may use (<= 0: all usable). */
+int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *layout, int threads, ohm_error *err);
+
+/* Solve A x = b from the x given (a warm start; zeros are fine); stop at
+ * ||b - A x||_2 <= tol ||b||_2, or (a nearly singular A's floor) at a
+ * scaled backward error below tol / 100 once the residual stagnates.
+ * *iters: iterations taken, *relres: the final relative residual.
+ * OHM_ERR_NUMERIC when max_iter pass first; OHM_ERR_CANCELLED when log's
+ * cancel flag is set (checked every iteration, progress reported by
+ * residual). */
+int ohm_mg_solve(ohm_mg *mg, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
+                 int64_t *iters, double *relres, ohm_error *err);
+
+/* Levels, and cells summed over them (the finest included). */
+int ohm_mg_levels(const ohm_mg *mg, int64_t *cells);
+
+/* Bytes the hierarchy holds beside the fine stencil, as allocated. */
+double ohm_mg_bytes(const ohm_mg *mg);
+
+/* The estimate before anything is built, for n unknowns: the stencil's,
+ * the hierarchy's and the outer vectors' bytes. */
+double ohm_mg_bytes_estimate(int64_t n);
+
+void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
+
+/* y = A x for the stencil's matrix (network.h), on up to `threads` cores. */
+void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
+
+/* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
+double ohm_stencil_norm_inf(const ohm_stencil *st);
+
+/* A's diagonal entry in row v. */
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v);
+
+#endif
