@@ -6,7 +6,7 @@
  *     solution is the factor's to 1e-8 in every cell;
  *   - the Galerkin coarse levels conserve: with a uniform source, the power
  *     sunk (sum of sink x) equals the power put in to round-off;
- *   - on the block medium (blocks of 1 and 1e6 in sigma_s'), iterations to
+ *   - on the block medium (random blocks of 1 and 1e6 in sigma_s'), iterations to
  *     1e-10 grow by at most 25% from 32^3 to 64^3 cells and stay <= 30;
  *   - a warm start from the answer takes no iteration; a capped solve fails
  *     naming its residual. */
@@ -62,18 +62,30 @@ static int make_irregular(ohm_voxel_grid *g)
     return 0;
 }
 
-/* nx^3 cells in blocks of `block` cells alternating sigma_s' 1 and 1e6. */
+/* The scale study's block medium (scripts/scale.sh): nx^3 cells in blocks
+ * of `block`^3, each sigma_s' 1 or 1e6 at random (p = 1/2: both phases
+ * percolate, a maze of conductances 1e6 apart; a checkerboard's blocks
+ * touch only at edges and are no test). */
 static int make_blocks(ohm_voxel_grid *g, int nx, ohm_coeff **ss, int block)
 {
     if (grid_alloc(g, nx, 1.0)) return -1;
     memset(g->inside, 1, (size_t)nx * nx * nx);
     count_inside(g);
+    int nb = (nx + block - 1) / block;
+    uint8_t *hard = malloc((size_t)nb * nb * nb);
     *ss = malloc((size_t)nx * nx * nx * sizeof **ss);
-    if (!*ss) return -1;
+    if (!*ss || !hard) {
+        free(hard);
+        return -1;
+    }
+    uint64_t seed = 12;
+    for (int q = 0; q < nb * nb * nb; ++q) hard[q] = lcg(&seed) < 0.5;
     int64_t v = 0;
     for (int k = 0; k < nx; ++k)
         for (int j = 0; j < nx; ++j)
-            for (int i = 0; i < nx; ++i) (*ss)[v++] = (i / block + j / block + k / block) % 2 ? 1e6f : 1.0f;
+            for (int i = 0; i < nx; ++i)
+                (*ss)[v++] = hard[i / block + nb * (j / block + nb * (k / block))] ? 1e6f : 1.0f;
+    free(hard);
     return 0;
 }
 

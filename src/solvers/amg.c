@@ -483,8 +483,9 @@ static int64_t half_bandwidth(const cholmod_sparse *A)
     return band;
 }
 
-static int amg_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+static int amg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     amg_state *s = state;
     double t0 = ohm_now();
     int64_t n = (int64_t)A->nrow;
@@ -599,9 +600,10 @@ static const char *reason_name(int reason)
     }
 }
 
-static int amg_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+static int amg_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                      ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     amg_state *s = state;
     if (proc.size > 1) {
         amg_cmd cmd = {.op = CMD_SOLVE, .n = s->n, .ncols = (int64_t)ncols};

@@ -71,11 +71,11 @@ static int auto_create(void **state, const ohm_backend_config *cfg, ohm_error *e
     return OHM_OK;
 }
 
-static int auto_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+static int auto_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
 {
     auto_state *s = state;
-    if (s->chosen) return s->chosen->setup(s->chosen_state, A, rep, err);
-    return ohm_backend_cg.setup(s->probe, A, rep, err);
+    if (s->chosen) return s->chosen->setup(s->chosen_state, op, rep, err);
+    return ohm_backend_cg.setup(s->probe, op, rep, err);
 }
 
 typedef struct candidate {
@@ -91,7 +91,7 @@ static int by_time(const void *a, const void *b)
 
 /* Switch to the first of cands[0..nc) whose setup succeeds on A; a setup
  * that fails for memory passes to the next.  rep->reason is extended. */
-static int switch_to(auto_state *s, candidate *cands, int nc, cholmod_sparse *A, ohm_backend_report *rep,
+static int switch_to(auto_state *s, candidate *cands, int nc, const ohm_operator *op, ohm_backend_report *rep,
                      ohm_error *err)
 {
     for (int i = 0; i < nc; ++i) {
@@ -103,7 +103,7 @@ static int switch_to(auto_state *s, candidate *cands, int nc, cholmod_sparse *A,
         }
         if (ops == &ohm_backend_amg) { /* known before PETSc (and MPI) start */
             char nb[32];
-            double need = ohm_amg_bytes_per_rank((int64_t)A->nrow, (double)A->nzmax, ohm_mpi_ranks());
+            double need = ohm_amg_bytes_per_rank(op->n, (double)op->A->nzmax, ohm_mpi_ranks());
             if (need > ohm_memory_limit(s->cfg.max_memory)) {
                 size_t len = strlen(rep->reason);
                 snprintf(rep->reason + len, sizeof rep->reason - len, "; amg skipped: it needs about %s per rank",
@@ -113,7 +113,7 @@ static int switch_to(auto_state *s, candidate *cands, int nc, cholmod_sparse *A,
         }
         void *st = NULL;
         int rc = ops->create(&st, &s->cfg, err);
-        if (!rc) rc = ops->setup(st, A, rep, err);
+        if (!rc) rc = ops->setup(st, op, rep, err);
         if (!rc) {
             s->chosen = ops;
             s->chosen_state = st;
@@ -154,18 +154,18 @@ static int rank_candidates(candidate *c, const auto_state *s, double n, double t
     return nc;
 }
 
-static int auto_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+static int auto_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                       ohm_backend_report *rep, ohm_error *err)
 {
     auto_state *s = state;
-    if (s->chosen) return s->chosen->solve(s->chosen_state, A, B, X, ncols, berr, rep, err);
-    size_t n = A->nrow;
+    if (s->chosen) return s->chosen->solve(s->chosen_state, op, B, X, ncols, berr, rep, err);
+    size_t n = (size_t)op->n;
     double total = s->cfg.columns > 0 ? s->cfg.columns : 1;
     *berr = 0;
     for (size_t j = 0; j < ncols; ++j) {
         double e = 0, t0 = ohm_now();
         int64_t its0 = rep->iterations;
-        int rc = ohm_backend_cg.solve(s->probe, A, B + j * n, X + j * n, 1, &e, rep, err);
+        int rc = ohm_backend_cg.solve(s->probe, op, B + j * n, X + j * n, 1, &e, rep, err);
         double t1 = ohm_now() - t0;
         size_t next = j + 1; /* the first column the chosen backend solves */
         candidate c[3];
@@ -186,11 +186,11 @@ static int auto_solve(void *state, cholmod_sparse *A, const double *B, double *X
                      (long long)(rep->iterations - its0));
             nc = rank_candidates(c, s, (double)n, t1, total - s->columns_done, rep);
         }
-        rc = switch_to(s, c, nc, A, rep, err);
+        rc = switch_to(s, c, nc, op, rep, err);
         if (rc) return rc;
         ohm_log_info(s->cfg.log, "solve: solver=auto uses %s: %s", s->chosen->name, rep->reason);
         if (next < ncols) {
-            rc = s->chosen->solve(s->chosen_state, A, B + next * n, X + next * n, ncols - next, &e, rep, err);
+            rc = s->chosen->solve(s->chosen_state, op, B + next * n, X + next * n, ncols - next, &e, rep, err);
             if (rc) return rc;
             if (e > *berr) *berr = e;
         }

@@ -8,11 +8,12 @@
 
 #include "base/memory.h"
 #include "solvers/cg.h"
+#include "solvers/mg.h"
 
 const ohm_backend_ops *ohm_backend_find(const char *name)
 {
     static const ohm_backend_ops *const all[] = {&ohm_backend_direct, &ohm_backend_cg, &ohm_backend_amg,
-                                                 &ohm_backend_auto, &ohm_backend_mc};
+                                                 &ohm_backend_mg,     &ohm_backend_auto, &ohm_backend_mc};
     for (size_t i = 0; name && i < sizeof all / sizeof all[0]; ++i)
         if (strcmp(all[i]->name, name) == 0) return all[i];
     return NULL;
@@ -37,15 +38,34 @@ double ohm_sym_upper_norm_inf(const cholmod_sparse *A)
     return norm;
 }
 
-double ohm_backward_error(const cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA)
+void ohm_operator_apply(const ohm_operator *op, const double *x, double *y)
 {
-    size_t n = A->ncol;
-    if (!(normA > 0)) normA = ohm_sym_upper_norm_inf(A);
+    if (op->stencil) ohm_stencil_apply(op->stencil, x, y, 0);
+    else ohm_sym_upper_mult(op->A, x, y);
+}
+
+double ohm_operator_diag(const ohm_operator *op, int64_t v)
+{
+    if (op->stencil) return ohm_stencil_diag(op->stencil, v);
+    const int64_t *Ap = op->A->p;
+    return ((const double *)op->A->x)[Ap[v + 1] - 1]; /* the diagonal closes each column (network.h) */
+}
+
+double ohm_operator_norm_inf(const ohm_operator *op)
+{
+    return op->stencil ? ohm_stencil_norm_inf(op->stencil) : ohm_sym_upper_norm_inf(op->A);
+}
+
+double ohm_operator_backward_error(const ohm_operator *op, const double *B, const double *X, size_t ncols,
+                                   double normA)
+{
+    size_t n = (size_t)op->n;
+    if (!(normA > 0)) normA = ohm_operator_norm_inf(op);
     double *r = malloc((n ? n : 1) * sizeof *r), worst = 0;
     if (!r) return INFINITY; /* cannot check: report it as failed, never as passed */
     for (size_t c = 0; c < ncols; ++c) {
         const double *b = B + c * n, *x = X + c * n;
-        ohm_sym_upper_mult(A, x, r);
+        ohm_operator_apply(op, x, r);
         double nr = 0, nx = 0, nb = 0;
         for (size_t i = 0; i < n; ++i) {
             nr = fmax(nr, fabs(b[i] - r[i]));
@@ -58,6 +78,12 @@ double ohm_backward_error(const cholmod_sparse *A, const double *B, const double
     }
     free(r);
     return worst;
+}
+
+double ohm_backward_error(cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA)
+{
+    ohm_operator op = {.n = (int64_t)A->ncol, .A = A};
+    return ohm_operator_backward_error(&op, B, X, ncols, normA);
 }
 
 int ohm_backend_check_memory(double need, double max_memory, const char *what, const char *detail,

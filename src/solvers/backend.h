@@ -3,11 +3,14 @@
  * solvers behind it (DESIGN.md §2 "Solving", §8 "Size").
  *
  * A backend solves A X = B for the network's matrix A (symmetric positive
- * definite, upper triangle stored, CHOLMOD compressed-column form, 64-bit
- * indices) in the spirit of PETSc's KSP/PC: an object chosen at run time by
+ * definite) in the spirit of PETSc's KSP/PC: an object chosen at run time by
  * name, configured from one parameter block, set up once per distinct channel
  * material (`setup`), then asked to solve any number of blocks of right-hand
  * sides (`solve`) — the paper's point: a light change never sets up again.
+ * A reaches it as an ohm_operator (below) in the one form it reads: CHOLMOD's
+ * compressed columns (upper triangle, 64-bit indices) for the backends that
+ * factor A or build a preconditioner from its entries, or the network's
+ * 7-point stencil (network.h) for a matrix-free one (OHM_BACKEND_STENCIL).
  *
  *   direct  CHOLMOD's supernodal Cholesky factor (solvers/direct.c), the
  *           paper's factor-once; one symbolic analysis per grid.
@@ -17,6 +20,8 @@
  *           distributed over MPI ranks when ohm runs under mpirun.
  *   auto    chooses among the others by memory, then predicted time
  *           (solvers/auto.c).
+ *   mg      geometric multigrid on the voxel grid (solvers/mg.c), matrix-free
+ *           on the stencil: O(n) memory and time, warm-started.
  *   mc      Monte Carlo transport instead of diffusion (solvers/transport.c):
  *           no matrix and nothing set up; its `transport` solves the lights
  *           in place of setup and solve (OHM_BACKEND_TRANSPORT).
@@ -42,11 +47,11 @@
 /* What a backend did, summed over its setups and solves (the driver copies it
  * into the run's statistics). */
 typedef struct ohm_backend_report {
-    char solver[8];             /* direct | cg | amg: what actually ran        */
+    char solver[8];             /* direct | cg | amg | mg: what actually ran   */
     char reason[256];           /* why this backend (auto), or "asked for"     */
     int analyses;               /* symbolic analyses (direct)                  */
     int factors;                /* numeric factorizations (direct)             */
-    int precond_setups;         /* preconditioner setups (cg, amg)             */
+    int precond_setups;         /* preconditioner setups (cg, amg, mg)         */
     double t_analyze;           /* seconds: ordering + symbolic analysis       */
     double t_factor;            /* seconds: numeric factorizations             */
     double t_precond;           /* seconds: preconditioner setups              */
@@ -57,7 +62,25 @@ typedef struct ohm_backend_report {
     int refined;                /* direct: solves that took a refinement step  */
     double bytes;               /* memory the backend holds at most (estimate) */
     int ranks;                  /* MPI ranks that took part (amg), else 1      */
+    int levels;                 /* mg: the hierarchy's levels                  */
 } ohm_backend_report;
+
+/* The network's matrix in the form the backend reads: A (assembled) or
+ * stencil (OHM_BACKEND_STENCIL), the other NULL; n unknowns. */
+typedef struct ohm_operator {
+    int64_t n;
+    cholmod_sparse *A;
+    const ohm_stencil *stencil;
+} ohm_operator;
+
+/* y = A x, whichever form op holds. */
+void ohm_operator_apply(const ohm_operator *op, const double *x, double *y);
+
+/* A's diagonal entry of row v. */
+double ohm_operator_diag(const ohm_operator *op, int64_t v);
+
+/* ||A||_inf. */
+double ohm_operator_norm_inf(const ohm_operator *op);
 
 /* Parameters of every backend; zero means the default. */
 typedef struct ohm_backend_config {
@@ -82,13 +105,13 @@ typedef struct ohm_backend_ops {
     int (*create)(void **state, const ohm_backend_config *cfg, ohm_error *err);
     /* Once per distinct channel material; A keeps its pattern from call to
      * call within one run (same grid), only its values change. */
-    int (*setup)(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err);
+    int (*setup)(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err);
     /* X (n x ncols, column-major): on entry its first column holds a
      * starting guess (an iterative backend may use it; zeros are fine), and
      * the columns are consecutive frames, so it may start each later column
      * from the solution of the one before (cg does, amg measured no gain);
      * on return, the solutions. */
-    int (*solve)(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+    int (*solve)(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                  ohm_backend_report *rep, ohm_error *err);
     void (*destroy)(void *state); /* NULL is fine */
     /* OHM_BACKEND_TRANSPORT only (create, setup, solve NULL): every frame
@@ -124,9 +147,14 @@ enum { OHM_BACKEND_WARM_START = 1u << 1 };
  * setup and solve (mc). */
 enum { OHM_BACKEND_TRANSPORT = 1u << 2 };
 
-extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_auto, ohm_backend_mc;
+/* OHM_BACKEND_STENCIL: matrix-free: the operator it is given holds the
+ * network's stencil, not an assembled A (mg). */
+enum { OHM_BACKEND_STENCIL = 1u << 3 };
 
-/* The backend of that name (direct | cg | amg | auto | mc), or NULL. */
+extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_mg, ohm_backend_auto,
+    ohm_backend_mc;
+
+/* The backend of that name (direct | cg | amg | mg | auto | mc), or NULL. */
 const ohm_backend_ops *ohm_backend_find(const char *name);
 
 /* Whether this build has the amg backend (PETSc); when not, its create fails
@@ -150,8 +178,11 @@ double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks);
 int ohm_mpi_ranks(void);
 
 /* Largest scaled backward error over ncols columns of A X = B (infinity
- * norms); normA: ||A||_inf, or <= 0 to compute it. */
-double ohm_backward_error(const cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA);
+ * norms); normA: ||A||_inf, or <= 0 to compute it.  The same for an
+ * assembled A. */
+double ohm_operator_backward_error(const ohm_operator *op, const double *B, const double *X, size_t ncols,
+                                   double normA);
+double ohm_backward_error(cholmod_sparse *A, const double *B, const double *X, size_t ncols, double normA);
 
 /* ||A||_inf of the upper-stored symmetric A (= ||A||_1). */
 double ohm_sym_upper_norm_inf(const cholmod_sparse *A);

@@ -45,7 +45,7 @@ static inline double ground_of(const double *ga, const ohm_network *net, const o
 }
 
 static int correct_constant_modes(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t ncols,
-                                  const double *ga, const double *gb, const cholmod_sparse *A,
+                                  const double *ga, const double *gb, const ohm_operator *op,
                                   const ohm_channel_medium *med)
 {
     int64_t n = net->n, np = net->npieces;
@@ -55,8 +55,6 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         free(sink), free(diag), free(defect), free(vsink);
         return -1;
     }
-    const int64_t *Ap = A->p;
-    const double *Ax = A->x;
     for (int64_t v = 0; v < n; ++v) vsink[v] = ground_of(ga, net, med, v);
     for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
     if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
@@ -65,7 +63,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     for (int64_t v = 0; v < n; ++v) {
         int64_t p = piece ? piece[v] : 0;
         sink[p] += vsink[v];
-        diag[p] += Ax[Ap[v + 1] - 1]; /* the diagonal closes each column */
+        diag[p] += ohm_operator_diag(op, v);
     }
     int any = 0;
     for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];
@@ -122,13 +120,13 @@ void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const 
 /* The constant-mode correction of nearly singular pieces, then the backward
  * error again (it must stay within the direct solver's limit). */
 int ohm_conserve_exactly(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t nu,
-                         const double *ga, const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med,
+                         const double *ga, const double *gb, const ohm_operator *op, const ohm_channel_medium *med,
                          double *berr, ohm_error *err)
 {
-    int corrected = correct_constant_modes(t, net, X, B, nu, ga, gb, A, med);
+    int corrected = correct_constant_modes(t, net, X, B, nu, ga, gb, op, med);
     if (corrected < 0) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     if (corrected == 0) return OHM_OK;
-    *berr = ohm_backward_error(A, B, X, nu, 0);
+    *berr = ohm_operator_backward_error(op, B, X, nu, 0);
     if (!(*berr <= 1e-10))
         return ohm_fail(err, OHM_ERR_NUMERIC, "solve: backward error %.3g after the constant-mode correction", *berr);
     return OHM_OK;

@@ -272,8 +272,9 @@ static int cg_create(void **state, const ohm_backend_config *cfg, ohm_error *err
     return OHM_OK;
 }
 
-static int cg_backend_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+static int cg_backend_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     cg_state *s = state;
     int64_t n = (int64_t)A->nrow;
     double need = ohm_cg_bytes(n) + 2.0 * sizeof(double) * (double)n * (double)(s->cfg.batch ? s->cfg.batch : 1);
@@ -293,9 +294,10 @@ static int cg_backend_setup(void *state, cholmod_sparse *A, ohm_backend_report *
     return OHM_OK;
 }
 
-static int cg_backend_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+static int cg_backend_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                             ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     cg_state *s = state;
     size_t n = A->nrow;
     for (size_t j = 0; j < ncols; ++j) {

@@ -345,8 +345,9 @@ static int direct_create(void **state, const ohm_backend_config *cfg, ohm_error 
 }
 
 
-static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep, ohm_error *err)
+static int direct_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     direct_state *d = state;
     ohm_cholesky *s = &d->solver;
     const char *ordering = d->cfg.ordering ? d->cfg.ordering : "metis";
@@ -388,9 +389,10 @@ static int direct_setup(void *state, cholmod_sparse *A, ohm_backend_report *rep,
     return OHM_OK;
 }
 
-static int direct_solve(void *state, cholmod_sparse *A, const double *B, double *X, size_t ncols, double *berr,
+static int direct_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                         ohm_backend_report *rep, ohm_error *err)
 {
+    cholmod_sparse *A = op->A;
     direct_state *d = state;
     int refined = 0;
     int rc = ohm_cholesky_solve(X, &d->solver, d->L, A, B, ncols, berr, &refined, err);

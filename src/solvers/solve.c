@@ -18,6 +18,7 @@ static void slot_release(ohm_solver *s, medium_slot *m)
 {
     if (m->state) s->backend->destroy(m->state);
     cholmod_l_free_sparse(&m->A, &s->cc);
+    ohm_stencil_free(&m->stencil);
     free(m->ga);
     free(m->gb);
     memset(m, 0, sizeof *m);
@@ -131,12 +132,19 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     ohm_channel_medium med;
     ohm_medium_for(&med, &s->mat, &s->params, k);
     double t0 = ohm_now();
-    /* a refilled A keeps its pattern: the backend's setup sees the new values */
-    rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
-              : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.boundary, &s->cc, err);
+    /* the form the backend reads; a refilled A keeps its pattern (the
+     * backend's setup sees the new values), a refilled stencil its offsets */
+    if (s->backend->caps & OHM_BACKEND_STENCIL) {
+        rc = ohm_network_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.boundary, err);
+        m->op = (ohm_operator){.n = net->n, .stencil = &m->stencil};
+    } else {
+        rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
+                  : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.boundary, &s->cc, err);
+        m->op = (ohm_operator){.n = net->n, .A = m->A};
+    }
     s->sol.t_assemble += ohm_now() - t0;
     if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
-    if (!rc) rc = s->backend->setup(m->state, m->A, &s->rep, err);
+    if (!rc) rc = s->backend->setup(m->state, &m->op, &s->rep, err);
     m->ready = !rc;
     return rc;
 }
@@ -258,8 +266,8 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
         double berr = 0;
-        if (nu > 0) rc = s->backend->solve(m->state, m->A, w->B, X, nu, &berr, rep, err);
-        if (!rc && nu > 0) rc = ohm_conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, m->A, &med, &berr, err);
+        if (nu > 0) rc = s->backend->solve(m->state, &m->op, w->B, X, nu, &berr, rep, err);
+        if (!rc && nu > 0) rc = ohm_conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, &m->op, &med, &berr, err);
         ohm_scale_unknowns(X, nu, n, &med, 1);
         /* a backend that set up inside solve (auto switching) books that as
          * analysis / factor / preconditioner, not as solve */

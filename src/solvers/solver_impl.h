@@ -57,7 +57,11 @@ typedef struct hybrid_part {
  * or a preconditioner): what a change of light reuses. */
 typedef struct medium_slot {
     void *state;            /* the backend's, or NULL                     */
-    cholmod_sparse *A;      /* the network's matrix for this medium        */
+    /* the network's matrix for this medium, in the form the backend reads
+     * (backend.h): assembled, or its stencil (OHM_BACKEND_STENCIL) */
+    cholmod_sparse *A;
+    ohm_stencil stencil;
+    ohm_operator op;        /* the one of the two that is filled          */
     double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
     int ready;              /* A holds this medium's values, set up        */
 } medium_slot;
@@ -172,7 +176,7 @@ void ohm_tally_add(ohm_solution *sol, const channel_tally *t, int c);
 void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
                     const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c);
 int ohm_conserve_exactly(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t nu,
-                         const double *ga, const double *gb, const cholmod_sparse *A, const ohm_channel_medium *med,
+                         const double *ga, const double *gb, const ohm_operator *op, const ohm_channel_medium *med,
                          double *berr, ohm_error *err);
 
 #endif

@@ -625,10 +625,11 @@ static const ohm_opt_spec solve_opts[] = {
     {"solver", OHM_OPT_ENUM, "direct",
      "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
-     "the grid, distributed under mpirun) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
+     "the grid, distributed under mpirun) | mg (geometric multigrid on the voxel grid, matrix-free: memory and time "
+     "O(cells), iterations independent of the grid and of contrasts, warm-started) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
-     "direct|cg|amg|auto|mc", 0, 0, 0},
+     "direct|cg|amg|mg|auto|mc", 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
     {"seed", OHM_OPT_INT, "1", "solver=mc and hybrid=: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
