@@ -103,10 +103,10 @@ static double incident(const ohm_voxel_grid *g, const ohm_mesh *m, int flipped, 
     mat.sigma_s[0] = 1;
     mat.eta = 1.3;
     ohm_solve_params p = {0};
-    p.ordering = "amd";
-    p.shadows = shadows;
-    p.mesh = m;
-    p.orientation = flipped ? -1 : 1;
+    p.num.ordering = "amd";
+    p.src.shadows = shadows;
+    p.src.mesh = m;
+    p.src.orientation = flipped ? -1 : 1;
     ohm_solution sol;
     ohm_error err;
     if (ohm_solve(&sol, g, &mat, lights, nl, &p, &quiet, &err)) {
@@ -301,11 +301,11 @@ static void orbit_reuse(void)
         lights[k].frame = k + 1;
     }
     ohm_solve_params p = {0};
-    p.ordering = "metis";
-    p.shadows = OHM_SHADOWS_MESH;
-    p.mesh = &m;
-    p.orientation = 1;
-    p.max_rhs_bytes = 5.0 * sizeof(double) * 2 * (double)g.interior_cells; /* batches of 5 frames */
+    p.num.ordering = "metis";
+    p.src.shadows = OHM_SHADOWS_MESH;
+    p.src.mesh = &m;
+    p.src.orientation = 1;
+    p.num.max_rhs_bytes = 5.0 * sizeof(double) * 2 * (double)g.interior_cells; /* batches of 5 frames */
     ohm_solution all;
     ohm_error err;
     if (ohm_solve(&all, &g, &mat, lights, 16, &p, &quiet, &err)) {
@@ -314,7 +314,7 @@ static void orbit_reuse(void)
     }
     CHECK_MSG(all.factors == 3, "%d factorizations for 3 distinct channels", all.factors);
     CHECK(all.frames == 16 && all.solves == 16 * 3);
-    p.max_rhs_bytes = 0;
+    p.num.max_rhs_bytes = 0;
     for (int k = 0; k < 16; k += 5) {
         ohm_light one = lights[k];
         one.frame = 0;

@@ -44,8 +44,8 @@ static int solve_box(ohm_solution *sol, ohm_voxel_grid *g, const char *solver, u
     ohm_light l = ohm_scene_pencil((const double[3]){x, x, 9.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.solver = solver;
-    p.total_fluence = total;
+    p.num.solver = solver;
+    p.src.total_fluence = total;
     p.mc = (ohm_mc_params){.photons = 32000, .seed = seed, .threads = 2, .handoff = handoff};
     ohm_log quiet = {.verbosity = 0};
     int rc = ohm_solve(sol, g, &m, &l, 1, &p, &quiet, &err);
@@ -146,8 +146,8 @@ static int slab_run(ohm_solution *sol, ohm_voxel_grid *g, int per_cell, double *
     ohm_light l = ohm_scene_pencil((const double[3]){5.0, 5.0, 1.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.solver = "mc";
-    p.g_v = per_cell ? gv : NULL;
+    p.num.solver = "mc";
+    p.media.g_v = per_cell ? gv : NULL;
     p.mc = (ohm_mc_params){.photons = 100000, .seed = 9, .threads = 2};
     ohm_log quiet = {.verbosity = 0};
     int rc = ohm_solve(sol, g, &m, &l, 1, &p, &quiet, &err);
@@ -195,8 +195,8 @@ static void test_total_repeated_frames(void)
     }
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.total_fluence = 1;
-    p.max_rhs_bytes = 1; /* one frame per batch */
+    p.src.total_fluence = 1;
+    p.num.max_rhs_bytes = 1; /* one frame per batch */
     ohm_solution s;
     ohm_log quiet = {.verbosity = 0};
     CHECK(ohm_solve(&s, &g, &m, l, 2, &p, &quiet, &err) == 0);

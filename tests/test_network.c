@@ -158,7 +158,7 @@ static void channel_sharing(const ohm_voxel_grid *g)
     l.intensity[0] = l.intensity[1] = l.intensity[2] = 1;
     l.channels = 3;
     ohm_solve_params p = {0};
-    p.ordering = "metis";
+    p.num.ordering = "metis";
     struct {
         double sa[3];
         int channels, factors;

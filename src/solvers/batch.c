@@ -80,7 +80,7 @@ size_t ohm_batch_frames(const ohm_solver *s, size_t frames, int hybrid)
 {
     const ohm_solution *sol = &s->sol;
     double n = (double)sol->n, nf = (double)(sol->net.nfaces ? sol->net.nfaces : 1);
-    double cap = s->params.max_rhs_bytes > 0 ? s->params.max_rhs_bytes : (double)(1u << 30);
+    double cap = s->params.num.max_rhs_bytes > 0 ? s->params.num.max_rhs_bytes : (double)(1u << 30);
     double per_column = hybrid ? 3.0 * n + nf : 2.0 * n;
     size_t batch = (size_t)(cap / (sizeof(double) * per_column));
     if (batch < 1) batch = 1;

@@ -21,18 +21,18 @@ void ohm_medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_
     med->ground = mat->ground;
     med->sigma_a0 = mat->sigma_a[mc];
     med->sigma_s0 = mat->sigma_s[mc];
-    med->sigma_a = p->sigma_a[c];
-    med->sigma_s = p->sigma_s[c];
-    med->density = p->density;
-    med->sigma_a_curve = p->density_sa[c];
-    med->sigma_s_curve = p->density_ss[c];
-    med->resistance_v = p->resistance_v;
-    med->ground_v = p->ground_v;
+    med->sigma_a = p->media.sigma_a[c];
+    med->sigma_s = p->media.sigma_s[c];
+    med->density = p->media.density;
+    med->sigma_a_curve = p->media.density_sa[c];
+    med->sigma_s_curve = p->media.density_ss[c];
+    med->resistance_v = p->media.resistance_v;
+    med->ground_v = p->media.ground_v;
     med->eta = mat->eta;
-    med->eta_v = med->resistance_mode ? NULL : p->eta_v;
+    med->eta_v = med->resistance_mode ? NULL : p->media.eta_v;
     med->g = mat->g;
-    med->g_v = med->resistance_mode ? NULL : p->g_v;
-    med->fresnel = p->fresnel;
+    med->g_v = med->resistance_mode ? NULL : p->media.g_v;
+    med->fresnel = p->op.fresnel;
 }
 
 /* A per-interior-cell array of `size`-byte entries (the media's ohm_coeff,
@@ -64,8 +64,8 @@ int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[
                    const ohm_log *log, ohm_error *err)
 {
     *out = *params;
-    if (!(params->band_k > 0)) return OHM_OK;
-    if (mat->kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
+    if (!(params->op.band_k > 0)) return OHM_OK;
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || params->media.resistance_v)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: depth_band= needs optical coefficients (its depth is k / sigma_tr); with "
                         "resistance= leave depth_band=0");
@@ -85,10 +85,11 @@ int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[
         }
     }
     if (!(sigma_tr > 0) || !isfinite(sigma_tr)) {
-        ohm_log_warn(log, "solve: depth_band=%g ignored: with sigma_a = 0 light reaches every depth", params->band_k);
+        ohm_log_warn(log, "solve: depth_band=%g ignored: with sigma_a = 0 light reaches every depth",
+                     params->op.band_k);
         return OHM_OK;
     }
-    double depth = params->band_k / sigma_tr;
+    double depth = params->op.band_k / sigma_tr;
     int64_t kept = 0;
     int rc = ohm_depth_band(&sol->band_active, &kept, grid, depth, err);
     if (rc) return rc;
@@ -96,16 +97,16 @@ int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[
         free(sol->band_active);
         sol->band_active = NULL;
         ohm_log_info(log, "solve: depth_band=%g: every cell lies within %.3g mm of the surface; nothing to drop",
-                     params->band_k, depth);
+                     params->op.band_k, depth);
         return OHM_OK;
     }
     sol->band_depth = depth;
     sol->band_dropped = ni - kept;
     ohm_log_info(log, "solve: depth band %.3g mm (depth_band=%g / sigma_tr %.4g /mm): %lld of %lld cells, %.1f%% dropped",
-                 depth, params->band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
+                 depth, params->op.band_k, sigma_tr, (long long)kept, (long long)ni, 100.0 * (double)(ni - kept) / ni);
     /* compact the per-cell arrays: interior order -> band order */
-    const ohm_coeff *const *src[2] = {params->sigma_a, params->sigma_s};
-    const ohm_coeff **dst[2] = {out->sigma_a, out->sigma_s};
+    const ohm_coeff *const *src[2] = {params->media.sigma_a, params->media.sigma_s};
+    const ohm_coeff **dst[2] = {out->media.sigma_a, out->media.sigma_s};
     int used = 0;
     for (int q = 0; q < 2; ++q)
         for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -124,16 +125,18 @@ int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[
             compact[used++] = o;
             dst[q][c] = o;
         }
-    if (params->density) {
-        float *o = compact_to_band(sol, grid, params->density, sizeof *params->density, kept);
+    if (params->media.density) {
+        float *o = compact_to_band(sol, grid, params->media.density, sizeof *params->media.density, kept);
         if (!o) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's density");
         free(sol->medium_density); /* a given one: no longer needed */
-        out->density = sol->medium_density = o;
+        out->media.density = sol->medium_density = o;
     }
     const size_t real = sizeof(double); /* the index and the anisotropy */
-    if (params->eta_v && !(out->eta_v = sol->band_eta = compact_to_band(sol, grid, params->eta_v, real, kept)))
+    if (params->media.eta_v &&
+        !(out->media.eta_v = sol->band_eta = compact_to_band(sol, grid, params->media.eta_v, real, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's index");
-    if (params->g_v && !(out->g_v = sol->band_g = compact_to_band(sol, grid, params->g_v, real, kept)))
+    if (params->media.g_v &&
+        !(out->media.g_v = sol->band_g = compact_to_band(sol, grid, params->media.g_v, real, kept)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the band's anisotropy");
     return OHM_OK;
 }
@@ -149,7 +152,7 @@ static void own_medium(ohm_solution *sol, ohm_coeff *a)
 
 /* give_media: the caller's arrays are the solution's from the start, so that
  * every failure path frees them with the solution. */
-void ohm_take_media(ohm_solution *sol, const ohm_solve_params *p)
+void ohm_take_media(ohm_solution *sol, const ohm_media_params *p)
 {
     if (!p->give_media) return;
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
@@ -166,7 +169,7 @@ void ohm_take_media(ohm_solution *sol, const ohm_solve_params *p)
 /* The curves of a scan's media (solve.h) copied into the solution, which may
  * outlive the caller's transfer function; p's curves then point at the
  * copies. */
-static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
+static int keep_curves(ohm_solution *sol, ohm_media_params *p, ohm_error *err)
 {
     ohm_curve *given[2] = {p->density_sa, p->density_ss}, *kept[2] = {sol->medium_sa_curve, sol->medium_ss_curve};
     size_t total = 0;
@@ -203,10 +206,10 @@ static int keep_curves(ohm_solution *sol, ohm_solve_params *p, ohm_error *err)
 }
 
 /* The medium the solution keeps for its output grids (solve.h), from p (the
- * params after the band): with a band, p's arrays are compact[] (moved into
- * the solution; given originals are freed now, no longer needed); given
- * arrays are kept as they are; others are copied once each. */
-int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
+ * params' media after the band): with a band, p's arrays are compact[]
+ * (moved into the solution; given originals are freed now, no longer
+ * needed); given arrays are kept as they are; others are copied once each. */
+int ohm_keep_media(ohm_solution *sol, ohm_media_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                    ohm_error *err)
 {
     if (sol->band_active) {
@@ -256,7 +259,7 @@ static int same_curve(const ohm_curve *a, const ohm_curve *b)
 }
 
 /* Channels c and e share a factor when their coefficients are identical. */
-int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e)
+int ohm_same_medium(const ohm_material *mat, const ohm_media_params *p, int c, int e)
 {
     if (p->sigma_a[c] != p->sigma_a[e] || p->sigma_s[c] != p->sigma_s[e]) return 0;
     if (!same_curve(&p->density_sa[c], &p->density_sa[e]) || !same_curve(&p->density_ss[c], &p->density_ss[e]))
@@ -267,7 +270,7 @@ int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, i
 
 /* The per-cell index and anisotropy (interior cells) within their ranges:
  * the Fresnel table covers indices in [1, 3]; g = 1 has no sigma_s. */
-int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err)
+int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_media_params *p, ohm_error *err)
 {
     size_t ni = grid->interior_cells;
     for (size_t u = 0; u < ni && p->eta_v; ++u)

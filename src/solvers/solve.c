@@ -40,24 +40,25 @@ void ohm_solver_free(ohm_solver *s)
 static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
-    int rc = ohm_check_cell_optics(s->grid, params, err);
+    int rc = ohm_check_cell_optics(s->grid, &params->media, err);
     if (rc) return rc;
     double t0 = ohm_now();
     /* per-cell media compacted to the band's unknowns (when there is one) */
     ohm_coeff *compact[2 * OHM_MAX_CHANNELS] = {NULL};
     rc = ohm_setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
-    snprintf(s->solver_name, sizeof s->solver_name, "%s", params->solver ? params->solver : "direct");
-    snprintf(s->ordering, sizeof s->ordering, "%s", params->ordering ? params->ordering : "metis");
-    s->params.solver = s->solver_name;
-    s->params.ordering = s->ordering;
-    if (params->petsc_options && !(s->params.petsc_options = s->petsc_options = strdup(params->petsc_options)))
+    snprintf(s->solver_name, sizeof s->solver_name, "%s", params->num.solver ? params->num.solver : "direct");
+    snprintf(s->ordering, sizeof s->ordering, "%s", params->num.ordering ? params->num.ordering : "metis");
+    s->params.num.solver = s->solver_name;
+    s->params.num.ordering = s->ordering;
+    if (params->num.petsc_options &&
+        !(s->params.num.petsc_options = s->petsc_options = strdup(params->num.petsc_options)))
         rc = ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-    if (!rc) rc = ohm_network_build_band(&sol->net, s->grid, s->params.mirrors, sol->band_active, err);
+    if (!rc) rc = ohm_network_build_band(&sol->net, s->grid, s->params.op.mirrors, sol->band_active, err);
     if (!rc) {
         sol->n = sol->net.n;
         sol->t_network = ohm_now() - t0;
         s->layout = ohm_grid_layout_of(&sol->net);
-        rc = ohm_keep_media(sol, &s->params, compact, err);
+        rc = ohm_keep_media(sol, &s->params.media, compact, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
     /* (the stages below take seconds only at 10^7 cells and more: a
@@ -65,14 +66,15 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
     if (rc) return rc;
     t0 = ohm_now();
-    rc = ohm_occluder_create(&s->occ, s->params.shadows, s->grid, s->params.mesh, s->params.orientation, err);
+    const ohm_source_params *src = &s->params.src;
+    rc = ohm_occluder_create(&s->occ, src->shadows, s->grid, src->mesh, src->orientation, err);
     sol->t_shadow_setup = ohm_now() - t0;
     if (rc) return rc;
     if (!cholmod_l_start(&s->cc)) return ohm_fail(err, OHM_ERR_INTERNAL, "CHOLMOD failed to start");
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    const char *name = s->params.solver;
+    const char *name = s->params.num.solver;
     s->backend = ohm_backend_find(name);
     if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
@@ -87,11 +89,11 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
     if (!s) {
         ohm_solution taken; /* give_media: freed whether it succeeds or fails */
         memset(&taken, 0, sizeof taken);
-        ohm_take_media(&taken, params);
+        ohm_take_media(&taken, &params->media);
         ohm_solution_free(&taken);
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     }
-    ohm_take_media(&s->sol, params);
+    ohm_take_media(&s->sol, &params->media);
     s->mat = *mat;
     s->grid = grid;
     s->log = log;
@@ -135,11 +137,11 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     /* the form the backend reads; a refilled A keeps its pattern (the
      * backend's setup sees the new values), a refilled stencil its offsets */
     if (s->backend->caps & OHM_BACKEND_STENCIL) {
-        rc = ohm_network_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.boundary, err);
+        rc = ohm_network_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.op.boundary, err);
         m->op = (ohm_operator){.n = net->n, .stencil = &m->stencil};
     } else {
-        rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.boundary, err)
-                  : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.boundary, &s->cc, err);
+        rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.op.boundary, err)
+                  : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.op.boundary, &s->cc, err);
         m->op = (ohm_operator){.n = net->n, .A = m->A};
     }
     s->sol.t_assemble += ohm_now() - t0;
@@ -172,28 +174,28 @@ static int diffusion_plan(diffusion_run *run, ohm_backend_config *bcfg, ohm_solv
     memset(run, 0, sizeof *run);
     run->s = s;
     run->channels = channels;
-    run->hybrid = params->mc.handoff > 0 && !params->custom_source;
+    run->hybrid = params->mc.handoff > 0 && !params->src.custom_source;
     int rc = run->hybrid ? ohm_hybrid_applies(s, err) : OHM_OK;
     if (rc) return rc;
     run->batch = ohm_batch_frames(s, (size_t)frames, run->hybrid);
     for (int c = 0; c < channels; ++c) {
         run->cls[c] = c;
         for (int e = 0; e < c; ++e)
-            if (ohm_same_medium(&s->mat, params, c, e)) {
+            if (ohm_same_medium(&s->mat, &params->media, c, e)) {
                 run->cls[c] = run->cls[e];
                 break;
             }
         run->nclasses += run->cls[c] == c;
     }
-    *bcfg = (ohm_backend_config){.ordering = params->ordering,
+    *bcfg = (ohm_backend_config){.ordering = params->num.ordering,
                                  .layout = &s->layout,
-                                 .tol = params->cg_tol,
-                                 .petsc_options = params->petsc_options,
-                                 .max_memory = params->max_memory,
+                                 .tol = params->num.cg_tol,
+                                 .petsc_options = params->num.petsc_options,
+                                 .max_memory = params->num.max_memory,
                                  .batch = run->batch,
                                  .columns = (double)frames * (double)channels,
                                  .materials = run->nclasses,
-                                 .from_scan = params->from_scan,
+                                 .from_scan = params->num.from_scan,
                                  .log = s->log};
     return OHM_OK;
 }
@@ -249,7 +251,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         const face_powers *fp = &run->fp;
         rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights,
                                               params, s->occ, err)
-                         : ohm_fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, params,
+                         : ohm_fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, &params->src,
                                             fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
                                             s->occ, err);
         t->t_source += ohm_now() - t0;
@@ -259,7 +261,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
          * frame is not taken whole from the batch before, whose fluence
          * already holds that part) */
         size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
-                                         f0 > 0 && !run->hybrid && !params->total_fluence ? w->prev_b : NULL, n);
+                                         f0 > 0 && !run->hybrid && !params->src.total_fluence ? w->prev_b : NULL, n);
         /* (without warm starts X is only written, and starts zeroed) */
         if (s->backend->caps & OHM_BACKEND_WARM_START) ohm_warm_start(X, sol, f0, c, warm_from, n);
         ohm_scale_unknowns(X, 1, n, &med, 0);
@@ -278,7 +280,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         ohm_expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
         ohm_book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
         if (run->hybrid) ohm_hybrid_add(sol, t, X, &w->hy, f0, nb, c);
-        else if (params->total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
+        else if (params->src.total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
             rc = ohm_add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
     }
     return rc;
@@ -350,7 +352,7 @@ static int media_together(const diffusion_run *run)
     int nclasses = run->nclasses;
     double extra_rhs = (double)(nclasses - 1) * (double)run->batch * (double)s->sol.n * sizeof(double);
     return nclasses > 1 && s->keep && (s->backend->caps & OHM_BACKEND_CONCURRENT_SOLVES) && !run->hybrid &&
-           !s->params.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
+           !s->params.src.custom_source && s->sol.n >= MEDIA_TOGETHER_MIN_UNKNOWNS &&
            extra_rhs <= MEDIA_TOGETHER_MAX_RHS_BYTES && ohm_usable_cores() > 1;
 }
 
@@ -409,8 +411,8 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     if (rc) return rc;
     run.lights = lights;
     run.nlights = nlights;
-    double cap = params->max_rhs_bytes > 0 ? params->max_rhs_bytes : (double)(1u << 30);
-    if (!params->custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
+    double cap = params->num.max_rhs_bytes > 0 ? params->num.max_rhs_bytes : (double)(1u << 30);
+    if (!params->src.custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
     channel_tally tally[OHM_MAX_CHANNELS];
     memset(tally, 0, sizeof tally);
     sol->solve_threads = 1;
@@ -427,7 +429,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
 {
     ohm_solution *sol = &s->sol;
     ohm_solution_reset(sol, &s->rep);
-    if (nlights == 0 && !s->params.custom_source)
+    if (nlights == 0 && !s->params.src.custom_source)
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
     lights_shape(s, lights, nlights, &sol->channels, &sol->frames);
     int rc = ohm_solution_alloc(sol, err);

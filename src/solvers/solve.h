@@ -22,35 +22,20 @@
  * within 2.5% beyond 2 mm, where diffusion alone is 15-22% off). */
 enum { OHM_HYBRID_PENCIL = 10 };
 
-typedef struct ohm_solve_params {
+/* The parameters of a solve, one struct per thing they configure (issue 34),
+ * gathered in ohm_solve_params below; zero-initialised means every default. */
+
+/* What the network's matrix is. */
+typedef struct ohm_operator_params {
     ohm_boundary boundary;
-    ohm_fresnel fresnel;       /* robin: how A comes from eta (fresnel.h); 0: exact */
-    const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
-                                  or mc, Monte Carlo transport instead of
-                                  diffusion (mc.h); NULL: direct             */
-    ohm_mc_params mc;          /* solver=mc: photons, seed, g, threads; with a
-                                  diffusion solver and mc.handoff > 0, the
-                                  hybrid: each frame's light is traced as
-                                  transport up to its mc.handoff-th scattering,
-                                  and diffusion carries it from there (the
-                                  handed-off weight is the source; fluence and
-                                  exitance are the sums of both parts)        */
-    double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
-    const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
-    double band_k;             /* depth band (band.h): keep cells within
-                                  band_k / sigma_tr of the surface; 0: all */
-    const char *ordering;      /* auto | metis | amd | nesdis | grid | best; NULL: metis */
-    int from_scan;             /* ordering=auto: the object is a density volume's */
-    ohm_deposit deposit;
-    int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
-                                  unscattered beam's fluence added (ohm_source_unscattered_face;
-                                  mc: traced), what transport codes report */
+    ohm_fresnel fresnel;        /* robin: how A comes from eta (fresnel.h); 0: exact */
+    double band_k;              /* depth band (band.h): keep cells within
+                                   band_k / sigma_tr of the surface; 0: all */
     const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
-    double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
-    double max_memory;         /* bytes the factor may take; 0: what the machine has */
-    ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
-    const ohm_mesh *mesh;      /* for shadows=mesh                       */
-    int orientation;           /* +1, or -1 for an inside-out mesh       */
+} ohm_operator_params;
+
+/* The medium cell by cell, and who owns its arrays. */
+typedef struct ohm_media_params {
     /* per-unknown coefficients (n entries per channel) for inhomogeneous
      * media; NULL: the material's constants */
     const ohm_coeff *sigma_a[OHM_MAX_CHANNELS];
@@ -78,11 +63,56 @@ typedef struct ohm_solve_params {
     int give_media;
     /* paper mode with per-cell resistances (transfer functions): n each */
     const ohm_coeff *resistance_v, *ground_v;
+} ohm_media_params;
+
+/* The light's sources: how it enters, what shadows it, what phi includes. */
+typedef struct ohm_source_params {
+    ohm_deposit deposit;
+    int total_fluence;         /* 0: phi is the diffuse fluence (diffusion's own); 1: the
+                                  unscattered beam's fluence added (ohm_source_unscattered_face;
+                                  mc: traced), what transport codes report */
+    ohm_shadows shadows;       /* none (every face turned to a light is lit), mesh, grid */
+    const ohm_mesh *mesh;      /* for shadows=mesh                       */
+    int orientation;           /* +1, or -1 for an inside-out mesh       */
     /* Validation scenes place their own sources: when set, called once per
      * channel instead of the lights (`lights` may be NULL, one frame).
      * Fills b (n x ncols, zeroed) and returns 0. */
     int (*custom_source)(void *user, double *b, size_t ncols, const ohm_network *net, int channel);
     void *custom_user;
+} ohm_source_params;
+
+/* How the system is solved: the backend, its ordering, tolerance and memory. */
+typedef struct ohm_numeric_params {
+    const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
+                                  or mc, Monte Carlo transport instead of
+                                  diffusion (mc.h); NULL: direct             */
+    double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
+    const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
+    const char *ordering;      /* auto | metis | amd | nesdis | grid | best; NULL: metis */
+    int from_scan;             /* ordering=auto: the object is a density volume's */
+    double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
+    double max_memory;         /* bytes the factor may take; 0: what the machine has */
+} ohm_numeric_params;
+
+/* Members whose group is a choice: eta_v sits with the media, not the
+ * operator, though the index shapes the Fresnel boundary: it is a per-cell
+ * array like the coefficients, compacted with them to a depth band and
+ * checked with g_v.  total_fluence sits with the sources: it adds the
+ * unscattered beam's own fluence, traced from the same light entries.
+ * max_memory sits with the numerics though mc reads it too: a cap on what
+ * the backend that runs may hold (the factor, or mc's tallies). */
+typedef struct ohm_solve_params {
+    ohm_operator_params op;    /* what the network's matrix is            */
+    ohm_media_params media;    /* the medium per cell                     */
+    ohm_source_params src;     /* the light's sources                     */
+    ohm_numeric_params num;    /* how it is solved                        */
+    ohm_mc_params mc;          /* solver=mc: photons, seed, g, threads; with a
+                                  diffusion solver and mc.handoff > 0, the
+                                  hybrid: each frame's light is traced as
+                                  transport up to its mc.handoff-th scattering,
+                                  and diffusion carries it from there (the
+                                  handed-off weight is the source; fluence and
+                                  exitance are the sums of both parts)        */
 } ohm_solve_params;
 
 typedef struct ohm_solution {

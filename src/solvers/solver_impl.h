@@ -128,16 +128,16 @@ void ohm_medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_
 int ohm_setup_band(ohm_solution *sol, ohm_solve_params *out, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                    const ohm_voxel_grid *grid, const ohm_material *mat, const ohm_solve_params *params,
                    const ohm_log *log, ohm_error *err);
-void ohm_take_media(ohm_solution *sol, const ohm_solve_params *p);
-int ohm_keep_media(ohm_solution *sol, ohm_solve_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
+void ohm_take_media(ohm_solution *sol, const ohm_media_params *p);
+int ohm_keep_media(ohm_solution *sol, ohm_media_params *p, ohm_coeff *compact[2 * OHM_MAX_CHANNELS],
                    ohm_error *err);
-int ohm_same_medium(const ohm_material *mat, const ohm_solve_params *p, int c, int e);
-int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_solve_params *p, ohm_error *err);
+int ohm_same_medium(const ohm_material *mat, const ohm_media_params *p, int c, int e);
+int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_media_params *p, ohm_error *err);
 
 /* sources.c */
 int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
                      const ohm_channel_medium *med,
-                     const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                     const ohm_light *lights, size_t nlights, const ohm_source_params *src,
                      double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
                      const ohm_occluder *occ, ohm_error *err);
 int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_light *lights, size_t nlights,

@@ -13,21 +13,21 @@
  * beams and when the cache did not fit, the lights themselves. */
 int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,
                      const ohm_channel_medium *med,
-                     const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                     const ohm_light *lights, size_t nlights, const ohm_source_params *src,
                      double *const *fp_enter, double *const *fp_enter_mu, double *const *fp_arrive,
                      const ohm_occluder *occ, ohm_error *err)
 {
     const ohm_network *net = &sol->net;
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
     memset(B, 0, n * nb * sizeof *B);
-    if (params->custom_source) {
-        if (params->custom_source(params->custom_user, B, nb, net, c))
+    if (src->custom_source) {
+        if (src->custom_source(src->custom_user, B, nb, net, c))
             return ohm_fail(err, OHM_ERR_INVALID, "solve: the scene's source failed");
         return OHM_OK;
     }
     for (size_t j = 0; j < nb && fp_enter; ++j) {
         const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
-        ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, params->deposit);
+        ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, src->deposit);
         for (int64_t f = 0; f < net->nfaces; ++f) {
             t->power_incident += ar[f];
             t->power_entered += en[f];
@@ -39,7 +39,7 @@ int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_
         for (size_t j = 0; j < nb; ++j) {
             if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
             ohm_source_power pw = {0, 0, 0};
-            int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, params->deposit, occ, err);
+            int rc = ohm_source_add(B + j * n, &pw, net, &lights[l], c, med, src->deposit, occ, err);
             if (rc) return rc;
             t->power_incident += pw.incident;
             t->power_entered += pw.entered;
@@ -108,7 +108,7 @@ int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *light
     }
     double t0 = ohm_now();
     double eta = mat->kind == OHM_MATERIAL_RESISTANCE ? 1.0 : mat->eta;
-    const double *eta_v = mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->eta_v;
+    const double *eta_v = mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->media.eta_v;
     int rc = OHM_OK;
     for (int fr = 0; fr < frames && fp->cached && !rc; ++fr) {
         double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];

@@ -24,8 +24,8 @@ static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_
                          const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_error *err)
 {
     ohm_mc_params mp = params->mc;
-    mp.total_fluence = params->total_fluence;
-    mp.max_memory = params->max_memory;
+    mp.total_fluence = params->src.total_fluence;
+    mp.max_memory = params->num.max_memory;
     int rc = ohm_mc_trace(r, &sol->net, med, in->entry, in->count, c, &mp, err);
     if (rc) return rc;
     sol->mc_photons += r->photons;
@@ -106,16 +106,16 @@ void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid
  * models other than the physical one, a depth band, scenes' own sources. */
 static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const ohm_solve_params *p, ohm_error *err)
 {
-    if (mat->kind == OHM_MATERIAL_RESISTANCE || p->resistance_v)
+    if (mat->kind == OHM_MATERIAL_RESISTANCE || p->media.resistance_v)
         return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces light through sigma_a and sigma_s', not resistances");
-    if (p->boundary != OHM_BOUNDARY_ROBIN)
+    if (p->op.boundary != OHM_BOUNDARY_ROBIN)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: solver=mc traces the Fresnel boundary itself: boundary=%s is a diffusion model, leave "
                         "it out",
-                        ohm_boundary_name(p->boundary));
+                        ohm_boundary_name(p->op.boundary));
     if (sol->band_active)
         return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc traces every cell: leave depth_band= out");
-    if (p->custom_source)
+    if (p->src.custom_source)
         return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mc needs lights, not a scene's own source vector");
     if (p->mc.handoff > 0)
         return ohm_fail(err, OHM_ERR_USAGE,
@@ -126,7 +126,7 @@ static int mc_applies(const ohm_solution *sol, const ohm_material *mat, const oh
 
 /* Channel c of a frame may take channel e's transport when both media and
  * every entry's power are the same (grey lights on a grey material). */
-static int same_transport(const ohm_material *mat, const ohm_solve_params *p, const ohm_light_entries *in, int c, int e)
+static int same_transport(const ohm_material *mat, const ohm_media_params *p, const ohm_light_entries *in, int c, int e)
 {
     if (!ohm_same_medium(mat, p, c, e)) return 0;
     for (size_t k = 0; k < in->count; ++k)
@@ -154,7 +154,7 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     ohm_light_entries in = {0};
     for (size_t fr = 0; fr < frames && !rc; ++fr) {
         double t0 = ohm_now();
-        rc = ohm_frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, params->eta_v, occ, err);
+        rc = ohm_frame_entries(&in, net, lights, nlights, fr, sol->channels, mat->eta, params->media.eta_v, occ, err);
         sol->t_source += ohm_now() - t0;
         ohm_mc_result res[OHM_MAX_CHANNELS];
         for (int c = 0; c < sol->channels && !rc; ++c) {
@@ -165,7 +165,7 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
                                  .exitance_se = sol->exitance_se[c] + fr * n};
             book_entries(&sol->power_incident, &sol->power_entered, &in, c);
             int e = 0;
-            while (e < c && !same_transport(mat, params, &in, c, e)) ++e;
+            while (e < c && !same_transport(mat, &params->media, &in, c, e)) ++e;
             if (e < c) { /* the same photons would be traced again: take channel e's */
                 memcpy(r->fluence, res[e].fluence, n * sizeof(double));
                 memcpy(r->fluence_se, res[e].fluence_se, n * sizeof(double));
@@ -207,13 +207,13 @@ const ohm_backend_ops ohm_backend_mc = {.name = "mc", .transport = mc_transport,
 int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err)
 {
     const ohm_solve_params *params = &s->params;
-    if (s->mat.kind == OHM_MATERIAL_RESISTANCE || params->resistance_v)
+    if (s->mat.kind == OHM_MATERIAL_RESISTANCE || params->media.resistance_v)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: hybrid= traces light through sigma_a and sigma_s', not resistances; use hybrid=0");
-    if (params->boundary != OHM_BOUNDARY_ROBIN)
+    if (params->op.boundary != OHM_BOUNDARY_ROBIN)
         return ohm_fail(err, OHM_ERR_USAGE,
                         "solve: hybrid= traces the Fresnel boundary itself: boundary=%s does not match it; use hybrid=0",
-                        ohm_boundary_name(params->boundary));
+                        ohm_boundary_name(params->op.boundary));
     if (s->sol.band_active)
         return ohm_fail(err, OHM_ERR_USAGE, "solve: hybrid= traces photons through every cell: use hybrid=0 with depth_band=");
     return OHM_OK;

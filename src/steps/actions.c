@@ -672,7 +672,7 @@ static const ohm_opt_spec solve_opts[] = {
  * when the grid is coarser than the scan), in unknown order (interior cells,
  * x fastest), with the transfer function's curves of it (solve.h); paper
  * mode's resistances, and the index and anisotropy columns, per cell. */
-static int material_from_scan(ohm_state *s, ohm_solve_params *p, float **density, ohm_coeff **percell,
+static int material_from_scan(ohm_state *s, ohm_media_params *p, float **density, ohm_coeff **percell,
                               double **eta_cell, double **g_cell, ohm_error *err)
 {
     const ohm_voxel_grid *g = &s->grid;
@@ -757,7 +757,7 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
         *handoff = 0;
         for (size_t l = 0; l < s->nlights; ++l)
             if (s->lights[l].type == OHM_LIGHT_PENCIL) *handoff = OHM_HYBRID_PENCIL;
-        if (strcmp(p->solver, "mc") == 0 || p->boundary != OHM_BOUNDARY_ROBIN || p->band_k > 0 ||
+        if (strcmp(p->num.solver, "mc") == 0 || p->op.boundary != OHM_BOUNDARY_ROBIN || p->op.band_k > 0 ||
             s->material.kind == OHM_MATERIAL_RESISTANCE)
             *handoff = 0; /* all transport already, or a scene the tracer does not model */
         return OHM_OK;
@@ -778,42 +778,42 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     const char *bname = ohm_opt_str(inv, "boundary"), *dname = ohm_opt_str(inv, "deposit");
     const char *fname = ohm_opt_str(inv, "fresnel");
     memset(p, 0, sizeof *p);
-    p->boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
-                  : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
-                                                    : OHM_BOUNDARY_ROBIN;
-    p->fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
-    p->deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
-                 : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
-                                                 : OHM_DEPOSIT_EXPONENTIAL;
-    p->ordering = ohm_opt_str(inv, "ordering");
-    p->from_scan = s->have_scan && !s->have_mesh;
-    p->total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
-    p->solver = ohm_opt_str(inv, "solver");
-    if (ohm_opt_given(inv, "petsc_options")) p->petsc_options = ohm_opt_str(inv, "petsc_options");
-    p->cg_tol = ohm_opt_real(inv, "cg_tol");
+    p->op.boundary = strcmp(bname, "neumann") == 0     ? OHM_BOUNDARY_NEUMANN
+                     : strcmp(bname, "dirichlet") == 0 ? OHM_BOUNDARY_DIRICHLET
+                                                       : OHM_BOUNDARY_ROBIN;
+    p->op.fresnel = strcmp(fname, "polynomial") == 0 ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
+    p->src.deposit = strcmp(dname, "point") == 0     ? OHM_DEPOSIT_POINT
+                     : strcmp(dname, "surface") == 0 ? OHM_DEPOSIT_SURFACE
+                                                     : OHM_DEPOSIT_EXPONENTIAL;
+    p->num.ordering = ohm_opt_str(inv, "ordering");
+    p->num.from_scan = s->have_scan && !s->have_mesh;
+    p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
+    p->num.solver = ohm_opt_str(inv, "solver");
+    if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
+    p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
     p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
     p->mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
     p->mc.threads = (int)ohm_opt_int(inv, "threads");
     p->mc.log = &s->log;
-    p->band_k = ohm_opt_real(inv, "depth_band");
+    p->op.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
         if (ohm_opt_given(inv, "depth_band"))
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: give depth_band= or depth_band_error=, not both",
                             inv->where);
-        p->band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
+        p->op.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
     }
     int rc_h = hybrid_option(s, inv, p, &p->mc.handoff, err);
     if (rc_h) return rc_h;
     const char *sh = ohm_opt_str(inv, "shadows");
-    p->shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
-                 : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
-                 : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
-                 : s->have_mesh            ? OHM_SHADOWS_MESH
-                                           : OHM_SHADOWS_GRID;
-    p->mesh = s->have_mesh ? &s->mesh : NULL;
-    p->orientation = s->mesh_flipped ? -1 : 1;
-    p->max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
-    if (ohm_opt_given(inv, "max_memory")) p->max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
+    p->src.shadows = strcmp(sh, "none") == 0   ? OHM_SHADOWS_NONE
+                     : strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID
+                     : strcmp(sh, "mesh") == 0 ? OHM_SHADOWS_MESH
+                     : s->have_mesh            ? OHM_SHADOWS_MESH
+                                               : OHM_SHADOWS_GRID;
+    p->src.mesh = s->have_mesh ? &s->mesh : NULL;
+    p->src.orientation = s->mesh_flipped ? -1 : 1;
+    p->num.max_rhs_bytes = ohm_opt_real(inv, "batch_mb") * 1048576.0;
+    if (ohm_opt_given(inv, "max_memory")) p->num.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
     return OHM_OK;
 }
 
@@ -865,7 +865,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     const ohm_solve_params p = *pp;
     const ohm_solution *sol = ohm_solver_solution(s->solver);
     snprintf(s->solution_desc, sizeof s->solution_desc, "%s lights=%zu frames=%d solver=%s ordering=%s band=%g hybrid=%d",
-             s->solve_options, s->nlights, sol->frames, sol->solver, sol->ordering, p.band_k, p.mc.handoff);
+             s->solve_options, s->nlights, sol->frames, sol->solver, sol->ordering, p.op.band_k, p.mc.handoff);
     double cons = ohm_solution_conservation_error(sol);
     ohm_log_info(&s->log,
                  "solved %lld cells x %d channel(s), %d factorization(s), %zu light(s) in %.2f s: backward error "
@@ -884,9 +884,10 @@ static void report_solve(ohm_state *s, double t0, int relit)
         ohm_log_info(&s->log,
                      "hybrid: the first %d reduced scatterings of %lld photons traced as transport (g=%g%s, seed=%llu), "
                      "diffusion from there",
-                     p.mc.handoff, (long long)sol->mc_photons, s->material.g, p.g_v ? " at the first point, per cell" : "",
+                     p.mc.handoff, (long long)sol->mc_photons, s->material.g,
+                     p.media.g_v ? " at the first point, per cell" : "",
                      (unsigned long long)p.mc.seed);
-    if (p.boundary == OHM_BOUNDARY_NEUMANN && !relit)
+    if (p.op.boundary == OHM_BOUNDARY_NEUMANN && !relit)
         ohm_log_info(&s->log, "boundary=neumann lets no light out: all of it is absorbed inside (the paper's model)");
     if (sol->mode_corrections)
         ohm_log_info(&s->log,
@@ -918,13 +919,13 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_int(st, "frames", sol->frames);
     ohm_stats_set_int(st, "solves", (long long)sol->solves);
     ohm_stats_set_int(st, "solves_skipped", (long long)sol->solves_skipped);
-    ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.shadows));
+    ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.src.shadows));
     ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
     ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
-    ohm_stats_set_str(st, "boundary", ohm_boundary_name(p.boundary));
-    ohm_stats_set_str(st, "deposit", deposit_name(p.deposit));
-    ohm_stats_set_str(st, "fresnel", ohm_fresnel_name(p.fresnel));
-    ohm_stats_set_str(st, "fluence", p.total_fluence ? "total" : "diffuse");
+    ohm_stats_set_str(st, "boundary", ohm_boundary_name(p.op.boundary));
+    ohm_stats_set_str(st, "deposit", deposit_name(p.src.deposit));
+    ohm_stats_set_str(st, "fresnel", ohm_fresnel_name(p.op.fresnel));
+    ohm_stats_set_str(st, "fluence", p.src.total_fluence ? "total" : "diffuse");
     ohm_stats_set_str(st, "ordering", sol->ordering);
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
@@ -932,7 +933,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
     ohm_stats_set(st, "solver_bytes", sol->solver_bytes);
-    ohm_stats_set(st, "depth_band", p.band_k);
+    ohm_stats_set(st, "depth_band", p.op.band_k);
     ohm_stats_set(st, "depth_band_mm", sol->band_depth);
     ohm_stats_set_int(st, "depth_band_dropped", (long long)sol->band_dropped);
     ohm_stats_set_int(st, "mode_corrections", (long long)sol->mode_corrections);
@@ -994,7 +995,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     drop_solution(s);
     snprintf(s->solve_options, sizeof s->solve_options, "boundary=%s fresnel=%s deposit=%s fluence=%s shadows=%s",
              ohm_opt_str(inv, "boundary"), ohm_opt_str(inv, "fresnel"), ohm_opt_str(inv, "deposit"),
-             ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.shadows));
+             ohm_opt_str(inv, "fluence"), ohm_shadows_name(p.src.shadows));
     double t0 = ohm_now();
     ohm_coeff *percell[2 * OHM_MAX_CHANNELS] = {NULL};
     float *density = NULL;
@@ -1003,12 +1004,12 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
             return ohm_fail(err, OHM_ERR_INVALID, "%s: -solve: transfer= maps a volume's density: -read one first",
                             inv->where);
         /* the index and anisotropy per cell stay the state's for the solver's life (solve.h) */
-        rc = material_from_scan(s, &p, &density, percell, &s->solver_eta, &s->solver_g, err);
+        rc = material_from_scan(s, &p.media, &density, percell, &s->solver_eta, &s->solver_g, err);
     }
     if (!rc) {
         int keep = strcmp(ohm_opt_str(inv, "keep"), "1") == 0;
         rc = ohm_solver_create(&s->solver, &s->grid, &s->material, &p, keep, &s->log, err);
-        if (p.give_media) { /* the solver took them (solve.h) */
+        if (p.media.give_media) { /* the solver took them (solve.h) */
             density = NULL;
             memset(percell, 0, sizeof percell);
         }

@@ -500,14 +500,14 @@ static int solve_grid(bench_row *row, const ohm_voxel_grid *g, const ohm_mesh *m
     int batch = o->batch == 0 || o->batch > o->frames ? o->frames : o->batch;
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = o->ordering;
-    p.deposit = OHM_DEPOSIT_EXPONENTIAL;
-    p.shadows = o->shadows;
-    p.mesh = mesh;
-    p.orientation = row->flipped ? -1 : 1;
+    p.op.boundary = OHM_BOUNDARY_ROBIN;
+    p.num.ordering = o->ordering;
+    p.src.deposit = OHM_DEPOSIT_EXPONENTIAL;
+    p.src.shadows = o->shadows;
+    p.src.mesh = mesh;
+    p.src.orientation = row->flipped ? -1 : 1;
     /* ohm_solve takes cap / (2 x 8 x n) frames per batch: exactly `batch` */
-    p.max_rhs_bytes = 2.0 * sizeof(double) * (double)g->interior_cells * batch;
+    p.num.max_rhs_bytes = 2.0 * sizeof(double) * (double)g->interior_cells * batch;
     ohm_log_info(log, "bench: %dx%dx%d: %zu cells; solving %d frame(s) x %d channel(s), %d per solve", row->fit[0],
                  row->fit[1], row->fit[2], g->interior_cells, o->frames, mat->channels, batch);
     ohm_solution sol;

@@ -158,11 +158,11 @@ static int infinite_run(ohm_solution *sol, ohm_voxel_grid *g, double h, const oh
     ohm_mirrors mirror = {{1, 1, 1}, {-1, -1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_DIRICHLET;
-    p.ordering = "metis";
-    p.mirrors = &mirror;
-    p.custom_source = src_corner;
-    p.custom_user = &P;
+    p.op.boundary = OHM_BOUNDARY_DIRICHLET;
+    p.num.ordering = "metis";
+    p.op.mirrors = &mirror;
+    p.src.custom_source = src_corner;
+    p.src.custom_user = &P;
     rc = ohm_solve(sol, g, &m, NULL, 1, &p, log, err);
     if (rc) ohm_voxel_grid_free(g);
     return rc;
@@ -259,11 +259,11 @@ static int halfspace_run(ohm_solution *sol, ohm_voxel_grid *g, double h, double 
     ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}}; /* the beam's axis is the corner line x = y = 0 */
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = bnd;
-    p.ordering = "metis";
-    p.mirrors = &mirror;
-    p.custom_source = src_beam;
-    p.custom_user = bs;
+    p.op.boundary = bnd;
+    p.num.ordering = "metis";
+    p.op.mirrors = &mirror;
+    p.src.custom_source = src_beam;
+    p.src.custom_user = bs;
     rc = ohm_solve(sol, g, &m, NULL, 1, &p, log, err);
     if (rc) ohm_voxel_grid_free(g);
     return rc;
@@ -339,12 +339,12 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
     ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = "metis";
-    p.solver = use_cg ? "cg" : "direct";
-    p.mirrors = &mirror;
-    p.custom_source = src_beam;
-    p.custom_user = &bs;
+    p.op.boundary = OHM_BOUNDARY_ROBIN;
+    p.num.ordering = "metis";
+    p.num.solver = use_cg ? "cg" : "direct";
+    p.op.mirrors = &mirror;
+    p.src.custom_source = src_beam;
+    p.src.custom_user = &bs;
     double t0 = ohm_now();
     rc = ohm_solve(&sol, &g, &m, NULL, 1, &p, log, err);
     out->seconds = ohm_now() - t0;
@@ -434,10 +434,10 @@ static int run_two_layer(ohm_solution *sol, int n, double sa_bot, double ss_bot,
     ohm_light l = ohm_scene_directional((const double[3]){0, 0, 1.0}); /* from below, onto z = 0 */
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = bnd;
-    p.ordering = "metis";
-    p.sigma_a[0] = sa;
-    p.sigma_s[0] = ss;
+    p.op.boundary = bnd;
+    p.num.ordering = "metis";
+    p.media.sigma_a[0] = sa;
+    p.media.sigma_s[0] = ss;
     rc = ohm_solve(sol, &g, &m, &l, 1, &p, log, err);
     /* the solution keeps a pointer to the grid: detach before freeing it */
     sol->net.grid = NULL;
@@ -542,12 +542,12 @@ static int index_layers_run(ohm_solution *sol, double h, int with_eta, double *e
     ohm_mirrors mirror = {{1, 1, -1}, {1, 1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_ROBIN;
-    p.ordering = "amd";
-    p.mirrors = &mirror;
-    p.sigma_a[0] = sa;
-    p.sigma_s[0] = ss;
-    p.eta_v = with_eta ? eta : NULL;
+    p.op.boundary = OHM_BOUNDARY_ROBIN;
+    p.num.ordering = "amd";
+    p.op.mirrors = &mirror;
+    p.media.sigma_a[0] = sa;
+    p.media.sigma_s[0] = ss;
+    p.media.eta_v = with_eta ? eta : NULL;
     rc = ohm_solve(sol, &g, &m, &l, 1, &p, log, err);
     if (!rc) {
         ohm_ref_layer ref_layers[2] = {IDX_LAYERS[0], IDX_LAYERS[1]};
@@ -702,10 +702,10 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
     paper.eta = 1.0;
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.boundary = OHM_BOUNDARY_NEUMANN;
-    p.ordering = "amd";
-    p.custom_source = src_step;
-    p.custom_user = &amps;
+    p.op.boundary = OHM_BOUNDARY_NEUMANN;
+    p.num.ordering = "amd";
+    p.src.custom_source = src_step;
+    p.src.custom_user = &amps;
     ohm_solution sa, sb;
     rc = ohm_solve(&sa, &g, &paper, NULL, 1, &p, log, err);
     if (rc) {
@@ -749,10 +749,10 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         ohm_solution sd;
         ohm_solve_params p3;
         memset(&p3, 0, sizeof p3);
-        p3.boundary = OHM_BOUNDARY_ROBIN;
-        p3.ordering = "metis";
-        p3.custom_source = src_lit_square;
-        p3.custom_user = &fs;
+        p3.op.boundary = OHM_BOUNDARY_ROBIN;
+        p3.num.ordering = "metis";
+        p3.src.custom_source = src_lit_square;
+        p3.src.custom_user = &fs;
         if (!rc) rc = ohm_solve(&sd, &g3, &milk, NULL, 1, &p3, log, err);
         if (rc) {
             ohm_voxel_grid_free(&g3);

@@ -77,10 +77,10 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     ohm_mirrors mirror = {{1, 1, -1}, {-1, -1, -1}};
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.mirrors = &mirror;
-    p.fresnel = cfg->fresnel;
-    p.deposit = cfg->deposit;
-    p.solver = mc ? "mc" : "auto";
+    p.op.mirrors = &mirror;
+    p.op.fresnel = cfg->fresnel;
+    p.src.deposit = cfg->deposit;
+    p.num.solver = mc ? "mc" : "auto";
     if (mc) p.mc = *mc;
     if (!mc && cfg->hybrid > 0) { /* the hybrid: its transport part from another stream than the reference's */
         p.mc.photons = cfg->photons;
@@ -92,9 +92,9 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
         ohm_coeff *sa, *ss;
         int rc = inclusion_media(&sa, &ss, g, sc, err);
         if (rc) return rc;
-        p.sigma_a[0] = sa;
-        p.sigma_s[0] = ss;
-        p.give_media = 1;
+        p.media.sigma_a[0] = sa;
+        p.media.sigma_s[0] = ss;
+        p.media.give_media = 1;
     }
     return ohm_solve(sol, g, &m, &beam, 1, &p, log, err);
 }
