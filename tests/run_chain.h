@@ -1,6 +1,6 @@
 /* run_chain.h — run pipeline lines through the action chain, as `ohm run`
  * does, for tests of what a whole step decides (include check.h first; the
- * functions are static). */
+ * functions are static inline). */
 #ifndef OHM_TESTS_RUN_CHAIN_H
 #define OHM_TESTS_RUN_CHAIN_H
 
@@ -12,9 +12,9 @@
 
 /* Run `lines` (actions one per line, no header) on a fresh, quiet state s,
  * which the caller frees whatever the result; a failure is a failed check. */
-static int run_lines(ohm_state *s, const char *lines)
+static inline int run_lines(ohm_state *s, const char *lines)
 {
-    char text[2048];
+    char text[8192];
     snprintf(text, sizeof text, "ohm-pipeline 1\n%s", lines);
     ohm_state_init(s);
     s->log.verbosity = 0;
@@ -30,7 +30,7 @@ static int run_lines(ohm_state *s, const char *lines)
 }
 
 /* The interior cells of the object the lines make; -1 when they fail. */
-static long long object_cells(const char *lines)
+static inline long long object_cells(const char *lines)
 {
     ohm_state s;
     int rc = run_lines(&s, lines);

@@ -1,5 +1,5 @@
 /* tmp_files.h — a test's temporary folder and files, removed at the end
- * (tests include it once: its functions are static). */
+ * (tests include it once: its functions are static inline). */
 #ifndef OHM_TESTS_TMP_FILES_H
 #define OHM_TESTS_TMP_FILES_H
 
@@ -17,7 +17,7 @@ static char *tmpfiles[TMP_FILES_MAX];
 static int ntmp;
 
 /* The folder, /tmp/<prefix>.XXXXXX; 0 on success. */
-static int tmp_begin(const char *prefix)
+static inline int tmp_begin(const char *prefix)
 {
     snprintf(tmpdir, sizeof tmpdir, "/tmp/%s.XXXXXX", prefix);
     if (!mkdtemp(tmpdir)) {
@@ -28,7 +28,7 @@ static int tmp_begin(const char *prefix)
 }
 
 /* name's path in the folder, removed by cleanup_tmp. */
-static const char *tmp_path(const char *name)
+static inline const char *tmp_path(const char *name)
 {
     char *p = malloc(strlen(tmpdir) + strlen(name) + 2);
     sprintf(p, "%s/%s", tmpdir, name);
@@ -36,7 +36,7 @@ static const char *tmp_path(const char *name)
     return p;
 }
 
-static const char *write_tmp(const char *name, const void *data, size_t len)
+static inline const char *write_tmp(const char *name, const void *data, size_t len)
 {
     const char *p = tmp_path(name);
     FILE *f = fopen(p, "wb");
@@ -45,7 +45,7 @@ static const char *write_tmp(const char *name, const void *data, size_t len)
     return p;
 }
 
-static const char *write_tmp_gz(const char *name, const void *data, size_t len)
+static inline const char *write_tmp_gz(const char *name, const void *data, size_t len)
 {
     const char *p = tmp_path(name);
     gzFile f = gzopen(p, "wb");
@@ -55,7 +55,7 @@ static const char *write_tmp_gz(const char *name, const void *data, size_t len)
 }
 
 /* path and everything under it (folders the test's writers made). */
-static void remove_tree(const char *path)
+static inline void remove_tree(const char *path)
 {
     struct stat st;
     if (lstat(path, &st) != 0) return;
@@ -77,7 +77,7 @@ static void remove_tree(const char *path)
     }
 }
 
-static void cleanup_tmp(void)
+static inline void cleanup_tmp(void)
 {
     for (int i = 0; i < ntmp; ++i) free(tmpfiles[i]);
     remove_tree(tmpdir);
