@@ -22,7 +22,8 @@
  * a few hundred cells) is solved by a dense Cholesky factor.  The outer
  * iteration is flexible CG (the K-cycle is not a fixed linear operator),
  * in double precision, on the network's own stencil, stopping, like
- * solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the true residual.
+ * solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the true residual, and
+ * once the power balance holds to tol as well (ohm_mg_solve).
  *
  * Memory: the fine stencil (56 B per unknown, the driver's), per unknown
  * the aggregate map (8 B) and five outer vectors (40 B), and the coarse
@@ -46,7 +47,9 @@ typedef struct ohm_mg ohm_mg;
 int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *layout, int threads, ohm_error *err);
 
 /* Solve A x = b from the x given (a warm start; zeros are fine); stop at
- * ||b - A x||_2 <= tol ||b||_2, or (a nearly singular A's floor) at a
+ * ||b - A x||_2 <= tol ||b||_2 with |sum(b - A x)| <= tol sum|b| (the
+ * power balance: A's column sums are the sinks), or (a nearly singular A's
+ * floor) at a
  * scaled backward error below tol / 100 once the residual stagnates.
  * *iters: iterations taken, *relres: the final relative residual.
  * OHM_ERR_NUMERIC when max_iter pass first; OHM_ERR_CANCELLED when log's
