@@ -68,33 +68,37 @@ d = json.load(open(f"{T}/direct.json"))
 assert d["solves_skipped"] == 0, d
 PY
 
-# auto: CG for a few lights; the factor for many lights on a small grid
+# auto: its probe (mg) for a few lights; the factor for many lights on a small grid
 run auto_few auto
 run auto_many auto orbit=400 axis=x
 check "auto picks by cost" $PY - "$T" <<'PY'
 import json, sys
 T = sys.argv[1]
 few, many = json.load(open(f"{T}/auto_few.json")), json.load(open(f"{T}/auto_many.json"))
-assert few["solver"] == "cg" and few["factors"] == 0, few
+assert few["solver"] == "mg" and few["factors"] == 0, few
 assert many["solver"] == "direct" and many["factors"] == 3, many
 assert "predicted" in many["solver_reason"] and "direct" in many["solver_reason"], many["solver_reason"]
 for s in (few, many):
     assert abs(s["power_in"] - s["power_absorbed"] - s["power_out"]) < 1e-9 * s["power_in"], s
 PY
 
-if require_test_hooks "CG that does not converge (OHM_TEST_CG_MAX_ITER)"; then
-# CG that does not converge (forced by a test hook capping its iterations):
-# solver=cg says so and fails; solver=auto falls back to the factor
-OHM_TEST_CG_MAX_ITER=3 expect_exit 1 "cg does not converge" -- "$OHM" -read file=samples/spot.obj size=50 \
+if require_test_hooks "iterative solvers that do not converge (OHM_TEST_MAX_ITER)"; then
+# iterative solvers that do not converge (a test hook caps their iterations):
+# solver=cg and solver=mg say so and fail; solver=auto falls back to the
+# factor, which does not iterate
+OHM_TEST_MAX_ITER=3 expect_exit 1 "cg does not converge" -- "$OHM" -read file=samples/spot.obj size=50 \
   -voxelize dim=24 -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve solver=cg
 expect_error_line "cg does not converge" "cg: did not converge: relative residual .* after 3 iterations"
-export OHM_TEST_CG_MAX_ITER=3
+OHM_TEST_MAX_ITER=3 expect_exit 1 "mg does not converge" -- "$OHM" -read file=samples/spot.obj size=50 \
+  -voxelize dim=24 -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve solver=mg
+expect_error_line "mg does not converge" "mg: did not converge: relative residual .* after 3 iterations"
+export OHM_TEST_MAX_ITER=3
 run auto_fallback auto
-unset OHM_TEST_CG_MAX_ITER
-check "auto falls back to the factor when cg fails" $PY - "$T/auto_fallback.json" "$T/auto_few.json" <<'PY'
+unset OHM_TEST_MAX_ITER
+check "auto falls back to the factor when its probe fails" $PY - "$T/auto_fallback.json" "$T/auto_few.json" <<'PY'
 import json, sys
 s, d = json.load(open(sys.argv[1])), json.load(open(sys.argv[2]))
-assert s["solver"] == "direct" and s["factors"] == 3 and s["solver_reason"].startswith("cg failed"), s
+assert s["solver"] == "direct" and s["factors"] == 3 and s["solver_reason"].startswith("mg failed"), s
 assert abs(s["power_out"] - d["power_out"]) < 1e-9 * d["power_out"], (s["power_out"], d["power_out"])
 PY
 fi
@@ -110,7 +114,8 @@ import json; s = json.load(open('$T/singular.json'))
 assert s['solver'] == 'cg' and s['residual'] < 1e-12 and s['mode_corrections'] >= 1, s
 assert s['conservation_error'] < 1e-10 and s['power_out'] == 0, s"
 
-# a factor that does not fit: direct refuses and suggests cg; auto and cg solve
+# a factor that does not fit: direct refuses and suggests cg; auto (mg does
+# not fit either: cg probes) and cg solve
 args=(-read file=samples/spot.obj size=50 -voxelize dim=40 -material preset=marble
       -light type=directional dir=0,-1,0 intensity=1)
 expect_exit 1 "direct, small max_memory" -- "$OHM" "${args[@]}" -solve solver=direct max_memory=2
@@ -120,7 +125,8 @@ expect_exit 0 "auto, small max_memory" -- "$OHM" "${args[@]}" orbit=100 axis=x -
   -stats file="$T/fit.json"
 check "auto falls back to cg" $PY -c "
 import json; s = json.load(open('$T/fit.json'))
-assert s['solver'] == 'cg' and s['factors'] == 0 and 'direct skipped' in s['solver_reason'] and 'needs about' in s['solver_reason'], s"
+assert s['solver'] == 'cg' and s['factors'] == 0 and 'direct skipped' in s['solver_reason'] and 'needs about' in s['solver_reason'], s
+assert s['solver_reason'].startswith('mg skipped (needs about'), s['solver_reason']"
 expect_exit 1 "cg, tiny max_memory" -- "$OHM" "${args[@]}" -solve solver=cg max_memory=0.01
 expect_error_line "cg, tiny max_memory" "CG on [0-9]+ cells needs about"
 finish

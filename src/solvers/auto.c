@@ -1,20 +1,23 @@
 /* solvers/auto.c — solver=auto: a backend that chooses among the others
  * (backend.h), memory first, then the time predicted for the columns to come.
  *
- * The first columns are always solved with CG (the probe: CG needs no
- * analysis, so the first answer is cheap whichever way the choice goes), and
- * the second, warm-started like every later one, is timed (t1 seconds, its1
- * iterations).  The remaining `rest` columns then go to the cheapest of
- *   cg      rest * t1;
+ * The first columns are always solved by an iterative backend, the probe:
+ * mg (its set-up costs about what one column does, and its iterations
+ * hardly grow with the grid or the contrasts), or cg under mpirun, where mg
+ * does not run on more than one rank; neither needs an analysis, so the
+ * first answer is cheap whichever way the choice goes.  The second column,
+ * warm-started like every later one, is timed (t1 seconds).  The remaining
+ * `rest` columns then go to the cheapest of
+ *   the probe  rest * t1;
  *   direct  analysis + one factorization per distinct material + a pair of
  *           triangular solves per column;
  *   amg     one BoomerAMG setup per material + a preconditioned CG solve per
  *           column;
  * and a backend whose memory does not fit is skipped (the direct one learns
  * that from its symbolic analysis, before factorizing; its setup then fails
- * with OHM_ERR_NOMEM and the next cheapest is taken).  When CG fails to
- * converge during the probe, the columns go to the factor (or amg when the
- * factor does not fit).  The probe's columns are kept whichever way it goes.
+ * with OHM_ERR_NOMEM and the next cheapest is taken).  When the probe fails
+ * to converge, the columns go to the factor (or amg when the factor does
+ * not fit).  The probe's columns are kept whichever way it goes.
  *
  * The direct costs are a model of METIS nested dissection on a 3-D grid of n
  * cells: ~3.5 n^(4/3) entries in L (1.7 ns each per column solved), analysis
@@ -23,7 +26,11 @@
  * costs are linear in n (its iteration count does not grow): per cell,
  * setup 810-2550 ns per material and one column 585-990 ns on one rank,
  * measured from 1e6 to 2.7e7 cells of the random block medium, marble Spot
- * and the Colin27 head on a quiet machine (docs/scale.md, at ab1c5c9). */
+ * and the Colin27 head on a quiet machine (docs/scale.md, at ab1c5c9).  mg
+ * is the probe because it is the cheaper iterative solver everywhere it was
+ * measured: 18-20 iterations and ~600 ns per cell a column on the block
+ * medium from 1e5 to 1e7 cells, where cg took 3-4x that, and cg's time at
+ * spot's 37 101 cells (docs/multigrid.md). */
 #include "solvers/backend.h"
 
 #include "base/memory.h"
@@ -42,10 +49,12 @@ static const double AMG_START_S = 0.3;
 
 typedef struct auto_state {
     ohm_backend_config cfg;
-    void *probe;                   /* the cg backend's state                */
+    const ohm_backend_ops *probe_ops; /* mg, or cg under mpirun              */
+    void *probe;                   /* its state                             */
     const ohm_backend_ops *chosen; /* NULL until decided                    */
-    void *chosen_state;            /* == probe when cg was chosen           */
+    void *chosen_state;            /* == probe when the probe was chosen     */
     double columns_done;
+    char probe_note[160];          /* why the probe is not mg, or ""        */
 } auto_state;
 
 static void auto_destroy(void *state)
@@ -53,7 +62,7 @@ static void auto_destroy(void *state)
     auto_state *s = state;
     if (!s) return;
     if (s->chosen && s->chosen_state != s->probe) s->chosen->destroy(s->chosen_state);
-    ohm_backend_cg.destroy(s->probe);
+    if (s->probe_ops) s->probe_ops->destroy(s->probe);
     free(s);
 }
 
@@ -62,7 +71,8 @@ static int auto_create(void **state, const ohm_backend_config *cfg, ohm_error *e
     auto_state *s = calloc(1, sizeof *s);
     if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     s->cfg = *cfg;
-    int rc = ohm_backend_cg.create(&s->probe, cfg, err);
+    s->probe_ops = ohm_mpi_ranks() > 1 ? &ohm_backend_cg : &ohm_backend_mg;
+    int rc = s->probe_ops->create(&s->probe, cfg, err);
     if (rc) {
         free(s);
         return rc;
@@ -75,7 +85,18 @@ static int auto_setup(void *state, const ohm_operator *op, ohm_backend_report *r
 {
     auto_state *s = state;
     if (s->chosen) return s->chosen->setup(s->chosen_state, op, rep, err);
-    return ohm_backend_cg.setup(s->probe, op, rep, err);
+    int rc = s->probe_ops->setup(s->probe, op, rep, err);
+    if (rc != OHM_ERR_NOMEM || s->probe_ops == &ohm_backend_cg) return rc;
+    /* mg's hierarchy does not fit (it takes about twice cg's memory): cg probes */
+    const char *need = strstr(err->msg, "needs about ");
+    snprintf(s->probe_note, sizeof s->probe_note, "mg skipped (%.*s); ",
+             need ? (int)strcspn(need, ",") : 12, need ? need : "memory");
+    ohm_error_clear(err);
+    s->probe_ops->destroy(s->probe);
+    s->probe = NULL;
+    s->probe_ops = &ohm_backend_cg;
+    rc = s->probe_ops->create(&s->probe, &s->cfg, err);
+    return rc ? rc : s->probe_ops->setup(s->probe, op, rep, err);
 }
 
 typedef struct candidate {
@@ -96,7 +117,7 @@ static int switch_to(auto_state *s, candidate *cands, int nc, const ohm_operator
 {
     for (int i = 0; i < nc; ++i) {
         const ohm_backend_ops *ops = cands[i].ops;
-        if (ops == &ohm_backend_cg) {
+        if (ops == s->probe_ops) {
             s->chosen = ops;
             s->chosen_state = s->probe;
             return OHM_OK;
@@ -142,7 +163,7 @@ static int rank_candidates(candidate *c, const auto_state *s, double n, double t
                    (ohm_backend_amg_started() ? 0.0 : AMG_START_S);
     c[nc++] = (candidate){&ohm_backend_direct, t_direct};
     if (ohm_backend_amg_available()) c[nc++] = (candidate){&ohm_backend_amg, t_amg};
-    if (t1 >= 0) c[nc++] = (candidate){&ohm_backend_cg, rest * t1};
+    if (t1 >= 0) c[nc++] = (candidate){s->probe_ops, rest * t1};
     qsort(c, (size_t)nc, sizeof *c, by_time);
     size_t len = strlen(rep->reason);
     snprintf(rep->reason + len, sizeof rep->reason - len, "for the other %.0f column(s), predicted:", rest);
@@ -165,13 +186,14 @@ static int auto_solve(void *state, const ohm_operator *op, const double *B, doub
     for (size_t j = 0; j < ncols; ++j) {
         double e = 0, t0 = ohm_now();
         int64_t its0 = rep->iterations;
-        int rc = ohm_backend_cg.solve(s->probe, op, B + j * n, X + j * n, 1, &e, rep, err);
+        int rc = s->probe_ops->solve(s->probe, op, B + j * n, X + j * n, 1, &e, rep, err);
         double t1 = ohm_now() - t0;
         size_t next = j + 1; /* the first column the chosen backend solves */
-        candidate c[3];
+        candidate c[4];
         int nc;
         if (rc == OHM_ERR_NUMERIC) { /* CG cannot solve this one: it goes too */
-            snprintf(rep->reason, sizeof rep->reason, "cg failed: %.120s; ", err->msg);
+            snprintf(rep->reason, sizeof rep->reason, "%.120s%s failed: %.100s; ", s->probe_note, s->probe_ops->name,
+                     err->msg);
             ohm_error_clear(err);
             nc = rank_candidates(c, s, (double)n, -1, total - s->columns_done, rep);
             memset(X + j * n, 0, n * sizeof *X);
@@ -182,8 +204,8 @@ static int auto_solve(void *state, const ohm_operator *op, const double *B, doub
             if (e > *berr) *berr = e;
             s->columns_done += 1;
             if (s->columns_done < 2 && total > 2) continue;
-            snprintf(rep->reason, sizeof rep->reason, "a warm CG column took %.3g s (%lld iterations); ", t1,
-                     (long long)(rep->iterations - its0));
+            snprintf(rep->reason, sizeof rep->reason, "%.120sa warm %s column took %.3g s (%lld iterations); ",
+                     s->probe_note, s->probe_ops->name, t1, (long long)(rep->iterations - its0));
             nc = rank_candidates(c, s, (double)n, t1, total - s->columns_done, rep);
         }
         rc = switch_to(s, c, nc, op, rep, err);

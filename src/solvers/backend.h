@@ -18,8 +18,8 @@
  *           memory, warm-started from the caller's X.
  *   amg     PETSc KSP CG preconditioned by hypre BoomerAMG (solvers/amg.c),
  *           distributed over MPI ranks when ohm runs under mpirun.
- *   auto    chooses among the others by memory, then predicted time
- *           (solvers/auto.c).
+ *   auto    chooses among direct, cg, amg and mg by memory, then predicted
+ *           time (solvers/auto.c).
  *   mg      geometric multigrid on the voxel grid (solvers/mg.c), matrix-free
  *           on the stencil: O(n) memory and time, warm-started.
  *   mc      Monte Carlo transport instead of diffusion (solvers/transport.c):
@@ -66,11 +66,16 @@ typedef struct ohm_backend_report {
 } ohm_backend_report;
 
 /* The network's matrix in the form the backend reads: A (assembled) or
- * stencil (OHM_BACKEND_STENCIL), the other NULL; n unknowns. */
+ * stencil (OHM_BACKEND_STENCIL), the other NULL; n unknowns.  make_stencil
+ * builds the stencil of the same matrix on demand, for a backend given A
+ * that hands over to a stencil backend (auto choosing mg); it stays the
+ * driver's, valid as long as A. */
 typedef struct ohm_operator {
     int64_t n;
     cholmod_sparse *A;
     const ohm_stencil *stencil;
+    int (*make_stencil)(void *maker, const ohm_stencil **out, ohm_error *err);
+    void *maker;
 } ohm_operator;
 
 /* y = A x, whichever form op holds. */

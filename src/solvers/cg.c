@@ -261,13 +261,6 @@ static int cg_create(void **state, const ohm_backend_config *cfg, ohm_error *err
     s->cfg = *cfg;
     if (!(s->cfg.tol > 0)) s->cfg.tol = 1e-10;
     if (s->cfg.max_iter <= 0) s->cfg.max_iter = 20000;
-#ifdef OHM_TEST_HOOKS
-    /* test hook (tests/cli_solver_choice.sh; builds for the suite only): cap
-     * CG's iterations so that the non-convergence paths (the error; auto
-     * falling back to the factor) run */
-    const char *iter_cap = getenv("OHM_TEST_CG_MAX_ITER");
-    if (iter_cap && atoll(iter_cap) > 0) s->cfg.max_iter = atoll(iter_cap);
-#endif
     *state = s;
     return OHM_OK;
 }

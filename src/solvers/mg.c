@@ -658,7 +658,8 @@ double ohm_mg_bytes_estimate(int64_t n)
      * 16; the coarse levels together about n/7 cells of stencil 56, map 8
      * and up to nine vectors */
     double fine = 56 + 8 + 32 + 16, coarse = (56 + 8 + 72) / 7.0;
-    return (fine + coarse) * (double)n + 8.0 * COARSEST_MAX * COARSEST_MAX;
+    double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
+    return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
 
 /* ---- the outer iteration --------------------------------------------------------------- */
@@ -804,10 +805,11 @@ static int mg_create(void **state, const ohm_backend_config *cfg, ohm_error *err
 static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
 {
     mg_state *s = state;
-    if (!op->stencil || !s->cfg.layout || s->cfg.layout->n != op->n)
+    if ((!op->stencil && !op->make_stencil) || !s->cfg.layout || s->cfg.layout->n != op->n)
         return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mg needs the network's stencil and its cells");
     int64_t n = op->n;
     double need = ohm_mg_bytes_estimate(n) + 2.0 * sizeof(double) * (double)n * (double)(s->cfg.batch ? s->cfg.batch : 1);
+    if (op->A) need += 24.0 * (double)op->A->nzmax; /* A is held beside the stencil made for mg */
     char what[64];
     snprintf(what, sizeof what, "multigrid on %lld cells", (long long)n);
     int rc = ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
@@ -815,7 +817,9 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     ohm_mg_free(s->mg);
     s->mg = NULL;
     double t0 = ohm_now();
-    rc = ohm_mg_setup(&s->mg, op->stencil, s->cfg.layout, 0, err);
+    const ohm_stencil *st = op->stencil;
+    if (!st) rc = op->make_stencil(op->maker, &st, err);
+    if (!rc) rc = ohm_mg_setup(&s->mg, st, s->cfg.layout, 0, err);
     if (rc) return rc;
     rep->t_precond += ohm_now() - t0;
     rep->precond_setups++;

@@ -108,6 +108,15 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
     return OHM_OK;
 }
 
+/* ohm_operator.make_stencil: the slot's stencil, made once. */
+static int slot_make_stencil(void *maker, const ohm_stencil **out, ohm_error *err)
+{
+    medium_slot *m = maker;
+    int rc = m->stencil.off ? OHM_OK : ohm_network_stencil(&m->stencil, NULL, NULL, m->net, &m->med, m->boundary, err);
+    *out = rc ? NULL : &m->stencil;
+    return rc;
+}
+
 /* Medium k's slot assembled and set up: kept from an earlier solve, or (keep
  * = 0) the resources of the slot that held them, refilled (same pattern: the
  * direct backend keeps its symbolic analysis), or new. */
@@ -142,7 +151,11 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     } else {
         rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.op.boundary, err)
                   : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.op.boundary, &s->cc, err);
-        m->op = (ohm_operator){.n = net->n, .A = m->A};
+        ohm_stencil_free(&m->stencil); /* a refill: a stencil made before is of the medium before */
+        m->net = net;
+        m->med = med;
+        m->boundary = s->params.op.boundary;
+        m->op = (ohm_operator){.n = net->n, .A = m->A, .make_stencil = slot_make_stencil, .maker = m};
     }
     s->sol.t_assemble += ohm_now() - t0;
     if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
@@ -197,6 +210,13 @@ static int diffusion_plan(diffusion_run *run, ohm_backend_config *bcfg, ohm_solv
                                  .materials = run->nclasses,
                                  .from_scan = params->num.from_scan,
                                  .log = s->log};
+#ifdef OHM_TEST_HOOKS
+    /* test hook (tests/cli_solver_choice.sh; builds for the suite only): cap
+     * every iterative backend's iterations so that the non-convergence paths
+     * (the error; auto falling back to the factor) run */
+    const char *iter_cap = getenv("OHM_TEST_MAX_ITER");
+    if (iter_cap && atoll(iter_cap) > 0) bcfg->max_iter = atoll(iter_cap);
+#endif
     return OHM_OK;
 }
 

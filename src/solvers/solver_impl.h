@@ -62,6 +62,11 @@ typedef struct medium_slot {
     cholmod_sparse *A;
     ohm_stencil stencil;
     ohm_operator op;        /* the one of the two that is filled          */
+    /* what the stencil is made from when a backend given A asks for it
+     * (ohm_operator.make_stencil) */
+    const ohm_network *net;
+    ohm_channel_medium med;
+    ohm_boundary boundary;
     double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
     int ready;              /* A holds this medium's values, set up        */
 } medium_slot;
