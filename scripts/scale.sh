@@ -9,6 +9,9 @@
 # docs/scale-table.md; a row that would not fit in memory or exceed
 # MAX_SECONDS (default 600) per solve is skipped and says so.
 #   scripts/scale.sh [build/ohm]          SIZES="46 100 216" to choose N (N^3 cells)
+#   SOLVERS="mg" APPEND=1 scripts/scale.sh   only those solvers' rows, added to
+#                                           the docs/scale.csv there is (the
+#                                           others' rows keep their run's date)
 # Takes about an hour at the default sizes; run it with nothing else busy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -20,8 +23,9 @@ export OMPI_ALLOW_RUN_AS_ROOT=1 OMPI_ALLOW_RUN_AS_ROOT_CONFIRM=1
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 csv=docs/scale.csv
+SOLVERS=${SOLVERS:-"amg cg direct mg"}
 # MODEL_ONLY=1: only the table, plot and model, from the docs/scale.csv there is
-[ "${MODEL_ONLY:-0}" = 1 ] || \
+[ "${MODEL_ONLY:-0}" = 1 ] || [ "${APPEND:-0}" = 1 ] || \
 echo "scene,solver,ranks,cells,t_setup,t_solve_per_light,iterations_per_light,peak_rss_mb,t_assemble,t_total,note" >"$csv"
 
 # N: an N^3 u8 volume of 8^3 blocks, each density 10 or 20 at random (p =
@@ -83,7 +87,7 @@ for n in $SIZES; do
   blocks "$n"
   scene=(-read file="$tmp/blocks$n.raw" dims="$n,$n,$n" type=u8 spacing=1 -voxelize dim="$n" threshold=5
          -material transfer="$tmp/blocks.transfer" -light type=directional dir=0,-1,0 intensity=1)
-  for solver in amg cg direct; do
+  for solver in $SOLVERS; do
     if [ "$solver" = direct ] && [ "$n" -gt 100 ]; then
       echo "blocks $n^3,direct,1,,,,,,,,skipped: the factor of more than 1e6 cells does not fit in 24 GB" >>"$csv"
       continue
@@ -95,7 +99,7 @@ done
 for d in $SPOT_DIMS; do
   scene=(-read file=samples/spot.obj size=50 -voxelize dim="$d" -material preset=marble
          -light type=directional dir=0,-1,0 intensity=1)
-  for solver in amg cg direct; do
+  for solver in $SOLVERS; do
     if [ "$solver" = direct ] && [ "$d" -gt 200 ]; then
       echo "spot dim $d,direct,1,,,,,,,,skipped: the factor does not fit in 24 GB" >>"$csv"
       continue
@@ -108,10 +112,13 @@ done
 for v in ${HEAD_VOXELS:-1 0.5}; do
   scene=(-read file=samples/ch2.nii.gz -voxelize voxel="$v" threshold=40 -material transfer=samples/mri-head.transfer
          -light type=spot pos=-150,60,200 dir=0.6,-0.2,-0.8 angle=25 falloff=5 intensity=5000)
-  for solver in amg cg; do
+  for solver in $SOLVERS; do
+    [ "$solver" != direct ] || continue
     SOLVE_OPTS=shadows=grid row "head ${v} mm" "$solver" 0 -- "${scene[@]}"
   done
 done
+# weak and strong scaling of amg under mpirun
+if [[ " $SOLVERS " == *" amg "* ]]; then
 # weak scaling: about 1e6 cells per rank
 for np in 1 2 4; do
   n=$(python3 -c "print(round((1e6 * $np) ** (1 / 3)))")
@@ -126,6 +133,7 @@ blocks "$n"
 row "blocks $n^3 (2 ranks)" amg 2 -- -read file="$tmp/blocks$n.raw" dims="$n,$n,$n" type=u8 spacing=1 \
   -voxelize dim="$n" threshold=5 -material transfer="$tmp/blocks.transfer" -light type=directional dir=0,-1,0
 rm -f "$tmp/blocks$n.raw"
+fi
 
 fi
 
@@ -136,7 +144,7 @@ fi
 } >docs/scale-table.md
 
 # the plot: time per light and setup time against cells, per solver (blocks)
-for solver in direct cg amg; do
+for solver in direct cg amg mg; do
   awk -F, -v s="$solver" '$1 ~ /^blocks/ && $1 !~ /\(/ && $2 == s && $4 != "" {print $4, $6, $5}' "$csv" \
     >"$tmp/$solver.dat"
 done
@@ -153,8 +161,10 @@ set title "Random block medium, 1e6 contrasts in D: one light, one channel (this
 plot "$tmp/direct.dat" using 1:2 with linespoints title "direct: solve / light", \
      "$tmp/cg.dat" using 1:2 with linespoints title "cg: solve / light", \
      "$tmp/amg.dat" using 1:2 with linespoints title "amg: solve / light", \
+     "$tmp/mg.dat" using 1:2 with linespoints title "mg: solve / light", \
      "$tmp/direct.dat" using 1:3 with linespoints dashtype 2 title "direct: analysis + factor", \
-     "$tmp/amg.dat" using 1:3 with linespoints dashtype 2 title "amg: setup"
+     "$tmp/amg.dat" using 1:3 with linespoints dashtype 2 title "amg: setup", \
+     "$tmp/mg.dat" using 1:3 with linespoints dashtype 2 title "mg: setup"
 GP
 fi
 
@@ -188,6 +198,15 @@ print("- so ohm's own (serial) share is about %.0f B per cell, and amg's about %
 if weak:  # the largest rank is rank 0, which also holds the serial data
     print("- weak scaling (about 1e6 cells per rank): " + "; ".join(
         "%d rank(s): %.1f iterations, %.0f MB on the largest rank" % w for w in weak) + ".")
+mg = [r for r in rows if r["solver"] == "mg" and r["scene"].startswith("blocks") and int(r["cells"]) >= 10**6]
+if mg:
+    print("- mg (one machine; it does not run under mpirun) setup %.0f ns per cell, solve %.0f ns per cell per light "
+          "per channel, whole-process peak %.0f B per cell: 1e8 cells would take %.0f s per light and %.1f GB."
+          % (fit([(int(r["cells"]), float(r["t_setup"])) for r in mg]) * 1e9,
+             fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in mg]) * 1e9,
+             fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in mg]),
+             fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in mg]) * 1e8,
+             fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in mg]) * 1e8 / 2**30))
 print("\nPredicted for machines like this one (2 cores, 24 GB; 2 ranks each), if the iteration count stays")
 print("flat as in the weak-scaling rows and the network adds nothing (an optimistic bound for the times):\n")
 print("| cells | machines | rank 0's memory (serial + its share) | memory per other rank | setup | per light per channel |")
