@@ -86,6 +86,27 @@ double ohm_backward_error(cholmod_sparse *A, const double *B, const double *X, s
     return ohm_operator_backward_error(&op, B, X, ncols, normA);
 }
 
+void ohm_backend_iterative_defaults(ohm_backend_config *cfg, int64_t max_iter)
+{
+    if (!(cfg->tol > 0)) cfg->tol = 1e-10;
+    if (cfg->max_iter <= 0) cfg->max_iter = max_iter;
+}
+
+int ohm_backend_solve_columns(ohm_column_solver fn, void *solver, size_t n, const double *B, double *X, size_t ncols,
+                              ohm_backend_report *rep, ohm_error *err)
+{
+    for (size_t j = 0; j < ncols; ++j) {
+        int64_t its = 0;
+        double relres = 0;
+        if (j > 0) memcpy(X + j * n, X + (j - 1) * n, n * sizeof *X);
+        int rc = fn(solver, X + j * n, B + j * n, &its, &relres, err);
+        rep->iterations += its;
+        if (relres > rep->relres) rep->relres = relres;
+        if (rc) return rc;
+    }
+    return OHM_OK;
+}
+
 int ohm_backend_check_memory(double need, double max_memory, const char *what, const char *detail,
                              const char *advice, ohm_error *err)
 {

@@ -169,6 +169,21 @@ const ohm_backend_ops *ohm_backend_find(const char *name);
 int ohm_backend_amg_available(void);
 int ohm_backend_amg_started(void);
 
+/* An iterative backend's configuration defaults: tol 1e-10, max_iter as
+ * given (cfg's own when set). */
+void ohm_backend_iterative_defaults(ohm_backend_config *cfg, int64_t max_iter);
+
+/* One column of an iterative backend: x (its starting guess on entry) for b;
+ * the iterations taken and the final relative residual. */
+typedef int (*ohm_column_solver)(void *solver, double *x, const double *b, int64_t *iters, double *relres,
+                                 ohm_error *err);
+
+/* The ncols columns of X (n each) one by one, each after the first started
+ * from the solution of the one before (consecutive frames), the
+ * iterations and the largest relative residual booked in rep. */
+int ohm_backend_solve_columns(ohm_column_solver fn, void *solver, size_t n, const double *B, double *X, size_t ncols,
+                              ohm_backend_report *rep, ohm_error *err);
+
 /* OHM_OK when `need` bytes fit the limit (max_memory > 0, else what the
  * machine has available); else OHM_ERR_NOMEM with one message for every
  * backend: "solve: WHAT needs about X[DETAIL], more than the Y max_memory=

@@ -259,8 +259,7 @@ static int cg_create(void **state, const ohm_backend_config *cfg, ohm_error *err
     cg_state *s = calloc(1, sizeof *s);
     if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     s->cfg = *cfg;
-    if (!(s->cfg.tol > 0)) s->cfg.tol = 1e-10;
-    if (s->cfg.max_iter <= 0) s->cfg.max_iter = 20000;
+    ohm_backend_iterative_defaults(&s->cfg, 20000);
     *state = s;
     return OHM_OK;
 }
@@ -287,23 +286,20 @@ static int cg_backend_setup(void *state, const ohm_operator *op, ohm_backend_rep
     return OHM_OK;
 }
 
+static int cg_column(void *solver, double *x, const double *b, int64_t *iters, double *relres, ohm_error *err)
+{
+    cg_state *s = solver;
+    return ohm_cg_solve(&s->cg, x, b, s->cfg.tol, s->cfg.max_iter, iters, relres, err);
+}
+
 static int cg_backend_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                             ohm_backend_report *rep, ohm_error *err)
 {
     cholmod_sparse *A = op->A;
     cg_state *s = state;
-    size_t n = A->nrow;
-    for (size_t j = 0; j < ncols; ++j) {
-        int64_t its = 0;
-        double relres = 0;
-        if (j > 0) memcpy(X + j * n, X + (j - 1) * n, n * sizeof *X); /* consecutive frames: warm start */
-        int rc = ohm_cg_solve(&s->cg, X + j * n, B + j * n, s->cfg.tol, s->cfg.max_iter, &its, &relres, err);
-        rep->iterations += its;
-        if (relres > rep->relres) rep->relres = relres;
-        if (rc) return rc;
-    }
-    *berr = ohm_backward_error(A, B, X, ncols, s->cg.norm_A);
-    return OHM_OK;
+    int rc = ohm_backend_solve_columns(cg_column, s, A->nrow, B, X, ncols, rep, err);
+    if (!rc) *berr = ohm_backward_error(A, B, X, ncols, s->cg.norm_A);
+    return rc;
 }
 
 const ohm_backend_ops ohm_backend_cg = {.name = "cg",

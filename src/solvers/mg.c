@@ -796,8 +796,7 @@ static int mg_create(void **state, const ohm_backend_config *cfg, ohm_error *err
     mg_state *s = calloc(1, sizeof *s);
     if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
     s->cfg = *cfg;
-    if (!(s->cfg.tol > 0)) s->cfg.tol = 1e-10;
-    if (s->cfg.max_iter <= 0) s->cfg.max_iter = 1000;
+    ohm_backend_iterative_defaults(&s->cfg, 1000);
     *state = s;
     return OHM_OK;
 }
@@ -830,22 +829,19 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     return OHM_OK;
 }
 
+static int mg_column(void *solver, double *x, const double *b, int64_t *iters, double *relres, ohm_error *err)
+{
+    mg_state *s = solver;
+    return ohm_mg_solve(s->mg, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
+}
+
 static int mg_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                     ohm_backend_report *rep, ohm_error *err)
 {
     mg_state *s = state;
-    size_t n = (size_t)op->n;
-    for (size_t j = 0; j < ncols; ++j) {
-        int64_t its = 0;
-        double relres = 0;
-        if (j > 0) memcpy(X + j * n, X + (j - 1) * n, n * sizeof *X); /* consecutive frames: warm start */
-        int rc = ohm_mg_solve(s->mg, X + j * n, B + j * n, s->cfg.tol, s->cfg.max_iter, s->cfg.log, &its, &relres, err);
-        rep->iterations += its;
-        if (relres > rep->relres) rep->relres = relres;
-        if (rc) return rc;
-    }
-    *berr = ohm_operator_backward_error(op, B, X, ncols, s->mg->norm_A);
-    return OHM_OK;
+    int rc = ohm_backend_solve_columns(mg_column, s, (size_t)op->n, B, X, ncols, rep, err);
+    if (!rc) *berr = ohm_operator_backward_error(op, B, X, ncols, s->mg->norm_A);
+    return rc;
 }
 
 const ohm_backend_ops ohm_backend_mg = {.name = "mg",
