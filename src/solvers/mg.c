@@ -45,8 +45,9 @@ typedef struct mg_level {
     ohm_stencil own;       /* a coarse level's, the Galerkin sums          */
     int64_t n;
     int64_t *agg;          /* n: the next level's cell holding this one; NULL at the coarsest */
-    /* the next level's slabs (its z index K): this level's cells of slab K
-     * are fine_at[K] .. fine_at[K + 1] - 1, its cells coarse_at[K] ..  */
+    /* the next level's slabs (its z index K): this level's cells in slab K
+     * are fine_at[K] .. fine_at[K + 1] - 1, the next level's coarse_at[K]
+     * .. coarse_at[K + 1] - 1 */
     int64_t *fine_at, *coarse_at, nslabs;
     double *r, *t;                     /* the cycle's temporaries           */
     double *b, *x;                     /* a coarse level's right-hand side and correction */

@@ -26,9 +26,10 @@
  * once the power balance holds to tol as well (ohm_mg_solve).
  *
  * Memory: the fine stencil (56 B per unknown, the driver's), per unknown
- * the aggregate map (8 B) and five outer vectors (40 B), and the coarse
- * levels (about an eighth as many cells each, 56 B of stencil and 8 of
- * vectors per cell): ~110 B per unknown with the fine stencil. */
+ * the aggregate map (8 B), four outer vectors and the cycle's two (48 B),
+ * and the coarse levels (an eighth as many cells each, with their stencil,
+ * map and up to nine vectors): 132 B per unknown in all, measured at 1e7
+ * cells (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
