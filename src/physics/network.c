@@ -5,6 +5,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/parallel.h"
 #include "physics/material.h"
 
 const int32_t ohm_face_offset[6][3] = {{-1, 0, 0}, {1, 0, 0}, {0, -1, 0}, {0, 1, 0}, {0, 0, -1}, {0, 0, 1}};
@@ -410,6 +411,23 @@ static void assembly_free(assembly *as)
     free(as->dcache);
 }
 
+/* Above this many unknowns the stencil's rows and a scan's D per unknown
+ * are computed on every core (base/parallel.h). */
+enum { PARALLEL_ASSEMBLY_MIN = 1 << 16, DCACHE_CHUNKS = 64 };
+
+typedef struct dcache_job {
+    double *D;
+    const ohm_channel_medium *med;
+    int64_t n, chunks;
+} dcache_job;
+
+static void dcache_rows(void *user, int64_t i)
+{
+    const dcache_job *job = user;
+    int64_t chunks = job->n >= PARALLEL_ASSEMBLY_MIN ? job->chunks : 1;
+    for (int64_t v = job->n * i / chunks; v < job->n * (i + 1) / chunks; ++v) job->D[v] = med_D(job->med, v);
+}
+
 static int assembly_begin(assembly *as, const ohm_network *net, const ohm_channel_medium *med, ohm_boundary boundary,
                           ohm_error *err)
 {
@@ -437,34 +455,36 @@ static int assembly_begin(assembly *as, const ohm_network *net, const ohm_channe
      * per cell held while assembling; without the memory, on demand. */
     if (!as->co.uniform && !med->resistance_mode && med->density &&
         (as->dcache = malloc((size_t)(n ? n : 1) * 8))) {
-        for (int64_t v = 0; v < n; ++v) as->dcache[v] = med_D(med, v);
+        dcache_job job = {as->dcache, med, n, DCACHE_CHUNKS};
+        ohm_parallel_for(n >= PARALLEL_ASSEMBLY_MIN ? DCACHE_CHUNKS : 1, ohm_usable_cores(), dcache_rows, &job);
         as->co.D = as->dcache;
     }
     walk_begin(&as->w, net);
     return OHM_OK;
 }
 
-/* Row v (visited in increasing order), its sinks booked to its piece. */
-static void assembly_next(assembly *as, int64_t v, assembly_row *r)
+/* Row v, visited in increasing order by the walk w (the assembly's own, or
+ * one thread's), its sinks booked to its piece in sink[]. */
+static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, assembly_row *r)
 {
     const coeffs *co = &as->co;
     const ohm_channel_medium *med = as->med;
     const double h = as->h;
-    walk_to(&as->w, v);
+    walk_to(w, v);
     int nclosure_v = 0;
     r->nfaces = 0;
     double dv = co->uniform ? 0.0 : cell_D(co, med, v);
     r->sv = as->per_cell_eta ? ohm_network_unknown_scale(med, v) : 1.0;
     for (int d = 0; d < 6; ++d) {
-        int64_t w = r->nb[d] = walk_across(&as->w, d);
+        int64_t u = r->nb[d] = walk_across(w, d);
         r->ge[d] = 0.0;
-        if (w >= 0 && co->uniform) r->ge[d] = co->g_edge;
-        else if (w >= 0) {
-            double dw = cell_D(co, med, w);
-            r->ge[d] = as->per_cell_eta ? edge_conductance_eta(co, med, h, v, w, dv, dw)
-                                        : edge_conductance(med, h, v, w, dv, dw);
-        } else if (w == -1) ++r->nfaces;
-        else if (w == -3) ++nclosure_v;
+        if (u >= 0 && co->uniform) r->ge[d] = co->g_edge;
+        else if (u >= 0) {
+            double du = cell_D(co, med, u);
+            r->ge[d] = as->per_cell_eta ? edge_conductance_eta(co, med, h, v, u, dv, du)
+                                        : edge_conductance(med, h, v, u, dv, du);
+        } else if (u == -1) ++r->nfaces;
+        else if (u == -3) ++nclosure_v;
     }
     /* the sums in face order, as the per-face formulation adds them */
     double gav = co->uniform ? co->g_ground : ground_conductance(med, h, v);
@@ -477,7 +497,7 @@ static void assembly_next(assembly *as, int64_t v, assembly_row *r)
                           : boundary_conductance(med, h, v, dv, as->boundary, cell_A(co, med, v));
     double sinkv = gav;
     for (int q = 0; q < r->nfaces; ++q) sinkv += r->gb;
-    as->sink[as->net->piece ? as->net->piece[v] : 0] += sinkv;
+    sink[as->net->piece ? as->net->piece[v] : 0] += sinkv;
 }
 
 /* A piece with no ground and no leaking face has a constant null vector:
@@ -533,7 +553,7 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
     int64_t pos = 0, f = 0;
     for (int64_t v = 0; v < n; ++v) {
         assembly_row r;
-        assembly_next(&as, v, &r);
+        assembly_next(&as, &as.w, as.sink, v, &r);
         Ap[v] = pos;
         /* lower neighbours in the order -z, -y, -x give ascending rows */
         static const int lower[3] = {4, 2, 0};
@@ -567,6 +587,49 @@ void ohm_stencil_free(ohm_stencil *st)
     memset(st, 0, sizeof *st);
 }
 
+/* One thread's share of the stencil: unknowns v0 .. v1-1, its own walk
+ * and piece sums (added up afterwards), its first boundary face found by
+ * bisection (faces are stored in unknown order). */
+typedef struct stencil_share {
+    const assembly *as;
+    ohm_stencil *st;
+    double *ga, *gb;
+    int64_t v0, v1;
+    double *sink;
+    int overflow; /* an offset beyond 32 bits */
+} stencil_share;
+
+static void stencil_rows(void *user, int64_t i)
+{
+    stencil_share *sh = (stencil_share *)user + i;
+    const assembly *as = sh->as;
+    const ohm_network *net = as->net;
+    ohm_stencil *st = sh->st;
+    walk w;
+    walk_begin(&w, net);
+    int64_t lo = 0, hi = net->nfaces;
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (net->face_unknown[mid] < sh->v0) lo = mid + 1;
+        else hi = mid;
+    }
+    int64_t f = lo;
+    for (int64_t v = sh->v0; v < sh->v1; ++v) {
+        assembly_row r;
+        assembly_next(as, &w, sh->sink, v, &r);
+        for (int d = 0; d < 6; ++d) {
+            int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
+            if (delta < INT32_MIN || delta > INT32_MAX) sh->overflow = 1;
+            st->off[v][d] = (int32_t)delta;
+        }
+        for (int a = 0; a < 3; ++a) st->g[v][a] = r.ge[2 * a + 1];
+        double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
+        for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
+        st->sink[v] = sink;
+        assembly_sinks(&r, v, sh->ga, sh->gb, &f);
+    }
+}
+
 int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_network *net,
                         const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
 {
@@ -587,24 +650,28 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
     assembly as;
     int rc = assembly_begin(&as, net, med, boundary, err);
     if (rc) return rc;
-    int64_t f = 0;
-    for (int64_t v = 0; v < n; ++v) {
-        assembly_row r;
-        assembly_next(&as, v, &r);
-        for (int d = 0; d < 6; ++d) {
-            int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
-            if (delta < INT32_MIN || delta > INT32_MAX) {
-                assembly_free(&as);
-                return ohm_fail(err, OHM_ERR_USAGE, "network: a slice of %lld unknowns is more than the stencil's "
-                                "32-bit offsets reach; use solver=direct or cg", (long long)delta);
-            }
-            st->off[v][d] = (int32_t)delta;
-        }
-        for (int a = 0; a < 3; ++a) st->g[v][a] = r.ge[2 * a + 1];
-        double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
-        for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
-        st->sink[v] = sink;
-        assembly_sinks(&r, v, ga, gb, &f);
+    /* rows are independent: on every core, each share with its own walk and
+     * piece sums (the rows' values do not depend on the split) */
+    int shares = n >= PARALLEL_ASSEMBLY_MIN ? ohm_usable_cores() : 1;
+    if (shares > 16) shares = 16;
+    stencil_share sh[16];
+    size_t np = (size_t)(net->npieces ? net->npieces : 1);
+    for (int i = 0; i < shares; ++i) {
+        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, 0};
+        if (!(sh[i].sink = i == 0 ? as.sink : calloc(np, sizeof *sh[i].sink))) rc = OHM_ERR_NOMEM;
+    }
+    if (!rc) ohm_parallel_for(shares, shares, stencil_rows, sh);
+    int overflow = 0;
+    for (int i = 0; i < shares; ++i) {
+        overflow |= sh[i].overflow;
+        for (size_t p = 0; i > 0 && sh[i].sink && p < np; ++p) as.sink[p] += sh[i].sink[p];
+        if (i > 0) free(sh[i].sink);
+    }
+    if (rc || overflow) {
+        assembly_free(&as);
+        return rc ? ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n)
+                  : ohm_fail(err, OHM_ERR_USAGE, "network: a grid slice holds more unknowns than the stencil's "
+                             "32-bit offsets reach; use solver=direct or cg");
     }
     return assembly_end(&as, err);
 }
