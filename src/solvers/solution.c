@@ -97,12 +97,13 @@ void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *re
     sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
 }
 
-/* The solution's fluence and face exitance, every channel and frame, zeroed. */
+/* The solution's fluence and face exitance, every channel and frame, zeroed
+ * (fluence arrays kept by ohm_solution_reset stay as they are). */
 int ohm_solution_alloc(ohm_solution *sol, ohm_error *err)
 {
     size_t n = (size_t)sol->n, nf = (size_t)(sol->net.nfaces ? sol->net.nfaces : 1), frames = (size_t)sol->frames;
     for (int c = 0; c < sol->channels; ++c) {
-        sol->fluence[c] = calloc(n * frames, sizeof(double));
+        if (!sol->fluence[c]) sol->fluence[c] = calloc(n * frames, sizeof(double)); /* else kept: reset */
         sol->face_exitance[c] = calloc(nf * frames, sizeof(double));
         if (!sol->fluence[c] || !sol->face_exitance[c])
             return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the solution (%d frames)", sol->frames);
@@ -111,15 +112,19 @@ int ohm_solution_alloc(ohm_solution *sol, ohm_error *err)
 }
 
 /* The results of the solve before, and its per-solve statistics, cleared;
- * what the solver keeps (topology, media, setup statistics) stays. */
-void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep)
+ * what the solver keeps (topology, media, setup statistics) stays, and with
+ * keep_fluence the fluence arrays, as the next solve's starting guess. */
+void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep, int keep_fluence)
 {
     for (int c = 0; c < OHM_MAX_CHANNELS; ++c) {
-        free(sol->fluence[c]);
+        if (!keep_fluence) {
+            free(sol->fluence[c]);
+            sol->fluence[c] = NULL;
+        }
         free(sol->face_exitance[c]);
         free(sol->fluence_se[c]);
         free(sol->exitance_se[c]);
-        sol->fluence[c] = sol->face_exitance[c] = sol->fluence_se[c] = sol->exitance_se[c] = NULL;
+        sol->face_exitance[c] = sol->fluence_se[c] = sol->exitance_se[c] = NULL;
         sol->power_out_channel[c] = sol->power_in_channel[c] = 0;
     }
     sol->solves = sol->solves_skipped = 0;

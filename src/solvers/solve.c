@@ -282,13 +282,21 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
          * already holds that part) */
         size_t nu = ohm_distinct_columns(t, w->B, w->col_of, nb,
                                          f0 > 0 && !run->hybrid && !params->src.total_fluence ? w->prev_b : NULL, n);
-        /* (without warm starts X is only written, and starts zeroed) */
-        if (s->backend->caps & OHM_BACKEND_WARM_START) ohm_warm_start(X, sol, f0, c, warm_from, n);
-        ohm_scale_unknowns(X, 1, n, &med, 0);
+        /* (without warm starts X is only written, and starts zeroed; a
+         * relight's starts as the last solve's fluence of this frame) */
+        if ((s->backend->caps & OHM_BACKEND_WARM_START) && !run->from_last) ohm_warm_start(X, sol, f0, c, warm_from, n);
+        ohm_scale_unknowns(X, run->from_last ? nu : 1, n, &med, 0); /* the columns holding a guess */
         t0 = ohm_now();
         double t_setups = rep->t_analyze + rep->t_factor + rep->t_precond;
         double berr = 0;
-        if (nu > 0) rc = s->backend->solve(m->state, &m->op, w->B, X, nu, &berr, rep, err);
+        if (nu > 0 && !run->from_last) rc = s->backend->solve(m->state, &m->op, w->B, X, nu, &berr, rep, err);
+        /* a relight's columns each start from their own last solution: one
+         * at a time (a backend starts a later column from the one before) */
+        for (size_t j = 0; j < nu && run->from_last && !rc; ++j) {
+            double e = 0;
+            rc = s->backend->solve(m->state, &m->op, w->B + j * n, X + j * n, 1, &e, rep, err);
+            if (!(e <= berr)) berr = e;
+        }
         if (!rc && nu > 0) rc = ohm_conserve_exactly(t, &sol->net, X, w->B, nu, m->ga, m->gb, &m->op, &med, &berr, err);
         ohm_scale_unknowns(X, nu, n, &med, 1);
         /* a backend that set up inside solve (auto switching) books that as
@@ -421,7 +429,7 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
 /* The diffusion solve of every channel, medium by medium (diffusion_plan),
  * every frame of its channels solved with its set-up.  Grey materials with
  * grey lights have one channel. */
-static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
+static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlights, int from_last, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
     const ohm_solve_params *params = &s->params;
@@ -431,6 +439,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     if (rc) return rc;
     run.lights = lights;
     run.nlights = nlights;
+    run.from_last = from_last;
     double cap = params->num.max_rhs_bytes > 0 ? params->num.max_rhs_bytes : (double)(1u << 30);
     if (!params->src.custom_source && !run.hybrid) rc = ohm_face_powers_trace(&run.fp, s, lights, nlights, cap, err);
     channel_tally tally[OHM_MAX_CHANNELS];
@@ -445,19 +454,36 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
     return rc;
 }
 
+/* Whether a relight starts each channel from the last solve's fluence: a
+ * kept solver whose backend takes a starting guess, the same channels and
+ * frames, and a last fluence that is diffusion's alone (the hybrid's and
+ * fluence=total's add parts that are no solution of A). */
+static int relight_from_last(const ohm_solver *s, int channels, int frames)
+{
+    const ohm_solve_params *p = &s->params;
+    return s->keep && s->solved && (s->backend->caps & OHM_BACKEND_WARM_START) && channels == s->sol.channels &&
+           frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
+}
+
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
-    ohm_solution_reset(sol, &s->rep);
+    int channels, frames;
+    lights_shape(s, lights, nlights, &channels, &frames);
+    int from_last = relight_from_last(s, channels, frames);
+    s->solved = 0;
+    ohm_solution_reset(sol, &s->rep, from_last);
     if (nlights == 0 && !s->params.src.custom_source)
         return ohm_fail(err, OHM_ERR_INVALID, "solve: no lights: add -light before -solve");
-    lights_shape(s, lights, nlights, &sol->channels, &sol->frames);
+    sol->channels = channels;
+    sol->frames = frames;
     int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
     if (s->backend->caps & OHM_BACKEND_TRANSPORT) return s->backend->transport(s, lights, nlights, err);
-    rc = solve_diffusion(s, lights, nlights, err);
+    rc = solve_diffusion(s, lights, nlights, from_last, err);
     if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
         for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
+    s->solved = !rc;
     return rc;
 }
 

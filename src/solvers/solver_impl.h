@@ -89,6 +89,7 @@ struct ohm_solver {
     ohm_backend_report rep;      /* summed over the solver's life             */
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
     int held;                    /* keep = 0: the one slot holding resources, or -1 */
+    int solved;                  /* the solution holds the last solve's fluence */
 };
 
 /* Shadow rays and Fresnel do not depend on the channel: every frame's lights
@@ -121,12 +122,13 @@ typedef struct diffusion_run {
     face_powers fp;
     int channels, cls[OHM_MAX_CHANNELS];
     int nclasses;                /* distinct media: set-ups                  */
+    int from_last;               /* X starts as the last solve's fluence (a relight) */
 } diffusion_run;
 
 /* solution.c */
 void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *rep);
 int ohm_solution_alloc(ohm_solution *sol, ohm_error *err);
-void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep);
+void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep, int keep_fluence);
 
 /* media.c */
 void ohm_medium_for(ohm_channel_medium *med, const ohm_material *mat, const ohm_solve_params *p, int c);
