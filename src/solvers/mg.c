@@ -44,7 +44,10 @@ typedef struct mg_level {
     const ohm_stencil *st; /* this level's operator: the driver's at level 0 */
     ohm_stencil own;       /* a coarse level's, the Galerkin sums          */
     int64_t n;
-    int64_t *agg;          /* n: the next level's cell holding this one; NULL at the coarsest */
+    /* n: the next level's cell holding this one; NULL at the coarsest.  32
+     * bits: a coarse level has fewer cells than the grid, which the
+     * voxelizer keeps below 2^31 (checked in aggregate) */
+    int32_t *agg;
     /* the next level's slabs (its z index K): this level's cells in slab K
      * are fine_at[K] .. fine_at[K + 1] - 1, the next level's coarse_at[K]
      * .. coarse_at[K + 1] - 1 */
@@ -322,7 +325,7 @@ static void restrict_residual(const mg_level *L, const double *r, double *rc, in
 static void prolong_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    const int64_t *agg = k->L->agg;
+    const int32_t *agg = k->L->agg;
     for (int64_t v = lo; v < hi; ++v) k->out[v] = k->x[v] + k->y[agg[v]];
 }
 
@@ -471,7 +474,7 @@ static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3
     L->coarse_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->coarse_at);
     int64_t *mark = malloc((size_t)cplane * sizeof *mark);
     *ccell = malloc((size_t)(n ? n : 1) * sizeof **ccell); /* at most n coarse cells; shrunk below */
-    m->bytes += (double)n * 8;
+    m->bytes += (double)n * sizeof *L->agg;
     if (!L->agg || !L->fine_at || !L->coarse_at || !mark || !*ccell) {
         free(mark);
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
@@ -493,7 +496,7 @@ static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3
             }
         for (int64_t u = v0; u < v; ++u) {
             int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
-            L->agg[u] = mark[i / 2 + cdims[0] * (j / 2)];
+            L->agg[u] = (int32_t)mark[i / 2 + cdims[0] * (j / 2)];
         }
         for (int64_t u = v0; u < v; ++u) { /* reset the marks this slab set */
             int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
@@ -502,6 +505,10 @@ static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3
     }
     L->fine_at[cdims[2]] = v;
     L->coarse_at[cdims[2]] = nc;
+    if (nc > INT32_MAX) {
+        free(mark);
+        return ohm_fail(err, OHM_ERR_USAGE, "mg: %lld coarse cells are more than 2^31", (long long)nc);
+    }
     free(mark);
     int64_t *shrunk = realloc(*ccell, (size_t)(nc ? nc : 1) * sizeof *shrunk);
     if (shrunk) *ccell = shrunk;
@@ -655,10 +662,10 @@ double ohm_mg_bytes(const ohm_mg *mg) { return mg->bytes; }
 
 double ohm_mg_bytes_estimate(int64_t n)
 {
-    /* fine: stencil 56, aggregate map 8, outer r z p q 32, the cycle's r t
-     * 16; the coarse levels together about n/7 cells of stencil 56, map 8
+    /* fine: stencil 56, aggregate map 4, outer r z p q 32, the cycle's r t
+     * 16; the coarse levels together about n/7 cells of stencil 56, map 4
      * and up to nine vectors */
-    double fine = 56 + 8 + 32 + 16, coarse = (56 + 8 + 72) / 7.0;
+    double fine = 56 + 4 + 32 + 16, coarse = (56 + 4 + 72) / 7.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }

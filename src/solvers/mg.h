@@ -26,10 +26,10 @@
  * once the power balance holds to tol as well (ohm_mg_solve).
  *
  * Memory: the fine stencil (56 B per unknown, the driver's), per unknown
- * the aggregate map (8 B), four outer vectors and the cycle's two (48 B),
+ * the aggregate map (4 B), four outer vectors and the cycle's two (48 B),
  * and the coarse levels (an eighth as many cells each, with their stencil,
- * map and up to nine vectors): 132 B per unknown in all, measured at 1e7
- * cells (docs/multigrid.md). */
+ * map and up to nine vectors): 128 B per unknown in all at 1e7 cells
+ * (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
