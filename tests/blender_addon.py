@@ -70,6 +70,7 @@ lamp = bpy.data.objects.new("lamp", lamp_data)
 sc.collection.objects.link(lamp)
 obj.ohm.preset = "marble"
 obj.ohm.dim = DIM
+obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
 
 
 def place_light(direction, distance=110.0):

@@ -2,7 +2,7 @@
 # cli_blender_addon.sh — the Blender add-on (blender/ohm_blender, installed
 # from the build's ohm_blender.zip) in a headless Blender: Solve and Live
 # relight (tests/blender_addon.py live), then Bake sequence and Solve's volume
-# object (bake).  Skipped without Blender as cli_blender.sh is, and under the
+# object (bake), then Solve and Live relight with solver=mg.  Skipped without Blender as cli_blender.sh is, and under the
 # sanitizers (Blender's own process is not ours to instrument; the library
 # code it calls is covered there by api_scene and api_python).
 set -eu
@@ -13,10 +13,15 @@ require_blender
 check "the build made ohm_blender.zip" test -s "$ZIP"
 # Blender keeps installed add-ons in its user folder: a fresh one per run
 export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
-for mode in live bake; do
-  mkdir -p "$T/$mode"
-  expect_exit 0 "blender add-on: $mode" -- "$BLENDER" -b --factory-startup --python-exit-code 1 \
-    -P tests/blender_addon.py -- "$ZIP" samples/spot.obj "$T/$mode" "$T/$mode.json" "$mode"
+# live and bake with the default solver, then live with the multigrid (the
+# panel's Solver, OHM_ADDON_SOLVER in the script)
+for run in live bake live:mg; do
+  mode=${run%%:*} solver=${run#*:}
+  [ "$solver" != "$run" ] || solver=direct
+  mkdir -p "$T/$run"
+  OHM_ADDON_SOLVER=$solver expect_exit 0 "blender add-on: $mode, solver=$solver" -- "$BLENDER" -b --factory-startup \
+    --python-exit-code 1 -P tests/blender_addon.py -- "$ZIP" samples/spot.obj "$T/$run" "$T/$run.json" "$mode"
+  mode=$run
   if [ -s "$T/$mode.json" ]; then
     $PY -c 'import json,sys; r=json.load(open(sys.argv[1])); print(sys.argv[2]+":", {k: r[k] for k in r if k != "problems"}); [print("PROBLEM:", p) for p in r["problems"]]' "$T/$mode.json" "$mode"
   else

@@ -33,8 +33,10 @@ class OhmSettings(bpy.types.PropertyGroup):
     solver: bpy.props.EnumProperty(name="Solver", default="direct",
                                    items=[("direct", "Direct (factor once)", "Cholesky factor reused for every light"),
                                           ("auto", "Auto", "ohm chooses by memory and time"),
+                                          ("mg", "Multigrid", "geometric multigrid: large grids, low memory, "
+                                           "a quick first solve"),
                                           ("cg", "Conjugate gradients", "low memory"),
-                                          ("amg", "Multigrid", "PETSc + hypre, for large grids")])
+                                          ("amg", "Algebraic multigrid", "PETSc + hypre, for runs under mpirun")])
     shadows: bpy.props.BoolProperty(name="Shadows", default=True, description="shadow rays against the mesh")
     exposure: bpy.props.FloatProperty(name="Exposure", min=0.0, default=0.0,
                                       description="colour = exitance (W/mm²) × exposure; 0: automatic")
