@@ -95,6 +95,7 @@ void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *re
     sol->refined = rep->refined;
     sol->solver_bytes = rep->bytes;
     sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
+    sol->mg_levels = rep->levels;
 }
 
 /* The solution's fluence and face exitance, every channel and frame, zeroed

@@ -161,6 +161,7 @@ typedef struct ohm_solution {
     double t_cg_setup;                  /* building the preconditioners (cg, amg)     */
     double solver_bytes;                /* memory the backend held (its estimate)     */
     int ranks;                          /* MPI ranks that solved (amg), else 1        */
+    int mg_levels;                      /* mg: its hierarchy's levels, else 0         */
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */

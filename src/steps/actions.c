@@ -932,6 +932,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
+    ohm_stats_set_int(st, "mg_levels", sol->mg_levels);
     ohm_stats_set(st, "solver_bytes", sol->solver_bytes);
     ohm_stats_set(st, "depth_band", p.op.band_k);
     ohm_stats_set(st, "depth_band_mm", sol->band_depth);
