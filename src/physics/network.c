@@ -597,6 +597,8 @@ typedef struct stencil_share {
     int64_t v0, v1;
     double *sink;
     int overflow; /* an offset beyond 32 bits */
+    int broken;   /* a link the stencil cannot hold: no conductance, or a
+                     +x neighbour that is not the next unknown */
 } stencil_share;
 
 static void stencil_rows(void *user, int64_t i)
@@ -617,11 +619,15 @@ static void stencil_rows(void *user, int64_t i)
     for (int64_t v = sh->v0; v < sh->v1; ++v) {
         assembly_row r;
         assembly_next(as, &w, sh->sink, v, &r);
-        for (int d = 0; d < 6; ++d) {
+        for (int d = 2; d < 6; ++d) {
             int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
             if (delta < INT32_MIN || delta > INT32_MAX) sh->overflow = 1;
-            st->off[v][d] = (int32_t)delta;
+            st->off[v][d - 2] = (int32_t)delta;
         }
+        /* the stencil's rule (network.h): a +x link is v + 1's, every link's
+         * conductance > 0 */
+        for (int d = 0; d < 6; ++d)
+            if (r.nb[d] >= 0 && (!(r.ge[d] > 0) || (d < 2 && r.nb[d] != v + (d ? 1 : -1)))) sh->broken = 1;
         for (int a = 0; a < 3; ++a) st->g[v][a] = r.ge[2 * a + 1];
         double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
         for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
@@ -644,7 +650,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
         if (!st->off || !st->g || !st->sink) {
             ohm_stencil_free(st);
             return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil of %lld unknowns (%.0f MB)",
-                            (long long)n, (double)n * 56 / 1e6);
+                            (long long)n, (double)n * 48 / 1e6);
         }
     }
     assembly as;
@@ -657,21 +663,25 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
     stencil_share sh[16];
     size_t np = (size_t)(net->npieces ? net->npieces : 1);
     for (int i = 0; i < shares; ++i) {
-        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, 0};
+        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, 0, 0};
         if (!(sh[i].sink = i == 0 ? as.sink : calloc(np, sizeof *sh[i].sink))) rc = OHM_ERR_NOMEM;
     }
     if (!rc) ohm_parallel_for(shares, shares, stencil_rows, sh);
-    int overflow = 0;
+    int overflow = 0, broken = 0;
     for (int i = 0; i < shares; ++i) {
         overflow |= sh[i].overflow;
+        broken |= sh[i].broken;
         for (size_t p = 0; i > 0 && sh[i].sink && p < np; ++p) as.sink[p] += sh[i].sink[p];
         if (i > 0) free(sh[i].sink);
     }
-    if (rc || overflow) {
+    if (rc || overflow || broken) {
         assembly_free(&as);
-        return rc ? ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n)
-                  : ohm_fail(err, OHM_ERR_USAGE, "network: a grid slice holds more unknowns than the stencil's "
-                             "32-bit offsets reach; use solver=direct or cg");
+        if (rc) return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);
+        if (broken)
+            return ohm_fail(err, OHM_ERR_NUMERIC, "network: a link of zero (or no finite) conductance: the medium's "
+                            "coefficients are out of range for the stencil; use solver=direct or cg");
+        return ohm_fail(err, OHM_ERR_USAGE, "network: a grid slice holds more unknowns than the stencil's 32-bit "
+                        "offsets reach; use solver=direct or cg");
     }
     return assembly_end(&as, err);
 }

@@ -224,23 +224,40 @@ double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int
 const char *ohm_boundary_name(ohm_boundary b);
 
 /* The network's matrix as a 7-point stencil over its unknowns, what a
- * matrix-free solver reads instead of the assembled A (16 B of indices and
- * 32 of values per unknown against CHOLMOD's 8 + 16 per entry, four
- * entries per unknown): row v is
- *   (sink[v] + sum_d g_vd) x_v - sum_d g_vd x_(v + off[v][d])
- * over the directions d (ohm_face_offset's order) with a neighbour
- * (off[v][d] != 0).  g_vd is g[v][d / 2] for the +x, +y, +z links (d odd)
- * and the neighbour's g[w][d / 2] for the -x, -y, -z ones: each link's
- * conductance is stored once, by its lower unknown.  The values are
- * ohm_network_assemble's, by the same code: A = the stencil's matrix, up to
- * the order its diagonal is summed in. */
+ * matrix-free solver reads instead of the assembled A (48 B per unknown
+ * against CHOLMOD's 24 per entry, four entries per unknown): row v is
+ *   (sink[v] + sum_d g_vd) x_v - sum_d g_vd x_w(v,d)
+ * over the directions d (ohm_face_offset's order) in which v has a
+ * neighbour w(v, d) (ohm_stencil_neighbour).  g_vd is g[v][d / 2] for the
+ * +x, +y, +z links (d odd) and the neighbour's g[w][d / 2] for the -x, -y,
+ * -z ones: each link's conductance is stored once, by its lower unknown,
+ * and is > 0 exactly where the link is (0 where there is none).  Unknowns
+ * are numbered in cell order, so a +x neighbour is always v + 1 and needs
+ * no index: only the y and z neighbours' offsets are stored.  The values
+ * are ohm_network_assemble's, by the same code: A = the stencil's matrix,
+ * up to the order its diagonal is summed in. */
 typedef struct ohm_stencil {
     int64_t n;
-    int32_t (*off)[6]; /* neighbour's unknown minus v, per direction; 0: none */
-    double (*g)[3];    /* conductance of the +x, +y, +z links             */
+    int32_t (*off)[4]; /* the -y, +y, -z, +z neighbour's unknown minus v; 0: none */
+    double (*g)[3];    /* conductance of the +x, +y, +z links; 0: none    */
     double *sink;      /* ground + boundary (+ closure) conductance, scaled as
                           the diagonal (network.h: s_v with eta_v)        */
 } ohm_stencil;
+
+/* Unknown v's neighbour across face d (0..5, ohm_face_offset), or -1. */
+static inline int64_t ohm_stencil_neighbour(const ohm_stencil *st, int64_t v, int d)
+{
+    if (d == 0) return v > 0 && st->g[v - 1][0] > 0 ? v - 1 : -1;
+    if (d == 1) return st->g[v][0] > 0 ? v + 1 : -1;
+    int32_t o = st->off[v][d - 2];
+    return o ? v + o : -1;
+}
+
+/* The conductance of the link from v across face d to its neighbour w. */
+static inline double ohm_stencil_link(const ohm_stencil *st, int64_t v, int d, int64_t w)
+{
+    return d & 1 ? st->g[v][d >> 1] : st->g[w][d >> 1];
+}
 
 /* Fill *st (zeroed, or this network's stencil to refill with another
  * medium) and ga, gb as ohm_network_assemble does; the same checks. */

@@ -115,25 +115,29 @@ static double run(kernel *k, int64_t n, int threads)
 
 /* ---- the stencil's operations -------------------------------------------------------- */
 
-/* Row v's diagonal and (A x)_v: the links stored by v (+x, +y, +z) and by
- * its lower neighbours (-x, -y, -z: their +link). */
+/* Row v's diagonal and (A x)_v (network.h's ohm_stencil): the links stored
+ * by v (+x, +y, +z; 0 where there is none) and by its lower neighbours (-x:
+ * v - 1's +x link when it has one; -y, -z: at their offsets). */
 static inline double row_apply(const ohm_stencil *st, const double *x, int64_t v, double *diag)
 {
     const int32_t *off = st->off[v];
     const double *g = st->g[v];
-    double d = st->sink[v], sum = 0;
-    for (int a = 0; a < 3; ++a) {
-        if (off[2 * a + 1]) {
-            d += g[a];
-            sum += g[a] * x[v + off[2 * a + 1]];
-        }
-        if (off[2 * a]) {
-            int64_t w = v + off[2 * a];
+    double d = st->sink[v] + g[0] + g[1] + g[2], sum = 0;
+    if (g[0] > 0) sum += g[0] * x[v + 1];
+    if (off[1]) sum += g[1] * x[v + off[1]];
+    if (off[3]) sum += g[2] * x[v + off[3]];
+    if (v > 0 && st->g[v - 1][0] > 0) {
+        double gw = st->g[v - 1][0];
+        d += gw;
+        sum += gw * x[v - 1];
+    }
+    for (int a = 1; a < 3; ++a)
+        if (off[2 * a - 2]) {
+            int64_t w = v + off[2 * a - 2];
             double gw = st->g[w][a];
             d += gw;
             sum += gw * x[w];
         }
-    }
     *diag = d;
     return d * x[v] - sum;
 }
@@ -141,9 +145,9 @@ static inline double row_apply(const ohm_stencil *st, const double *x, int64_t v
 double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
 {
     double d = st->sink[v];
-    for (int a = 0; a < 3; ++a) {
-        if (st->off[v][2 * a + 1]) d += st->g[v][a];
-        if (st->off[v][2 * a]) d += st->g[v + st->off[v][2 * a]][a];
+    for (int dir = 0; dir < 6; ++dir) {
+        int64_t w = ohm_stencil_neighbour(st, v, dir);
+        if (w >= 0) d += ohm_stencil_link(st, v, dir, w);
     }
     return d;
 }
@@ -528,7 +532,7 @@ static int galerkin(ohm_mg *m, int l, ohm_error *err)
     cs->off = calloc((size_t)(nc ? nc : 1), sizeof *cs->off);
     cs->g = calloc((size_t)(nc ? nc : 1), sizeof *cs->g);
     cs->sink = calloc((size_t)(nc ? nc : 1), sizeof *cs->sink);
-    m->bytes += (double)nc * 56;
+    m->bytes += (double)nc * 48;
     if (!cs->off || !cs->g || !cs->sink)
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level of %lld cells", (long long)nc);
     const ohm_stencil *st = L->st;
@@ -536,16 +540,18 @@ static int galerkin(ohm_mg *m, int l, ohm_error *err)
         int64_t I = L->agg[v];
         cs->sink[I] += st->sink[v];
         for (int a = 0; a < 3; ++a) {
-            int32_t o = st->off[v][2 * a + 1];
-            if (!o) continue;
-            int64_t J = L->agg[v + o];
+            int64_t w = ohm_stencil_neighbour(st, v, 2 * a + 1);
+            if (w < 0) continue;
+            int64_t J = L->agg[w];
             if (J == I) continue; /* inside the block: neither a link nor a sink */
-            /* the blocks are neighbours across their +a face: J = I's +a neighbour */
+            /* the blocks are neighbours across their +a face: J is I's +a
+             * neighbour (I + 1 for +x, coarse cells being in cell order too) */
+            cs->g[I][a] += st->g[v][a];
+            if (a == 0) continue;
             int64_t delta = J - I;
             if (delta > INT32_MAX) return ohm_fail(err, OHM_ERR_INTERNAL, "mg: a coarse offset overflows");
-            cs->off[I][2 * a + 1] = (int32_t)delta;
-            cs->off[J][2 * a] = (int32_t)-delta;
-            cs->g[I][a] += st->g[v][a];
+            cs->off[I][2 * a - 1] = (int32_t)delta;
+            cs->off[J][2 * a - 2] = (int32_t)-delta;
         }
     }
     C->st = cs;
@@ -565,11 +571,10 @@ static int dense_factor(ohm_mg *m, ohm_error *err)
     const ohm_stencil *st = L->st;
     for (int64_t v = 0; v < n; ++v) {
         A[v * n + v] = ohm_stencil_diag(st, v);
-        for (int d = 0; d < 6; ++d)
-            if (st->off[v][d]) {
-                int64_t w = v + st->off[v][d];
-                A[v * n + w] = -(d & 1 ? st->g[v][d >> 1] : st->g[w][d >> 1]);
-            }
+        for (int d = 0; d < 6; ++d) {
+            int64_t w = ohm_stencil_neighbour(st, v, d);
+            if (w >= 0) A[v * n + w] = -ohm_stencil_link(st, v, d, w);
+        }
     }
     for (int64_t j = 0; j < n; ++j) { /* lower factor in place, row-major */
         double s = A[j * n + j];
@@ -662,10 +667,10 @@ double ohm_mg_bytes(const ohm_mg *mg) { return mg->bytes; }
 
 double ohm_mg_bytes_estimate(int64_t n)
 {
-    /* fine: stencil 56, aggregate map 4, outer r z p q 32, the cycle's r t
-     * 16; the coarse levels together about n/7 cells of stencil 56, map 4
+    /* fine: stencil 48, aggregate map 4, outer r z p q 32, the cycle's r t
+     * 16; the coarse levels together about n/7 cells of stencil 48, map 4
      * and up to nine vectors */
-    double fine = 56 + 4 + 32 + 16, coarse = (56 + 4 + 72) / 7.0;
+    double fine = 48 + 4 + 32 + 16, coarse = (48 + 4 + 72) / 7.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
@@ -832,7 +837,7 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     rep->precond_setups++;
     rep->levels = ohm_mg_levels(s->mg, NULL);
     snprintf(rep->solver, sizeof rep->solver, "mg");
-    double held = ohm_mg_bytes(s->mg) + 56.0 * (double)n; /* and the stencil it reads */
+    double held = ohm_mg_bytes(s->mg) + 48.0 * (double)n; /* and the stencil it reads */
     if (held > rep->bytes) rep->bytes = held;
     return OHM_OK;
 }

@@ -25,7 +25,7 @@
  * solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the true residual, and
  * once the power balance holds to tol as well (ohm_mg_solve).
  *
- * Memory: the fine stencil (56 B per unknown, the driver's), per unknown
+ * Memory: the fine stencil (48 B per unknown, the driver's), per unknown
  * the aggregate map (4 B), four outer vectors and the cycle's two (48 B),
  * and the coarse levels (an eighth as many cells each, with their stencil,
  * map and up to nine vectors): 128 B per unknown in all at 1e7 cells
