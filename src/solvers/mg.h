@@ -28,7 +28,7 @@
  * Memory: the fine stencil (48 B per unknown, the driver's), per unknown
  * the aggregate map (4 B), four outer vectors and the cycle's two (48 B),
  * and the coarse levels (an eighth as many cells each, with their stencil,
- * map and up to nine vectors): 128 B per unknown in all at 1e7 cells
+ * map and up to nine vectors): 118 B per unknown in all at 1e7 cells
  * (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
