@@ -36,13 +36,17 @@ enum { KCYCLE_LEVELS = 2 };
  * bounded share of the whole (a thin sheet or line coarsens by 4 or 2). */
 static const double KCYCLE_MAX_RATIO = 0.25;
 
-/* Damped Jacobi's weight, and sweeps before and after each coarse
- * correction, chosen by measurement (docs/multigrid.md): on the block
- * medium (1e6 contrasts, 1e5 to 1e7 cells) omega 0.9 with two sweeps took
- * 18-20 iterations where one sweep took 25-28 (0.8: 26-30), in the same
- * time within 4%; omega 1 diverges to hundreds. */
-static const double JACOBI_OMEGA = 0.9;
-enum { SWEEPS = 2 };
+/* The smoother: two Chebyshev steps on D^-1 A before and after each coarse
+ * correction (Adams, Brezina, Hu and Tuminaro, "Parallel multigrid
+ * smoothing: polynomial versus Gauss-Seidel", J. Comput. Phys. 188, 2003),
+ * aimed at the eigenvalues in [LMAX / CHEB_RATIO, LMAX]; those below are the
+ * coarse levels' to remove.  LMAX = 2 bounds D^-1 A's spectrum for any
+ * diagonally dominant stencil (Gershgorin), so nothing is estimated.  By
+ * measurement (docs/multigrid.md): on the block medium at 1e7 cells 17
+ * iterations and 4.8-5.0 s against damped Jacobi's 19 and 5.4 s (omega
+ * 0.9, two sweeps, the best of 0.67-1.0 and one to three sweeps); fewer
+ * iterations or as many on every test scene; ratio 5-8 as good as 6. */
+static const double CHEB_LMAX = 2.0, CHEB_RATIO = 6.0;
 
 typedef struct mg_level {
     const ohm_stencil *st; /* this level's operator: the driver's at level 0 */
@@ -273,7 +277,7 @@ static void direction_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 
 /* ---- the smoother and the transfers --------------------------------------------------- */
 
-/* out = x + omega D^-1 (b - A x); x NULL: from zero (out = omega D^-1 b). */
+/* out = x + w D^-1 (b - A x); x NULL: from zero (out = w D^-1 b). */
 static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
@@ -290,10 +294,31 @@ static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     }
 }
 
-static void jacobi(const mg_level *L, const double *x, const double *b, double *out, int threads)
+/* out = x + a (x - y) + c D^-1 (b - A x), y NULL: 0 (Chebyshev's second step) */
+static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    kernel k = {.fn = jacobi_k, .L = L, .x = x, .b = b, .out = out, .a = JACOBI_OMEGA};
-    run(&k, L->n, threads);
+    (void)chunk;
+    const ohm_stencil *st = k->L->st;
+    for (int64_t v = lo; v < hi; ++v) {
+        double d, ax = row_apply(st, k->x, v, &d);
+        k->out[v] = k->x[v] + k->a * (k->x[v] - (k->y ? k->y[v] : 0.0)) + k->a2 * (k->b[v] - ax) / d;
+    }
+}
+
+/* Two Chebyshev steps for A out = b from y (NULL: zero), the first into
+ * tmp: x1 = y + D^-1 (b - A y) / theta, then out = x1 + rho1 rho0 (x1 - y) +
+ * (2 rho1 / delta) D^-1 (b - A x1) (the three-term recurrence of Saad,
+ * "Iterative Methods for Sparse Linear Systems", 2nd ed., Algorithm 12.1,
+ * with d0 = x1 - y). */
+static void smooth(const mg_level *L, const double *y, const double *b, double *tmp, double *out, int threads)
+{
+    const double lmin = CHEB_LMAX / CHEB_RATIO;
+    const double theta = 0.5 * (CHEB_LMAX + lmin), delta = 0.5 * (CHEB_LMAX - lmin), sigma = theta / delta;
+    const double rho0 = 1.0 / sigma, rho1 = 1.0 / (2.0 * sigma - rho0);
+    kernel k1 = {.fn = jacobi_k, .L = L, .x = y, .b = b, .out = tmp, .a = 1.0 / theta};
+    run(&k1, L->n, threads);
+    kernel k2 = {.fn = cheb_k, .L = L, .x = tmp, .y = y, .b = b, .out = out, .a = rho1 * rho0, .a2 = 2.0 * rho1 / delta};
+    run(&k2, L->n, threads);
 }
 
 /* out = b - A x */
@@ -406,28 +431,12 @@ static void cycle(const ohm_mg *m, int l, const double *b, double *x)
     const mg_level *L = &m->lev[l];
     const mg_level *C = &m->lev[l + 1];
     int th = m->threads;
-    /* pre-smoothing from zero: x, then (more sweeps) t and x in turn */
-    jacobi(L, NULL, b, x, th);
-    double *cur = x, *other = L->t;
-    for (int s = 1; s < SWEEPS; ++s) {
-        jacobi(L, cur, b, other, th);
-        double *swap = cur;
-        cur = other;
-        other = swap;
-    }
-    residual(L, cur, b, L->r, th);
+    smooth(L, NULL, b, x, L->t, th); /* pre-smoothed: t */
+    residual(L, L->t, b, L->r, th);
     restrict_residual(L, L->r, C->b, th);
     coarse_solve(m, l + 1, C->b, C->x);
-    /* corrected into r, then post-smoothed back into x */
-    prolong_add(L, cur, C->x, L->r, th);
-    cur = L->r;
-    other = L->t;
-    for (int s = 0; s < SWEEPS; ++s) {
-        double *dst = s == SWEEPS - 1 ? x : other;
-        jacobi(L, cur, b, dst, th);
-        other = cur;
-        cur = dst;
-    }
+    prolong_add(L, L->t, C->x, L->r, th); /* corrected: r */
+    smooth(L, L->r, b, L->t, x, th);      /* post-smoothed: x */
 }
 
 /* ---- set-up ---------------------------------------------------------------------------- */

@@ -17,8 +17,9 @@
  * Algebra Appl. 15, 2008) restores it: each coarse correction is up to two
  * steps of flexible CG preconditioned by the next level's cycle, as in
  * AGMG (Notay, "An aggregation-based algebraic multigrid method", ETNA 37,
- * 2010).  The smoother is damped Jacobi with the diagonal computed from the
- * stencil as it is read (no array of its own); the coarsest level (at most
+ * 2010).  The smoother is two Chebyshev steps on D^-1 A, the diagonal
+ * computed from the stencil as it is read (no array of its own); the
+ * coarsest level (at most
  * a few hundred cells) is solved by a dense Cholesky factor.  The outer
  * iteration is flexible CG (the K-cycle is not a fixed linear operator),
  * in double precision, on the network's own stencil, stopping, like
