@@ -28,7 +28,7 @@
  * measured from 1e6 to 2.7e7 cells of the random block medium, marble Spot
  * and the Colin27 head on a quiet machine (docs/scale.md, at ab1c5c9).  mg
  * is the probe because it is the cheaper iterative solver everywhere it was
- * measured: 17-19 iterations and ~590 ns per cell a column on the block
+ * measured: 16-18 iterations and ~500 ns per cell a column on the block
  * medium from 1e5 to 1e7 cells, where cg took 3-4x that, and cg's time at
  * spot's 37 101 cells (docs/multigrid.md). */
 #include "solvers/backend.h"
