@@ -44,8 +44,10 @@ static const double KCYCLE_MAX_RATIO = 0.25;
  * diagonally dominant stencil (Gershgorin), so nothing is estimated.  By
  * measurement (docs/multigrid.md): on the block medium at 1e7 cells 17
  * iterations and 4.8-5.0 s against damped Jacobi's 19 and 5.4 s (omega
- * 0.9, two sweeps, the best of 0.67-1.0 and one to three sweeps); fewer
- * iterations or as many on every test scene; ratio 5-8 as good as 6. */
+ * 0.9, two sweeps, the best of 0.67-1.0 and one to three sweeps) and
+ * red-black Gauss-Seidel's 23 and 6.0 s (one symmetric sweep) or 15 and
+ * 6.2 s (two); fewer iterations or as many on every test scene; ratio 5-8
+ * as good as 6. */
 static const double CHEB_LMAX = 2.0, CHEB_RATIO = 6.0;
 
 typedef struct mg_level {
