@@ -114,7 +114,9 @@ static inline int64_t find_root(int64_t *parent, int64_t x)
     return x;
 }
 
-int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
+/* The first boundary face of unknown v or of a later one (faces are
+ * stored in unknown order): a bisection. */
+static int64_t first_face_from(const ohm_network *net, int64_t v)
 {
     int64_t lo = 0, hi = net->nfaces;
     while (lo < hi) {
@@ -122,7 +124,12 @@ int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
         if (net->face_unknown[mid] < v) lo = mid + 1;
         else hi = mid;
     }
-    for (int64_t f = lo; f < net->nfaces && net->face_unknown[f] == v; ++f)
+    return lo;
+}
+
+int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
+{
+    for (int64_t f = first_face_from(net, v); f < net->nfaces && net->face_unknown[f] == v; ++f)
         if (net->face_dir[f] == d) return f;
     return -1;
 }
@@ -588,8 +595,7 @@ void ohm_stencil_free(ohm_stencil *st)
 }
 
 /* One thread's share of the stencil: unknowns v0 .. v1-1, its own walk
- * and piece sums (added up afterwards), its first boundary face found by
- * bisection (faces are stored in unknown order). */
+ * and piece sums (added up afterwards), from its first boundary face. */
 typedef struct stencil_share {
     const assembly *as;
     ohm_stencil *st;
@@ -609,13 +615,7 @@ static void stencil_rows(void *user, int64_t i)
     ohm_stencil *st = sh->st;
     walk w;
     walk_begin(&w, net);
-    int64_t lo = 0, hi = net->nfaces;
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (net->face_unknown[mid] < sh->v0) lo = mid + 1;
-        else hi = mid;
-    }
-    int64_t f = lo;
+    int64_t f = first_face_from(net, sh->v0);
     for (int64_t v = sh->v0; v < sh->v1; ++v) {
         assembly_row r;
         assembly_next(as, &w, sh->sink, v, &r);

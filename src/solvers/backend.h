@@ -197,6 +197,10 @@ int ohm_backend_check_memory(double need, double max_memory, const char *what, c
 double ohm_amg_bytes_per_rank(int64_t n, double nnz_upper, int ranks);
 int ohm_mpi_ranks(void);
 
+/* The scaled backward error ||r||_inf / (normA ||x||_inf + ||b||_inf) of one
+ * column whose residual r = b - A x is known (0 when both norms are 0). */
+double ohm_scaled_backward_error(const double *b, const double *x, const double *r, size_t n, double normA);
+
 /* Largest scaled backward error over ncols columns of A X = B (infinity
  * norms); normA: ||A||_inf, or <= 0 to compute it.  The same for an
  * assembled A. */

@@ -153,18 +153,6 @@ static double dot(const double *a, const double *b, int64_t n)
     return s;
 }
 
-static double scaled_backward_error(const ohm_cg *cg, const double *x, const double *b, const double *r)
-{
-    double nx = 0, nb = 0, nr = 0;
-    for (int64_t i = 0; i < cg->n; ++i) {
-        nx = fmax(nx, fabs(x[i]));
-        nb = fmax(nb, fabs(b[i]));
-        nr = fmax(nr, fabs(r[i]));
-    }
-    double denom = cg->norm_A * nx + nb;
-    return denom > 0 ? nr / denom : 0.0;
-}
-
 int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max_iter, int64_t *iters,
                  double *relres, ohm_error *err)
 {
@@ -196,7 +184,8 @@ int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max
         }
         *relres = nr / nb;
         if (nr <= tol * nb) break;
-        if (restarts > 0 && scaled_backward_error(cg, x, b, r) <= 0.01 * tol) break; /* stagnated at the floor */
+        /* stagnated at the floor */
+        if (restarts > 0 && ohm_scaled_backward_error(b, x, r, (size_t)cg->n, cg->norm_A) <= 0.01 * tol) break;
         if (it >= max_iter || restarts > 5) {
             *iters = it;
             return ohm_fail(err, OHM_ERR_NUMERIC,

@@ -319,7 +319,8 @@ static void smooth(const mg_level *L, const double *y, const double *b, double *
     const double rho0 = 1.0 / sigma, rho1 = 1.0 / (2.0 * sigma - rho0);
     kernel k1 = {.fn = jacobi_k, .L = L, .x = y, .b = b, .out = tmp, .a = 1.0 / theta};
     run(&k1, L->n, threads);
-    kernel k2 = {.fn = cheb_k, .L = L, .x = tmp, .y = y, .b = b, .out = out, .a = rho1 * rho0, .a2 = 2.0 * rho1 / delta};
+    kernel k2 = {
+        .fn = cheb_k, .L = L, .x = tmp, .y = y, .b = b, .out = out, .a = rho1 * rho0, .a2 = 2.0 * rho1 / delta};
     run(&k2, L->n, threads);
 }
 
@@ -688,18 +689,6 @@ double ohm_mg_bytes_estimate(int64_t n)
 
 /* ---- the outer iteration --------------------------------------------------------------- */
 
-static double backward_error(const ohm_mg *m, const double *x, const double *b, const double *r, int64_t n)
-{
-    double nx = 0, nb = 0, nr = 0;
-    for (int64_t i = 0; i < n; ++i) {
-        nx = fmax(nx, fabs(x[i]));
-        nb = fmax(nb, fabs(b[i]));
-        nr = fmax(nr, fabs(r[i]));
-    }
-    double denom = m->norm_A * nx + nb;
-    return denom > 0 ? nr / denom : 0.0;
-}
-
 static void precondition(const ohm_mg *m, const double *r, double *z)
 {
     if (m->nlevels == 1) dense_solve(m, r, z);
@@ -747,7 +736,8 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
         for (int64_t i = 0; i < n; ++i) sr += r[i];
         *relres = nr / nb;
         if (CONVERGED(nr, sr)) break;
-        if (restarts > 0 && backward_error(m, x, b, r, n) <= 0.01 * tol) break; /* stagnated at the floor */
+        /* stagnated at the floor */
+        if (restarts > 0 && ohm_scaled_backward_error(b, x, r, (size_t)n, m->norm_A) <= 0.01 * tol) break;
         if (it >= max_iter || restarts > 5) {
             *iters = it;
             ohm_progress_end(&prog);
@@ -831,11 +821,13 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     if ((!op->stencil && !op->make_stencil) || !s->cfg.layout || s->cfg.layout->n != op->n)
         return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mg needs the network's stencil and its cells");
     int64_t n = op->n;
-    double need = ohm_mg_bytes_estimate(n) + 2.0 * sizeof(double) * (double)n * (double)(s->cfg.batch ? s->cfg.batch : 1);
+    double columns = (double)(s->cfg.batch ? s->cfg.batch : 1);
+    double need = ohm_mg_bytes_estimate(n) + 2.0 * sizeof(double) * (double)n * columns;
     if (op->A) need += 24.0 * (double)op->A->nzmax; /* A is held beside the stencil made for mg */
     char what[64];
     snprintf(what, sizeof what, "multigrid on %lld cells", (long long)n);
-    int rc = ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
+    int rc =
+        ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
     if (rc) return rc;
     ohm_mg_free(s->mg);
     s->mg = NULL;
