@@ -17,20 +17,24 @@
  * Algebra Appl. 15, 2008) restores it: each coarse correction is up to two
  * steps of flexible CG preconditioned by the next level's cycle, as in
  * AGMG (Notay, "An aggregation-based algebraic multigrid method", ETNA 37,
- * 2010).  The smoother is two Chebyshev steps on D^-1 A, the diagonal
- * computed from the stencil as it is read (no array of its own); the
- * coarsest level (at most
- * a few hundred cells) is solved by a dense Cholesky factor.  The outer
- * iteration is flexible CG (the K-cycle is not a fixed linear operator),
- * in double precision, on the network's own stencil, stopping, like
- * solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the true residual, and
- * once the power balance holds to tol as well (ohm_mg_solve).
+ * 2010).  The smoother is two Chebyshev steps on D^-1 A; the coarsest level
+ * (at most a few hundred cells) is solved by a dense Cholesky factor.
  *
- * Memory: the fine stencil (48 B per unknown, the driver's), per unknown
- * the aggregate map (4 B), four outer vectors and the cycle's two (48 B),
- * and the coarse levels (an eighth as many cells each, with their stencil,
- * map and up to nine vectors): 118 B per unknown in all at 1e7 cells
- * (docs/multigrid.md). */
+ * The cycle runs in single precision, on a copy of the stencil scaled by
+ * 1 / ||A||_inf (a preconditioner need only be near A^-1, and floats halve
+ * the bytes its passes stream); the outer iteration is flexible CG (the
+ * K-cycle is not a fixed linear operator) in double precision on the
+ * network's own stencil, stopping, like solver=cg, at ||b - A x||_2 <= tol
+ * ||b||_2 of the true residual, and once the power balance holds to tol as
+ * well (ohm_mg_solve): the solution and the books are as exact as the
+ * double-precision cycle's were.
+ *
+ * Memory per unknown: the network's stencil (48 B, the driver's), its
+ * single-precision conductances and inverse diagonal (20 B), the aggregate
+ * map (4 B), three outer vectors in double (24 B) and four of the cycle's
+ * in single (16 B), and the coarse levels (an eighth as many cells each,
+ * with their stencil, map and up to nine vectors): about 123 B per unknown
+ * in all at 1e7 cells (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
@@ -59,6 +63,16 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
  * residual). */
 int ohm_mg_solve(ohm_mg *mg, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
                  int64_t *iters, double *relres, ohm_error *err);
+
+/* z = M r, one application of the preconditioner (one cycle, in single
+ * precision), scaled to approximate A^-1 r: what each outer iteration
+ * does, for measuring it (tests/bench_mg.c). */
+void ohm_mg_precondition(ohm_mg *mg, const double *r, double *z);
+
+/* The bytes one ohm_mg_precondition streams, counted kernel by kernel from
+ * the levels' sizes (each array once per pass, as STREAM's triad counts):
+ * its bandwidth bound at a measured triad rate. */
+double ohm_mg_cycle_bytes(const ohm_mg *mg);
 
 /* Levels, and cells summed over them (the finest included). */
 int ohm_mg_levels(const ohm_mg *mg, int64_t *cells);
