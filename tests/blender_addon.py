@@ -73,6 +73,11 @@ obj.ohm.dim = DIM
 obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
 
 
+def status():
+    s = session.get(obj)
+    return s.status if s else "(no session)"
+
+
 def place_light(direction, distance=110.0):
     d = np.asarray(direction, dtype=float)
     lamp.location = tuple(d / np.linalg.norm(d) * distance)
@@ -102,7 +107,6 @@ def screenshot(path, light_dir):
     place_light(light_dir)
     operators.live_step(bpy.context, obj)
     obj.ohm.exposure = 0.5 / float(np.percentile(session.get(obj).scene.vertex_exitance()[:, 0], 99))
-    session.get(obj).recolour(obj)  # the exposure is no setting of the solve: the colours only
     me.color_attributes.active_color = me.color_attributes[obj.ohm.attribute]
     cam = bpy.data.objects.new("cam", bpy.data.cameras.new("cam"))
     sc.collection.objects.link(cam)
@@ -124,12 +128,12 @@ def screenshot(path, light_dir):
 if MODE == "live":
     place_light((1, 0.3, 0))
     if bpy.ops.ohm.solve() != {"FINISHED"}:
-        raise SystemExit("ohm.solve did not finish: " + obj.ohm.status)
+        raise SystemExit("ohm.solve did not finish: " + status())
     if obj.ohm.attribute not in me.attributes:
         problem("no colour attribute %s after Solve" % obj.ohm.attribute)
     s = session.get(obj)
     report["cells"] = int(s.result["unknowns"])
-    report["factorizations_after_solve"] = obj.ohm.factorizations
+    report["factorizations_after_solve"] = session.get(obj).factorizations
     report["contrast_after_solve"] = facing_contrast((1, 0.3, 0))
     if not report["contrast_after_solve"] > 2:
         problem("lit side only %.3g x the far side after Solve" % report["contrast_after_solve"])
@@ -156,15 +160,73 @@ if MODE == "live":
     elapsed = time.perf_counter() - t0
     report["updates_per_second"] = MOVES / elapsed
     report["update_parts_ms"] = {k: 1e3 * v / MOVES for k, v in parts.items()}
-    report["factorizations_after_live"] = obj.ohm.factorizations
-    if obj.ohm.factorizations != report["factorizations_after_solve"] or s.setups != 1:
-        problem("live relight factored again: %d factorizations, %d setups" % (obj.ohm.factorizations, s.setups))
+    report["factorizations_after_live"] = session.get(obj).factorizations
+    if session.get(obj).factorizations != report["factorizations_after_solve"] or s.setups != 1:
+        problem("live relight factored again: %d factorizations, %d setups" % (session.get(obj).factorizations, s.setups))
     # a change of material refactors once, then relights again
     obj.ohm.preset = "skin1"
     what = operators.live_step(bpy.context, obj)
     what2 = operators.live_step(bpy.context, obj)
     if what != "setup" or what2 is not None or s.setups != 2:
         problem("a new material gave %r then %r (%d setups), expected one setup" % (what, what2, s.setups))
+    # what Solve shows without wiring: the material emitting the attribute,
+    # the attribute active for the viewport
+    mat = obj.material_slots[0].material if obj.material_slots else None
+    attr_nodes = [n for n in mat.node_tree.nodes if n.type == "ATTRIBUTE"] if mat and mat.use_nodes else []
+    if not attr_nodes or attr_nodes[0].attribute_name != obj.ohm.attribute or \
+            not any(n.type == "EMISSION" for n in mat.node_tree.nodes):
+        problem("Solve left no material emitting %s: %s" % (obj.ohm.attribute, mat))
+    if me.color_attributes.active_color is None or me.color_attributes.active_color.name != obj.ohm.attribute:
+        problem("the colour attribute is not the active one")
+    # a new exposure recolours at once, without a solve
+    before = luminance().copy()
+    runs = (s.setups, s.relights)
+    obj.ohm.exposure = 2.0 * s.exposure
+    ratio = float(np.median(luminance()[before > 0] / before[before > 0]))
+    report["exposure_doubled_ratio"] = ratio
+    if abs(ratio - 2.0) > 1e-3 or (s.setups, s.relights) != runs:
+        problem("doubling the exposure scaled the colours by %.4g with %s runs" % (ratio, (s.setups, s.relights)))
+    obj.ohm.exposure = 0.0
+    # a rename keeps the session (and its solver)
+    obj.name = "spot renamed"
+    if session.get(obj) is not s or operators.live_step(bpy.context, obj) is not None:
+        problem("a rename lost the session")
+    obj.name = "spot"
+    # a modifier changes the geometry Blender shows: a new setup on it, the
+    # colours still on the mesh's own vertices
+    mod = obj.modifiers.new("sub", "SUBSURF")
+    mod.levels = 1
+    what = operators.live_step(bpy.context, obj)
+    cells_sub = int(s.result["unknowns"])
+    report["cells_with_subdivision"] = cells_sub
+    if what != "setup" or s.to_original is None or len(luminance()) != len(me.vertices):
+        problem("a Subdivision modifier gave %r (mapping %s)" % (what, s.to_original is not None))
+    obj.modifiers.remove(mod)
+    if operators.live_step(bpy.context, obj) != "setup":
+        problem("removing the modifier did not set up again")
+    # a solve in the background (session.Job, as Solve runs from the panel):
+    # cancelled, it ends with ohm.Cancelled; the session runs again after
+    obj.ohm.dim = 2 * DIM
+    obj.ohm.solver = "direct"
+    s.begin_run()
+    job = session.Job(s, s.gather(obj, sc, bpy.context.evaluated_depsgraph_get()))
+    time.sleep(0.3)
+    t_cancel = time.perf_counter()
+    job.cancel()
+    ended = job.wait(60.0)
+    report["cancel_seconds"] = time.perf_counter() - t_cancel
+    job.end()
+    if not ended or not isinstance(job.error, session.ohmlib.Cancelled):
+        problem("a cancelled background solve ended %s with %r" % (ended, job.error))
+    obj.ohm.dim = DIM
+    obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
+    # a warning reaches the artist: a light inside the object lights nothing
+    place_light((1, 0, 0), distance=1.0)
+    bpy.ops.ohm.solve()
+    report["warnings_light_inside"] = s.warnings
+    if not any("reaches no part of the object" in w for w in s.warnings):
+        problem("a light inside the object gave no warning that it lights nothing: %s" % s.warnings)
+    place_light((1, 0.3, 0))
     if os.environ.get("OHM_SCREENSHOT"):
         screenshot(os.environ["OHM_SCREENSHOT"], (1, 0.3, 0.4))
     print("ohm live: %d cells, %.1f updates/s, parts (ms) %s" % (report["cells"], report["updates_per_second"],
@@ -177,7 +239,7 @@ elif MODE == "bake":
     obj.ohm.directory = os.path.join(OUT, "")
     sc.frame_set(1)
     if bpy.ops.ohm.bake() != {"FINISHED"}:
-        raise SystemExit("ohm.bake did not finish: " + obj.ohm.status)
+        raise SystemExit("ohm.bake did not finish: " + status())
     s = session.get(obj)
     files = [os.path.join(OUT, "spot_%04d.vdb" % f) for f in range(1, 5)]
     report["files"] = [os.path.basename(f) for f in files if os.path.getsize(f) > 0]
@@ -189,7 +251,7 @@ elif MODE == "bake":
         problem("bake left no attributes %s" % missing)
     report["setups"] = s.setups
     report["relights"] = s.relights
-    report["factorizations"] = obj.ohm.factorizations
+    report["factorizations"] = session.get(obj).factorizations
     if s.setups != 1 or s.relights != 3:
         problem("bake made %d setups and %d relights, expected 1 and 3" % (s.setups, s.relights))
     # frame 1 lit from +x, frame 3 from -x: their attributes say so
@@ -204,11 +266,22 @@ elif MODE == "bake":
         report["frame_contrasts"] = [f1, f3]
         if not (f1 > 2 and f3 > 2):
             problem("baked frames do not follow the light: %s" % [f1, f3])
+    # a static light: one frame solved, the earlier bake's files and
+    # attributes removed
+    lamp.animation_data_clear()
+    place_light((1, 0.3, 0))
+    if bpy.ops.ohm.bake() != {"FINISHED"}:
+        raise SystemExit("ohm.bake (static) did not finish: " + status())
+    left = sorted(f for f in os.listdir(OUT) if f.endswith(".vdb"))
+    attrs = sorted(a.name for a in me.attributes if a.name.startswith(obj.ohm.attribute + "_"))
+    report["static_bake"] = {"files": left, "attributes": attrs}
+    if left != ["spot_0001.vdb"] or attrs != [obj.ohm.attribute + "_0001"]:
+        problem("a static light's bake left files %s and attributes %s" % (left, attrs))
     # Solve with a volume object: placed over the mesh, half a voxel back
     obj.ohm.make_volume = True
     sc.frame_set(1)
     if bpy.ops.ohm.solve() != {"FINISHED"}:
-        raise SystemExit("ohm.solve (volume) did not finish: " + obj.ohm.status)
+        raise SystemExit("ohm.solve (volume) did not finish: " + status())
     vol = bpy.data.objects.get("spot_ohm")
     if vol is None or vol.type != "VOLUME":
         problem("no volume object after Solve with Volume object")

@@ -2,7 +2,8 @@
 (libohm, bundled in this add-on's lib/), written onto the mesh as a colour
 attribute, relit live from one factor, baked over an animation.
 
-Operators (bpy.ops.ohm.*): solve, live (a modal relight loop), bake.  The
+Operators (bpy.ops.ohm.*): solve (in the background when invoked from the
+panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake.  The
 panel is Properties > Object > ohm.  See README.md, "For Blender users".
 """
 bl_info = {
@@ -28,13 +29,30 @@ import bpy  # noqa: E402
 classes = (settings.OhmSettings,) + operators.classes + ui.classes
 
 
+@bpy.app.handlers.persistent
+def _on_load(_dummy):
+    """A file is loaded: every session's object is gone."""
+    session.close_all()
+
+
+@bpy.app.handlers.persistent
+def _on_depsgraph(scene, _depsgraph=None):
+    """An object deleted (or reallocated by an undo): its session is closed."""
+    session.prune(bpy.data.objects)
+
+
 def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Object.ohm = bpy.props.PointerProperty(type=settings.OhmSettings)
+    bpy.app.handlers.load_pre.append(_on_load)
+    bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph)
 
 
 def unregister():
+    for handlers, fn in ((bpy.app.handlers.load_pre, _on_load), (bpy.app.handlers.depsgraph_update_post, _on_depsgraph)):
+        if fn in handlers:
+            handlers.remove(fn)
     session.close_all()
     del bpy.types.Object.ohm
     for cls in reversed(classes):

@@ -10,19 +10,76 @@ def mm_per_unit(scene):
     return scene.unit_settings.scale_length * 1000.0
 
 
-def mesh_arrays(obj, mm):
-    """The object's mesh as placed in the world, in mm: vertices (n, 3) in
-    the mesh's own vertex order (so ohm's per-vertex results map straight
-    back onto it), triangles (m, 3)."""
-    me = obj.data
-    me.calc_loop_triangles()
-    co = np.empty(3 * len(me.vertices), dtype=np.float64)
-    me.vertices.foreach_get("co", co)
+def evaluated_mesh(obj, depsgraph):
+    """The object's mesh as Blender shows it, modifiers and shape keys
+    applied (depsgraph None: the mesh's own data): vertices in object space
+    (n, 3) float64 and triangles (m, 3) int64."""
+    src = obj.evaluated_get(depsgraph) if depsgraph is not None else obj
+    me = src.to_mesh() if depsgraph is not None else obj.data
+    try:
+        me.calc_loop_triangles()
+        co = np.empty(3 * len(me.vertices), dtype=np.float64)
+        me.vertices.foreach_get("co", co)
+        tris = np.empty(3 * len(me.loop_triangles), dtype=np.int32)
+        me.loop_triangles.foreach_get("vertices", tris)
+    finally:
+        if depsgraph is not None:
+            src.to_mesh_clear()
+    return co.reshape(-1, 3), tris.reshape(-1, 3).astype(np.int64)
+
+
+def world_mm(obj, local, mm):
+    """Object-space vertices placed in the world, in mm."""
     m = np.array(obj.matrix_world, dtype=np.float64)
-    world = co.reshape(-1, 3) @ m[:3, :3].T + m[:3, 3]
-    tris = np.empty(3 * len(me.loop_triangles), dtype=np.int32)
-    me.loop_triangles.foreach_get("vertices", tris)
-    return world * mm, tris.reshape(-1, 3).astype(np.int64)
+    return (local @ m[:3, :3].T + m[:3, 3]) * mm
+
+
+def to_original(obj, local):
+    """For each of the mesh's own vertices, the evaluated vertex whose
+    colour it shows: None when the modifiers keep the vertices (deforming
+    ones, shape keys: the same count, the same order), else the nearest
+    evaluated vertex in object space (a subdivision keeps a vertex near each
+    original one, an array's first copy is the original).  The colour
+    attribute lives on the mesh's own vertices, and Blender carries it
+    through the modifiers."""
+    me = obj.data
+    if len(me.vertices) == len(local):
+        return None
+    from mathutils import kdtree
+    tree = kdtree.KDTree(len(local))
+    for i, co in enumerate(local):
+        tree.insert(co, i)
+    tree.balance()
+    own = np.empty(3 * len(me.vertices), dtype=np.float64)
+    me.vertices.foreach_get("co", own)
+    return np.array([tree.find(co)[1] for co in own.reshape(-1, 3)], dtype=np.int64)
+
+
+def memory_budget_mb(fraction):
+    """The MB a solve may take: `fraction` of the memory available now
+    (MemAvailable, lowered by a cgroup limit), leaving Blender the rest."""
+    avail = 0.0
+    try:
+        with open("/proc/meminfo") as f:
+            for line in f:
+                if line.startswith("MemAvailable:"):
+                    avail = float(line.split()[1]) * 1024.0
+        for limit_path, used_path in (("/sys/fs/cgroup/memory.max", "/sys/fs/cgroup/memory.current"),):
+            try:
+                limit = float(open(limit_path).read().split()[0])
+                used = float(open(used_path).read().split()[0])
+                avail = min(avail, max(0.0, limit - used))
+            except (OSError, ValueError):
+                pass
+    except OSError:
+        pass
+    if avail <= 0:  # not Linux: os.sysconf where there is one
+        import os
+        try:
+            avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
+        except (ValueError, OSError, AttributeError):
+            avail = 4.0 * 2 ** 30
+    return max(64.0, fraction * avail / 2 ** 20)
 
 
 def _vec(v):
@@ -107,3 +164,41 @@ def write_colours(obj, name, exitance, exposure):
     attr.data.foreach_set("color", rgba.ravel())
     me.update()
     return used
+
+
+def show_result(obj, attribute):
+    """Make the colour attribute visible without wiring: a material (its
+    first slot) whose surface emits the attribute's colour, which is the
+    light leaving the surface (exitance x exposure), in Cycles and EEVEE;
+    the attribute active, so the viewport's Attribute colouring shows it;
+    and the 3D views' solid shading coloured by it."""
+    import bpy
+    name = "ohm " + obj.name
+    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    mat.use_nodes = True
+    nt = mat.node_tree
+    nt.nodes.clear()
+    out = nt.nodes.new("ShaderNodeOutputMaterial")
+    emit = nt.nodes.new("ShaderNodeEmission")
+    attr = nt.nodes.new("ShaderNodeAttribute")
+    attr.attribute_type = "GEOMETRY"
+    attr.attribute_name = attribute
+    attr.location, emit.location, out.location = (-400, 0), (-150, 0), (100, 0)
+    nt.links.new(attr.outputs["Color"], emit.inputs["Color"])
+    emit.inputs["Strength"].default_value = 1.0
+    nt.links.new(emit.outputs["Emission"], out.inputs["Surface"])
+    me = obj.data
+    if not me.materials:
+        me.materials.append(mat)
+    elif me.materials[0] is not mat:
+        me.materials[0] = mat
+    if attribute in me.color_attributes:
+        me.color_attributes.active_color = me.color_attributes[attribute]
+    for screen in bpy.data.screens:
+        for area in screen.areas:
+            if area.type == "VIEW_3D":
+                for space in area.spaces:
+                    if space.type == "VIEW_3D":  # "Attribute" in the menu; "VERTEX" to the API in 3.x
+                        items = space.shading.bl_rna.properties["color_type"].enum_items.keys()
+                        space.shading.color_type = "ATTRIBUTE" if "ATTRIBUTE" in items else "VERTEX"
+    return mat

@@ -1,5 +1,16 @@
-"""bpy.ops.ohm.solve, bpy.ops.ohm.live, bpy.ops.ohm.bake."""
+"""bpy.ops.ohm.solve, bpy.ops.ohm.cancel, bpy.ops.ohm.live, bpy.ops.ohm.bake.
+
+Solve and Live relight's first setup run off Blender's UI thread when
+invoked from the interface (a session.Job polled by a modal timer): the
+window stays responsive, Blender's progress bar and the panel follow the
+library's progress, and Esc or the panel's Cancel stops the solve within
+about a second.  Called from a script (execute) they run on the caller's
+thread.  Every ohm warning of a run becomes a Blender report and stays in
+the panel until the next run."""
+import glob
 import os
+import re
+import tempfile
 import time
 
 import bpy
@@ -11,31 +22,46 @@ try:
 except ImportError:
     import ohm as ohmlib
 
+# At most this many of a run's warnings become reports (the panel shows them all).
+MAX_REPORTED_WARNINGS = 8
+
 
 def _mesh_poll(context):
     obj = context.active_object
     return obj is not None and obj.type == "MESH"
 
 
-def _progress_reporter(wm):
-    """ohm's progress (what, fraction) as Blender's progress cursor."""
-    state = {"open": False}
-
-    def report(what, fraction):
-        if not state["open"]:
-            wm.progress_begin(0, 100)
-            state["open"] = True
-        wm.progress_update(int(100 * fraction))
-        if fraction >= 1:
-            wm.progress_end()
-            state["open"] = False
-    return report
+def _redraw(context):
+    for window in context.window_manager.windows:
+        for area in window.screen.areas:
+            if area.type in ("PROPERTIES", "VIEW_3D"):
+                area.tag_redraw()
 
 
-def _report_failure(op, obj, e):
-    obj.ohm.status = str(e)
-    op.report({"ERROR"}, "ohm: %s" % e)
+def _report_warnings(op, s):
+    """The run's ohm warnings, as Blender reports and in the panel."""
+    s.warnings = s.run_warnings()
+    for text in s.warnings[:MAX_REPORTED_WARNINGS]:
+        op.report({"WARNING"}, "ohm: " + text)
+    if len(s.warnings) > MAX_REPORTED_WARNINGS:
+        op.report({"WARNING"}, "ohm: %d more warnings in the panel" % (len(s.warnings) - MAX_REPORTED_WARNINGS))
+
+
+def _report_failure(op, s, e):
+    s.status = ("cancelled" if isinstance(e, ohmlib.Cancelled) else "failed: %s" % e)
+    _report_warnings(op, s)
+    op.report({"WARNING"} if isinstance(e, ohmlib.Cancelled) else {"ERROR"}, "ohm: %s" % e)
     return {"CANCELLED"}
+
+
+def output_directory(obj):
+    """The panel's output folder as an absolute path: a '//' folder of an
+    unsaved file (which has no folder of its own) goes to the temporary
+    folder, and the panel shows where."""
+    d = obj.ohm.directory
+    if d.startswith("//") and not bpy.data.filepath:
+        return os.path.join(tempfile.gettempdir(), "ohm", d[2:])
+    return os.path.abspath(bpy.path.abspath(d))
 
 
 def _volume_material(name, exposure):
@@ -76,42 +102,149 @@ def add_volume(context, obj, s, path):
     return vobj
 
 
-class OHM_OT_solve(bpy.types.Operator):
-    """Voxelize the object as placed, solve subsurface scattering for the scene's lights, and write the exitance
-    onto the mesh as a colour attribute (the factor is kept for Live relight and Bake)"""
+def _after_setup(context, obj, s):
+    """What Solve adds to a finished setup: the material that shows it, the
+    volume object."""
+    if obj.ohm.show_result:
+        bridge.show_result(obj, obj.ohm.attribute)
+    if obj.ohm.make_volume:
+        d = output_directory(obj)
+        os.makedirs(d, exist_ok=True)
+        add_volume(context, obj, s, os.path.join(d, obj.name + ".vdb"))
+
+
+def _summary(s, seconds):
+    r = s.result
+    return "%d cells, %s, %.2f s; power out %.4g W" % (r["unknowns"], s.solver or "solved", seconds, r["power_out"])
+
+
+class _Background:
+    """A setup on a session.Job, polled by the modal operator's timer."""
+
+    def start(self, context, obj, s):
+        s.begin_run()
+        job = s.gather(obj, context.scene, context.evaluated_depsgraph_get())
+        self.obj, self.session = obj, s
+        self.job = session.Job(s, job)
+        wm = context.window_manager
+        wm.progress_begin(0, 1000)
+        self._timer = wm.event_timer_add(0.1, window=context.window)
+        wm.modal_handler_add(self)
+        s.status = "setting up (Esc to cancel)"
+
+    def poll_job(self, context, event):
+        """None while the job runs; else the job, ended."""
+        s = self.session
+        if event.type == "ESC" and event.value == "PRESS":
+            self.job.cancel()
+            s.status = "cancelling"
+        if event.type != "TIMER":
+            return None
+        what, fraction = s.progress
+        context.window_manager.progress_update(int(1000 * min(1.0, max(0.0, fraction))))
+        if what:
+            s.status = "%s: %d%% (Esc to cancel)" % (what, round(100 * fraction))
+        _redraw(context)
+        if not self.job.done():
+            return None
+        self.stop_timer(context)
+        self.job.end()
+        return self.job
+
+    def stop_timer(self, context):
+        if getattr(self, "_timer", None) is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            context.window_manager.progress_end()
+            self._timer = None
+
+
+class OHM_OT_solve(bpy.types.Operator, _Background):
+    """Voxelize the object as shown (modifiers applied), solve subsurface scattering for the scene's lights, and
+    write the exitance onto the mesh as a colour attribute (the solver is kept for Live relight and Bake).  Runs in
+    the background: Esc cancels"""
     bl_idname = "ohm.solve"
     bl_label = "Solve"
     bl_options = {"REGISTER", "UNDO"}
 
     @classmethod
     def poll(cls, context):
-        return _mesh_poll(context)
+        s = session.get(context.active_object) if _mesh_poll(context) else None
+        return _mesh_poll(context) and (s is None or s.job is None)
 
     def execute(self, context):
         obj = context.active_object
         s = session.get_or_create(obj)
-        s.ctx.set_progress(_progress_reporter(context.window_manager))
+        s.begin_run()
         try:
-            t = s.setup(obj, context.scene)
-            if obj.ohm.make_volume:
-                d = bpy.path.abspath(obj.ohm.directory)
-                os.makedirs(d, exist_ok=True)
-                add_volume(context, obj, s, os.path.join(d, obj.name + ".vdb"))
+            t = s.setup(obj, context.scene, context.evaluated_depsgraph_get())
+            _after_setup(context, obj, s)
         except (ohmlib.Error, OSError, RuntimeError) as e:
-            return _report_failure(self, obj, e)
-        r = s.result
-        obj.ohm.status = "%d cells, %d factorizations, %.2f s; power out %.4g W" % (
-            r["unknowns"], r["factorizations"], t["setup"], r["power_out"])
-        self.report({"INFO"}, "ohm: " + obj.ohm.status)
+            return _report_failure(self, s, e)
+        return self._done(s, t["setup"])
+
+    def invoke(self, context, event):
+        obj = context.active_object
+        s = session.get_or_create(obj)
+        try:
+            self.start(context, obj, s)
+        except (ohmlib.Error, OSError, RuntimeError) as e:
+            return _report_failure(self, s, e)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        job = self.poll_job(context, event)
+        if job is None:
+            return {"PASS_THROUGH"}
+        s = self.session
+        if job.error is not None:
+            return _report_failure(self, s, job.error)
+        try:
+            t = s.finish(self.obj, job.job)
+            _after_setup(context, self.obj, s)
+        except ReferenceError:  # the object was deleted while it solved
+            s.status = "the object is gone"
+            return {"CANCELLED"}
+        except (ohmlib.Error, OSError, RuntimeError) as e:
+            return _report_failure(self, s, e)
+        _redraw(context)
+        return self._done(s, t["setup"])
+
+    def cancel(self, context):
+        self.stop_timer(context)
+        if self.job is not None and not self.job.done():
+            self.job.cancel()
+            self.job.end()
+
+    def _done(self, s, seconds):
+        s.status = _summary(s, seconds)
+        _report_warnings(self, s)
+        self.report({"INFO"}, "ohm: " + s.status)
+        return {"FINISHED"}
+
+
+class OHM_OT_cancel(bpy.types.Operator):
+    """Stop the solve running on the active object (within about a second)"""
+    bl_idname = "ohm.cancel"
+    bl_label = "Cancel"
+
+    @classmethod
+    def poll(cls, context):
+        s = session.get(context.active_object) if _mesh_poll(context) else None
+        return s is not None and s.job is not None
+
+    def execute(self, context):
+        s = session.get(context.active_object)
+        s.job.cancel()
+        s.status = "cancelling"
         return {"FINISHED"}
 
 
 def live_step(context, obj):
     """One tick of Live relight, as its timer runs it: a changed light is
-    relit from the kept factor, a changed geometry or material refactors.
-    Returns what happened ('setup', 'relight' or None)."""
+    relit from the kept solver, a changed geometry or material sets up
+    again.  Returns what happened ('setup', 'relight' or None)."""
     s = session.get_or_create(obj)
-    what = s.update(obj, context.scene)
+    what = s.update(obj, context.scene, context.evaluated_depsgraph_get())
     if what:
         for area in context.screen.areas if context.screen else ():
             if area.type == "VIEW_3D":
@@ -119,88 +252,144 @@ def live_step(context, obj):
     return what
 
 
-class OHM_OT_live(bpy.types.Operator):
-    """Relight live: moving, rotating or recolouring a light re-solves from the kept factor and updates the colour
-    attribute; a change of geometry or material refactors once.  Esc or right-click stops"""
+class OHM_OT_live(bpy.types.Operator, _Background):
+    """Relight live: moving, rotating or recolouring a light re-solves from the kept solver and updates the colour
+    attribute; a change of geometry or material sets up again.  Esc or right-click stops"""
     bl_idname = "ohm.live"
     bl_label = "Live relight"
 
-    _timer = None
-
     @classmethod
     def poll(cls, context):
-        return _mesh_poll(context)
+        s = session.get(context.active_object) if _mesh_poll(context) else None
+        return _mesh_poll(context) and (s is None or s.job is None)
 
     def invoke(self, context, event):
         self.obj = context.active_object
-        try:
-            live_step(context, self.obj)
-        except ohmlib.Error as e:
-            return _report_failure(self, self.obj, e)
+        s = self.live_session = session.get_or_create(self.obj)
+        self.job = None
         self.updates, self.t0 = 0, time.perf_counter()
-        self._timer = context.window_manager.event_timer_add(1.0 / 60.0, window=context.window)
-        context.window_manager.modal_handler_add(self)
-        self.obj.ohm.status = "live: move a light (Esc to stop)"
+        try:
+            if s.needs_setup(self.obj, context.scene, context.evaluated_depsgraph_get()):
+                self.start(context, self.obj, s)  # the first setup in the background, with progress
+                return {"RUNNING_MODAL"}
+        except (ohmlib.Error, OSError, RuntimeError) as e:
+            return _report_failure(self, s, e)
+        self._live_timer(context)
         return {"RUNNING_MODAL"}
 
+    def _live_timer(self, context):
+        self._timer = context.window_manager.event_timer_add(1.0 / 60.0, window=context.window)
+        context.window_manager.modal_handler_add(self)
+        self._live_status()
+
+    def _live_status(self):
+        s = self.live_session
+        rate = " %.1f updates/s," % s.updates_per_second if s.updates_per_second > 0 else ""
+        s.status = "live (%s):%s move a light; Esc stops" % (s.solver or "solver", rate)
+
     def modal(self, context, event):
+        s = self.live_session
+        try:
+            self.obj.name  # noqa: B018  (the object may have been deleted)
+        except ReferenceError:
+            self.cancel(context)
+            return {"CANCELLED"}
+        if self.job is not None:  # the first setup
+            job = self.poll_job(context, event)
+            if job is None:
+                return {"PASS_THROUGH"}
+            self.job = None
+            if job.error is not None:
+                return _report_failure(self, s, job.error)
+            s.finish(self.obj, job.job)
+            _report_warnings(self, s)
+            self._live_timer(context)
+            return {"PASS_THROUGH"}
         if event.type in {"ESC", "RIGHTMOUSE"}:
-            return self.cancel(context) or {"CANCELLED"}
+            self.cancel(context)
+            s.status = "live relight stopped"
+            return {"CANCELLED"}
         if event.type == "TIMER":
             try:
                 if live_step(context, self.obj):
                     self.updates += 1
             except ohmlib.Error as e:
                 self.cancel(context)
-                return _report_failure(self, self.obj, e)
+                return _report_failure(self, s, e)
             elapsed = time.perf_counter() - self.t0
             if elapsed >= 1.0:
-                self.obj.ohm.updates_per_second = self.updates / elapsed
+                s.updates_per_second = self.updates / elapsed
                 self.updates, self.t0 = 0, time.perf_counter()
+                self._live_status()
+                _redraw(context)
         return {"PASS_THROUGH"}
 
     def cancel(self, context):
-        if self._timer is not None:
-            context.window_manager.event_timer_remove(self._timer)
-            self._timer = None
-        self.obj.ohm.status = "live relight stopped"
+        self.stop_timer(context)
+        if self.job is not None and not self.job.done():
+            self.job.cancel()
+            self.job.end()
+
+
+def remove_bake(obj, directory):
+    """What an earlier bake of obj left: its .vdb files in directory and its
+    per-frame attributes."""
+    for path in glob.glob(os.path.join(glob.escape(directory), glob.escape(obj.name) + "_[0-9][0-9][0-9][0-9].vdb")):
+        os.remove(path)
+    pattern = re.compile(re.escape(obj.ohm.attribute) + r"_\d{4}$")
+    me = obj.data
+    for name in [a.name for a in me.attributes if pattern.match(a.name)]:
+        me.attributes.remove(me.attributes[name])
 
 
 class OHM_OT_bake(bpy.types.Operator):
-    """Bake the lights' animation over the frame range: a .vdb sequence and a colour attribute per frame, one
-    factor for all frames"""
+    """Bake the animation over the frame range: frames where a light, the object or its material changed are solved
+    (one setup for all of them while the geometry stays), each written as a .vdb and a colour attribute named by its
+    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence"""
     bl_idname = "ohm.bake"
     bl_label = "Bake sequence"
 
     @classmethod
     def poll(cls, context):
-        return _mesh_poll(context)
+        s = session.get(context.active_object) if _mesh_poll(context) else None
+        return _mesh_poll(context) and (s is None or s.job is None)
 
     def execute(self, context):
         obj, sc = context.active_object, context.scene
-        d = bpy.path.abspath(obj.ohm.directory)
-        os.makedirs(d, exist_ok=True)
+        d = output_directory(obj)
         s = session.get_or_create(obj)
+        s.begin_run()
         wm = context.window_manager
         frames = range(sc.frame_start, sc.frame_end + 1)
         wm.progress_begin(0, len(frames))
-        keep = sc.frame_current
+        keep, keep_exposure = sc.frame_current, obj.ohm.exposure
+        solved = []
         try:
+            os.makedirs(d, exist_ok=True)
+            remove_bake(obj, d)
             for n, f in enumerate(frames):
                 sc.frame_set(f)
-                s.update(obj, sc)
+                what = s.update(obj, sc, context.evaluated_depsgraph_get())
+                if what is None and solved:
+                    continue  # nothing changed: the last frame's result stands
+                if not solved and obj.ohm.exposure == 0:
+                    obj.ohm.exposure = s.exposure  # chosen once, for the whole sequence
                 s.scene.run("write", file=os.path.join(d, "%s_%04d.vdb" % (obj.name, f)))
-                exitance = s.scene.vertex_exitance()
-                bridge.write_colours(obj, "%s_%04d" % (obj.ohm.attribute, f), exitance, obj.ohm.exposure)
+                bridge.write_colours(obj, "%s_%04d" % (obj.ohm.attribute, f), s.mesh_exitance(), obj.ohm.exposure)
+                solved.append(f)
                 wm.progress_update(n + 1)
         except (ohmlib.Error, OSError) as e:
-            return _report_failure(self, obj, e)
+            return _report_failure(self, s, e)
         finally:
             wm.progress_end()
+            obj.ohm.exposure = keep_exposure
             sc.frame_set(keep)
-        obj.ohm.status = "baked frames %d-%d, %d factorizations" % (frames[0], frames[-1], obj.ohm.factorizations)
-        self.report({"INFO"}, "ohm: " + obj.ohm.status)
+        s.status = "baked frames %d-%d: %d solved (%s), exposure %.4g, in %s" % (
+            frames[0], frames[-1], len(solved), ", ".join(str(f) for f in solved[:6]) + (
+                ", ..." if len(solved) > 6 else ""), s.exposure, d)
+        _report_warnings(self, s)
+        self.report({"INFO"}, "ohm: " + s.status)
         return {"FINISHED"}
 
 
-classes = (OHM_OT_solve, OHM_OT_live, OHM_OT_bake)
+classes = (OHM_OT_solve, OHM_OT_cancel, OHM_OT_live, OHM_OT_bake)

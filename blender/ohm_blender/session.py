@@ -1,9 +1,21 @@
-"""One object's ohm scene, kept between operator calls: the factor lives
-here, so Live relight and Bake solve new lights without factoring again,
+"""One object's ohm scene, kept between operator calls: the solver lives
+here, so Live relight and Bake solve new lights without setting up again,
 and only a change of geometry or material sets up anew.
 
-Blender's operators are stateless, so the sessions are kept in this module
-by object name; the add-on's unregister closes them all."""
+Blender's operators are stateless, so the sessions are kept in this module,
+keyed by the object's address in memory (obj.as_pointer()): a rename keeps
+its session.  Sessions of objects that are gone (deleted, or reallocated
+by an undo) are closed on the next depsgraph update (prune), all of them
+when a file is loaded and when the add-on is unregistered (close_all).
+Nothing here is saved in the .blend: status, warnings and rates are
+runtime state.
+
+A setup is three steps, so that the long one can run off Blender's UI
+thread: gather (Blender's data, on the main thread), compute (only library
+calls: any thread; Job runs it on one), finish (writing the colours back,
+on the main thread)."""
+import hashlib
+import threading
 import time
 
 import numpy as np
@@ -18,14 +30,18 @@ except ImportError:  # running from a source tree with ohm on sys.path
 _sessions = {}
 
 
+def key(obj):
+    return obj.as_pointer()
+
+
 def get(obj):
-    return _sessions.get(obj.name)
+    return _sessions.get(key(obj))
 
 
 def get_or_create(obj):
-    s = _sessions.get(obj.name)
+    s = _sessions.get(key(obj))
     if s is None:
-        s = _sessions[obj.name] = Session()
+        s = _sessions[key(obj)] = Session(obj.name)
     return s
 
 
@@ -35,31 +51,70 @@ def close_all():
     _sessions.clear()
 
 
+def prune(objects):
+    """Close the sessions of objects no longer among `objects`."""
+    alive = {o.as_pointer() for o in objects}
+    for k in [k for k in _sessions if k not in alive]:
+        s = _sessions.pop(k)
+        if s.job is not None:
+            s.job.cancel()
+        else:
+            s.close()
+
+
 def _settings_signature(obj, bscene):
+    """What a change of the object's setup is: the settings that shape the
+    network (not exposure, attribute or output folder: they need no solve)."""
     st = obj.ohm
-    m = tuple(tuple(r) for r in obj.matrix_world)
-    me = obj.data
-    co = np.empty(3 * len(me.vertices))
-    me.vertices.foreach_get("co", co)
-    return (m, len(me.vertices), len(me.polygons), float(co.sum()), float(np.abs(co).sum()),
-            bscene.unit_settings.scale_length, st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s), st.eta,
-            st.volume_path, st.transfer_path, st.grid, st.dim, st.error, st.boundary, st.solver, st.shadows)
+    return (bscene.unit_settings.scale_length, st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s),
+            st.eta, st.volume_path, st.transfer_path, st.grid, st.dim, st.error, st.boundary, st.solver,
+            st.shadows, st.max_memory_fraction)
+
+
+def geometry_hash(verts, tris):
+    """The evaluated mesh exactly: its coordinates and its triangles."""
+    h = hashlib.blake2b(digest_size=16)
+    h.update(np.ascontiguousarray(verts).tobytes())
+    h.update(np.ascontiguousarray(tris).tobytes())
+    return h.hexdigest()
 
 
 class Session:
-    def __init__(self, progress=None):
-        self.messages = []
-        self.ctx = ohmlib.Context(verbosity=1, log=self._log, progress=progress)
+    def __init__(self, name):
+        self.name = name
+        self.messages = []        # (level, text) of the current run
+        self.progress = ("", 0.0)  # the library's latest (what, fraction)
+        self.ctx = ohmlib.Context(verbosity=1, log=self._log, progress=self._progress)
         self.scene = None
-        self.geometry = None      # settings signature the factor was made for
+        self.signature = None     # (settings, geometry hash) the solver was set up for
         self.lights = None        # lights signature of the current solution
         self.last = {}            # the latest update's timings (s)
         self.setups = 0
         self.relights = 0
+        self.factorizations = 0
+        self.solver = ""          # the backend that solved last
+        self.status = ""          # one line for the panel
+        self.warnings = []        # the last run's warnings, for the panel
+        self.updates_per_second = 0.0
+        self.exposure = None      # the exposure the colours were written with
+        self.to_original = None   # the evaluated vertex each of the mesh's own vertices shows
+        self.result = None
+        self.job = None           # a Job running on this session
 
     def _log(self, level, text):
         self.messages.append(("WARNING" if level == ohmlib.LOG_WARNING else "INFO", text))
         del self.messages[:-200]
+
+    def _progress(self, what, fraction):
+        self.progress = (what, fraction)
+
+    def begin_run(self):
+        """A new operator run: its messages and progress start empty."""
+        self.messages = []
+        self.progress = ("", 0.0)
+
+    def run_warnings(self):
+        return [text for level, text in self.messages if level == "WARNING"]
 
     def close(self):
         if self.scene is not None:
@@ -67,47 +122,80 @@ class Session:
             self.scene = None
         self.ctx.close()
 
-    # ---- the two kinds of update -------------------------------------------
+    # ---- a setup, in three steps -------------------------------------------
 
-    def setup(self, obj, bscene):
-        """Voxelize the object as placed, set its material and the scene's
-        lights, factor and solve: the factor is kept."""
+    def gather(self, obj, bscene, depsgraph):
+        """Everything a setup needs from Blender, read now (main thread)."""
+        import bpy
         st = obj.ohm
         mm = bridge.mm_per_unit(bscene)
         lights = bridge.scene_lights(bscene, mm)
         if not lights:
             raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light")
+        local, tris = bridge.evaluated_mesh(obj, depsgraph)
+        verts = bridge.world_mm(obj, local, mm)
+        job = {"verts": verts, "tris": tris, "to_original": bridge.to_original(obj, local), "name": obj.name,
+               "lights": lights,
+               "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
+               "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
+               "boundary": st.boundary, "solver": st.solver, "shadows": st.shadows,
+               "max_memory_mb": bridge.memory_budget_mb(st.max_memory_fraction),
+               "signature": (_settings_signature(obj, bscene), geometry_hash(verts, tris)),
+               "lights_signature": bridge.lights_signature(bscene)}
+        if st.material == "VOLUME":
+            job["volume"] = bpy.path.abspath(st.volume_path)
+            job["transfer"] = bpy.path.abspath(st.transfer_path)
+        return job
+
+    def compute(self, job):
+        """Voxelize, set the material and lights, set up the solver and
+        solve: library calls only, so any thread may run this."""
         if self.scene is not None:
             self.scene.close()
+            self.scene = None
         t0 = time.perf_counter()
         sc = self.scene = ohmlib.Scene(self.ctx)
-        verts, tris = bridge.mesh_arrays(obj, mm)
-        sc.set_mesh(verts, tris, name=obj.name)
-        if st.material == "PRESET":
-            sc.run("material", preset=st.preset)
-        elif st.material == "COEFFICIENTS":
-            sc.run("material", sigma_a=tuple(st.sigma_a), sigma_s=tuple(st.sigma_s), eta=st.eta)
+        sc.set_mesh(job["verts"], job["tris"], name=job["name"])
+        if job["material"] == "PRESET":
+            sc.run("material", preset=job["preset"])
+        elif job["material"] == "COEFFICIENTS":
+            sc.run("material", sigma_a=job["sigma_a"], sigma_s=job["sigma_s"], eta=job["eta"])
         else:
-            import bpy
-            sc.run("read", file=bpy.path.abspath(st.volume_path))
+            sc.run("read", file=job["volume"])
             sc.run("place")
-            sc.run("material", transfer=bpy.path.abspath(st.transfer_path))
-        for opts in lights:
+            sc.run("material", transfer=job["transfer"])
+        for opts in job["lights"]:
             sc.add_light(**opts)
-        if st.grid == "DIM":
-            sc.run("voxelize", dim=st.dim)
+        memory = {"max_memory": job["max_memory_mb"]}
+        if job["grid"] == "DIM":
+            sc.run("voxelize", dim=job["dim"], **memory)
         else:
-            sc.run("voxelize", error=st.error)
-        sc.solve(boundary=st.boundary, solver=st.solver, shadows="mesh" if st.shadows else "none")
-        self.geometry = _settings_signature(obj, bscene)
-        self.lights = bridge.lights_signature(bscene)
+            sc.run("voxelize", error=job["error"], **memory)
+        sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
+                 **memory)
+        job["exitance"] = sc.vertex_exitance()
+        job["seconds"] = time.perf_counter() - t0
+
+    def finish(self, obj, job):
+        """The solved setup's colours onto the mesh (main thread)."""
+        self.signature = job["signature"]
+        self.lights = job["lights_signature"]
         self.setups += 1
-        self.last = {"setup": time.perf_counter() - t0}
-        self._write(obj)
+        self.last = {"setup": job["seconds"]}
+        self.to_original = job["to_original"]
+        self._write(obj, job["exitance"])
         return self.last
 
-    def relight(self, obj, bscene):
-        """The scene's lights as they are now, solved with the kept factor."""
+    def setup(self, obj, bscene, depsgraph):
+        """gather, compute and finish on this thread."""
+        job = self.gather(obj, bscene, depsgraph)
+        self.compute(job)
+        return self.finish(obj, job)
+
+    # ---- relighting ----------------------------------------------------------
+
+    def relight(self, obj, bscene, depsgraph):
+        """The scene's lights as they are now, solved with the kept solver."""
         mm = bridge.mm_per_unit(bscene)
         lights = bridge.scene_lights(bscene, mm)
         if not lights:
@@ -124,34 +212,84 @@ class Session:
         self.relights += 1
         self.last = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
                      "relight_call": t1 - t0}
-        self._write(obj)
+        self._write(obj, sc.vertex_exitance())
         self.last["total"] = time.perf_counter() - t0
         return self.last
 
-    def update(self, obj, bscene):
+    def needs_setup(self, obj, bscene, depsgraph):
+        if self.scene is None or self.signature is None:
+            return True
+        if _settings_signature(obj, bscene) != self.signature[0]:
+            return True
+        local, tris = bridge.evaluated_mesh(obj, depsgraph)
+        return geometry_hash(bridge.world_mm(obj, local, bridge.mm_per_unit(bscene)), tris) != self.signature[1]
+
+    def update(self, obj, bscene, depsgraph):
         """What changed since the last solve: 'setup' (geometry or material:
-        a new factor), 'relight' (lights only), or None."""
-        if self.scene is None or _settings_signature(obj, bscene) != self.geometry:
-            self.setup(obj, bscene)
+        a new solver), 'relight' (lights only), or None."""
+        if self.needs_setup(obj, bscene, depsgraph):
+            self.setup(obj, bscene, depsgraph)
             return "setup"
         if bridge.lights_signature(bscene) != self.lights:
-            self.relight(obj, bscene)
+            self.relight(obj, bscene, depsgraph)
             return "relight"
         return None
 
     def recolour(self, obj):
         """The colour attribute again from the current solution (after a
         change of exposure or attribute name: no solve)."""
-        self._write(obj)
+        if self.scene is None or self.job is not None:
+            return
+        self._write(obj, self.scene.vertex_exitance())
 
-    def _write(self, obj):
+    def mesh_exitance(self, exitance=None):
+        """The exitance (vertices, channels) at the mesh's own vertices: the
+        library's per evaluated vertex, mapped (bridge.to_original)."""
+        if exitance is None:
+            exitance = self.scene.vertex_exitance()
+        return exitance if self.to_original is None else exitance[self.to_original]
+
+    def _write(self, obj, exitance):
+        """exitance per evaluated vertex onto the mesh's own vertices."""
         t0 = time.perf_counter()
-        exitance = self.scene.vertex_exitance()
-        t1 = time.perf_counter()
+        exitance = self.mesh_exitance(exitance)
         self.exposure = bridge.write_colours(obj, obj.ohm.attribute, exitance, obj.ohm.exposure)
-        t2 = time.perf_counter()
-        self.last["vertex_exitance"] = t1 - t0
-        self.last["attribute_write"] = t2 - t1
-        r = self.scene.result()
-        obj.ohm.factorizations = r["factorizations"]
-        self.result = r
+        self.last["attribute_write"] = time.perf_counter() - t0
+        r = self.result = self.scene.result()
+        self.factorizations = r["factorizations"]
+        self.solver = self.scene.stat("solver") if r["solves"] else ""
+
+
+class Job:
+    """A setup's compute step on a thread of its own, so that Blender's
+    window stays responsive; cancel() stops it within about a second (the
+    library's cancellation).  The operator's timer polls done()."""
+
+    def __init__(self, s, job):
+        self.session, self.job = s, job
+        self.error = None
+        s.job = self
+        self.thread = threading.Thread(target=self._run, name="ohm solve " + s.name, daemon=True)
+        self.t0 = time.perf_counter()
+        self.thread.start()
+
+    def _run(self):
+        try:
+            self.session.compute(self.job)
+        except Exception as e:  # handed to the main thread, which reports it
+            self.error = e
+
+    def done(self):
+        return not self.thread.is_alive()
+
+    def cancel(self):
+        self.session.ctx.cancel()
+
+    def wait(self, seconds=None):
+        self.thread.join(seconds)
+        return self.done()
+
+    def end(self):
+        """The job is over (joined): the session may run again."""
+        self.thread.join()
+        self.session.job = None

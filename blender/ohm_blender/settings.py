@@ -1,8 +1,20 @@
-"""What the panel sets, per object (bpy.types.Object.ohm)."""
+"""What the panel sets, per object (bpy.types.Object.ohm): settings only.
+Runtime state (status, warnings, rates) lives in the session, not in the
+.blend."""
 import bpy
+
+from . import session
 
 PRESETS = ("apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk", "skin1", "skin2",
            "spectralon", "wholemilk")
+
+
+def _recolour(self, context):
+    """A new exposure or attribute recolours the current result at once (no solve)."""
+    obj = self.id_data
+    s = session.get(obj)
+    if s is not None:
+        s.recolour(obj)
 
 
 class OhmSettings(bpy.types.PropertyGroup):
@@ -24,7 +36,9 @@ class OhmSettings(bpy.types.PropertyGroup):
     grid: bpy.props.EnumProperty(name="Grid", default="DIM",
                                  items=[("DIM", "Cells across", "cells along the longest axis"),
                                         ("ERROR", "Accuracy target", "the relative exitance error ohm aims for")])
-    dim: bpy.props.IntProperty(name="Cells", min=4, max=1024, default=48)
+    dim: bpy.props.IntProperty(name="Cells", min=4, max=1024, default=48,
+                               description="cells along the longest axis; a setting that would not fit in the "
+                                           "memory allowed is refused with the figure it needs")
     error: bpy.props.FloatProperty(name="Error", min=0.001, max=0.5, default=0.05)
     boundary: bpy.props.EnumProperty(name="Boundary", default="robin",
                                      items=[("robin", "Fresnel (robin)", "light leaves through the surface"),
@@ -38,12 +52,19 @@ class OhmSettings(bpy.types.PropertyGroup):
                                           ("cg", "Conjugate gradients", "low memory"),
                                           ("amg", "Algebraic multigrid", "PETSc + hypre, for runs under mpirun")])
     shadows: bpy.props.BoolProperty(name="Shadows", default=True, description="shadow rays against the mesh")
-    exposure: bpy.props.FloatProperty(name="Exposure", min=0.0, default=0.0,
-                                      description="colour = exitance (W/mm²) × exposure; 0: automatic")
-    attribute: bpy.props.StringProperty(name="Attribute", default="ohm_exitance")
+    max_memory_fraction: bpy.props.FloatProperty(
+        name="Memory", min=0.05, max=0.9, default=0.5, subtype="FACTOR",
+        description="the share of the memory available when a solve starts that it may take; a larger setting is "
+                    "refused before anything large is allocated, leaving Blender the rest")
+    exposure: bpy.props.FloatProperty(
+        name="Exposure", min=0.0, default=0.0, update=_recolour,
+        description="colour = exitance (W/mm² leaving the surface per W of light) × exposure; 0: automatic (the "
+                    "99th percentile is 1), chosen once for a whole bake.  Recolours at once")
+    attribute: bpy.props.StringProperty(name="Attribute", default="ohm_exitance", update=_recolour)
+    show_result: bpy.props.BoolProperty(
+        name="Show result", default=True,
+        description="give the object a material that emits the colour attribute (Cycles and EEVEE) and colour the "
+                    "viewport by it")
     make_volume: bpy.props.BoolProperty(name="Volume object", default=False,
                                         description="also write a .vdb and add it as an emitting volume")
     directory: bpy.props.StringProperty(name="Output", subtype="DIR_PATH", default="//ohm/")
-    updates_per_second: bpy.props.FloatProperty(name="Updates/s", default=0.0)
-    factorizations: bpy.props.IntProperty(name="Factorizations", default=0)
-    status: bpy.props.StringProperty(name="Status", default="")

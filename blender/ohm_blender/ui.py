@@ -1,6 +1,8 @@
 """The panel: Properties > Object > ohm."""
 import bpy
 
+from . import operators, session
+
 
 class OHM_PT_object(bpy.types.Panel):
     bl_label = "ohm subsurface scattering"
@@ -14,8 +16,12 @@ class OHM_PT_object(bpy.types.Panel):
         return context.active_object is not None and context.active_object.type == "MESH"
 
     def draw(self, context):
-        st = context.active_object.ohm
-        col = self.layout.column()
+        obj = context.active_object
+        st = obj.ohm
+        layout = self.layout
+        layout.use_property_split = True
+        layout.use_property_decorate = False
+        col = layout.column()
         col.prop(st, "material")
         if st.material == "PRESET":
             col.prop(st, "preset")
@@ -32,19 +38,32 @@ class OHM_PT_object(bpy.types.Panel):
         col.prop(st, "boundary")
         col.prop(st, "solver")
         col.prop(st, "shadows")
+        col.prop(st, "max_memory_fraction")
         col.separator()
         col.prop(st, "exposure")
         col.prop(st, "attribute")
+        col.prop(st, "show_result")
         col.prop(st, "make_volume")
         col.prop(st, "directory")
-        row = col.row(align=True)
-        row.operator("ohm.solve")
-        row.operator("ohm.live")
-        row.operator("ohm.bake")
-        if st.status:
-            col.label(text=st.status)
-        if st.updates_per_second > 0:
-            col.label(text="live: %.1f updates/s, %d factorizations" % (st.updates_per_second, st.factorizations))
+        s = session.get(obj)
+        if st.make_volume or (s is not None and "baked" in s.status):
+            col.label(text="→ " + operators.output_directory(obj))
+        row = layout.row(align=True)
+        if s is not None and s.job is not None:
+            row.operator("ohm.cancel", icon="CANCEL")
+        else:
+            row.operator("ohm.solve")
+            row.operator("ohm.live")
+            row.operator("ohm.bake")
+        if s is None:
+            return
+        box = layout.box()
+        if s.status:
+            box.label(text=s.status)
+        if s.result is not None and s.job is None:
+            box.label(text="exitance × %.4g = colour (W/mm² per W of light)" % (s.exposure or 0))
+        for text in s.warnings:
+            box.label(text=text, icon="ERROR")
 
 
 classes = (OHM_PT_object,)
