@@ -83,7 +83,7 @@
 
 /* The version of this header; ohm_version() gives the library's. */
 #define OHM_VERSION_MAJOR 1
-#define OHM_VERSION_MINOR 0
+#define OHM_VERSION_MINOR 1
 #define OHM_VERSION_PATCH 0
 
 #if defined(__GNUC__) || defined(__clang__)
@@ -139,6 +139,18 @@ OHM_API void ohm_context_set_log(ohm_context *ctx, ohm_log_callback fn, void *us
 
 /* fn NULL: progress lines on stderr for steps longer than a second. */
 OHM_API void ohm_context_set_progress(ohm_context *ctx, ohm_progress_callback fn, void *user);
+
+/* Progress for polling instead of a callback (since 1.1): the context keeps
+ * each report, calls nothing and prints nothing, and any thread reads the
+ * latest with ohm_context_progress.  For a caller whose callback would have
+ * to take a lock the calling thread does not hold (Python's, in Blender: a
+ * callback ten times a second waits on the main thread each time).
+ * ohm_context_set_progress ends it. */
+OHM_API void ohm_context_poll_progress(ohm_context *ctx);
+
+/* The latest progress report of a polling context: what ("" before the
+ * first, truncated to size - 1 bytes) and the fraction done. */
+OHM_API int ohm_context_progress(ohm_context *ctx, char *what, size_t size, double *fraction);
 
 /* Ask the call running on a scene of this context to stop: it returns
  * OHM_ERR_CANCELLED within about a second, having freed what it made and

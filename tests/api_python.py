@@ -126,6 +126,29 @@ def interruptions():
     stopped("an exception in progress()", scene, Boom, None)
     ctx.set_progress(None)
 
+    # progress polled from another thread, no callback (Context.poll_progress:
+    # the Blender add-on's way): reports seen while the solve runs, then a cancel
+    ctx.poll_progress()
+    check(ctx.progress() == ("", 0.0), "a fresh polling context reports %s" % (ctx.progress(),))
+    seen = []
+
+    def poll_then_cancel():
+        t_end = time.monotonic() + SAFETY_S
+        while time.monotonic() < t_end and not (seen and seen[-1][0]):
+            time.sleep(0.05)
+            seen.append(ctx.progress())
+        ctx.cancel()
+    threading.Thread(target=poll_then_cancel).start()
+    try:
+        scene.solve(solver="mc", photons=1e9)
+        check(False, "polled: the solve ran to its end")
+    except ohm.Cancelled:
+        pass
+    check(seen and "monte carlo" in seen[-1][0] and 0 <= seen[-1][1] < 1,
+          "polled progress during the solve: %s" % seen[-3:])
+    print("polled progress: %s" % (seen[-1],))
+    ctx.set_progress(None)
+
     # closing the context closes its live scene first (no use after free)
     ctx.close()
     try:

@@ -126,6 +126,31 @@ static double max_rel_diff(const double *a, const double *b, size_t n)
     return scale > 0 ? worst / scale : worst;
 }
 
+/* A polling context (ohm_context_poll_progress): no callback, nothing on
+ * stderr; ohm_context_progress gives the latest report, and a step's last
+ * is its end (fraction 1). */
+static void polled_progress(void)
+{
+    ohm_context *ctx = NULL;
+    CHECK(ohm_context_new(&ctx) == OHM_OK);
+    ohm_context_poll_progress(ctx);
+    char what[64] = "x";
+    double fraction = -1;
+    CHECK(ohm_context_progress(ctx, what, sizeof what, &fraction) == OHM_OK && what[0] == 0 && fraction == 0);
+    ohm_scene *scene = cube_scene(ctx, "dim=20");
+    if (!scene) return;
+    const char *light[] = {"type=directional", "dir=0,-1,0", NULL};
+    CHECK(ohm_scene_add_light(scene, light) == OHM_OK);
+    CHECK(ohm_scene_solve(scene, NULL) == OHM_OK);
+    CHECK(ohm_context_progress(ctx, what, sizeof what, &fraction) == OHM_OK);
+    CHECK_MSG(strncmp(what, "solve", 5) == 0 && fraction == 1.0, "last report %s %g", what, fraction);
+    char shortened[4];
+    CHECK(ohm_context_progress(ctx, shortened, sizeof shortened, NULL) == OHM_OK && strlen(shortened) == 3);
+    CHECK(ohm_context_progress(NULL, what, sizeof what, &fraction) == OHM_ERR_USAGE);
+    ohm_scene_free(scene);
+    ohm_context_free(ctx);
+}
+
 static void solve_and_relight(void)
 {
     ohm_context *ctx = NULL;
@@ -342,6 +367,7 @@ int main(void)
 {
     errors();
     solve_and_relight();
+    polled_progress();
     mesh_arrays();
     return check_summary();
 }

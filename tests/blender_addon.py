@@ -16,6 +16,7 @@ Any failed check raises, so Blender exits 1."""
 import json
 import math
 import os
+import re
 import sys
 import time
 
@@ -220,6 +221,30 @@ if MODE == "live":
         problem("a cancelled background solve ended %s with %r" % (ended, job.error))
     obj.ohm.dim = DIM
     obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
+    # a panel value that would not fit is refused before anything is built,
+    # naming what it needs and the largest Cells that fits
+    obj.ohm.dim = 1024
+    runs = (s.setups, s.relights)
+    t_refuse = time.perf_counter()
+    try:
+        refused = bpy.ops.ohm.solve() == {"CANCELLED"}
+    except RuntimeError:  # an operator's error report, raised in the background
+        refused = True
+    report["refusal_seconds"] = time.perf_counter() - t_refuse
+    report["refusal"] = status()
+    m = re.search(r"the largest Cells that fits is (\d+)", status())
+    if not refused or not m or (s.setups, s.relights) != runs:
+        problem("Cells 1024 was not refused before a setup: %s" % status())
+    else:
+        from ohm_blender import bridge, estimate
+        best = int(m.group(1))
+        budget = bridge.memory_budget_mb(obj.ohm.max_memory_fraction)[0] * 2 ** 20
+        local, tris = bridge.evaluated_mesh(obj, bpy.context.evaluated_depsgraph_get())
+        shape = estimate.Shape(bridge.world_mm(obj, local, bridge.mm_per_unit(sc)), tris)
+        if not (estimate.solve_bytes(shape, best, obj.ohm.solver, 3) <= budget <
+                estimate.solve_bytes(shape, best + 1, obj.ohm.solver, 3)):
+            problem("the largest Cells named, %d, is not the largest whose prediction fits" % best)
+    obj.ohm.dim = DIM
     # a warning reaches the artist: a light inside the object lights nothing
     place_light((1, 0, 0), distance=1.0)
     bpy.ops.ohm.solve()

@@ -56,8 +56,9 @@ def to_original(obj, local):
 
 
 def memory_budget_mb(fraction):
-    """The MB a solve may take: `fraction` of the memory available now
-    (MemAvailable, lowered by a cgroup limit), leaving Blender the rest."""
+    """(the MB a solve may take, the MB available now): `fraction` of the
+    memory available (MemAvailable, lowered by a cgroup limit), leaving
+    Blender the rest."""
     avail = 0.0
     try:
         with open("/proc/meminfo") as f:
@@ -79,7 +80,7 @@ def memory_budget_mb(fraction):
             avail = os.sysconf("SC_AVPHYS_PAGES") * os.sysconf("SC_PAGE_SIZE")
         except (ValueError, OSError, AttributeError):
             avail = 4.0 * 2 ** 30
-    return max(64.0, fraction * avail / 2 ** 20)
+    return max(64.0, fraction * avail / 2 ** 20), avail / 2 ** 20
 
 
 def _vec(v):

@@ -2,7 +2,7 @@
 
 Solve and Live relight's first setup run off Blender's UI thread when
 invoked from the interface (a session.Job polled by a modal timer): the
-window stays responsive, Blender's progress bar and the panel follow the
+window stays responsive, the status bar, the cursor and the panel follow the
 library's progress, and Esc or the panel's Cancel stops the solve within
 about a second.  Called from a script (execute) they run on the caller's
 thread.  Every ohm warning of a run becomes a Blender report and stays in
@@ -24,6 +24,9 @@ except ImportError:
 
 # At most this many of a run's warnings become reports (the panel shows them all).
 MAX_REPORTED_WARNINGS = 8
+# The modal timer's period while a job runs, and the slice of it in which the
+# job's thread is given Python's lock (see _Background.poll_job).
+JOB_TICK_S, JOB_SLICE_S = 0.1, 0.01
 
 
 def _mesh_poll(context):
@@ -31,11 +34,17 @@ def _mesh_poll(context):
     return obj is not None and obj.type == "MESH"
 
 
-def _redraw(context):
+def _redraw(context, kinds=("PROPERTIES", "VIEW_3D")):
     for window in context.window_manager.windows:
         for area in window.screen.areas:
-            if area.type in ("PROPERTIES", "VIEW_3D"):
+            if area.type in kinds:
                 area.tag_redraw()
+
+
+def _status_bar(context, text):
+    """Blender's status bar (None: its own again)."""
+    if context.workspace is not None:
+        context.workspace.status_text_set(text)
 
 
 def _report_warnings(op, s):
@@ -128,7 +137,7 @@ class _Background:
         self.job = session.Job(s, job)
         wm = context.window_manager
         wm.progress_begin(0, 1000)
-        self._timer = wm.event_timer_add(0.1, window=context.window)
+        self._timer = wm.event_timer_add(JOB_TICK_S, window=context.window)
         wm.modal_handler_add(self)
         s.status = "setting up (Esc to cancel)"
 
@@ -140,11 +149,19 @@ class _Background:
             s.status = "cancelling"
         if event.type != "TIMER":
             return None
+        # Blender's main thread holds Python's lock while it is not running
+        # Python, so the job's thread runs its Python (between library calls,
+        # and to return from one) only when given the lock: waiting on it
+        # here hands it over for up to JOB_SLICE_S each tick.
+        self.job.wait(JOB_SLICE_S)
         what, fraction = s.progress
         context.window_manager.progress_update(int(1000 * min(1.0, max(0.0, fraction))))
         if what:
-            s.status = "%s: %d%% (Esc to cancel)" % (what, round(100 * fraction))
-        _redraw(context)
+            status = "%s: %d%% (Esc to cancel)" % (what, round(100 * fraction))
+            if status != s.status:  # only the panel redraws, and only for news
+                s.status = status
+                _status_bar(context, "ohm: " + status)
+                _redraw(context, ("PROPERTIES",))
         if not self.job.done():
             return None
         self.stop_timer(context)
@@ -155,6 +172,7 @@ class _Background:
         if getattr(self, "_timer", None) is not None:
             context.window_manager.event_timer_remove(self._timer)
             context.window_manager.progress_end()
+            _status_bar(context, None)
             self._timer = None
 
 

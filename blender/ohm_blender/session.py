@@ -20,7 +20,7 @@ import time
 
 import numpy as np
 
-from . import bridge
+from . import bridge, estimate
 
 try:  # the package bundled into the add-on's zip (lib/libohm.so.1 beside it)
     from . import ohm as ohmlib
@@ -71,6 +71,13 @@ def _settings_signature(obj, bscene):
             st.shadows, st.max_memory_fraction)
 
 
+def _channels(st):
+    """Distinct channels, each its own solver (a factor or a hierarchy)."""
+    if st.material == "COEFFICIENTS":
+        return len(set(zip(tuple(st.sigma_a), tuple(st.sigma_s))))
+    return 3
+
+
 def geometry_hash(verts, tris):
     """The evaluated mesh exactly: its coordinates and its triangles."""
     h = hashlib.blake2b(digest_size=16)
@@ -83,8 +90,11 @@ class Session:
     def __init__(self, name):
         self.name = name
         self.messages = []        # (level, text) of the current run
-        self.progress = ("", 0.0)  # the library's latest (what, fraction)
-        self.ctx = ohmlib.Context(verbosity=1, log=self._log, progress=self._progress)
+        # progress is polled (Context.progress), not called back: a callback
+        # on the solving thread would wait for Blender's main thread at every
+        # report (measured: a 23 s setup took 44 s with callbacks)
+        self.ctx = ohmlib.Context(verbosity=1, log=self._log)
+        self.ctx.poll_progress()
         self.scene = None
         self.signature = None     # (settings, geometry hash) the solver was set up for
         self.lights = None        # lights signature of the current solution
@@ -105,13 +115,15 @@ class Session:
         self.messages.append(("WARNING" if level == ohmlib.LOG_WARNING else "INFO", text))
         del self.messages[:-200]
 
-    def _progress(self, what, fraction):
-        self.progress = (what, fraction)
+    @property
+    def progress(self):
+        """The library's latest (what, fraction), from any thread."""
+        return self.ctx.progress()
 
     def begin_run(self):
         """A new operator run: its messages and progress start empty."""
         self.messages = []
-        self.progress = ("", 0.0)
+        self.ctx.poll_progress()
 
     def run_warnings(self):
         return [text for level, text in self.messages if level == "WARNING"]
@@ -134,12 +146,19 @@ class Session:
             raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light")
         local, tris = bridge.evaluated_mesh(obj, depsgraph)
         verts = bridge.world_mm(obj, local, mm)
+        budget_mb, available_mb = bridge.memory_budget_mb(st.max_memory_fraction)
+        if st.grid == "DIM":  # (an accuracy target's grid is the library's to choose, and check)
+            refusal = estimate.check(estimate.Shape(verts, tris), st.dim, st.solver, _channels(st),
+                                     budget_mb * 2 ** 20, "%d%% of the %s available" % (
+                                         round(100 * st.max_memory_fraction), estimate.gib(available_mb * 2 ** 20)))
+            if refusal:
+                raise ohmlib.UsageError(ohmlib.ERR_USAGE, refusal)
         job = {"verts": verts, "tris": tris, "to_original": bridge.to_original(obj, local), "name": obj.name,
                "lights": lights,
                "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
                "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
                "boundary": st.boundary, "solver": st.solver, "shadows": st.shadows,
-               "max_memory_mb": bridge.memory_budget_mb(st.max_memory_fraction),
+               "max_memory_mb": budget_mb,
                "signature": (_settings_signature(obj, bscene), geometry_hash(verts, tris)),
                "lights_signature": bridge.lights_signature(bscene)}
         if st.material == "VOLUME":

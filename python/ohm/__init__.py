@@ -198,6 +198,21 @@ class Context(_Handle):
         self._progress = self._trampoline(_library.PROGRESS_CALLBACK, call)
         _lib.ohm_context_set_progress(self._live(), self._progress, None)
 
+    def poll_progress(self):
+        """Keep progress for progress() instead of calling back: no Python
+        runs on the solving thread (in Blender, a callback waits for the
+        main thread's lock at every report).  set_progress() ends it."""
+        _lib.ohm_context_poll_progress(self._live())
+        self._progress = None
+
+    def progress(self):
+        """The latest progress report of a polling context: (what, fraction).
+        Any thread may ask."""
+        what = ctypes.create_string_buffer(64)
+        fraction = ctypes.c_double()
+        _check(_lib.ohm_context_progress(self._live(), what, len(what), ctypes.byref(fraction)))
+        return what.value.decode("utf-8", "replace"), fraction.value
+
     def _trampoline(self, kind, call):
         _callback_owner[call] = weakref.ref(self)
         return kind(call)

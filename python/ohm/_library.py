@@ -105,6 +105,8 @@ def _declare(lib):
         "ohm_context_set_log": (None, [vp, LOG_CALLBACK, vp]),
         "ohm_context_set_progress": (None, [vp, PROGRESS_CALLBACK, vp]),
         "ohm_context_cancel": (None, [vp]),
+        "ohm_context_poll_progress": (None, [vp]),
+        "ohm_context_progress": (i, [vp, ctypes.c_char_p, ctypes.c_size_t, ctypes.POINTER(ctypes.c_double)]),
         "ohm_scene_new": (i, [ctypes.POINTER(vp), vp]),
         "ohm_scene_free": (None, [vp]),
         "ohm_scene_run": (i, [vp, ctypes.c_char_p, c_char_pp]),

@@ -6,6 +6,8 @@
 
 #include "ohm.h"
 
+#include <pthread.h>
+
 #include "base/ohm_error.h"
 #include "steps/state.h"
 
@@ -14,6 +16,11 @@ struct ohm_context {
                                points at `cancel`                             */
     atomic_int cancel;      /* ohm_context_cancel's request, until a call
                                returns OHM_ERR_CANCELLED for it               */
+    /* the latest progress report, kept for ohm_context_progress when the
+     * context polls (ohm_context_poll_progress); any thread reads it */
+    pthread_mutex_t progress_lock;
+    char progress_what[64];
+    double progress_fraction;
 };
 
 struct ohm_scene {

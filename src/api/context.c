@@ -56,6 +56,7 @@ int ohm_context_new(ohm_context **out)
     if (!*out) return ohm_api_fail(OHM_ERR_NOMEM, "ohm_context_new: out of memory");
     (*out)->log.verbosity = 1;
     atomic_init(&(*out)->cancel, 0);
+    pthread_mutex_init(&(*out)->progress_lock, NULL);
     (*out)->log.cancel = &(*out)->cancel;
     return OHM_OK;
 }
@@ -68,6 +69,8 @@ void ohm_context_cancel(ohm_context *ctx)
 
 void ohm_context_free(ohm_context *ctx)
 {
+    if (!ctx) return;
+    pthread_mutex_destroy(&ctx->progress_lock);
     free(ctx);
 }
 
@@ -88,4 +91,33 @@ void ohm_context_set_progress(ohm_context *ctx, ohm_progress_callback fn, void *
     if (!ctx) return;
     ctx->log.progress = fn;
     ctx->log.progress_user = user;
+}
+
+/* The progress callback of a polling context: the report kept, nothing
+ * called, nothing printed. */
+static void keep_progress(void *user, const char *what, double fraction)
+{
+    ohm_context *ctx = user;
+    pthread_mutex_lock(&ctx->progress_lock);
+    snprintf(ctx->progress_what, sizeof ctx->progress_what, "%s", what ? what : "");
+    ctx->progress_fraction = fraction;
+    pthread_mutex_unlock(&ctx->progress_lock);
+}
+
+void ohm_context_poll_progress(ohm_context *ctx)
+{
+    if (!ctx) return;
+    keep_progress(ctx, "", 0.0);
+    ctx->log.progress = keep_progress;
+    ctx->log.progress_user = ctx;
+}
+
+int ohm_context_progress(ohm_context *ctx, char *what, size_t size, double *fraction)
+{
+    if (!ctx) return ohm_api_fail(OHM_ERR_USAGE, "ohm_context_progress: ctx is NULL");
+    pthread_mutex_lock(&ctx->progress_lock);
+    if (what && size) snprintf(what, size, "%s", ctx->progress_what);
+    if (fraction) *fraction = ctx->progress_fraction;
+    pthread_mutex_unlock(&ctx->progress_lock);
+    return OHM_OK;
 }
