@@ -256,6 +256,19 @@ if MODE == "live":
         screenshot(os.environ["OHM_SCREENSHOT"], (1, 0.3, 0.4))
     print("ohm live: %d cells, %.1f updates/s, parts (ms) %s" % (report["cells"], report["updates_per_second"],
                                                               report["update_parts_ms"]))
+    # deleting the object while a background solve runs: the next depsgraph
+    # update cancels the job, and its end closes the session
+    s = session.get(obj)
+    obj.ohm.dim = 2 * DIM
+    s.begin_run()
+    job = session.Job(s, s.gather(obj, sc, bpy.context.evaluated_depsgraph_get()))
+    bpy.data.objects.remove(obj)
+    bpy.context.view_layer.update()
+    ended = job.wait(60.0)
+    job.end()
+    report["sessions_after_delete"] = len(session._sessions)
+    if not ended or session._sessions or s.scene is not None:
+        problem("deleting a solving object left %d sessions (job ended %s)" % (len(session._sessions), ended))
 elif MODE == "bake":
     sc.frame_start, sc.frame_end = 1, 4
     for f, d in zip(range(1, 5), [(1, 0.3, 0), (0, 0.3, 1), (-1, 0.3, 0), (0, 0.3, -1)]):

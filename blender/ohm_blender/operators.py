@@ -219,8 +219,9 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
         try:
             t = s.finish(self.obj, job.job)
             _after_setup(context, self.obj, s)
-        except ReferenceError:  # the object was deleted while it solved
-            s.status = "the object is gone"
+        except ReferenceError:  # the object was deleted (or an undo remade it) while it solved
+            s.status = "the object was deleted or undone while it solved"
+            self.report({"WARNING"}, "ohm: " + s.status)
             return {"CANCELLED"}
         except (ohmlib.Error, OSError, RuntimeError) as e:
             return _report_failure(self, s, e)

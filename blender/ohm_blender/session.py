@@ -52,7 +52,8 @@ def close_all():
 
 
 def prune(objects):
-    """Close the sessions of objects no longer among `objects`."""
+    """Close the sessions of objects no longer among `objects` (a running
+    job is cancelled, and Job.end closes its session)."""
     alive = {o.as_pointer() for o in objects}
     for k in [k for k in _sessions if k not in alive]:
         s = _sessions.pop(k)
@@ -68,7 +69,7 @@ def _settings_signature(obj, bscene):
     st = obj.ohm
     return (bscene.unit_settings.scale_length, st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s),
             st.eta, st.volume_path, st.transfer_path, st.grid, st.dim, st.error, st.boundary, st.solver,
-            st.shadows, st.max_memory_fraction)
+            st.shadows)
 
 
 def _channels(st):
@@ -309,6 +310,10 @@ class Job:
         return self.done()
 
     def end(self):
-        """The job is over (joined): the session may run again."""
+        """The job is over (joined): the session may run again, or, when
+        its object went while the job ran (prune), is closed."""
         self.thread.join()
-        self.session.job = None
+        s = self.session
+        s.job = None
+        if not any(x is s for x in _sessions.values()):
+            s.close()
