@@ -1,7 +1,13 @@
 """The panel: Properties > Object > ohm."""
+import textwrap
+
 import bpy
 
 from . import operators, session
+
+
+# Characters per line of a warning in the panel.
+WRAP_CHARACTERS = 70
 
 
 class OHM_PT_object(bpy.types.Panel):
@@ -62,8 +68,10 @@ class OHM_PT_object(bpy.types.Panel):
             box.label(text=s.status)
         if s.result is not None and s.job is None:
             box.label(text="exitance × %.4g = colour (W/mm² per W of light)" % (s.exposure or 0))
-        for text in s.warnings:
-            box.label(text=text, icon="ERROR")
+        for text in s.warnings:  # wrapped: Blender's labels cut long lines in the middle
+            col = box.column(align=True)
+            for i, line in enumerate(textwrap.wrap(text, WRAP_CHARACTERS)):
+                col.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
 
 
 classes = (OHM_PT_object,)
