@@ -4,9 +4,9 @@
 (297 250 cells, three channels), a point light 110 mm away moved by STEP
 degrees around the vertical axis per update, through the Python package
 (Scene.relight: keep=1); prints the first solve and the median of 20
-relights.  It reports; it asserts nothing.
+relights.  DIM (default 128) sets the grid.  It reports; it asserts nothing.
 
-  /usr/bin/python3 scripts/relight-rate.py SOLVER STEP [CG_TOL] [BUILD]
+  /usr/bin/python3 scripts/relight-rate.py SOLVER STEP [CG_TOL|-] [BUILD] [DIM]
 """
 import math
 import os
@@ -17,7 +17,8 @@ import time
 root = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 solver, step = sys.argv[1], float(sys.argv[2])
 tol = sys.argv[3] if len(sys.argv) > 3 and sys.argv[3] != "-" else None
-build = sys.argv[4] if len(sys.argv) > 4 else os.path.join(root, "build")
+build = sys.argv[4] if len(sys.argv) > 4 and sys.argv[4] != "-" else os.path.join(root, "build")
+dim = int(sys.argv[5]) if len(sys.argv) > 5 else 128
 os.environ.setdefault("OHM_LIBRARY", os.path.join(build, "libohm.so"))
 sys.path.insert(0, os.path.join(root, "python"))
 import ohm  # noqa: E402
@@ -33,7 +34,7 @@ sc = ohm.Scene(ctx)
 sc.run("read", file=os.path.join(root, "samples", "spot.obj"), size=50)
 sc.run("material", preset="marble")
 sc.add_light(**light(0))
-sc.run("voxelize", dim=128)
+sc.run("voxelize", dim=dim)
 opts = dict(solver=solver)
 if tol:
     opts["cg_tol"] = tol

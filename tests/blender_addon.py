@@ -71,7 +71,10 @@ lamp = bpy.data.objects.new("lamp", lamp_data)
 sc.collection.objects.link(lamp)
 obj.ohm.preset = "marble"
 obj.ohm.dim = DIM
-obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
+SOLVER = os.environ.get("OHM_ADDON_SOLVER", "direct")
+if SOLVER == "auto" and obj.ohm.solver != "auto":
+    problem("the panel's default solver is %s, not auto" % obj.ohm.solver)
+obj.ohm.solver = SOLVER
 
 
 def status():
@@ -135,6 +138,10 @@ if MODE == "live":
     s = session.get(obj)
     report["cells"] = int(s.result["unknowns"])
     report["factorizations_after_solve"] = session.get(obj).factorizations
+    report["solver"] = s.solver
+    if SOLVER == "auto" and (s.solver != "direct" or "Auto: direct" not in s.solver_note):
+        problem("Auto at %d cells solved with %s (%s), expected the factor" % (report["cells"], s.solver,
+                                                                           s.solver_note))
     report["contrast_after_solve"] = facing_contrast((1, 0.3, 0))
     if not report["contrast_after_solve"] > 2:
         problem("lit side only %.3g x the far side after Solve" % report["contrast_after_solve"])
@@ -220,7 +227,7 @@ if MODE == "live":
     if not ended or not isinstance(job.error, session.ohmlib.Cancelled):
         problem("a cancelled background solve ended %s with %r" % (ended, job.error))
     obj.ohm.dim = DIM
-    obj.ohm.solver = os.environ.get("OHM_ADDON_SOLVER", "direct")
+    obj.ohm.solver = SOLVER
     # a panel value that would not fit is refused before anything is built,
     # naming what it needs and the largest Cells that fits
     obj.ohm.dim = 1024
@@ -232,17 +239,19 @@ if MODE == "live":
         refused = True
     report["refusal_seconds"] = time.perf_counter() - t_refuse
     report["refusal"] = status()
-    m = re.search(r"the largest Cells that fits is (\d+)", status())
+    m = re.search(r"with solver (\w+) .* the largest Cells that fits is (\d+)", status())
     if not refused or not m or (s.setups, s.relights) != runs:
         problem("Cells 1024 was not refused before a setup: %s" % status())
     else:
         from ohm_blender import bridge, estimate
-        best = int(m.group(1))
+        checked, best = m.group(1), int(m.group(2))
         budget = bridge.memory_budget_mb(obj.ohm.max_memory_fraction)[0] * 2 ** 20
         local, tris = bridge.evaluated_mesh(obj, bpy.context.evaluated_depsgraph_get())
         shape = estimate.Shape(bridge.world_mm(obj, local, bridge.mm_per_unit(sc)), tris)
-        if not (estimate.solve_bytes(shape, best, obj.ohm.solver, 3) <= budget <
-                estimate.solve_bytes(shape, best + 1, obj.ohm.solver, 3)):
+        if SOLVER == "auto" and checked != "mg":
+            problem("Auto at Cells 1024 (%d cells) checked %s, not mg" % (shape.cells(1024)[0], checked))
+        if not (estimate.solve_bytes(shape, best, checked, 3) <= budget <
+                estimate.solve_bytes(shape, best + 1, checked, 3)):
             problem("the largest Cells named, %d, is not the largest whose prediction fits" % best)
     obj.ohm.dim = DIM
     # a warning reaches the artist: a light inside the object lights nothing

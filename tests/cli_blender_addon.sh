@@ -2,7 +2,8 @@
 # cli_blender_addon.sh — the Blender add-on (blender/ohm_blender, installed
 # from the build's ohm_blender.zip) in a headless Blender: Solve and Live
 # relight (tests/blender_addon.py live), then Bake sequence and Solve's volume
-# object (bake), then Solve and Live relight with solver=mg.  Skipped without Blender as cli_blender.sh is, and under the
+# object (bake), then Solve and Live relight with solver=mg, and with the
+# panel's default, Auto.  Skipped without Blender as cli_blender.sh is, and under the
 # sanitizers (Blender's own process is not ours to instrument; the library
 # code it calls is covered there by api_scene and api_python).
 set -eu
@@ -13,9 +14,9 @@ require_blender
 check "the build made ohm_blender.zip" test -s "$ZIP"
 # Blender keeps installed add-ons in its user folder: a fresh one per run
 export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
-# live and bake with the default solver, then live with the multigrid (the
-# panel's Solver, OHM_ADDON_SOLVER in the script)
-for run in live bake live:mg; do
+# live and bake with the factor, then live with the multigrid and with Auto
+# (the panel's Solver, OHM_ADDON_SOLVER in the script)
+for run in live bake live:mg live:auto; do
   mode=${run%%:*} solver=${run#*:}
   [ "$solver" != "$run" ] || solver=direct
   mkdir -p "$T/$run"

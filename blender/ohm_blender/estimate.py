@@ -41,6 +41,13 @@ FACTOR_NNZ_COEFF, FACTOR_NNZ_POWER = 1.75, 1.4
 DIRECT_PER_CELL = 150.0
 AMG_SERIAL, AMG_PER_CHANNEL = 74.0, 392.0
 MAX_DIM = 1024
+# Solver Auto in the add-on: the factor up to this many cells (where its
+# memory fits), multigrid beyond.  Measured relight rates, Spot in marble,
+# three channels, a point light moved 1 degree (scripts/relight-rate.py,
+# 2026-12-05): 3.7e4 cells direct 55/s, mg 25/s; 1.25e5 direct 12.4/s, mg
+# 7.4/s; 3.0e5 direct 2.9-3.1/s, mg 3.6-3.8/s; and mg's first solve is 7-25x
+# quicker than the factorization at every size.
+AUTO_DIRECT_MAX_CELLS = 2.5e5
 
 
 def enclosed_volume(verts, tris):
@@ -114,3 +121,14 @@ def check(shape, dim, solver, channels, budget, share):
         if best_mg > best:
             text += " (%d with Solver: Multigrid)" % best_mg
     return text
+
+
+def choose(shape, dim, channels, budget):
+    """Solver Auto's choice for the add-on, where relights follow the first
+    solve: (solver, why)."""
+    n, _ = shape.cells(dim)
+    if n > AUTO_DIRECT_MAX_CELLS:
+        return "mg", "%.3g cells: multigrid relights faster beyond %.3g" % (n, AUTO_DIRECT_MAX_CELLS)
+    if solve_bytes(shape, dim, "direct", channels) > budget:
+        return "mg", "the factor would not fit the memory allowed"
+    return "direct", "%.3g cells: the factor relights fastest up to %.3g" % (n, AUTO_DIRECT_MAX_CELLS)

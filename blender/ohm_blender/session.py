@@ -104,6 +104,7 @@ class Session:
         self.relights = 0
         self.factorizations = 0
         self.solver = ""          # the backend that solved last
+        self.solver_note = ""     # why, when the panel said Auto
         self.status = ""          # one line for the panel
         self.warnings = []        # the last run's warnings, for the panel
         self.updates_per_second = 0.0
@@ -148,17 +149,22 @@ class Session:
         local, tris = bridge.evaluated_mesh(obj, depsgraph)
         verts = bridge.world_mm(obj, local, mm)
         budget_mb, available_mb = bridge.memory_budget_mb(st.max_memory_fraction)
+        solver, self.solver_note = st.solver, ""
         if st.grid == "DIM":  # (an accuracy target's grid is the library's to choose, and check)
-            refusal = estimate.check(estimate.Shape(verts, tris), st.dim, st.solver, _channels(st),
-                                     budget_mb * 2 ** 20, "%d%% of the %s available" % (
-                                         round(100 * st.max_memory_fraction), estimate.gib(available_mb * 2 ** 20)))
+            shape = estimate.Shape(verts, tris)
+            if solver == "auto":
+                solver, why = estimate.choose(shape, st.dim, _channels(st), budget_mb * 2 ** 20)
+                self.solver_note = "Auto: %s (%s)" % (solver, why)
+            refusal = estimate.check(shape, st.dim, solver, _channels(st), budget_mb * 2 ** 20,
+                                     "%d%% of the %s available" % (round(100 * st.max_memory_fraction),
+                                                                   estimate.gib(available_mb * 2 ** 20)))
             if refusal:
                 raise ohmlib.UsageError(ohmlib.ERR_USAGE, refusal)
         job = {"verts": verts, "tris": tris, "to_original": bridge.to_original(obj, local), "name": obj.name,
                "lights": lights,
                "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
                "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
-               "boundary": st.boundary, "solver": st.solver, "shadows": st.shadows,
+               "boundary": st.boundary, "solver": solver, "shadows": st.shadows,
                "max_memory_mb": budget_mb,
                "signature": (_settings_signature(obj, bscene), geometry_hash(verts, tris)),
                "lights_signature": bridge.lights_signature(bscene)}

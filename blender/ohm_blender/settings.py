@@ -44,9 +44,10 @@ class OhmSettings(bpy.types.PropertyGroup):
                                      items=[("robin", "Fresnel (robin)", "light leaves through the surface"),
                                             ("neumann", "Closed (neumann)", "the paper's: no light leaves"),
                                             ("dirichlet", "Zero (dirichlet)", "fluence 0 at the surface")])
-    solver: bpy.props.EnumProperty(name="Solver", default="direct",
-                                   items=[("direct", "Direct (factor once)", "Cholesky factor reused for every light"),
-                                          ("auto", "Auto", "ohm chooses by memory and time"),
+    solver: bpy.props.EnumProperty(name="Solver", default="auto",
+                                   items=[("auto", "Auto", "the factor up to 2.5e5 cells where it fits (the fastest "
+                                           "relights there), multigrid beyond (docs/blender.md)"),
+                                          ("direct", "Direct (factor once)", "Cholesky factor reused for every light"),
                                           ("mg", "Multigrid", "geometric multigrid: large grids, low memory, "
                                            "a quick first solve"),
                                           ("cg", "Conjugate gradients", "low memory"),

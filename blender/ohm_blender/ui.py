@@ -66,6 +66,8 @@ class OHM_PT_object(bpy.types.Panel):
         box = layout.box()
         if s.status:
             box.label(text=s.status)
+        if s.solver_note and s.job is None:
+            box.label(text=s.solver_note)
         if s.result is not None and s.job is None:
             box.label(text="exitance × %.4g = colour (W/mm² per W of light)" % (s.exposure or 0))
         for text in s.warnings:  # wrapped: Blender's labels cut long lines in the middle
