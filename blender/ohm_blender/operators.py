@@ -361,10 +361,63 @@ def remove_bake(obj, directory):
         me.attributes.remove(me.attributes[name])
 
 
+class _BakeRun:
+    """A bake's state, frame by frame: the frames solved so far, and what
+    to put back when it ends (the frame shown, an automatic exposure)."""
+
+    def __init__(self, context, obj):
+        sc = context.scene
+        self.obj, self.scene = obj, sc
+        self.directory = output_directory(obj)
+        self.session = session.get_or_create(obj)
+        self.session.begin_run()
+        self.frames = list(range(sc.frame_start, sc.frame_end + 1))
+        self.index, self.solved = 0, []
+        self.keep_frame, self.keep_exposure = sc.frame_current, obj.ohm.exposure
+        os.makedirs(self.directory, exist_ok=True)
+        remove_bake(obj, self.directory)
+
+    def done(self):
+        return self.index >= len(self.frames)
+
+    def show_frame(self, context):
+        """The next frame on screen; True when it needs a new setup."""
+        self.scene.frame_set(self.frames[self.index])
+        return self.session.needs_setup(self.obj, self.scene, context.evaluated_depsgraph_get())
+
+    def finish_frame(self, what):
+        """The frame's result written, unless nothing changed since the last."""
+        s, obj, f = self.session, self.obj, self.frames[self.index]
+        self.index += 1
+        if what is None and self.solved:
+            return  # nothing changed: the last frame's result stands
+        if not self.solved and obj.ohm.exposure == 0:
+            obj.ohm.exposure = s.exposure  # chosen once, for the whole sequence
+        s.scene.run("write", file=os.path.join(self.directory, "%s_%04d.vdb" % (obj.name, f)))
+        bridge.write_colours(obj, "%s_%04d" % (obj.ohm.attribute, f), s.mesh_exitance(), obj.ohm.exposure)
+        self.solved.append(f)
+
+    def step(self, context):
+        """One frame on this thread."""
+        self.show_frame(context)
+        self.finish_frame(self.session.update(self.obj, self.scene, context.evaluated_depsgraph_get()))
+
+    def restore(self):
+        self.obj.ohm.exposure = self.keep_exposure
+        self.scene.frame_set(self.keep_frame)
+
+    def summary(self, ended="baked"):
+        solved = ", ".join(str(f) for f in self.solved[:6]) + (", ..." if len(self.solved) > 6 else "")
+        last = self.frames[self.index - 1] if self.index else self.frames[0]
+        return "%s frames %d-%d: %d solved (%s), exposure %.4g, in %s" % (
+            ended, self.frames[0], last, len(self.solved), solved, self.session.exposure or 0, self.directory)
+
+
 class OHM_OT_bake(bpy.types.Operator):
     """Bake the animation over the frame range: frames where a light, the object or its material changed are solved
     (one setup for all of them while the geometry stays), each written as a .vdb and a colour attribute named by its
-    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence"""
+    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence.  Runs frame by
+    frame in the background: Esc stops it, keeping the frames written"""
     bl_idname = "ohm.bake"
     bl_label = "Bake sequence"
 
@@ -374,40 +427,93 @@ class OHM_OT_bake(bpy.types.Operator):
         return _mesh_poll(context) and (s is None or s.job is None)
 
     def execute(self, context):
-        obj, sc = context.active_object, context.scene
-        d = output_directory(obj)
-        s = session.get_or_create(obj)
-        s.begin_run()
-        wm = context.window_manager
-        frames = range(sc.frame_start, sc.frame_end + 1)
-        wm.progress_begin(0, len(frames))
-        keep, keep_exposure = sc.frame_current, obj.ohm.exposure
-        solved = []
         try:
-            os.makedirs(d, exist_ok=True)
-            remove_bake(obj, d)
-            for n, f in enumerate(frames):
-                sc.frame_set(f)
-                what = s.update(obj, sc, context.evaluated_depsgraph_get())
-                if what is None and solved:
-                    continue  # nothing changed: the last frame's result stands
-                if not solved and obj.ohm.exposure == 0:
-                    obj.ohm.exposure = s.exposure  # chosen once, for the whole sequence
-                s.scene.run("write", file=os.path.join(d, "%s_%04d.vdb" % (obj.name, f)))
-                bridge.write_colours(obj, "%s_%04d" % (obj.ohm.attribute, f), s.mesh_exitance(), obj.ohm.exposure)
-                solved.append(f)
-                wm.progress_update(n + 1)
+            run = _BakeRun(context, context.active_object)
+        except OSError as e:
+            return _report_failure(self, session.get_or_create(context.active_object), e)
+        wm = context.window_manager
+        wm.progress_begin(0, len(run.frames))
+        try:
+            while not run.done():
+                run.step(context)
+                wm.progress_update(run.index)
         except (ohmlib.Error, OSError) as e:
-            return _report_failure(self, s, e)
+            return _report_failure(self, run.session, e)
         finally:
             wm.progress_end()
-            obj.ohm.exposure = keep_exposure
-            sc.frame_set(keep)
-        s.status = "baked frames %d-%d: %d solved (%s), exposure %.4g, in %s" % (
-            frames[0], frames[-1], len(solved), ", ".join(str(f) for f in solved[:6]) + (
-                ", ..." if len(solved) > 6 else ""), s.exposure, d)
-        _report_warnings(self, s)
-        self.report({"INFO"}, "ohm: " + s.status)
+            run.restore()
+        return self._done(run)
+
+    def invoke(self, context, event):
+        try:
+            self.run = _BakeRun(context, context.active_object)
+        except OSError as e:
+            return _report_failure(self, session.get_or_create(context.active_object), e)
+        self.job = None
+        wm = context.window_manager
+        wm.progress_begin(0, len(self.run.frames))
+        self._timer = wm.event_timer_add(JOB_TICK_S, window=context.window)
+        wm.modal_handler_add(self)
+        return {"RUNNING_MODAL"}
+
+    def modal(self, context, event):
+        run, s = self.run, self.run.session
+        if event.type == "ESC" and event.value == "PRESS":
+            if self.job is not None:
+                self.job.cancel()
+                self.job.end()
+            return self._stop(context, cancelled=True)
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            if self.job is not None:  # a frame's setup, in the background
+                self.job.wait(JOB_SLICE_S)
+                if not self.job.done():
+                    return {"PASS_THROUGH"}
+                self.job.end()
+                job, self.job = self.job, None
+                if job.error is not None:
+                    raise job.error
+                s.finish(run.obj, job.job)
+                run.finish_frame("setup")
+            elif run.done():
+                return self._stop(context)
+            elif run.show_frame(context):
+                self.job = session.Job(s, s.gather(run.obj, run.scene, context.evaluated_depsgraph_get()))
+            else:
+                run.finish_frame(s.update(run.obj, run.scene, context.evaluated_depsgraph_get()))
+        except ReferenceError:
+            return self._stop(context, cancelled=True)
+        except (ohmlib.Error, OSError, RuntimeError) as e:
+            self._stop(context, cancelled=True)
+            return _report_failure(self, s, e)
+        context.window_manager.progress_update(run.index)
+        status = "baking frame %d of %d (Esc to stop)" % (run.index + 1, len(run.frames))
+        if status != s.status:
+            s.status = status
+            _status_bar(context, "ohm: " + status)
+            _redraw(context, ("PROPERTIES",))
+        return {"PASS_THROUGH"}
+
+    def _stop(self, context, cancelled=False):
+        wm = context.window_manager
+        wm.event_timer_remove(self._timer)
+        wm.progress_end()
+        _status_bar(context, None)
+        try:
+            self.run.restore()
+        except ReferenceError:
+            return {"CANCELLED"}
+        if cancelled:
+            self.run.session.status = self.run.summary("stopped after")
+            self.report({"WARNING"}, "ohm: " + self.run.session.status)
+            return {"CANCELLED"}
+        return self._done(self.run)
+
+    def _done(self, run):
+        run.session.status = run.summary()
+        _report_warnings(self, run.session)
+        self.report({"INFO"}, "ohm: " + run.session.status)
         return {"FINISHED"}
 
 
