@@ -91,9 +91,10 @@ class Session:
     def __init__(self, name):
         self.name = name
         self.messages = []        # (level, text) of the current run
-        # progress is polled (Context.progress), not called back: a callback
-        # on the solving thread would wait for Blender's main thread at every
-        # report (measured: a 23 s setup took 44 s with callbacks)
+        # progress is polled (Context.progress), not called back: a Python
+        # callback on the solving thread needs Python's lock, which Blender's
+        # main thread holds (measured under Xvfb, with the same redraws: 44 s
+        # with callbacks, 23 s polled)
         self.ctx = ohmlib.Context(verbosity=1, log=self._log)
         self.ctx.poll_progress()
         self.scene = None
