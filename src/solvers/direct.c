@@ -233,6 +233,12 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     int ok = cholmod_l_factorize(A, F, cc);
     ohm_factor_watch_end(&watch);
     if (t) *t = ohm_now() - t0;
+    /* a supernodal factorization whose BLAS and LAPACK calls never reached
+     * the watch: the process had LAPACK before libohm (Blender links it),
+     * and CHOLMOD bound to that one (factor_watch.h) */
+    if (ok && F->is_super && watch.done == 0 && s->flops > 0)
+        ohm_log_info(log, "solve: factorize: this process's LAPACK was loaded before libohm (by the host program), "
+                          "so the factorization reported no progress and could be cancelled only at its end");
     /* cholmod_factorize returns TRUE on an indefinite matrix: the status and
      * L->minor say so (and a cancelled run stops it the same way). */
     if (!ok || cc->status == CHOLMOD_NOT_POSDEF || F->minor < F->n) {
