@@ -254,6 +254,17 @@ if MODE == "live":
                 estimate.solve_bytes(shape, best + 1, checked, 3)):
             problem("the largest Cells named, %d, is not the largest whose prediction fits" % best)
     obj.ohm.dim = DIM
+    # an accuracy target finer than the memory allows: refused after the
+    # library's probes, naming the grid it needs, before that grid is made
+    obj.ohm.grid, obj.ohm.error, obj.ohm.max_memory_fraction = "ERROR", 0.002, 0.05
+    try:
+        refused = bpy.ops.ohm.solve() == {"CANCELLED"}
+    except RuntimeError:
+        refused = True
+    report["error_target_refusal"] = status()
+    if not refused or "needs dim=" not in status() or (s.setups, s.relights) != runs:
+        problem("error=0.002 at 5%% of the memory was not refused before its grid: %s" % status())
+    obj.ohm.grid, obj.ohm.max_memory_fraction = "DIM", 0.5
     # a warning reaches the artist: a light inside the object lights nothing
     place_light((1, 0, 0), distance=1.0)
     bpy.ops.ohm.solve()

@@ -55,4 +55,10 @@ check "the refused run wrote nothing" test ! -e "$T/early.vdb"
 expect_exit 2 "error= and dim=" -- "$OHM" -read file=samples/spot.obj -material preset=marble \
   -light type=directional dir=0,-1,0 -voxelize error=0.1 dim=32
 expect_error_line "error= and dim=" "give error= or dim=/voxel=, not both"
+# max_dim= (a caller's memory: the Blender add-on's check): a target that
+# needs a finer grid is refused after the probes, before the grid is made
+expect_exit 1 "error= beyond max_dim=" -- "$OHM" -read file=samples/spot.obj size=50 -material preset=marble \
+  -light type=directional dir=0,-1,0 -voxelize error=0.01 max_dim=60 -solve -write file="$T/fine.vdb"
+expect_error_line "error= beyond max_dim=" "error=0.01 needs dim=[0-9]+ .*more than max_dim=60 allows"
+check "the refused run wrote nothing" test ! -e "$T/fine.vdb"
 finish

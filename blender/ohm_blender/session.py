@@ -161,12 +161,18 @@ class Session:
                                                                    estimate.gib(available_mb * 2 ** 20)))
             if refusal:
                 raise ohmlib.UsageError(ohmlib.ERR_USAGE, refusal)
+        else:  # the library picks the grid: it refuses one finer than what fits (max_dim=), after its probes
+            limit_solver = "mg" if solver == "auto" else solver
+            max_dim = estimate.largest_dim(estimate.Shape(verts, tris), limit_solver, _channels(st), budget_mb * 2 ** 20)
+            if max_dim < 4:
+                raise ohmlib.UsageError(ohmlib.ERR_USAGE, "no grid with solver %s fits the %s Memory allows" % (
+                    limit_solver, estimate.gib(budget_mb * 2 ** 20)))
         job = {"verts": verts, "tris": tris, "to_original": bridge.to_original(obj, local), "name": obj.name,
                "lights": lights,
                "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
                "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
                "boundary": st.boundary, "solver": solver, "shadows": st.shadows,
-               "max_memory_mb": budget_mb,
+               "max_memory_mb": budget_mb, "max_dim": None if st.grid == "DIM" else max_dim,
                "signature": (_settings_signature(obj, bscene), geometry_hash(verts, tris)),
                "lights_signature": bridge.lights_signature(bscene)}
         if st.material == "VOLUME":
@@ -197,7 +203,7 @@ class Session:
         if job["grid"] == "DIM":
             sc.run("voxelize", dim=job["dim"], **memory)
         else:
-            sc.run("voxelize", error=job["error"], **memory)
+            sc.run("voxelize", error=job["error"], max_dim=job["max_dim"], **memory)
         sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
                  **memory)
         job["exitance"] = sc.vertex_exitance()

@@ -234,6 +234,10 @@ static const ohm_opt_spec voxelize_opts[] = {
      NULL, 1e-4, 0.9, 0},
     {"max_memory", OHM_OPT_REAL, NULL, "MB the grid may take (default: what the machine has available)", NULL, 1e-3,
      1e12, 0},
+    {"max_dim", OHM_OPT_INT, NULL,
+     "with error=: the most cells across the target may choose (what fits a caller's memory); a target that needs "
+     "more is refused after the probes, naming the dim it needs",
+     NULL, 4, 4096, 0},
     {"threshold", OHM_OPT_REAL, NULL,
      "with a volume and no mesh: the object is where the density is >= this (its iso-surface)", NULL, -1e300, 1e300,
      0},
@@ -286,6 +290,11 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         double target = ohm_opt_real(inv, "error");
         int rc = ohm_pick_resolution(&pick, &s->mesh, &s->material, s->lights, s->nlights, target, &s->log, err);
         if (rc) return rc;
+        if (ohm_opt_given(inv, "max_dim") && pick.dim > ohm_opt_int(inv, "max_dim"))
+            return ohm_fail(err, OHM_ERR_NOMEM,
+                            "%s: -voxelize error=%g needs dim=%d (predicted error %.3g there), more than max_dim=%lld "
+                            "allows; use a larger error=",
+                            inv->where, target, pick.dim, pick.predicted, (long long)ohm_opt_int(inv, "max_dim"));
         p.dim = pick.dim;
         ohm_stats_set(&s->stats, "error_target", target);
         ohm_stats_set(&s->stats, "error_predicted", pick.predicted);
