@@ -28,6 +28,8 @@ MAX_REPORTED_WARNINGS = 8
 # panel, and only when its status changed: redrawing the 3D views ten times a
 # second took the CPU from the solve (under Xvfb a 4.3 s setup took 23 s).
 JOB_TICK_S = 0.1
+# Live relight's timer: how often it looks for a moved light.
+LIVE_TICK_S = 1.0 / 60.0
 
 
 def _mesh_poll(context):
@@ -129,47 +131,71 @@ def _summary(s, seconds):
 
 
 class _Background:
-    """A setup on a session.Job, polled by the modal operator's timer."""
+    """Jobs (session.Job) polled by a modal operator's timer."""
 
-    def start(self, context, obj, s):
+    _timer = None
+    _handling = False
+
+    def attach(self, context, period):
+        """The operator's timer and modal handler, once each."""
+        wm = context.window_manager
+        if self._timer is None:
+            self._timer = wm.event_timer_add(period, window=context.window)
+        if not self._handling:
+            wm.modal_handler_add(self)
+            self._handling = True
+
+    def detach(self, context):
+        if self._timer is not None:
+            context.window_manager.event_timer_remove(self._timer)
+            self._timer = None
+
+    def start(self, context, obj, s, period=JOB_TICK_S):
+        """A setup of obj on a job, with progress."""
         s.begin_run()
         job = s.gather(obj, context.scene, context.evaluated_depsgraph_get())
         self.obj, self.session = obj, s
         self.job = session.Job(s, job)
-        wm = context.window_manager
-        wm.progress_begin(0, 1000)
-        self._timer = wm.event_timer_add(JOB_TICK_S, window=context.window)
-        wm.modal_handler_add(self)
+        context.window_manager.progress_begin(0, 1000)
+        self.attach(context, period)
         s.status = "setting up (Esc to cancel)"
 
     def poll_job(self, context, event):
-        """None while the job runs; else the job, ended."""
+        """None while the job runs; else the job, ended.  Esc cancels it."""
         s = self.session
         if event.type == "ESC" and event.value == "PRESS":
             self.job.cancel()
             s.status = "cancelling"
         if event.type != "TIMER":
             return None
-        what, fraction = s.progress
-        context.window_manager.progress_update(int(1000 * min(1.0, max(0.0, fraction))))
-        if what:
-            status = "%s: %d%% (Esc to cancel)" % (what, round(100 * fraction))
-            if status != s.status:  # only the panel redraws, and only for news
-                s.status = status
-                _status_bar(context, "ohm: " + status)
-                _redraw(context, ("PROPERTIES",))
+        setup = self.job.kind == "setup"
+        if setup:
+            what, fraction = s.progress
+            context.window_manager.progress_update(int(1000 * min(1.0, max(0.0, fraction))))
+            if what:
+                status = "%s: %d%% (Esc to cancel)" % (what, round(100 * fraction))
+                if status != s.status:  # only the panel redraws, and only for news
+                    s.status = status
+                    _status_bar(context, "ohm: " + status)
+                    _redraw(context, ("PROPERTIES",))
         if not self.job.done():
             return None
-        self.stop_timer(context)
-        self.job.end()
-        return self.job
-
-    def stop_timer(self, context):
-        if getattr(self, "_timer", None) is not None:
-            context.window_manager.event_timer_remove(self._timer)
+        job, self.job = self.job, None
+        job.end()
+        if setup:
             context.window_manager.progress_end()
             _status_bar(context, None)
-            self._timer = None
+        return job
+
+    def stop_job(self, context):
+        """Cancel a running job and wait for it (about a second at most)."""
+        if getattr(self, "job", None) is not None:
+            job, self.job = self.job, None
+            job.cancel()
+            job.end()
+            if job.kind == "setup":
+                context.window_manager.progress_end()
+                _status_bar(context, None)
 
 
 class OHM_OT_solve(bpy.types.Operator, _Background):
@@ -209,6 +235,7 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
         job = self.poll_job(context, event)
         if job is None:
             return {"PASS_THROUGH"}
+        self.detach(context)
         s = self.session
         if job.error is not None:
             return _report_failure(self, s, job.error)
@@ -225,10 +252,8 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
         return self._done(s, t["setup"])
 
     def cancel(self, context):
-        self.stop_timer(context)
-        if self.job is not None and not self.job.done():
-            self.job.cancel()
-            self.job.end()
+        self.detach(context)
+        self.stop_job(context)
 
     def _done(self, s, seconds):
         s.status = _summary(s, seconds)
@@ -269,7 +294,8 @@ def live_step(context, obj):
 
 class OHM_OT_live(bpy.types.Operator, _Background):
     """Relight live: moving, rotating or recolouring a light re-solves from the kept solver and updates the colour
-    attribute; a change of geometry or material sets up again.  Esc or right-click stops"""
+    attribute; a change of geometry or material sets up again.  Both run in the background, so the window stays
+    responsive.  Esc or right-click stops"""
     bl_idname = "ohm.live"
     bl_label = "Live relight"
 
@@ -280,70 +306,66 @@ class OHM_OT_live(bpy.types.Operator, _Background):
 
     def invoke(self, context, event):
         self.obj = context.active_object
-        s = self.live_session = session.get_or_create(self.obj)
+        self.session = session.get_or_create(self.obj)
         self.job = None
         self.updates, self.t0 = 0, time.perf_counter()
-        try:
-            if s.needs_setup(self.obj, context.scene, context.evaluated_depsgraph_get()):
-                self.start(context, self.obj, s)  # the first setup in the background, with progress
-                return {"RUNNING_MODAL"}
-        except (ohmlib.Error, OSError, RuntimeError) as e:
-            return _report_failure(self, s, e)
-        self._live_timer(context)
+        self.attach(context, LIVE_TICK_S)
+        self._live_status()
         return {"RUNNING_MODAL"}
 
-    def _live_timer(self, context):
-        self._timer = context.window_manager.event_timer_add(1.0 / 60.0, window=context.window)
-        context.window_manager.modal_handler_add(self)
-        self._live_status()
-
     def _live_status(self):
-        s = self.live_session
+        s = self.session
         rate = " %.1f updates/s," % s.updates_per_second if s.updates_per_second > 0 else ""
         s.status = "live (%s):%s move a light; Esc stops" % (s.solver or "solver", rate)
 
     def modal(self, context, event):
-        s = self.live_session
+        s = self.session
         try:
             self.obj.name  # noqa: B018  (the object may have been deleted)
         except ReferenceError:
             self.cancel(context)
             return {"CANCELLED"}
-        if self.job is not None:  # the first setup
-            job = self.poll_job(context, event)
-            if job is None:
-                return {"PASS_THROUGH"}
-            self.job = None
-            if job.error is not None:
-                return _report_failure(self, s, job.error)
-            s.finish(self.obj, job.job)
-            _report_warnings(self, s)
-            self._live_timer(context)
-            return {"PASS_THROUGH"}
-        if event.type in {"ESC", "RIGHTMOUSE"}:
+        if event.type in {"ESC", "RIGHTMOUSE"} and event.value == "PRESS":
             self.cancel(context)
             s.status = "live relight stopped"
+            _redraw(context, ("PROPERTIES",))
             return {"CANCELLED"}
-        if event.type == "TIMER":
-            try:
-                if live_step(context, self.obj):
-                    self.updates += 1
-            except ohmlib.Error as e:
-                self.cancel(context)
-                return _report_failure(self, s, e)
-            elapsed = time.perf_counter() - self.t0
-            if elapsed >= 1.0:
-                s.updates_per_second = self.updates / elapsed
-                self.updates, self.t0 = 0, time.perf_counter()
-                self._live_status()
+        if event.type != "TIMER":
+            return {"PASS_THROUGH"}
+        try:
+            if self.job is not None:  # a setup or a relight, in the background
+                job = self.poll_job(context, event)
+                if job is None:
+                    return {"PASS_THROUGH"}
+                if job.error is not None:
+                    self.cancel(context)
+                    return _report_failure(self, s, job.error)
+                if job.kind == "setup":
+                    s.finish(self.obj, job.job)
+                    _report_warnings(self, s)
+                else:
+                    s.relight_finish(self.obj, job.job)
+                self.updates += 1
                 _redraw(context)
+            elif s.needs_setup(self.obj, context.scene, context.evaluated_depsgraph_get()):
+                self.start(context, self.obj, s, LIVE_TICK_S)
+            elif s.lights_changed(context.scene):
+                self.job = session.Job(s, s.relight_gather(context.scene), s.relight_compute)
+        except (ohmlib.Error, OSError, RuntimeError) as e:
+            self.cancel(context)
+            return _report_failure(self, s, e)
+        elapsed = time.perf_counter() - self.t0
+        if elapsed >= 1.0:
+            s.updates_per_second = self.updates / elapsed
+            self.updates, self.t0 = 0, time.perf_counter()
+            if self.job is None or self.job.kind != "setup":
+                self._live_status()
+            _redraw(context, ("PROPERTIES",))
         return {"PASS_THROUGH"}
 
     def cancel(self, context):
-        self.stop_timer(context)
-        if self.job is not None and not self.job.done():
-            self.job.cancel()
-            self.job.end()
+        self.detach(context)
+        self.stop_job(context)
 
 
 def remove_bake(obj, directory):

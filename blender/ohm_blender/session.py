@@ -227,27 +227,45 @@ class Session:
 
     # ---- relighting ----------------------------------------------------------
 
-    def relight(self, obj, bscene, depsgraph):
-        """The scene's lights as they are now, solved with the kept solver."""
-        mm = bridge.mm_per_unit(bscene)
-        lights = bridge.scene_lights(bscene, mm)
+    def relight_gather(self, bscene):
+        """A relight's inputs from Blender (main thread): the lights as they are now."""
+        lights = bridge.scene_lights(bscene, bridge.mm_per_unit(bscene))
         if not lights:
             raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light")
+        return {"lights": lights, "lights_signature": bridge.lights_signature(bscene)}
+
+    def relight_compute(self, job):
+        """The lights solved with the kept solver: library calls only, any thread."""
         sc = self.scene
         t_source0, t_solve0 = sc.stat("t_source"), sc.stat("t_solve")
         t0 = time.perf_counter()
         sc.clear_lights()
-        for opts in lights:
+        for opts in job["lights"]:
             sc.add_light(**opts)
         sc.relight()
-        t1 = time.perf_counter()
-        self.lights = bridge.lights_signature(bscene)
+        job["last"] = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
+                       "relight_call": time.perf_counter() - t0}
+        job["exitance"] = sc.vertex_exitance()
+        job["t0"] = t0
+
+    def relight_finish(self, obj, job):
+        """The relit colours onto the mesh (main thread)."""
+        self.lights = job["lights_signature"]
         self.relights += 1
-        self.last = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
-                     "relight_call": t1 - t0}
-        self._write(obj, sc.vertex_exitance())
-        self.last["total"] = time.perf_counter() - t0
+        self.last = job["last"]
+        self._write(obj, job["exitance"])
+        self.last["total"] = time.perf_counter() - job["t0"]
         return self.last
+
+    def relight(self, obj, bscene, depsgraph):
+        """The scene's lights as they are now, solved with the kept solver,
+        on this thread."""
+        job = self.relight_gather(bscene)
+        self.relight_compute(job)
+        return self.relight_finish(obj, job)
+
+    def lights_changed(self, bscene):
+        return bridge.lights_signature(bscene) != self.lights
 
     def needs_setup(self, obj, bscene, depsgraph):
         if self.scene is None or self.signature is None:
@@ -263,7 +281,7 @@ class Session:
         if self.needs_setup(obj, bscene, depsgraph):
             self.setup(obj, bscene, depsgraph)
             return "setup"
-        if bridge.lights_signature(bscene) != self.lights:
+        if self.lights_changed(bscene):
             self.relight(obj, bscene, depsgraph)
             return "relight"
         return None
@@ -294,21 +312,24 @@ class Session:
 
 
 class Job:
-    """A setup's compute step on a thread of its own, so that Blender's
-    window stays responsive; cancel() stops it within about a second (the
-    library's cancellation).  The operator's timer polls done()."""
+    """A compute step (a setup's, or with compute=Session.relight_compute a
+    relight's) on a thread of its own, so that Blender's window stays
+    responsive; cancel() stops it within about a second (the library's
+    cancellation).  The operator's timer polls done()."""
 
-    def __init__(self, s, job):
+    def __init__(self, s, job, compute=None):
         self.session, self.job = s, job
+        self.compute = compute or s.compute
+        self.kind = "relight" if compute == s.relight_compute else "setup"
         self.error = None
         s.job = self
-        self.thread = threading.Thread(target=self._run, name="ohm solve " + s.name, daemon=True)
+        self.thread = threading.Thread(target=self._run, name="ohm %s %s" % (self.kind, s.name), daemon=True)
         self.t0 = time.perf_counter()
         self.thread.start()
 
     def _run(self):
         try:
-            self.session.compute(self.job)
+            self.compute(self.job)
         except Exception as e:  # handed to the main thread, which reports it
             self.error = e
 
