@@ -212,6 +212,14 @@ if MODE == "live":
     obj.modifiers.remove(mod)
     if operators.live_step(bpy.context, obj) != "setup":
         problem("removing the modifier did not set up again")
+    # moving the object is a change of geometry too (its world coordinates),
+    # reported by Blender's depsgraph and then hashed
+    obj.location.x += 5.0
+    moved = operators.live_step(bpy.context, obj)
+    obj.location.x -= 5.0
+    back = operators.live_step(bpy.context, obj)
+    if (moved, back) != ("setup", "setup") or operators.live_step(bpy.context, obj) is not None:
+        problem("moving the object gave %r, moving it back %r" % (moved, back))
     # a solve in the background (session.Job, as Solve runs from the panel):
     # cancelled, it ends with ohm.Cancelled; the session runs again after
     obj.ohm.dim = 2 * DIM

@@ -36,9 +36,12 @@ def _on_load(_dummy):
 
 
 @bpy.app.handlers.persistent
-def _on_depsgraph(scene, _depsgraph=None):
-    """An object deleted (or reallocated by an undo): its session is closed."""
+def _on_depsgraph(scene, depsgraph=None):
+    """An object deleted (or reallocated by an undo): its session is closed;
+    an object's geometry or placement changed: its session hashes it anew."""
     session.prune(bpy.data.objects)
+    if depsgraph is not None:
+        session.mark_geometry(depsgraph)
 
 
 def register():

@@ -63,6 +63,16 @@ def prune(objects):
             s.close()
 
 
+def mark_geometry(depsgraph):
+    """Blender's depsgraph reported these updates: note the sessions whose
+    object's geometry or placement changed (needs_setup hashes it then)."""
+    for update in depsgraph.updates:
+        if update.is_updated_geometry or update.is_updated_transform:
+            s = _sessions.get(getattr(update.id, "original", update.id).as_pointer())
+            if s is not None:
+                s.geometry_reported = True
+
+
 def _settings_signature(obj, bscene):
     """What a change of the object's setup is: the settings that shape the
     network (not exposure, attribute or output folder: they need no solve)."""
@@ -111,6 +121,7 @@ class Session:
         self.updates_per_second = 0.0
         self.exposure = None      # the exposure the colours were written with
         self.to_original = None   # the evaluated vertex each of the mesh's own vertices shows
+        self.geometry_reported = True  # Blender reported the geometry or placement changed
         self.result = None
         self.job = None           # a Job running on this session
 
@@ -268,10 +279,18 @@ class Session:
         return bridge.lights_signature(bscene) != self.lights
 
     def needs_setup(self, obj, bscene, depsgraph):
+        """A new setup is due: the settings changed, or the geometry did.
+        The geometry is hashed only after Blender reported an update of the
+        object's geometry or placement (mark_geometry): hashing a large
+        evaluated mesh on every tick of Live relight's timer would take the
+        main thread's time; the hash, not the report, decides."""
         if self.scene is None or self.signature is None:
             return True
         if _settings_signature(obj, bscene) != self.signature[0]:
             return True
+        if not self.geometry_reported:
+            return False
+        self.geometry_reported = False
         local, tris = bridge.evaluated_mesh(obj, depsgraph)
         return geometry_hash(bridge.world_mm(obj, local, bridge.mm_per_unit(bscene)), tris) != self.signature[1]
 
