@@ -50,11 +50,7 @@ static int bench(int nx)
     ohm_error err;
     ohm_error_clear(&err);
     ohm_channel_medium med;
-    memset(&med, 0, sizeof med);
-    med.sigma_a0 = 0.001;
-    med.sigma_s0 = 1.0;
-    med.sigma_s = ss;
-    med.eta = 1.4;
+    block_medium(&med, ss, 0.001);
     ohm_network net;
     ohm_stencil st = {0};
     ohm_mg *mg = NULL;

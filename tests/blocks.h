@@ -1,6 +1,6 @@
 /* blocks.h — grids for the multigrid's test and benchmark (test_mg.c,
- * bench_mg.c): a deterministic random number, an empty cubic grid, and the
- * scale study's block medium. */
+ * bench_mg.c): a deterministic random number, an empty cubic grid, the
+ * scale study's block medium, and a medium over it. */
 #ifndef OHM_TESTS_BLOCKS_H
 #define OHM_TESTS_BLOCKS_H
 
@@ -58,6 +58,16 @@ static int make_blocks(ohm_voxel_grid *g, int nx, ohm_coeff **ss, int block)
                 (*ss)[v++] = hard[i / block + nb * (j / block + nb * (k / block))] ? 1e6f : 1.0f;
     free(hard);
     return 0;
+}
+
+/* A medium of per-cell sigma_s' ss (1 /mm where NULL), sigma_a (1/mm), index 1.4. */
+static void block_medium(ohm_channel_medium *med, const ohm_coeff *ss, double sigma_a)
+{
+    memset(med, 0, sizeof *med);
+    med->sigma_a0 = sigma_a;
+    med->sigma_s0 = 1.0;
+    med->sigma_s = ss;
+    med->eta = 1.4;
 }
 
 #endif

@@ -41,15 +41,6 @@ static int make_irregular(ohm_voxel_grid *g)
     return 0;
 }
 
-static void medium(ohm_channel_medium *med, const ohm_coeff *ss)
-{
-    memset(med, 0, sizeof *med);
-    med->sigma_a0 = 0.01;
-    med->sigma_s0 = 1.0;
-    med->sigma_s = ss;
-    med->eta = 1.4;
-}
-
 /* mg against the factor on grid g, boundary b: the largest cell difference
  * relative to the largest fluence. */
 static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_boundary b, int64_t *its_out)
@@ -61,7 +52,7 @@ static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_b
     CHECK(ohm_cholesky_start(&s, &err) == 0);
     CHECK(ohm_network_build(&net, g, NULL, &err) == 0);
     ohm_channel_medium med;
-    medium(&med, ss);
+    block_medium(&med, ss, 0.01);
     cholmod_sparse *A = NULL;
     ohm_stencil st = {0};
     CHECK_MSG(ohm_network_assemble(&A, NULL, NULL, &net, &med, b, &s.cc, &err) == 0, "%s", err.msg);
@@ -133,7 +124,7 @@ static void conservation(void)
     ohm_network net;
     CHECK(ohm_network_build(&net, &g, NULL, &err) == 0);
     ohm_channel_medium med;
-    medium(&med, ss);
+    block_medium(&med, ss, 0.01);
     ohm_stencil st = {0};
     CHECK(ohm_network_stencil(&st, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &err) == 0);
     int64_t n = net.n, its = 0;
@@ -168,7 +159,7 @@ static int64_t block_iterations(int nx)
     ohm_error_clear(&err);
     ohm_network net;
     ohm_channel_medium med;
-    medium(&med, ss);
+    block_medium(&med, ss, 0.01);
     ohm_stencil st = {0};
     int64_t its = -1;
     if (!ohm_network_build(&net, &g, NULL, &err)) {

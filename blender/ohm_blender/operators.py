@@ -37,6 +37,17 @@ def _mesh_poll(context):
     return obj is not None and obj.type == "MESH"
 
 
+def _running(context):
+    """The active object's running job, or None."""
+    s = session.get(context.active_object) if _mesh_poll(context) else None
+    return s.job if s is not None else None
+
+
+def _idle_mesh_poll(context):
+    """A mesh whose session runs nothing: Solve, Live and Bake may start."""
+    return _mesh_poll(context) and _running(context) is None
+
+
 def _redraw(context, kinds=("PROPERTIES", "VIEW_3D")):
     for window in context.window_manager.windows:
         for area in window.screen.areas:
@@ -208,8 +219,7 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
 
     @classmethod
     def poll(cls, context):
-        s = session.get(context.active_object) if _mesh_poll(context) else None
-        return _mesh_poll(context) and (s is None or s.job is None)
+        return _idle_mesh_poll(context)
 
     def execute(self, context):
         obj = context.active_object
@@ -269,8 +279,7 @@ class OHM_OT_cancel(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        s = session.get(context.active_object) if _mesh_poll(context) else None
-        return s is not None and s.job is not None
+        return _running(context) is not None
 
     def execute(self, context):
         s = session.get(context.active_object)
@@ -280,9 +289,11 @@ class OHM_OT_cancel(bpy.types.Operator):
 
 
 def live_step(context, obj):
-    """One tick of Live relight, as its timer runs it: a changed light is
-    relit from the kept solver, a changed geometry or material sets up
-    again.  Returns what happened ('setup', 'relight' or None)."""
+    """One update of Live relight on this thread, for scripts and tests (the
+    operator's timer runs the same session steps in the background): a
+    changed light is relit from the kept solver, a changed geometry or
+    material sets up again.  Returns what happened ('setup', 'relight' or
+    None)."""
     s = session.get_or_create(obj)
     what = s.update(obj, context.scene, context.evaluated_depsgraph_get())
     if what:
@@ -301,8 +312,7 @@ class OHM_OT_live(bpy.types.Operator, _Background):
 
     @classmethod
     def poll(cls, context):
-        s = session.get(context.active_object) if _mesh_poll(context) else None
-        return _mesh_poll(context) and (s is None or s.job is None)
+        return _idle_mesh_poll(context)
 
     def invoke(self, context, event):
         self.obj = context.active_object
@@ -441,8 +451,7 @@ class OHM_OT_bake(bpy.types.Operator):
 
     @classmethod
     def poll(cls, context):
-        s = session.get(context.active_object) if _mesh_poll(context) else None
-        return _mesh_poll(context) and (s is None or s.job is None)
+        return _idle_mesh_poll(context)
 
     def execute(self, context):
         try:

@@ -91,7 +91,7 @@ struct ohm_mg {
     int nlevels;
     int threads;
     double *dense;                 /* the coarsest level's Cholesky factor, n x n, lower */
-    double *dense_b, *dense_x;     /* its right-hand side and solution, in double        */
+    double *dense_x;               /* its solution, in double (the sweeps' work)         */
     int64_t ndense;
     double *r, *p, *q; /* the outer flexible CG's vectors              */
     double norm_A;
@@ -550,7 +550,6 @@ void ohm_mg_free(ohm_mg *mg)
     if (!mg) return;
     for (int l = 0; l < mg->nlevels; ++l) level_free(&mg->lev[l]);
     free(mg->dense);
-    free(mg->dense_b);
     free(mg->dense_x);
     free(mg->r);
     free(mg->p);
@@ -725,7 +724,7 @@ static int dense_factor(ohm_mg *m, ohm_error *err)
     m->ndense = n;
     m->dense = calloc((size_t)(n ? n * n : 1), sizeof *m->dense);
     m->bytes += (double)n * (double)n * 8;
-    if (!m->dense || !(m->dense_b = array(m, n, sizeof(double))) || !(m->dense_x = array(m, n, sizeof(double))))
+    if (!m->dense || !(m->dense_x = array(m, n, sizeof(double))))
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the coarsest level");
     double *A = m->dense;
     const mg_stencil *st = &L->st;
