@@ -9,6 +9,9 @@
  *  - a request made while nothing runs stops the next call only;
  *  - two threads, each with its own context and scene writing its own
  *    .vdb, give bit for bit the fluence one scene gives alone.
+ * Built twice: api_cancel_host_lapack links LAPACK ahead of libohm, as
+ * Blender does, so that the factorization is watched there only through
+ * libohm's rebinding of CHOLMOD's calls (src/solvers/rebind.h).
  * The time from each request to the call's return is printed (the README
  * quotes it); the test asserts only that the call stopped early, with a
  * safety bound far above any machine's latency. */

@@ -234,10 +234,10 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     ohm_factor_watch_end(&watch);
     if (t) *t = ohm_now() - t0;
     /* a supernodal factorization whose BLAS and LAPACK calls never reached
-     * the watch: the process had LAPACK before libohm (Blender links it),
-     * and CHOLMOD bound to that one (factor_watch.h) */
+     * the watch: the host program's LAPACK came first and libohm could not
+     * point CHOLMOD back at its own (a platform rebind.h does not know) */
     if (ok && F->is_super && watch.done == 0 && s->flops > 0)
-        ohm_log_info(log, "solve: factorize: this process's LAPACK was loaded before libohm (by the host program), "
+        ohm_log_info(log, "solve: factorize: CHOLMOD called the host program's LAPACK, not libohm's watch, "
                           "so the factorization reported no progress and could be cancelled only at its end");
     /* cholmod_factorize returns TRUE on an indefinite matrix: the status and
      * L->minor say so (and a cancelled run stops it the same way). */

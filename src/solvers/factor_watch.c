@@ -3,9 +3,11 @@
  * supernodal factorization reports progress and can be stopped. */
 #define _GNU_SOURCE /* RTLD_NEXT */
 #include "solvers/factor_watch.h"
+#include "solvers/rebind.h"
 
 #include <dlfcn.h>
 #include <math.h>
+#include <pthread.h>
 #include <string.h>
 
 /* the watch of the factorization running on this thread, or NULL */
@@ -51,50 +53,51 @@ static int watch_call(double flops)
     return 0;
 }
 
-#define EXPORT __attribute__((visibility("default")))
+/* Each watched function is static, so that its address taken below is
+ * this one's (an exported symbol's address resolves through the global
+ * scope, to the host's LAPACK where the host links one), and exported under
+ * LAPACK's name as an alias of it. */
+#define EXPORT_AS(symbol, function) \
+    __attribute__((visibility("default"), alias(#function))) __typeof__(function) symbol
 
 typedef void (*dsyrk_fn)(const char *, const char *, const int *, const int *, const double *, const double *,
                          const int *, const double *, double *, const int *);
-EXPORT void dsyrk_(const char *uplo, const char *trans, const int *n, const int *k, const double *alpha,
-                   const double *a, const int *lda, const double *beta, double *c, const int *ldc);
-void dsyrk_(const char *uplo, const char *trans, const int *n, const int *k, const double *alpha, const double *a,
-            const int *lda, const double *beta, double *c, const int *ldc)
+static void watched_dsyrk(const char *uplo, const char *trans, const int *n, const int *k, const double *alpha,
+                          const double *a, const int *lda, const double *beta, double *c, const int *ldc)
 {
     if (watch_call((double)*n * *n * *k)) return;
     FORWARD(dsyrk_fn, "dsyrk_");
     real_(uplo, trans, n, k, alpha, a, lda, beta, c, ldc);
 }
+EXPORT_AS(dsyrk_, watched_dsyrk);
 
 typedef void (*dgemm_fn)(const char *, const char *, const int *, const int *, const int *, const double *,
                          const double *, const int *, const double *, const int *, const double *, double *,
                          const int *);
-EXPORT void dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k, const double *alpha,
-                   const double *a, const int *lda, const double *b, const int *ldb, const double *beta, double *c,
-                   const int *ldc);
-void dgemm_(const char *ta, const char *tb, const int *m, const int *n, const int *k, const double *alpha,
-            const double *a, const int *lda, const double *b, const int *ldb, const double *beta, double *c,
-            const int *ldc)
+static void watched_dgemm(const char *ta, const char *tb, const int *m, const int *n, const int *k,
+                          const double *alpha, const double *a, const int *lda, const double *b, const int *ldb,
+                          const double *beta, double *c, const int *ldc)
 {
     if (watch_call(2.0 * *m * *n * *k)) return;
     FORWARD(dgemm_fn, "dgemm_");
     real_(ta, tb, m, n, k, alpha, a, lda, b, ldb, beta, c, ldc);
 }
+EXPORT_AS(dgemm_, watched_dgemm);
 
 typedef void (*dtrsm_fn)(const char *, const char *, const char *, const char *, const int *, const int *,
                          const double *, const double *, const int *, double *, const int *);
-EXPORT void dtrsm_(const char *side, const char *uplo, const char *ta, const char *diag, const int *m, const int *n,
-                   const double *alpha, const double *a, const int *lda, double *b, const int *ldb);
-void dtrsm_(const char *side, const char *uplo, const char *ta, const char *diag, const int *m, const int *n,
-            const double *alpha, const double *a, const int *lda, double *b, const int *ldb)
+static void watched_dtrsm(const char *side, const char *uplo, const char *ta, const char *diag, const int *m,
+                          const int *n, const double *alpha, const double *a, const int *lda, double *b,
+                          const int *ldb)
 {
     if (watch_call((double)*m * *n * *n)) return;
     FORWARD(dtrsm_fn, "dtrsm_");
     real_(side, uplo, ta, diag, m, n, alpha, a, lda, b, ldb);
 }
+EXPORT_AS(dtrsm_, watched_dtrsm);
 
 typedef void (*dpotrf_fn)(const char *, const int *, double *, const int *, int *);
-EXPORT void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info);
-void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *info)
+static void watched_dpotrf(const char *uplo, const int *n, double *a, const int *lda, int *info)
 {
     if (watch_call((double)*n * *n * *n / 3.0)) {
         *info = 1; /* CHOLMOD stops here, as at a first pivot that is not positive */
@@ -103,9 +106,26 @@ void dpotrf_(const char *uplo, const int *n, double *a, const int *lda, int *inf
     FORWARD(dpotrf_fn, "dpotrf_");
     real_(uplo, n, a, lda, info);
 }
+EXPORT_AS(dpotrf_, watched_dpotrf);
+
+/* CHOLMOD's calls bound to a LAPACK the host program loaded before libohm
+ * (Blender links one) are pointed at ours, once per process (rebind.h);
+ * where they already reach ours this changes nothing. */
+static void rebind_cholmod(void)
+{
+    const ohm_rebind_target ours[] = {
+        {"dsyrk_", (void (*)(void))watched_dsyrk},
+        {"dgemm_", (void (*)(void))watched_dgemm},
+        {"dtrsm_", (void (*)(void))watched_dtrsm},
+        {"dpotrf_", (void (*)(void))watched_dpotrf},
+    };
+    ohm_rebind("libcholmod", ours, sizeof ours / sizeof *ours);
+}
 
 void ohm_factor_watch_begin(ohm_factor_watch *w, double flops, const ohm_log *log, const char *what)
 {
+    static pthread_once_t rebound = PTHREAD_ONCE_INIT;
+    pthread_once(&rebound, rebind_cholmod);
     memset(w, 0, sizeof *w);
     ohm_progress_begin(&w->progress, log, what);
     w->flops = flops;

@@ -8,7 +8,10 @@
  * dpotrf on its diagonal block and dtrsm below it.  factor_watch.c defines
  * those four Fortran symbols itself and forwards each to the library's (found
  * with dlsym(RTLD_NEXT)), counting their flops against the analysis's total
- * for the progress.  Once the run is cancelled they do nothing, and dpotrf
+ * for the progress.  A host program that links LAPACK itself (Blender) would
+ * have CHOLMOD's calls bound to its copy instead: the first watch points
+ * libcholmod's own slots for the four at ours (rebind.h), so the watch holds
+ * in any process.  Once the run is cancelled they do nothing, and dpotrf
  * answers info = 1 ("the first pivot is not positive"): CHOLMOD then stops at
  * that supernode exactly as for an indefinite matrix (status
  * CHOLMOD_NOT_POSDEF; its memory all its own, the half-made factor freed by
