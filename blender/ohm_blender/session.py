@@ -193,12 +193,20 @@ class Session:
 
     def compute(self, job):
         """Voxelize, set the material and lights, set up the solver and
-        solve: library calls only, so any thread may run this."""
-        if self.scene is not None:
-            self.scene.close()
-            self.scene = None
+        solve: library calls only, so any thread may run this.  The new
+        scene goes into job["scene"]; the session keeps its old one until
+        finish, so that a cancelled or failed setup leaves it as it was."""
         t0 = time.perf_counter()
-        sc = self.scene = ohmlib.Scene(self.ctx)
+        sc = ohmlib.Scene(self.ctx)
+        try:
+            self._compute(sc, job)
+        except BaseException:
+            sc.close()
+            raise
+        job["scene"] = sc
+        job["seconds"] = time.perf_counter() - t0
+
+    def _compute(self, sc, job):
         sc.set_mesh(job["verts"], job["tris"], name=job["name"])
         if job["material"] == "PRESET":
             sc.run("material", preset=job["preset"])
@@ -218,10 +226,13 @@ class Session:
         sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
                  **memory)
         job["exitance"] = sc.vertex_exitance()
-        job["seconds"] = time.perf_counter() - t0
 
     def finish(self, obj, job):
-        """The solved setup's colours onto the mesh (main thread)."""
+        """The solved setup's scene replaces the old one, and its colours
+        go onto the mesh (main thread)."""
+        if self.scene is not None:
+            self.scene.close()
+        self.scene = job.pop("scene")
         self.signature = job["signature"]
         self.lights = job["lights_signature"]
         self.setups += 1
@@ -369,4 +380,6 @@ class Job:
         s = self.session
         s.job = None
         if not any(x is s for x in _sessions.values()):
+            if "scene" in self.job:  # a setup that finished for an object that is gone
+                self.job.pop("scene").close()
             s.close()
