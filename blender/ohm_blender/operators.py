@@ -356,8 +356,10 @@ class OHM_OT_live(bpy.types.Operator, _Background):
                 else:
                     s.relight_finish(self.obj, job.job)
                 self.updates += 1
-                _redraw(context)
-            elif s.needs_setup(self.obj, context.scene, context.evaluated_depsgraph_get()):
+                _redraw(context, ("VIEW_3D",))
+            # the next update starts in the same tick, so that its solve runs
+            # while Blender redraws the last one
+            if s.needs_setup(self.obj, context.scene, context.evaluated_depsgraph_get()):
                 self.start(context, self.obj, s, LIVE_TICK_S)
             elif s.lights_changed(context.scene):
                 self.job = session.Job(s, s.relight_gather(context.scene), s.relight_compute)

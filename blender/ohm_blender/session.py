@@ -265,9 +265,10 @@ class Session:
         for opts in job["lights"]:
             sc.add_light(**opts)
         sc.relight()
-        job["last"] = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
-                       "relight_call": time.perf_counter() - t0}
+        t1 = time.perf_counter()
         job["exitance"] = sc.vertex_exitance()
+        job["last"] = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
+                       "relight_call": t1 - t0, "vertex_exitance": time.perf_counter() - t1}
         job["t0"] = t0
 
     def relight_finish(self, obj, job):
