@@ -132,6 +132,34 @@ def screenshot(path, light_dir):
     bpy.ops.render.render(write_still=True)
 
 
+def cycles_halves(path):
+    """A 64x64 Cycles render, 8 samples, from -y (the light's +x side on the
+    image's right), orthographic over the object, black world: the mean
+    luminance of the right half's and of the left half's pixels."""
+    cam = bpy.data.objects.get("ohm test camera")
+    if cam is None:
+        cam = bpy.data.objects.new("ohm test camera", bpy.data.cameras.new("ohm test camera"))
+        sc.collection.objects.link(cam)
+    cam.data.type, cam.data.ortho_scale, cam.data.clip_end = "ORTHO", 70.0, 1000.0
+    cam.location, cam.rotation_euler = (0.0, -200.0, 0.0), (math.pi / 2, 0.0, 0.0)
+    sc.camera = cam
+    if sc.world is None:
+        sc.world = bpy.data.worlds.new("black")
+    sc.world.use_nodes, sc.world.color = False, (0.0, 0.0, 0.0)
+    sc.render.engine = "CYCLES"
+    sc.cycles.samples, sc.cycles.use_denoising = 8, False
+    sc.render.resolution_x = sc.render.resolution_y = 64
+    sc.render.resolution_percentage = 100
+    sc.render.image_settings.file_format = "PNG"
+    sc.render.filepath = path
+    bpy.ops.render.render(write_still=True)
+    img = bpy.data.images.load(path)
+    px = np.array(img.pixels[:], dtype=np.float64).reshape(64, 64, 4)
+    bpy.data.images.remove(img)
+    lum = 0.2126 * px[:, :, 0] + 0.7152 * px[:, :, 1] + 0.0722 * px[:, :, 2]
+    return float(lum[:, 32:].mean()), float(lum[:, :32].mean())
+
+
 if MODE == "live":
     place_light((1, 0.3, 0))
     if bpy.ops.ohm.solve() != {"FINISHED"}:
@@ -148,6 +176,14 @@ if MODE == "live":
     report["contrast_after_solve"] = facing_contrast((1, 0.3, 0))
     if not report["contrast_after_solve"] > 2:
         problem("lit side only %.3g x the far side after Solve" % report["contrast_after_solve"])
+    if SOLVER == "direct":  # what the artist renders, without wiring anything: the lit (right) half brighter
+        place_light((1, 0, 0))
+        operators.live_step(bpy.context, obj)
+        right, left = report["cycles_right_left"] = cycles_halves(os.path.join(OUT, "cycles.png"))
+        if not (right > 1.5 * left and right > 0.02):
+            problem("a Cycles render after Solve: lit half %.4g, far half %.4g" % (right, left))
+        place_light((1, 0.3, 0))
+        operators.live_step(bpy.context, obj)
     # the light around the object: the bright side follows
     follows = []
     for d in [(-1, 0.3, 0), (0, 0.3, 1), (0, 0.3, -1), (1, 0.3, 0)]:
@@ -389,6 +425,18 @@ elif MODE == "bake":
         report["volume_grids"] = grids
         if not {"fluence_r", "density"} <= set(grids):
             problem("volume grids %s" % grids)
+        # the volume alone renders the object: not black, its lit half brighter
+        obj.hide_render = True
+        place_light((1, 0, 0))
+        bpy.ops.ohm.solve()
+        vol = bpy.data.objects.get("spot_ohm")
+        right, left = report["volume_cycles_right_left"] = cycles_halves(os.path.join(OUT, "volume.png"))
+        report["volume_objects"] = [o.name for o in bpy.data.objects if o.type == "VOLUME"]
+        if not (right > 1.5 * left and right > 0.02):
+            problem("a Cycles render of the volume object: lit half %.4g, far half %.4g" % (right, left))
+        if report["volume_objects"] != ["spot_ohm"]:
+            problem("a second Solve left volume objects %s" % report["volume_objects"])
+        obj.hide_render = False
 
 json.dump(report, open(REPORT, "w"), indent=1)
 if report["problems"]:

@@ -65,11 +65,13 @@ check "slice folder: 8 x 6 x 3 voxels of 0.5 mm" grep -q "8 x 6 x 3 voxels, valu
 
 # a scan placed in a mesh: the head MRI stretched over spot's box
 expect_exit 0 "place" -- "$OHM" -read file=samples/spot.obj size=50 -read file=samples/ch2_2mm.nii.gz -place fit=1 \
-  -voxelize dim=24 -material transfer=samples/mri-head.transfer -light dir=0,-1,0 -solve -write file="$T/placed.vdb"
-check "placed: material varies inside spot" $PY -c "
-import pyopenvdb as vdb
+  -voxelize dim=24 -material transfer=samples/mri-head.transfer -light dir=0,-1,0 -solve -write file="$T/placed.vdb" \
+  -stats file="$T/placed.json"
+check "placed: material varies inside spot (grids, and medium_varies in the stats)" $PY -c "
+import json, pyopenvdb as vdb
 g = {x.name: x for x in vdb.readAll('$T/placed.vdb')[0]}
-lo, hi = g['sigma_s_g'].evalMinMax(); assert hi > lo > 0, (lo, hi)"
+lo, hi = g['sigma_s_g'].evalMinMax(); assert hi > lo > 0, (lo, hi)
+assert json.load(open('$T/placed.json'))['medium_varies'] == 1"
 
 # a refractive index per density (eta=column): the walnut's kernel at 1.33
 # under a shell at 1.55; diffusion and Monte Carlo both conserve power, and

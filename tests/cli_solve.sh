@@ -49,6 +49,9 @@ expect_exit 0 "grey solve" -- "$OHM" -read file=samples/cow.obj size=40 -voxeliz
   -material sigma_a=0.01 sigma_s=1 -light type=point pos=0,100,0 intensity=1000 -solve -write file="$T/cow.vdb" -stats file="$T/cow.json"
 check "grey: one channel, one factor" $PY -c "
 import json; s = json.load(open('$T/cow.json')); assert s['channels'] == 1 and s['factors'] == 1, s"
+check "grey: the uniform material's coefficients in the stats (what the Blender add-on's volume reads)" $PY -c "
+import json; s = json.load(open('$T/cow.json'))
+assert s['medium_varies'] == 0 and s['sigma_a'] == 0.01 and s['sigma_s'] == 1 and 'sigma_a_r' not in s, s"
 check "grey: fluence and exitance grids" $PY -c "
 import pyopenvdb as vdb; n = {g.name for g in vdb.readAll('$T/cow.vdb')[0]}; assert {'fluence', 'exitance'} <= n, n"
 

@@ -87,40 +87,29 @@ def output_directory(obj):
     return os.path.abspath(bpy.path.abspath(d))
 
 
-def _volume_material(name, exposure):
-    """An emitting volume: the fluence grids as emission colour (W/mm^2 x
-    exposure), the density grid for a faint absorption."""
-    mat = bpy.data.materials.new(name)
-    mat.use_nodes = True
-    nt = mat.node_tree
-    nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    vol = nt.nodes.new("ShaderNodeVolumePrincipled")
-    combine = nt.nodes.new("ShaderNodeCombineRGB") if bpy.app.version < (3, 3, 0) else nt.nodes.new("ShaderNodeCombineColor")
-    for i, ch in enumerate("rgb"):
-        a = nt.nodes.new("ShaderNodeAttribute")
-        a.attribute_name = "fluence_" + ch
-        nt.links.new(a.outputs["Fac"], combine.inputs[i])
-    nt.links.new(combine.outputs[0], vol.inputs["Emission Color"])
-    vol.inputs["Emission Strength"].default_value = exposure
-    vol.inputs["Density"].default_value = 0.0
-    nt.links.new(vol.outputs[0], out.inputs["Volume"])
-    return mat
-
-
 def add_volume(context, obj, s, path):
     """The solution as a volume object over the mesh: ohm writes world
     millimetres with voxel centres at index points, Blender draws voxel
     (i, j, k) over [i, i+1]: scaled to scene units and moved back half a voxel."""
     s.scene.run("write", file=path)
+    old = bpy.data.objects.get(bridge.volume_name(obj))
+    if old is not None and old.type == "VOLUME":  # the last Solve's: replaced
+        volume = old.data
+        bpy.data.objects.remove(old)
+        if volume.users == 0:
+            bpy.data.volumes.remove(volume)
     bpy.ops.object.volume_import(filepath=path, align="WORLD", location=(0, 0, 0))
     vobj = context.active_object
     mm = bridge.mm_per_unit(context.scene)
     h = s.scene.grid["voxel"]
     vobj.scale = (1.0 / mm,) * 3
     vobj.location = (-0.5 * h / mm,) * 3
-    vobj.name = obj.name + "_ohm"
-    vobj.data.materials.append(_volume_material(obj.name + "_ohm", s.exposure))
+    vobj.name = bridge.volume_name(obj)
+    channels = int(s.scene.stat("channels"))
+    sfx = ("_r", "_g", "_b") if channels == 3 else ("",)
+    uniform = None if s.scene.stat("medium_varies") else \
+        {name + x: s.scene.stat(name + x) for name in ("sigma_a", "sigma_s") for x in sfx}
+    vobj.data.materials.append(bridge.volume_material(bridge.volume_name(obj), channels, uniform, mm, s.exposure))
     context.view_layer.objects.active = obj
     return vobj
 

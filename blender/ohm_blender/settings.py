@@ -3,7 +3,7 @@ Runtime state (status, warnings, rates) lives in the session, not in the
 .blend."""
 import bpy
 
-from . import session
+from . import bridge, session
 
 PRESETS = ("apple", "chicken1", "chicken2", "cream", "ketchup", "marble", "potato", "skimmilk", "skin1", "skin2",
            "spectralon", "wholemilk")
@@ -15,6 +15,7 @@ def _recolour(self, context):
     s = session.get(obj)
     if s is not None:
         s.recolour(obj)
+        bridge.set_volume_exposure(bpy.data.materials.get(bridge.volume_name(obj)), s.exposure)
 
 
 class OhmSettings(bpy.types.PropertyGroup):

@@ -922,6 +922,20 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats *st = &s->stats;
     ohm_stats_set_int(st, "cells", (long long)sol->n);
     ohm_stats_set_int(st, "channels", sol->channels);
+    /* the material's coefficients, for a client that draws the result (the
+     * Blender add-on's volume object); where they vary from cell to cell
+     * (medium_varies) the .vdb carries them per cell instead (export_vdb.c),
+     * under the same names */
+    ohm_stats_set_int(st, "medium_varies", ohm_solution_medium_varies(sol));
+    if (s->material.kind == OHM_MATERIAL_OPTICAL)
+        for (int c = 0; c < sol->channels; ++c) {
+            const char *sfx = sol->channels == 1 ? "" : (const char *[]){"_r", "_g", "_b"}[c];
+            char key[32];
+            snprintf(key, sizeof key, "sigma_a%s", sfx);
+            ohm_stats_set(st, key, s->material.sigma_a[c]);
+            snprintf(key, sizeof key, "sigma_s%s", sfx);
+            ohm_stats_set(st, key, s->material.sigma_s[c]);
+        }
     ohm_stats_set_int(st, "factors", sol->factors);
     ohm_stats_set_int(st, "analyses", sol->analyses);
     ohm_stats_set_int(st, "lights", (long long)s->nlights);
