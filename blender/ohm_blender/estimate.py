@@ -20,15 +20,19 @@ within 13% of the measured peak:
   stencil; it takes the factor only where the factor fits the same limit,
   which the library checks);
 - solver=direct: each distinct channel's Cholesky factor, 11 B per
-  nonzero, nnz(L) = 1.75 n^1.4 (the grid ordering's nested dissection on
-  these objects: n^(4/3) in theory, 1.38-1.40 measured), and 150 B per cell
-  for the rest;
+  nonzero, nnz(L) = 2.19 n^1.4 c^0.94, and 150 B per cell for the rest.
+  n^1.4: the grid ordering's nested dissection (n^(4/3) in theory,
+  1.38-1.40 measured).  c = (36 pi V^2 / S^3)^(1/3), the mesh's thickness
+  3V/S over a sphere's of the same volume (1 for a sphere, 0.42 for a
+  knotted tube): the fill is the separators' squares, and a thin object's
+  separators are its thin cross-sections (a tube of a cells across fills
+  about n a, a compact object n^(4/3)).  Fitted on 2026-12-05 to nnz(L)
+  measured on eight meshes (sphere, Spot, bunny, teapot, knot, dragon,
+  cow, head) at 1e5-5e5 cells: within 0.82-1.19 of each;
 - amg: 74 B per cell plus 392 B per cell per channel (docs/scale-model.md);
 - 95 MB for the library and its callers.
 
-The factor's model over-predicts thin shapes, whose nested-dissection
-separators are small: 1.7x on a knotted tube (docs/blender.md); that errs
-towards refusing, and mg's prediction holds there."""
+(docs/blender.md compares the predictions with measured peaks.)"""
 
 import numpy as np
 
@@ -37,7 +41,7 @@ GRID_BYTES_PER_CELL = 13.0
 PAD_CELLS = 4
 PER_CELL = {"mg": 410.0, "cg": 375.0, "auto": 650.0}
 FACTOR_BYTES_PER_NONZERO = 11.0
-FACTOR_NNZ_COEFF, FACTOR_NNZ_POWER = 1.75, 1.4
+FACTOR_NNZ_COEFF, FACTOR_NNZ_POWER, FACTOR_NNZ_THICKNESS_POWER = 2.19, 1.4, 0.94
 DIRECT_PER_CELL = 150.0
 AMG_SERIAL, AMG_PER_CHANNEL = 74.0, 392.0
 MAX_DIM = 1024
@@ -57,12 +61,24 @@ def enclosed_volume(verts, tris):
     return abs(float(np.einsum("ij,ij->i", a, np.cross(b, c)).sum()) / 6.0)
 
 
+def surface_area(verts, tris):
+    """The triangle mesh's area (mm^2)."""
+    a, b, c = verts[tris[:, 0]], verts[tris[:, 1]], verts[tris[:, 2]]
+    return 0.5 * float(np.linalg.norm(np.cross(b - a, c - a), axis=1).sum())
+
+
 class Shape:
-    """What the prediction needs of a mesh: its extents and enclosed volume (mm)."""
+    """What the prediction needs of a mesh: its extents, enclosed volume
+    (mm) and thickness (compactness: 1 for a sphere, less for thin shapes)."""
 
     def __init__(self, verts, tris):
         self.extent = np.ptp(verts, axis=0) if len(verts) else np.zeros(3)
         self.volume = enclosed_volume(verts, tris) if len(tris) else 0.0
+        area = surface_area(verts, tris) if len(tris) else 0.0
+        # (36 pi V^2 / S^3)^(1/3) = (3V/S) / (3V/(4 pi))^(1/3): 3V/S is the
+        # mean thickness, a sphere's the same volume's radius over 3
+        self.compactness = float(np.clip((36.0 * np.pi * self.volume ** 2 / area ** 3) ** (1.0 / 3.0), 0.05, 1.0)) \
+            if area > 0 else 1.0
 
     def cells(self, dim):
         """(interior cells, cells of the grid's box) at `dim` cells across."""
@@ -79,7 +95,8 @@ def solve_bytes(shape, dim, solver, channels):
     n, box = shape.cells(dim)
     grid = GRID_BYTES_PER_CELL * box
     if solver == "direct":
-        need = FACTOR_BYTES_PER_NONZERO * channels * FACTOR_NNZ_COEFF * n ** FACTOR_NNZ_POWER + DIRECT_PER_CELL * n
+        nnz = FACTOR_NNZ_COEFF * n ** FACTOR_NNZ_POWER * shape.compactness ** FACTOR_NNZ_THICKNESS_POWER
+        need = FACTOR_BYTES_PER_NONZERO * channels * nnz + DIRECT_PER_CELL * n
     elif solver == "amg":
         need = (AMG_SERIAL + AMG_PER_CHANNEL * channels) * n
     else:
