@@ -53,7 +53,7 @@ def read_obj(path):
 
 bpy.ops.preferences.addon_install(filepath=os.path.abspath(ZIP), overwrite=True)
 bpy.ops.preferences.addon_enable(module="ohm_blender")
-from ohm_blender import operators, session  # noqa: E402  (installed just now)
+from ohm_blender import bridge, estimate, operators, session  # noqa: E402  (installed just now)
 
 for o in list(bpy.data.objects):
     bpy.data.objects.remove(o)
@@ -158,6 +158,40 @@ def cycles_halves(path):
     bpy.data.images.remove(img)
     lum = 0.2126 * px[:, :, 0] + 0.7152 * px[:, :, 1] + 0.0722 * px[:, :, 2]
     return float(lum[:, 32:].mean()), float(lum[:, :32].mean())
+
+
+def rss_kib(field):
+    """This process's VmRSS or VmHWM (its peak since clear_refs), KiB."""
+    with open("/proc/self/status") as f:
+        return next(int(line.split()[1]) for line in f if line.startswith(field + ":"))
+
+
+def guarded_solve():
+    """At the lowest Memory the panel allows, Solve at the largest Cells
+    the refusal names: the process's memory grows by less than the guard."""
+    obj.ohm.max_memory_fraction = 0.05
+    obj.ohm.dim = 1024
+    try:
+        bpy.ops.ohm.solve()
+    except RuntimeError:
+        pass
+    m = re.search(r"the largest Cells that fits is (\d+)", status())
+    if not m:
+        problem("no largest Cells named at Memory 5%%: %s" % status())
+        return
+    obj.ohm.dim = int(m.group(1))
+    budget = bridge.memory_budget_mb(obj.ohm.max_memory_fraction)[0] * 2 ** 20
+    with open("/proc/self/clear_refs", "w") as f:  # VmHWM from here
+        f.write("5")
+    before = rss_kib("VmRSS")
+    ok = bpy.ops.ohm.solve() == {"FINISHED"}
+    grew = (rss_kib("VmHWM") - before) * 1024.0
+    report["guarded_solve"] = {"cells_setting": obj.ohm.dim, "cells": int(session.get(obj).result["unknowns"]),
+                               "guard_bytes": budget, "grew_bytes": grew}
+    if not ok or not grew <= budget:
+        problem("Cells %d at Memory 5%%: %s, the process grew %.0f MB against a guard of %.0f MB" % (
+            obj.ohm.dim, status(), grew / 2 ** 20, budget / 2 ** 20))
+    obj.ohm.max_memory_fraction, obj.ohm.dim = 0.5, DIM
 
 
 if MODE == "live":
@@ -314,17 +348,19 @@ if MODE == "live":
     if not refused or not m or (s.setups, s.relights) != runs:
         problem("Cells 1024 was not refused before a setup: %s" % status())
     else:
-        from ohm_blender import bridge, estimate
         checked, best = m.group(1), int(m.group(2))
         budget = bridge.memory_budget_mb(obj.ohm.max_memory_fraction)[0] * 2 ** 20
         local, tris = bridge.evaluated_mesh(obj, bpy.context.evaluated_depsgraph_get())
         shape = estimate.Shape(bridge.world_mm(obj, local, bridge.mm_per_unit(sc)), tris)
         if SOLVER == "auto" and checked != "mg":
             problem("Auto at Cells 1024 (%d cells) checked %s, not mg" % (shape.cells(1024)[0], checked))
-        if not (estimate.solve_bytes(shape, best, checked, 3) <= budget <
-                estimate.solve_bytes(shape, best + 1, checked, 3)):
+        if not (estimate.guarded_bytes(shape, best, checked, 3) <= budget <
+                estimate.guarded_bytes(shape, best + 1, checked, 3)):
             problem("the largest Cells named, %d, is not the largest whose prediction fits" % best)
     obj.ohm.dim = DIM
+    if SOLVER == "direct":  # the largest Cells a low guard allows: its solve stays under the guard
+        guarded_solve()
+        runs = (s.setups, s.relights)
     # an accuracy target finer than the memory allows: refused after the
     # library's probes, naming the grid it needs, before that grid is made
     obj.ohm.grid, obj.ohm.error, obj.ohm.max_memory_fraction = "ERROR", 0.002, 0.05
