@@ -9,9 +9,17 @@ colour attribute and that the side facing the light is brighter; then moves
 the light around the object through Live relight's update (as its timer
 calls it): the bright side follows the light, and no factorization is made
 after the first solve; a change of material refactors once.  It reports
-the updates per second and their parts.  MODE bake: a light animated over 4
-frames, bpy.ops.ohm.bake: 4 .vdb files, 4 per-frame attributes, one setup;
-and Solve's volume object, placed half a voxel back over the mesh.
+the updates per second and their parts.  Then (live): a 64x64 Cycles render
+after Solve (the lit half brighter), exposure, rename, modifiers, moves; a
+background solve of 2.4e5 cells cancelled (progress from inside the
+factorization, the main thread ticking, nothing changed); the memory guard
+(refusals, and a solve at the largest Cells Memory 5% allows staying under
+it); warnings as reports; deleting the object while it solves.  MODE bake: a
+light animated over 4 frames, bpy.ops.ohm.bake: 4 .vdb files, 4 per-frame
+attributes, one setup; a light whose power doubles (the colours double);
+a static light over 250 frames (at most one solve, one file); and Solve's
+volume object, placed half a voxel back over the mesh, rendered alone in
+Cycles (not black, the lit half brighter).
 Any failed check raises, so Blender exits 1."""
 import json
 import math
@@ -91,11 +99,15 @@ def place_light(direction, distance=110.0):
     bpy.context.view_layer.update()
 
 
-def luminance():
+def luminance_of(name):
     c = np.empty(4 * len(me.vertices), dtype=np.float32)
-    me.attributes[obj.ohm.attribute].data.foreach_get("color", c)
+    me.attributes[name].data.foreach_get("color", c)
     c = c.reshape(-1, 4)
     return 0.2126 * c[:, 0] + 0.7152 * c[:, 1] + 0.0722 * c[:, 2]
+
+
+def luminance():
+    return luminance_of(obj.ohm.attribute)
 
 
 def facing_contrast(direction):
@@ -431,17 +443,36 @@ elif MODE == "bake":
         report["frame_contrasts"] = [f1, f3]
         if not (f1 > 2 and f3 > 2):
             problem("baked frames do not follow the light: %s" % [f1, f3])
-    # a static light: one frame solved, the earlier bake's files and
-    # attributes removed
+    # a light whose power doubles from frame 1 to 2: the exposure is fixed
+    # over the bake, so the colours double
     lamp.animation_data_clear()
     place_light((1, 0.3, 0))
+    sc.frame_start, sc.frame_end = 1, 2
+    for f, watts in ((1, 1.0e4), (2, 2.0e4)):
+        lamp_data.energy = watts
+        lamp_data.keyframe_insert("energy", frame=f)
+    if bpy.ops.ohm.bake() != {"FINISHED"}:
+        raise SystemExit("ohm.bake (power) did not finish: " + status())
+    mean = [float(np.mean(luminance_of("%s_%04d" % (obj.ohm.attribute, f)))) for f in (1, 2)]
+    report["power_doubled_mean_ratio"] = mean[1] / mean[0]
+    if abs(mean[1] / mean[0] - 2.0) > 1e-3:
+        problem("the light's power doubled, the baked colours went %.4g -> %.4g" % tuple(mean))
+    lamp_data.animation_data_clear()
+    lamp_data.energy = 2.0e4
+    # a static light over the default 250 frames: one frame solved, the
+    # earlier bake's files and attributes removed
+    sc.frame_start, sc.frame_end = 1, 250
+    runs = (s.setups, s.relights)
     if bpy.ops.ohm.bake() != {"FINISHED"}:
         raise SystemExit("ohm.bake (static) did not finish: " + status())
     left = sorted(f for f in os.listdir(OUT) if f.endswith(".vdb"))
     attrs = sorted(a.name for a in me.attributes if a.name.startswith(obj.ohm.attribute + "_"))
-    report["static_bake"] = {"files": left, "attributes": attrs}
-    if left != ["spot_0001.vdb"] or attrs != [obj.ohm.attribute + "_0001"]:
-        problem("a static light's bake left files %s and attributes %s" % (left, attrs))
+    report["static_bake"] = {"files": left, "attributes": attrs,
+                             "solves": s.setups + s.relights - runs[0] - runs[1]}
+    if left != ["spot_0001.vdb"] or attrs != [obj.ohm.attribute + "_0001"] or report["static_bake"]["solves"] > 1:
+        problem("a static light's bake over 250 frames left files %s and attributes %s after %d solves" % (
+            left, attrs, report["static_bake"]["solves"]))
+    sc.frame_end = 4
     # Solve with a volume object: placed over the mesh, half a voxel back
     obj.ohm.make_volume = True
     sc.frame_set(1)
