@@ -332,10 +332,21 @@ class Session:
         return exitance if self.to_original is None else exitance[self.to_original]
 
     def _write(self, obj, exitance):
-        """exitance per evaluated vertex onto the mesh's own vertices."""
+        """exitance per evaluated vertex onto the mesh's own vertices.
+        Blender reports the attribute written as an update of the object's
+        geometry, and needs_setup would hash the mesh again after every
+        relight (1.4 ms of a 20 ms update at 3e4 cells): the depsgraph is
+        evaluated before the write, so that a real edit still pending is
+        reported and kept, and after it, so that the write's own report is
+        dropped."""
+        import bpy
         t0 = time.perf_counter()
         exitance = self.mesh_exitance(exitance)
+        bpy.context.evaluated_depsgraph_get()
+        reported = self.geometry_reported
         self.exposure = bridge.write_colours(obj, obj.ohm.attribute, exitance, obj.ohm.exposure)
+        bpy.context.evaluated_depsgraph_get()
+        self.geometry_reported = reported
         self.last["attribute_write"] = time.perf_counter() - t0
         r = self.result = self.scene.result()
         self.factorizations = r["factorizations"]
