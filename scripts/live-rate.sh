@@ -40,7 +40,8 @@ done
   echo "channels, three factors), one point light at 110 mm with shadow rays against the mesh, moved"
   echo "$MOVES times around the object; each update is what the *Live relight* timer does"
   echo "(\`operators.live_step\`): the new light handed to ohm, shadow rays and sources, the solve from"
-  echo "the kept factors, the exitance at each vertex, the colour attribute written.  Times in ms per"
+  echo "the kept factors, the exitance at each vertex, the colour attribute written (with Blender's
+depsgraph evaluated before and after it, as the add-on does).  Times in ms per"
   echo "update; *other* is the rest of the relight call (lights parsed, solution booked and logged)."
   echo
   echo "| dim | cells | updates/s | whole update | shadows + sources | solve (3 channels) | other | vertex exitance | attribute write | factorizations |"

@@ -398,7 +398,7 @@ if MODE == "live":
     # deleting the object while a background solve runs: the next depsgraph
     # update cancels the job, and its end closes the session
     s = session.get(obj)
-    obj.ohm.dim = 2 * DIM
+    obj.ohm.dim = min(2 * DIM, BIG_DIM)
     s.begin_run()
     job = session.Job(s, s.gather(obj, sc, bpy.context.evaluated_depsgraph_get()))
     bpy.data.objects.remove(obj)
