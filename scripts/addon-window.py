@@ -18,7 +18,7 @@ import time
 import bpy
 import numpy as np
 
-from ohm_blender import bridge, operators, session
+from ohm_blender import operators, session
 
 MODE, DIM = sys.argv[sys.argv.index("--") + 1], int(sys.argv[sys.argv.index("--") + 2])
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -169,5 +169,4 @@ def tick():
     return again
 
 
-bridge  # noqa: B018  (imported so that the add-on's modules are loaded before the wrappers)
 bpy.app.timers.register(tick, first_interval=2.0)
