@@ -305,6 +305,20 @@ if MODE == "live":
     back = operators.live_step(bpy.context, obj)
     if (moved, back) != ("setup", "setup") or operators.live_step(bpy.context, obj) is not None:
         problem("moving the object gave %r, moving it back %r" % (moved, back))
+    # one vertex moved (after the relights' own colour writes, which Blender
+    # also reports as geometry updates): a new setup; the light moved: none
+    place_light((0, 0.3, 1))
+    relit = operators.live_step(bpy.context, obj)
+    me.vertices[0].co.x += 0.5
+    me.update()
+    edited = operators.live_step(bpy.context, obj)
+    me.vertices[0].co.x -= 0.5
+    me.update()
+    place_light((1, 0.3, 0))
+    both = operators.live_step(bpy.context, obj)
+    report["vertex_moved"] = [relit, edited, both]
+    if [relit, edited, both] != ["relight", "setup", "setup"]:
+        problem("light, vertex, vertex back with light gave %s" % report["vertex_moved"])
     # a solve of more than 2e5 cells in the background (session.Job, as Solve
     # runs from the panel): this thread, Blender's, keeps running (the
     # library's calls release Python's lock); progress shows, for the factor
