@@ -17,6 +17,7 @@ packages=(
   libembree-dev
   blender
   povray python3-pil
+  opencl-headers ocl-icd-opencl-dev pocl-opencl-icd
 )
 
 missing=()

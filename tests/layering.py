@@ -29,7 +29,7 @@ import os
 import re
 import sys
 
-STAGES = ["base", "input", "grid", "physics", "solvers", "outputs", "studies", "steps", "api", "cli"]
+STAGES = ["base", "device", "input", "grid", "physics", "solvers", "outputs", "studies", "steps", "api", "cli"]
 WRAPPER_API = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h"}
 BELOW_ALL = WRAPPER_API | {"ohm_version.h", "ohm/common.h"}
 ERROR_VOCABULARY = {"base/ohm_error.h", "ohm/common.h"}  # what a wrapper may include of ohm's

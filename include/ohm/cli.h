@@ -18,7 +18,7 @@ extern "C" {
  * table, written to stream. */
 OHM_API int ohm_help(FILE *stream, const char *action);
 
-/* The studies: `ohm validate|bench|accuracy ARGS` (argv[0] is the study's
+/* The studies: `ohm validate|bench|accuracy|devices ARGS` (argv[0] is the study's
  * name).  Tables go to stdout, messages (and the study's own error lines)
  * to stderr at ctx's verbosity (ctx may be NULL: normal).  OHM_OK when it
  * ran and every check passed; OHM_ERR_USAGE for bad arguments;

@@ -96,7 +96,8 @@ int ohm_cli_main(int argc, char **argv)
         printf("ohm %s\n", ohm_version(NULL, NULL, NULL));
         return 0;
     }
-    if (strcmp(cmd, "bench") == 0 || strcmp(cmd, "accuracy") == 0 || strcmp(cmd, "validate") == 0) {
+    if (strcmp(cmd, "bench") == 0 || strcmp(cmd, "accuracy") == 0 || strcmp(cmd, "validate") == 0 ||
+        strcmp(cmd, "devices") == 0) {
         ohm_context *ctx = NULL;
         if (ohm_context_new(&ctx)) return report(OHM_ERR_NOMEM);
         ohm_context_set_verbosity(ctx, verbosity);

@@ -254,7 +254,7 @@ static int finish_action(const ohm_chain *c, ohm_error *err)
  * action without its '-'. */
 static int not_an_action(const char *t, ohm_error *err)
 {
-    static const char *const commands[] = {"help", "run", "version", "validate", "bench", "accuracy"};
+    static const char *const commands[] = {"help", "run", "version", "validate", "bench", "accuracy", "devices"};
     if (ohm_action_find(t))
         return ohm_fail(err, OHM_ERR_USAGE, "unknown command '%s'; actions start with '-': did you mean '-%s'?", t, t);
     const char *s = ohm_suggest(t, commands, sizeof commands / sizeof *commands);
@@ -555,6 +555,7 @@ void ohm_help_overview(FILE *f)
           "  ohm validate                 the solver against exact references: a table, exit 1 on failure\n"
           "  ohm bench [key=value ...]    the paper's Table 2 for a mesh, with this machine's limits (bench help)\n"
           "  ohm accuracy [key=value ...] error against resolution and solver, measured (accuracy help)\n"
+          "  ohm devices                  the OpenCL devices (device=opencl:N), each one's kernels tested\n"
           "  ohm --version\n\n"
           "Actions run left to right on one shared state (mesh, voxel grid, ...).\n\n"
           "actions:\n",

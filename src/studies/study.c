@@ -10,6 +10,7 @@
 #include "base/output.h"
 #include "studies/accuracy.h"
 #include "studies/bench.h"
+#include "studies/devices.h"
 #include "studies/validate.h"
 
 static int exit_code(int rc) { return rc == OHM_OK ? 0 : rc == OHM_ERR_USAGE ? 2 : 1; }
@@ -101,6 +102,7 @@ int ohm_study_main(int argc, char **argv, int verbosity)
     if (strcmp(argv[0], "bench") == 0) return ohm_bench_main(argc - 1, argv + 1);
     if (strcmp(argv[0], "accuracy") == 0) return ohm_accuracy_main(argc - 1, argv + 1);
     if (strcmp(argv[0], "validate") == 0) return validate_main(argc, argv, verbosity);
-    fprintf(stderr, "ohm: error: unknown study '%s': expected validate, bench or accuracy\n", argv[0]);
+    if (strcmp(argv[0], "devices") == 0) return ohm_devices_main(argc - 1, argv + 1);
+    fprintf(stderr, "ohm: error: unknown study '%s': expected validate, bench, accuracy or devices\n", argv[0]);
     return 2;
 }
