@@ -6,13 +6,17 @@
  * transfer function (1e4 contrasts in sigma_s'), a per-cell refractive
  * index (interface resistances), a depth band, the paper's resistance mode,
  * an orbit of frames relit with keep=1 (warm-started: a relight with the
- * same light takes no iteration), and the hybrid's handed-off sources. */
+ * same light takes no iteration), and the hybrid's handed-off sources.
+ * Then again with mg's solve on an OpenCL device (device=opencl:N, issue
+ * 37): PoCL's CPU device in CI, or the first device with double precision;
+ * without one that pass prints SKIP, unless CI=true or OHM_REQUIRE_OPENCL. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
 #include "check.h"
+#include "device/devices.h"
 #include "tmp_files.h"
 #include "run_chain.h"
 
@@ -27,12 +31,15 @@ static double array_diff(const double *a, const double *b, size_t n, double *sca
     return m > 0 ? d / m : d;
 }
 
+/* the second solver every scene is compared with: "mg", or "mg device=opencl:N" */
+static const char *mg_solver = "mg";
+
 /* The scene `lines` solved with `solve` + " solver=direct", then with
- * solver=mg; relight: after the solve, replace the light and relight. */
+ * mg_solver; relight: after the solve, replace the light and relight. */
 static void compare(const char *what, const char *lines, const char *solve, const char *relight_light)
 {
     char text[2][2048];
-    const char *solvers[2] = {"direct", "mg"};
+    const char *solvers[2] = {"direct", mg_solver};
     ohm_state s[2];
     int ok = 1;
     for (int q = 0; q < 2; ++q) {
@@ -60,6 +67,8 @@ static void compare(const char *what, const char *lines, const char *solve, cons
     if (ok) {
         const ohm_solution *d = ohm_state_solution(&s[0]), *m = ohm_state_solution(&s[1]);
         CHECK_MSG(d && m && strcmp(m->solver, "mg") == 0, "%s: solver %s", what, m ? m->solver : "none");
+        CHECK_MSG(m && (strcmp(mg_solver, "mg") == 0) == (m->device[0] == 0), "%s: %s ran on '%s'", what, mg_solver,
+                  m ? m->device : "");
         if (d && m) {
             size_t n = (size_t)d->n, nf = (size_t)(d->net.nfaces ? d->net.nfaces : 1);
             double worst_phi = 0, worst_ex = 0, scale;
@@ -74,9 +83,9 @@ static void compare(const char *what, const char *lines, const char *solve, cons
                       worst_phi, worst_ex);
             CHECK_MSG(cons <= 1e-10, "%s: mg's conservation error %.3g", what, cons);
             CHECK_REL(m->power_out, d->power_out, 1e-6);
-            fprintf(stderr, "mg: %-34s %7lld cells x %d ch x %d fr: %4lld its, fluence %.1e, exitance %.1e, "
+            fprintf(stderr, "%s: %-34s %7lld cells x %d ch x %d fr: %4lld its, fluence %.1e, exitance %.1e, "
                             "conservation %.1e\n",
-                    what, (long long)n, d->channels, d->frames, (long long)m->cg_iterations, worst_phi, worst_ex,
+                    mg_solver, what, (long long)n, d->channels, d->frames, (long long)m->cg_iterations, worst_phi, worst_ex,
                     cons);
         }
     }
@@ -89,7 +98,7 @@ static void compare(const char *what, const char *lines, const char *solve, cons
 static void relight_starts_from_last(const char *lines)
 {
     char text[2048];
-    snprintf(text, sizeof text, "%ssolve solver=mg keep=1\n", lines);
+    snprintf(text, sizeof text, "%ssolve solver=%s keep=1\n", lines, mg_solver);
     ohm_state s;
     if (run_lines(&s, text) == 0) {
         const ohm_solution *sol = ohm_state_solution(&s);
@@ -110,11 +119,10 @@ static void relight_starts_from_last(const char *lines)
     ohm_state_free(&s);
 }
 
-int main(void)
+static void scenes(void)
 {
     const char *cow = "read file=samples/cow.obj size=40\nvoxelize dim=48\n";
     char lines[1024];
-    CHECK(tmp_begin("test_mg_scenes") == 0);
     snprintf(lines, sizeof lines, "%smaterial preset=marble\nlight type=point pos=0,60,20 intensity=1000\n", cow);
     compare("mesh, robin, RGB", lines, "solve", NULL);
     compare("mesh, neumann", lines, "solve boundary=neumann", NULL);
@@ -143,6 +151,40 @@ int main(void)
     const char *tf = write_tmp("eta.transfer", eta_tf, sizeof eta_tf - 1);
     snprintf(lines, sizeof lines, "%smaterial transfer=%s\nlight type=point pos=0,0,60 intensity=1000\n", walnut, tf);
     compare("walnut CT, per-cell index", lines, "solve", NULL);
+}
+
+/* "mg device=opencl:N" for the first device with double precision, or NULL */
+static const char *device_solver(char buf[64])
+{
+    ohm_cl cl;
+    ohm_error err;
+    ohm_error_clear(&err);
+    if (ohm_cl_open(&cl, &err)) return NULL;
+    ohm_device *list = NULL;
+    int n = 0, found = -1;
+    if (!ohm_device_list(&list, &n, &cl, &err))
+        for (int i = 0; i < n && found < 0; ++i)
+            if (list[i].fp64) found = i;
+    free(list);
+    ohm_cl_close(&cl);
+    if (found < 0) return NULL;
+    snprintf(buf, 64, "mg device=opencl:%d", found);
+    return buf;
+}
+
+int main(void)
+{
+    CHECK(tmp_begin("test_mg_scenes") == 0);
+    scenes();
+    char buf[64];
+    if ((mg_solver = device_solver(buf))) {
+        scenes();
+    } else {
+        const char *ci = getenv("CI"), *req = getenv("OHM_REQUIRE_OPENCL");
+        int required = (ci && strcmp(ci, "true") == 0) || (req && *req && strcmp(req, "0") != 0);
+        CHECK_MSG(!required, "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
+        printf("SKIP: the device pass: no OpenCL device with double precision\n");
+    }
     cleanup_tmp();
     return check_summary();
 }

@@ -63,6 +63,7 @@ typedef struct ohm_backend_report {
     double bytes;               /* memory the backend holds at most (estimate) */
     int ranks;                  /* MPI ranks that took part (amg), else 1      */
     int levels;                 /* mg: the hierarchy's levels                  */
+    char device[96];            /* mg: the OpenCL device its cycle ran on; "": the host */
 } ohm_backend_report;
 
 /* The network's matrix in the form the backend reads: A (assembled) or
@@ -99,6 +100,8 @@ typedef struct ohm_backend_config {
     double columns;            /* columns to be solved in all (auto's cost model) */
     int materials;             /* distinct channel materials = setups to come   */
     int from_scan;             /* direct, ordering=auto: the object is a scan's */
+    const char *device;        /* mg: where the solve runs: host (NULL), gpu, cpu,
+                                  opencl:N, auto (mg_device.h)                     */
     const ohm_log *log;
 } ohm_backend_config;
 

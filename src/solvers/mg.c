@@ -11,10 +11,11 @@
 
 #include "base/parallel.h"
 #include "solvers/backend.h"
+#include "solvers/mg_device.h"
 
 /* Levels stop coarsening at this many cells, solved by a dense Cholesky
  * factor: (n^3 / 3 flops, n^2 doubles: 0.04 GFlop and 2 MB at 500). */
-enum { COARSEST_MAX = 500, LEVELS_MAX = 40 };
+enum { COARSEST_MAX = 500, LEVELS_MAX = 40 }; /* LEVELS_MAX: mg.h's ohm_mg_view too */
 
 /* Below this many cells a kernel runs on one core: a thread's start
  * (~20-50 us) would cost more than it shares.  Above, its loop is cut into
@@ -411,15 +412,23 @@ static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
  * (2 rho1 / delta) D^-1 (b - A x1) (the three-term recurrence of Saad,
  * "Iterative Methods for Sparse Linear Systems", 2nd ed., Algorithm 12.1,
  * with d0 = x1 - y). */
-static void smooth(const mg_level *L, const float *y, const float *b, float *tmp, float *out, int threads)
+void ohm_mg_smoother(double *w0, double *a, double *a2)
 {
     const double lmin = CHEB_LMAX / CHEB_RATIO;
     const double theta = 0.5 * (CHEB_LMAX + lmin), delta = 0.5 * (CHEB_LMAX - lmin), sigma = theta / delta;
     const double rho0 = 1.0 / sigma, rho1 = 1.0 / (2.0 * sigma - rho0);
-    kernel k1 = {.fn = jacobi_k, .L = L, .xf = y, .bf = b, .outf = tmp, .a = 1.0 / theta};
+    *w0 = 1.0 / theta;
+    *a = rho1 * rho0;
+    *a2 = 2.0 * rho1 / delta;
+}
+
+static void smooth(const mg_level *L, const float *y, const float *b, float *tmp, float *out, int threads)
+{
+    double w0, a, a2;
+    ohm_mg_smoother(&w0, &a, &a2);
+    kernel k1 = {.fn = jacobi_k, .L = L, .xf = y, .bf = b, .outf = tmp, .a = w0};
     run(&k1, L->n, threads);
-    kernel k2 = {
-        .fn = cheb_k, .L = L, .xf = tmp, .yf = y, .bf = b, .outf = out, .a = rho1 * rho0, .a2 = 2.0 * rho1 / delta};
+    kernel k2 = {.fn = cheb_k, .L = L, .xf = tmp, .yf = y, .bf = b, .outf = out, .a = a, .a2 = a2};
     run(&k2, L->n, threads);
 }
 
@@ -827,6 +836,26 @@ int ohm_mg_levels(const ohm_mg *mg, int64_t *cells)
 
 double ohm_mg_bytes(const ohm_mg *mg) { return mg->bytes; }
 
+void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view)
+{
+    memset(view, 0, sizeof *view);
+    view->fine = mg->fine;
+    view->scale = mg->scale;
+    view->norm_A = mg->norm_A;
+    view->nlevels = mg->nlevels;
+    for (int l = 0; l < mg->nlevels; ++l) {
+        const mg_level *L = &mg->lev[l];
+        view->lev[l] = (ohm_mg_level_view){.n = L->n,
+                                           .off = L->st.off,
+                                           .c = (const float(*)[4])L->st.c,
+                                           .invd = L->st.invd,
+                                           .agg = L->agg,
+                                           .kcycle = L->kcycle};
+    }
+    view->dense = mg->dense;
+    view->ndense = mg->ndense;
+}
+
 double ohm_mg_bytes_estimate(int64_t n)
 {
     /* fine: the network's stencil 48, its single-precision copy 16 and
@@ -1003,6 +1032,7 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
 
 typedef struct mg_state {
     ohm_mg *mg;
+    ohm_mg_device *device; /* the hierarchy on an OpenCL device (device=), or NULL: the host */
     ohm_backend_config cfg;
 } mg_state;
 
@@ -1010,6 +1040,7 @@ static void mg_destroy(void *state)
 {
     mg_state *s = state;
     if (!s) return;
+    ohm_mg_device_free(s->device);
     ohm_mg_free(s->mg);
     free(s);
 }
@@ -1038,13 +1069,17 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     int rc =
         ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
     if (rc) return rc;
+    ohm_mg_device_free(s->device);
+    s->device = NULL;
     ohm_mg_free(s->mg);
     s->mg = NULL;
     double t0 = ohm_now();
     const ohm_stencil *st = op->stencil;
     if (!st) rc = op->make_stencil(op->maker, &st, err);
     if (!rc) rc = ohm_mg_setup(&s->mg, st, s->cfg.layout, 0, err);
+    if (!rc) rc = ohm_mg_device_open(&s->device, s->mg, s->cfg.device, s->cfg.log, err);
     if (rc) return rc;
+    if (s->device) snprintf(rep->device, sizeof rep->device, "%s", ohm_mg_device_name(s->device));
     rep->t_precond += ohm_now() - t0;
     rep->precond_setups++;
     rep->levels = ohm_mg_levels(s->mg, NULL);
@@ -1057,6 +1092,7 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
 static int mg_column(void *solver, double *x, const double *b, int64_t *iters, double *relres, ohm_error *err)
 {
     mg_state *s = solver;
+    if (s->device) return ohm_mg_device_solve(s->device, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
     return ohm_mg_solve(s->mg, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
 }
 

@@ -86,6 +86,37 @@ double ohm_mg_bytes_estimate(int64_t n);
 
 void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
 
+/* The hierarchy as built, read-only, for running its cycle elsewhere (an
+ * OpenCL device: mg_device.h).  Level l's single-precision stencil (off,
+ * c: the +x, +y, +z links and the sink, scaled by `scale`), its inverse
+ * diagonal, its map into level l + 1 (NULL at the coarsest) and whether the
+ * K-cycle solves it; the coarsest level's dense lower Cholesky factor
+ * (ndense x ndense, row-major). */
+typedef struct ohm_mg_level_view {
+    int64_t n;
+    const int32_t (*off)[4];
+    const float (*c)[4];
+    const float *invd;
+    const int32_t *agg;
+    int kcycle;
+} ohm_mg_level_view;
+
+typedef struct ohm_mg_view {
+    const ohm_stencil *fine; /* the outer iteration's operator */
+    double scale, norm_A;
+    int nlevels;
+    ohm_mg_level_view lev[40];
+    const double *dense;
+    int64_t ndense;
+} ohm_mg_view;
+
+void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view);
+
+/* The Chebyshev smoother's two steps' coefficients (mg.c's smooth): the
+ * first step's weight w0; the second's a (on x1 - y) and a2 (on the
+ * Jacobi residual). */
+void ohm_mg_smoother(double *w0, double *a, double *a2);
+
 /* y = A x for the stencil's matrix (network.h), on up to `threads` cores. */
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
 

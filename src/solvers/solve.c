@@ -209,6 +209,7 @@ static int diffusion_plan(diffusion_run *run, ohm_backend_config *bcfg, ohm_solv
                                  .columns = (double)frames * (double)channels,
                                  .materials = run->nclasses,
                                  .from_scan = params->num.from_scan,
+                                 .device = params->num.device,
                                  .log = s->log};
 #ifdef OHM_TEST_HOOKS
     /* test hook (tests/cli_solver_choice.sh; builds for the suite only): cap

@@ -90,6 +90,7 @@ typedef struct ohm_numeric_params {
     const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
     const char *ordering;      /* auto | metis | amd | nesdis | grid | best; NULL: metis */
     int from_scan;             /* ordering=auto: the object is a density volume's */
+    const char *device;        /* solver=mg: host (NULL) | gpu | cpu | opencl:N | auto */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
     double max_memory;         /* bytes the factor may take; 0: what the machine has */
 } ohm_numeric_params;
@@ -155,6 +156,7 @@ typedef struct ohm_solution {
     int solve_threads;                  /* diffusion: threads that solved the media at
                                            once (keep=1 relights), 1: one after another */
     char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
+    char device[96];                    /* mg: the OpenCL device it ran on; "": host  */
     int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
                                            summed over columns                        */
     double cg_relres;                   /* largest final relative residual            */

@@ -639,6 +639,11 @@ static const ohm_opt_spec solve_opts[] = {
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
+    {"device", OHM_OPT_STRING, "host",
+     "solver=mg: where the solve runs: host (this machine's cores), gpu (the first GPU with double precision), "
+     "cpu (an OpenCL CPU device, e.g. PoCL), opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is "
+     "one, else the host); the hierarchy stays on the device for relights",
+     NULL, 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
     {"seed", OHM_OPT_INT, "1", "solver=mc and hybrid=: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
@@ -798,6 +803,10 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->num.from_scan = s->have_scan && !s->have_mesh;
     p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
     p->num.solver = ohm_opt_str(inv, "solver");
+    p->num.device = ohm_opt_str(inv, "device");
+    if (strcmp(p->num.device, "host") != 0 && strcmp(p->num.solver, "mg") != 0)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: device=%s runs solver=mg's solve; solver=%s runs on the host",
+                        inv->where, p->num.device, p->num.solver);
     if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
     p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
     p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
@@ -956,6 +965,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
     ohm_stats_set_int(st, "mg_levels", sol->mg_levels);
+    ohm_stats_set_str(st, "device", sol->device[0] ? sol->device : "host");
     ohm_stats_set(st, "solver_bytes", sol->solver_bytes);
     ohm_stats_set(st, "depth_band", p.op.band_k);
     ohm_stats_set(st, "depth_band_mm", sol->band_depth);

@@ -1,0 +1,670 @@
+/* solvers/mg_device.c — see mg_device.h.  The host side of mg_device.cl:
+ * buffers, the cycle's order of kernels (as mg.c's cycle and coarse_solve),
+ * and the outer flexible CG (as mg.c's ohm_mg_solve). */
+#include "solvers/mg_device.h"
+
+#include <math.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#include "device/devices.h"
+#include "mg_device_cl.h" /* ohm_mg_device_source: mg_device.cl, generated */
+#include "solvers/backend.h"
+
+/* Work-groups a kernel runs at most (grid-stride loops cover the rest):
+ * enough to fill a GPU's cores, few enough that a reduction's partial sums
+ * are read back in one small transfer. */
+enum { MAX_GROUPS = 1024, WG_MAX = 256 };
+
+enum kernel_id {
+    K_NET_RESIDUAL,
+    K_NET_APPLY_DOTS,
+    K_STEP,
+    K_TO_SINGLE,
+    K_MIXED_DOT,
+    K_DIRECTION,
+    K_CLAMP,
+    K_JACOBI0,
+    K_JACOBI,
+    K_CHEB,
+    K_CYC_RESIDUAL,
+    K_GATHER,
+    K_PROLONG,
+    K_CYC_APPLY_DOT,
+    K_DOT,
+    K_COMBINE,
+    K_DENSE_SOLVE,
+    K_COUNT
+};
+static const char *const kernel_names[K_COUNT] = {
+    "net_residual", "net_apply_dots", "outer_step", "to_single", "mixed_dot",    "direction", "clamp_negative",
+    "jacobi0",      "jacobi",         "cheb", "cyc_residual", "gather",   "prolong",   "cyc_apply_dot",
+    "cycle_dot",    "combine",        "dense_solve"};
+
+typedef struct dev_level {
+    int64_t n, nc; /* its cells, the next level's (0 at the coarsest) */
+    int kcycle;
+    cl_mem off, c, invd;                 /* the stencil                          */
+    cl_mem agg, start, children;         /* into the next level, and back        */
+    cl_mem b, x, r, t;                   /* right-hand side, correction, temporaries */
+    cl_mem c1, v1, c2, v2, rt;           /* the K-cycle's                        */
+} dev_level;
+
+struct ohm_mg_device {
+    ohm_cl cl;
+    ohm_device *devices;
+    int ndevices;
+    ohm_device_queue q;
+    cl_program program;
+    cl_kernel k[K_COUNT];
+    size_t wg;                 /* work-group size                    */
+    int64_t n;
+    const ohm_stencil *fine;
+    double scale, norm_A;
+    cl_mem g, sink;            /* the network's stencil (off: level 0's) */
+    cl_mem x, b, r, p, ap;     /* the outer iteration's (ap = A p), double */
+    cl_mem dense, dense_y;
+    int64_t ndense;
+    cl_mem partial;
+    double *partial_host;
+    dev_level lev[40];
+    int nlevels;
+    double bytes;
+    cl_int status; /* the first failure of a kernel's launch since the last check */
+};
+
+/* ---- buffers and launches -------------------------------------------------------------- */
+
+static int cl_failed(ohm_error *err, cl_int st, const char *what, const ohm_mg_device *d)
+{
+    char buf[24];
+    int code = st == CL_MEM_OBJECT_ALLOCATION_FAILURE || st == CL_OUT_OF_RESOURCES || st == CL_OUT_OF_HOST_MEMORY
+                   ? OHM_ERR_NOMEM
+                   : OHM_ERR_INTERNAL;
+    return ohm_fail(err, code, "mg on %s: %s: %s", d->q.device ? d->q.device->name : "the device", what,
+                    ohm_cl_status(st, buf));
+}
+
+/* a buffer of `bytes`, filled from host (NULL: left as it is) */
+static int buffer(ohm_mg_device *d, cl_mem *mem, size_t bytes, const void *host, ohm_error *err)
+{
+    cl_int st = CL_SUCCESS;
+    *mem = d->cl.CreateBuffer(d->q.context, CL_MEM_READ_WRITE, bytes ? bytes : 4, NULL, &st);
+    if (!*mem) return cl_failed(err, st, "allocating device memory", d);
+    d->bytes += (double)bytes;
+    if (host && bytes) {
+        st = d->cl.EnqueueWriteBuffer(d->q.queue, *mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+        if (st != CL_SUCCESS) return cl_failed(err, st, "copying to the device", d);
+    }
+    return OHM_OK;
+}
+
+static void release(ohm_mg_device *d, cl_mem *mem)
+{
+    if (*mem) d->cl.ReleaseMemObject(*mem);
+    *mem = NULL;
+}
+
+/* kernel arguments, by kind; a failure is kept in d->status */
+static void arg(ohm_mg_device *d, enum kernel_id k, cl_uint i, size_t size, const void *value)
+{
+    cl_int st = d->cl.SetKernelArg(d->k[k], i, size, value);
+    if (st != CL_SUCCESS && d->status == CL_SUCCESS) d->status = st;
+}
+#define ARG_MEM(k, i, m) arg(d, k, i, sizeof(cl_mem), &(m))
+#define ARG_VAL(k, i, type, v)                                                                                  \
+    do {                                                                                                        \
+        type value_ = (v);                                                                                      \
+        arg(d, k, i, sizeof value_, &value_);                                                                   \
+    } while (0)
+
+static size_t groups_for(const ohm_mg_device *d, int64_t n)
+{
+    size_t groups = (size_t)((n + (int64_t)d->wg - 1) / (int64_t)d->wg);
+    return groups < 1 ? 1 : groups > MAX_GROUPS ? MAX_GROUPS : groups;
+}
+
+/* kernel k over n items (grid-stride), or over one work-group (single) */
+static void launch(ohm_mg_device *d, enum kernel_id k, int64_t n, int single)
+{
+    size_t local = d->wg, global = single ? d->wg : groups_for(d, n) * d->wg;
+    cl_int st = d->cl.EnqueueNDRangeKernel(d->q.queue, d->k[k], 1, NULL, &global, &local, 0, NULL, NULL);
+    if (st != CL_SUCCESS && d->status == CL_SUCCESS) d->status = st;
+}
+
+/* a reduction kernel over n items: its two sums, added group by group in
+ * order (its last argument is the partial sums' buffer) */
+static void reduce(ohm_mg_device *d, enum kernel_id k, int64_t n, cl_uint partial_arg, double sums[2])
+{
+    ARG_MEM(k, partial_arg, d->partial);
+    launch(d, k, n, 0);
+    size_t groups = groups_for(d, n);
+    sums[0] = sums[1] = 0;
+    if (d->status != CL_SUCCESS) return;
+    cl_int st = d->cl.EnqueueReadBuffer(d->q.queue, d->partial, CL_TRUE, 0, 2 * groups * sizeof(double),
+                                        d->partial_host, 0, NULL, NULL);
+    if (st != CL_SUCCESS) {
+        d->status = st;
+        return;
+    }
+    for (size_t g = 0; g < groups; ++g) {
+        sums[0] += d->partial_host[2 * g];
+        sums[1] += d->partial_host[2 * g + 1];
+    }
+}
+
+/* ---- the cycle (mg.c's smooth, cycle, coarse_solve) --------------------------------------- */
+
+static void set_stencil(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
+{
+    ARG_MEM(k, 0, L->off);
+    ARG_MEM(k, 1, L->c);
+}
+
+/* two Chebyshev steps for A out = b from y (NULL: zero), the first into tmp */
+static void smooth(ohm_mg_device *d, const dev_level *L, const cl_mem *y, cl_mem b, cl_mem tmp, cl_mem out)
+{
+    double w0, a, a2;
+    ohm_mg_smoother(&w0, &a, &a2);
+    if (!y) {
+        ARG_MEM(K_JACOBI0, 0, b);
+        ARG_MEM(K_JACOBI0, 1, L->invd);
+        ARG_MEM(K_JACOBI0, 2, tmp);
+        ARG_VAL(K_JACOBI0, 3, float, (float)w0);
+        ARG_VAL(K_JACOBI0, 4, cl_long, L->n);
+        launch(d, K_JACOBI0, L->n, 0);
+    } else {
+        set_stencil(d, K_JACOBI, L);
+        ARG_MEM(K_JACOBI, 2, L->invd);
+        ARG_MEM(K_JACOBI, 3, *y);
+        ARG_MEM(K_JACOBI, 4, b);
+        ARG_MEM(K_JACOBI, 5, tmp);
+        ARG_VAL(K_JACOBI, 6, float, (float)w0);
+        ARG_VAL(K_JACOBI, 7, cl_long, L->n);
+        launch(d, K_JACOBI, L->n, 0);
+    }
+    set_stencil(d, K_CHEB, L);
+    ARG_MEM(K_CHEB, 2, L->invd);
+    ARG_MEM(K_CHEB, 3, tmp);
+    cl_mem prev = y ? *y : tmp; /* unread without has_y */
+    ARG_MEM(K_CHEB, 4, prev);
+    ARG_VAL(K_CHEB, 5, cl_int, y != NULL);
+    ARG_MEM(K_CHEB, 6, b);
+    ARG_MEM(K_CHEB, 7, out);
+    ARG_VAL(K_CHEB, 8, float, (float)a);
+    ARG_VAL(K_CHEB, 9, float, (float)a2);
+    ARG_VAL(K_CHEB, 10, cl_long, L->n);
+    launch(d, K_CHEB, L->n, 0);
+}
+
+static double level_apply_dot(ohm_mg_device *d, const dev_level *L, cl_mem x, cl_mem y, const cl_mem *q)
+{
+    set_stencil(d, K_CYC_APPLY_DOT, L);
+    ARG_MEM(K_CYC_APPLY_DOT, 2, x);
+    ARG_MEM(K_CYC_APPLY_DOT, 3, y);
+    cl_mem other = q ? *q : x; /* unread without has_q */
+    ARG_MEM(K_CYC_APPLY_DOT, 4, other);
+    ARG_VAL(K_CYC_APPLY_DOT, 5, cl_int, q != NULL);
+    ARG_VAL(K_CYC_APPLY_DOT, 6, cl_long, L->n);
+    double s[2];
+    reduce(d, K_CYC_APPLY_DOT, L->n, 7, s);
+    return s[0];
+}
+
+static double dot(ohm_mg_device *d, cl_mem x, cl_mem y, int64_t n)
+{
+    ARG_MEM(K_DOT, 0, x);
+    ARG_MEM(K_DOT, 1, y);
+    ARG_VAL(K_DOT, 2, cl_long, n);
+    double s[2];
+    reduce(d, K_DOT, n, 3, s);
+    return s[0];
+}
+
+/* out = a x + a2 y (y NULL: a x) */
+static void combine(ohm_mg_device *d, cl_mem out, double a, cl_mem x, double a2, const cl_mem *y, int64_t n)
+{
+    ARG_MEM(K_COMBINE, 0, x);
+    cl_mem second = y ? *y : x; /* unread without has_y */
+    ARG_MEM(K_COMBINE, 1, second);
+    ARG_VAL(K_COMBINE, 2, cl_int, y != NULL);
+    ARG_MEM(K_COMBINE, 3, out);
+    ARG_VAL(K_COMBINE, 4, double, a);
+    ARG_VAL(K_COMBINE, 5, double, a2);
+    ARG_VAL(K_COMBINE, 6, cl_long, n);
+    launch(d, K_COMBINE, n, 0);
+}
+
+static void dense_solve(ohm_mg_device *d, cl_mem b, cl_mem x)
+{
+    ARG_MEM(K_DENSE_SOLVE, 0, d->dense);
+    ARG_MEM(K_DENSE_SOLVE, 1, b);
+    ARG_MEM(K_DENSE_SOLVE, 2, d->dense_y);
+    ARG_MEM(K_DENSE_SOLVE, 3, x);
+    ARG_VAL(K_DENSE_SOLVE, 4, cl_long, d->ndense);
+    launch(d, K_DENSE_SOLVE, d->ndense, 1);
+}
+
+static void cycle(ohm_mg_device *d, int l, cl_mem b, cl_mem x);
+
+/* ec ~ A_l^-1 rc (mg.c's coarse_solve: the K-cycle of Notay and
+ * Vassilevski 2008, Algorithm 2.1) */
+static void coarse_solve(ohm_mg_device *d, int l, cl_mem rc, cl_mem ec)
+{
+    dev_level *L = &d->lev[l];
+    int64_t n = L->n;
+    if (l == d->nlevels - 1) {
+        dense_solve(d, rc, ec);
+        return;
+    }
+    if (!L->kcycle) {
+        cycle(d, l, rc, ec);
+        return;
+    }
+    cycle(d, l, rc, L->c1);
+    double rho1 = level_apply_dot(d, L, L->c1, L->v1, NULL), alpha1 = dot(d, L->c1, rc, n);
+    if (!(rho1 > 0)) {
+        combine(d, ec, 0.0, L->c1, 0, NULL, n);
+        return;
+    }
+    double a1 = alpha1 / rho1;
+    combine(d, L->rt, 1.0, rc, -a1, &L->v1, n);
+    cycle(d, l, L->rt, L->c2);
+    double beta = level_apply_dot(d, L, L->c2, L->v2, NULL);
+    double gamma = dot(d, L->c2, L->v1, n), alpha2 = dot(d, L->c2, L->rt, n);
+    double rho2 = beta - gamma * gamma / rho1;
+    if (!(rho2 > 0)) {
+        combine(d, ec, a1, L->c1, 0, NULL, n);
+        return;
+    }
+    double w1 = a1 - gamma * alpha2 / (rho1 * rho2), w2 = alpha2 / rho2;
+    combine(d, ec, w1, L->c1, w2, &L->c2, n);
+}
+
+/* x = M_l b (mg.c's cycle) */
+static void cycle(ohm_mg_device *d, int l, cl_mem b, cl_mem x)
+{
+    dev_level *L = &d->lev[l], *C = &d->lev[l + 1];
+    smooth(d, L, NULL, b, x, L->t); /* pre-smoothed: t */
+    set_stencil(d, K_CYC_RESIDUAL, L); /* r = b - A t, summed into the coarse cells */
+    ARG_MEM(K_CYC_RESIDUAL, 2, L->t);
+    ARG_MEM(K_CYC_RESIDUAL, 3, b);
+    ARG_MEM(K_CYC_RESIDUAL, 4, L->r);
+    ARG_VAL(K_CYC_RESIDUAL, 5, cl_long, L->n);
+    launch(d, K_CYC_RESIDUAL, L->n, 0);
+    ARG_MEM(K_GATHER, 0, L->r);
+    ARG_MEM(K_GATHER, 1, L->start);
+    ARG_MEM(K_GATHER, 2, L->children);
+    ARG_MEM(K_GATHER, 3, C->b);
+    ARG_VAL(K_GATHER, 4, cl_long, C->n);
+    launch(d, K_GATHER, C->n, 0);
+    coarse_solve(d, l + 1, C->b, C->x);
+    ARG_MEM(K_PROLONG, 0, L->t); /* corrected: r */
+    ARG_MEM(K_PROLONG, 1, C->x);
+    ARG_MEM(K_PROLONG, 2, L->agg);
+    ARG_MEM(K_PROLONG, 3, L->r);
+    ARG_VAL(K_PROLONG, 4, cl_long, L->n);
+    launch(d, K_PROLONG, L->n, 0);
+    smooth(d, L, &L->r, b, L->t, x); /* post-smoothed: x */
+}
+
+/* level 0's x = M (r / nr), scaled (mg.c's precondition); returns the factor */
+static double precondition(ohm_mg_device *d, double nr)
+{
+    dev_level *L0 = &d->lev[0];
+    double s = nr > 0 ? 1.0 / nr : 1.0;
+    ARG_MEM(K_TO_SINGLE, 0, d->r);
+    ARG_MEM(K_TO_SINGLE, 1, L0->b);
+    ARG_VAL(K_TO_SINGLE, 2, double, s);
+    ARG_VAL(K_TO_SINGLE, 3, cl_long, d->n);
+    launch(d, K_TO_SINGLE, d->n, 0);
+    if (d->nlevels == 1) dense_solve(d, L0->b, L0->x);
+    else cycle(d, 0, L0->b, L0->x);
+    return d->scale / s;
+}
+
+/* ---- set-up ------------------------------------------------------------------------------- */
+
+/* each coarse cell's fine cells, for the restriction's gather: start[I] ..
+ * start[I + 1] in children (a counting sort of agg) */
+static int children_of(int64_t **start, int32_t **children, const int32_t *agg, int64_t n, int64_t nc)
+{
+    *start = calloc((size_t)nc + 1, sizeof **start);
+    *children = malloc((size_t)(n ? n : 1) * sizeof **children);
+    if (!*start || !*children) return -1;
+    for (int64_t v = 0; v < n; ++v) (*start)[agg[v] + 1]++;
+    for (int64_t I = 0; I < nc; ++I) (*start)[I + 1] += (*start)[I];
+    int64_t *fill = malloc((size_t)(nc ? nc : 1) * sizeof *fill);
+    if (!fill) return -1;
+    memcpy(fill, *start, (size_t)nc * sizeof *fill);
+    for (int64_t v = 0; v < n; ++v) (*children)[fill[agg[v]]++] = (int32_t)v;
+    free(fill);
+    return 0;
+}
+
+/* the bytes the device will hold, before anything is copied */
+static double device_bytes(const ohm_mg_view *v)
+{
+    double bytes = (double)v->fine->n * (3 * 8 + 8 + 5 * 8); /* g, sink; x b r p q */
+    for (int l = 0; l < v->nlevels; ++l) {
+        double n = (double)v->lev[l].n;
+        bytes += n * (16 + 16 + 4); /* off, c, invd */
+        if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 4 * 4; /* agg, children, start; b x r t */
+        if (v->lev[l].kcycle) bytes += 5 * 4 * n;
+    }
+    return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
+}
+
+static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error *err)
+{
+    const ohm_mg_level_view *lv = &v->lev[l];
+    dev_level *L = &d->lev[l];
+    int64_t n = lv->n;
+    size_t f = sizeof(float);
+    L->n = n;
+    L->kcycle = lv->kcycle;
+    L->nc = l < v->nlevels - 1 ? v->lev[l + 1].n : 0;
+    int rc = buffer(d, &L->off, (size_t)n * sizeof *lv->off, lv->off, err);
+    if (!rc) rc = buffer(d, &L->c, (size_t)n * sizeof *lv->c, lv->c, err);
+    if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);
+    if (!rc) rc = buffer(d, &L->b, (size_t)n * f, NULL, err);
+    if (!rc) rc = buffer(d, &L->x, (size_t)n * f, NULL, err);
+    if (!rc && L->nc) {
+        int64_t *start = NULL;
+        int32_t *children = NULL;
+        if (children_of(&start, &children, lv->agg, n, L->nc))
+            rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's map", l);
+        if (!rc) rc = buffer(d, &L->agg, (size_t)n * sizeof *lv->agg, lv->agg, err);
+        if (!rc) rc = buffer(d, &L->start, (size_t)(L->nc + 1) * sizeof *start, start, err);
+        if (!rc) rc = buffer(d, &L->children, (size_t)n * sizeof *children, children, err);
+        free(start);
+        free(children);
+        if (!rc) rc = buffer(d, &L->r, (size_t)n * f, NULL, err);
+        if (!rc) rc = buffer(d, &L->t, (size_t)n * f, NULL, err);
+    }
+    cl_mem *kv[] = {&L->c1, &L->v1, &L->c2, &L->v2, &L->rt};
+    for (size_t i = 0; !rc && L->kcycle && i < sizeof kv / sizeof *kv; ++i) rc = buffer(d, kv[i], (size_t)n * f, NULL, err);
+    return rc;
+}
+
+static int build_kernels(ohm_mg_device *d, ohm_error *err)
+{
+    size_t max_wg = 0;
+    d->cl.GetDeviceInfo(d->q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
+    d->wg = WG_MAX;
+    while (d->wg > max_wg && d->wg > 1) d->wg /= 2;
+    char options[64];
+    snprintf(options, sizeof options, "-D WG=%zu", d->wg);
+    int rc = ohm_device_build(&d->program, &d->q, ohm_mg_device_source, options, err);
+    for (int k = 0; !rc && k < K_COUNT; ++k) {
+        cl_int st = CL_SUCCESS;
+        d->k[k] = d->cl.CreateKernel(d->program, kernel_names[k], &st);
+        if (!d->k[k]) rc = cl_failed(err, st, kernel_names[k], d);
+    }
+    return rc;
+}
+
+static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
+{
+    const ohm_stencil *st = v->fine;
+    int64_t n = st->n;
+    size_t dn = (size_t)n * sizeof(double);
+    d->fine = st;
+    d->n = n;
+    d->scale = v->scale;
+    d->norm_A = v->norm_A;
+    d->nlevels = v->nlevels;
+    d->ndense = v->ndense;
+    int rc = OHM_OK;
+    for (int l = 0; !rc && l < v->nlevels; ++l) rc = upload_level(d, v, l, err);
+    if (!rc) rc = buffer(d, &d->g, 3 * dn, st->g, err);
+    if (!rc) rc = buffer(d, &d->sink, dn, st->sink, err);
+    cl_mem *outer[] = {&d->x, &d->b, &d->r, &d->p, &d->ap};
+    for (size_t i = 0; !rc && i < sizeof outer / sizeof *outer; ++i) rc = buffer(d, outer[i], dn, NULL, err);
+    if (!rc) rc = buffer(d, &d->dense, (size_t)(v->ndense * v->ndense) * sizeof(double), v->dense, err);
+    if (!rc) rc = buffer(d, &d->dense_y, (size_t)v->ndense * sizeof(double), NULL, err);
+    if (!rc) rc = buffer(d, &d->partial, 2 * MAX_GROUPS * sizeof(double), NULL, err);
+    if (!rc && !(d->partial_host = malloc(2 * MAX_GROUPS * sizeof(double))))
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
+    if (!rc) {
+        cl_int s = d->cl.Finish(d->q.queue);
+        if (s != CL_SUCCESS) rc = cl_failed(err, s, "copying the hierarchy", d);
+    }
+    return rc;
+}
+
+int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, const ohm_log *log,
+                       ohm_error *err)
+{
+    *out = NULL;
+    if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
+    ohm_mg_device *d = calloc(1, sizeof *d);
+    if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
+    int picked = -1;
+    int rc = ohm_cl_open(&d->cl, err);
+    if (!rc) rc = ohm_device_list(&d->devices, &d->ndevices, &d->cl, err);
+    if (!rc && d->ndevices == 0 && strcmp(spec, "auto") != 0)
+        rc = ohm_fail(err, OHM_ERR_INVALID, "device=%s: the OpenCL runtime %s found no device (see 'ohm devices')",
+                      spec, d->cl.path);
+    if (!rc) rc = ohm_device_pick(&picked, d->devices, d->ndevices, spec, err);
+    if (rc || picked < 0) {
+        /* device=auto without a runtime or a GPU: the host */
+        int host = strcmp(spec, "auto") == 0 && (picked < 0 || rc);
+        ohm_mg_device_free(d);
+        if (host) {
+            ohm_log_info(log, "solve: device=auto: no GPU with double precision, the cycle runs on the host");
+            ohm_error_clear(err);
+            return OHM_OK;
+        }
+        return rc;
+    }
+    const ohm_device *dev = &d->devices[picked];
+    ohm_mg_view view;
+    ohm_mg_view_of(mg, &view);
+    double need = device_bytes(&view);
+    if (need > 0.9 * dev->global_bytes) {
+        rc = ohm_fail(err, OHM_ERR_NOMEM, "mg on %s (opencl:%d): the hierarchy needs %.2f GiB, the device has %.2f GiB",
+                      dev->name, picked, need / (1 << 30), dev->global_bytes / (1 << 30));
+        ohm_mg_device_free(d);
+        return rc;
+    }
+    rc = ohm_device_queue_open(&d->q, &d->cl, dev, err);
+    if (!rc) rc = build_kernels(d, err);
+    if (!rc) rc = upload(d, &view, err);
+    if (rc) {
+        ohm_mg_device_free(d);
+        return rc;
+    }
+    ohm_log_info(log, "solve: mg on %s (opencl:%d): %d levels, %.1f MiB on the device, work-groups of %zu",
+                 dev->name, picked, d->nlevels, d->bytes / (1 << 20), d->wg);
+    *out = d;
+    return OHM_OK;
+}
+
+const char *ohm_mg_device_name(const ohm_mg_device *d) { return d->q.device->name; }
+
+double ohm_mg_device_bytes(const ohm_mg_device *d) { return d->bytes; }
+
+void ohm_mg_device_free(ohm_mg_device *d)
+{
+    if (!d) return;
+    for (int l = 0; l < d->nlevels; ++l) {
+        dev_level *L = &d->lev[l];
+        cl_mem *m[] = {&L->off, &L->c,  &L->invd, &L->agg, &L->start, &L->children, &L->b, &L->x,
+                       &L->r,   &L->t,  &L->c1,   &L->v1,  &L->c2,    &L->v2,       &L->rt};
+        for (size_t i = 0; i < sizeof m / sizeof *m; ++i) release(d, m[i]);
+    }
+    cl_mem *m[] = {&d->g, &d->sink, &d->x, &d->b, &d->r, &d->p, &d->ap, &d->dense, &d->dense_y, &d->partial};
+    for (size_t i = 0; i < sizeof m / sizeof *m; ++i) release(d, m[i]);
+    for (int k = 0; k < K_COUNT; ++k)
+        if (d->k[k]) d->cl.ReleaseKernel(d->k[k]);
+    if (d->program) d->cl.ReleaseProgram(d->program);
+    if (d->q.context) ohm_device_queue_close(&d->q);
+    free(d->partial_host);
+    free(d->devices);
+    if (d->cl.library) ohm_cl_close(&d->cl);
+    free(d);
+}
+
+/* ---- the outer iteration (mg.c's ohm_mg_solve) -------------------------------------------- */
+
+/* r = b - A x on the device: (||r||, sum r) */
+static void residual(ohm_mg_device *d, double *nr, double *sr)
+{
+    enum kernel_id k = K_NET_RESIDUAL;
+    ARG_MEM(k, 0, d->lev[0].off);
+    ARG_MEM(k, 1, d->g);
+    ARG_MEM(k, 2, d->sink);
+    ARG_MEM(k, 3, d->x);
+    ARG_MEM(k, 4, d->b);
+    ARG_MEM(k, 5, d->r);
+    ARG_VAL(k, 6, cl_long, d->n);
+    double s[2];
+    reduce(d, k, d->n, 7, s);
+    *nr = sqrt(s[0]);
+    *sr = s[1];
+}
+
+static int copy(ohm_mg_device *d, cl_mem mem, void *host, size_t bytes, int to_device, ohm_error *err)
+{
+    cl_int st = to_device ? d->cl.EnqueueWriteBuffer(d->q.queue, mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL)
+                          : d->cl.EnqueueReadBuffer(d->q.queue, mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
+    return st == CL_SUCCESS ? OHM_OK : cl_failed(err, st, to_device ? "copying to the device" : "copying back", d);
+}
+
+/* the launches' first failure since the last check, as an error */
+static int checked(ohm_mg_device *d, ohm_error *err)
+{
+    cl_int st = d->status;
+    d->status = CL_SUCCESS;
+    return st == CL_SUCCESS ? OHM_OK : cl_failed(err, st, "a kernel failed", d);
+}
+
+int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol, int64_t max_iter,
+                        const ohm_log *log, int64_t *iters, double *relres, ohm_error *err)
+{
+    int64_t n = d->n;
+    size_t dn = (size_t)n * sizeof(double);
+    double nb = 0, sb = 0;
+    int b_nonnegative = 1;
+    for (int64_t i = 0; i < n; ++i) {
+        nb += b[i] * b[i];
+        sb += fabs(b[i]);
+        b_nonnegative &= b[i] >= 0;
+    }
+    nb = sqrt(nb);
+#define CONVERGED(nr, sr) ((nr) <= tol * nb && fabs(sr) <= tol * sb)
+    *iters = 0;
+    *relres = 0.0;
+    if (!(nb > 0)) {
+        memset(x, 0, dn);
+        return OHM_OK;
+    }
+    int rc = copy(d, d->b, (void *)b, dn, 1, err);
+    if (!rc) rc = copy(d, d->x, x, dn, 1, err);
+    if (rc) return rc;
+    int64_t it = 0;
+    int restarts = 0;
+    ohm_progress prog;
+    ohm_progress_begin(&prog, log, "solve: mg");
+    double t_reported = prog.t_begin;
+    const cl_mem z = d->lev[0].x; /* the preconditioned residual, times kz */
+    double *host_r = NULL;
+    for (;;) {
+        double nr, sr;
+        residual(d, &nr, &sr);
+        if (!rc) rc = checked(d, err);
+        if (rc) break;
+        if (it == 0 && !(nr <= nb)) { /* a warm start worse than zero: start cold */
+            memset(x, 0, dn);
+            rc = copy(d, d->x, x, dn, 1, err);
+            if (!rc) rc = copy(d, d->r, (void *)b, dn, 1, err);
+            if (rc) break;
+            nr = nb;
+            sr = 0;
+            for (int64_t i = 0; i < n; ++i) sr += b[i];
+        }
+        *relres = nr / nb;
+        if (CONVERGED(nr, sr)) break;
+        if (restarts > 0) { /* stagnated at the floor: read x and r back to judge */
+            if (!host_r && !(host_r = malloc(dn))) {
+                rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
+                break;
+            }
+            rc = copy(d, d->x, x, dn, 0, err);
+            if (!rc) rc = copy(d, d->r, host_r, dn, 0, err);
+            if (rc) break;
+            if (ohm_scaled_backward_error(b, x, host_r, (size_t)n, d->norm_A) <= 0.01 * tol) break;
+        }
+        if (it >= max_iter || restarts > 5) {
+            rc = ohm_fail(err, OHM_ERR_NUMERIC,
+                          "mg: did not converge: relative residual %.3g after %lld iterations (cg_tol=%.1g); use "
+                          "solver=direct, or a looser cg_tol=",
+                          nr / nb, (long long)it, tol);
+            break;
+        }
+        ++restarts;
+        double beta = 0, pq = 0, pr = 0;
+        for (int first = 1; !CONVERGED(nr, sr) && it < max_iter; first = 0) {
+            double kz = precondition(d, nr), s[2];
+            if (!first) {
+                ARG_MEM(K_MIXED_DOT, 0, z);
+                ARG_MEM(K_MIXED_DOT, 1, d->ap);
+                ARG_VAL(K_MIXED_DOT, 2, cl_long, n);
+                reduce(d, K_MIXED_DOT, n, 3, s);
+                beta = kz * s[0] / pq;
+            }
+            ARG_MEM(K_DIRECTION, 0, z);
+            ARG_MEM(K_DIRECTION, 1, d->p);
+            ARG_VAL(K_DIRECTION, 2, double, kz);
+            ARG_VAL(K_DIRECTION, 3, double, beta);
+            ARG_VAL(K_DIRECTION, 4, cl_long, n);
+            launch(d, K_DIRECTION, n, 0);
+            ARG_MEM(K_NET_APPLY_DOTS, 0, d->lev[0].off);
+            ARG_MEM(K_NET_APPLY_DOTS, 1, d->g);
+            ARG_MEM(K_NET_APPLY_DOTS, 2, d->sink);
+            ARG_MEM(K_NET_APPLY_DOTS, 3, d->p);
+            ARG_MEM(K_NET_APPLY_DOTS, 4, d->r);
+            ARG_MEM(K_NET_APPLY_DOTS, 5, d->ap);
+            ARG_VAL(K_NET_APPLY_DOTS, 6, cl_long, n);
+            reduce(d, K_NET_APPLY_DOTS, n, 7, s);
+            pq = s[0];
+            pr = s[1];
+            if ((rc = checked(d, err))) break;
+            if (!(pq > 0)) break; /* converged to round-off */
+            ARG_MEM(K_STEP, 0, d->x);
+            ARG_MEM(K_STEP, 1, d->r);
+            ARG_MEM(K_STEP, 2, d->p);
+            ARG_MEM(K_STEP, 3, d->ap);
+            ARG_VAL(K_STEP, 4, double, pr / pq);
+            ARG_VAL(K_STEP, 5, cl_long, n);
+            reduce(d, K_STEP, n, 6, s);
+            if ((rc = checked(d, err))) break;
+            nr = sqrt(s[0]);
+            sr = s[1];
+            ++it;
+            if (ohm_log_cancelled(log)) {
+                rc = ohm_fail_cancelled(err, "mg");
+                break;
+            }
+            if (log && ohm_now() - t_reported >= 0.05) {
+                t_reported = ohm_now();
+                ohm_progress_update(&prog, fmin(1.0, fmax(0.0, log10(nr / nb) / log10(tol))));
+            }
+        }
+        if (rc) break;
+    }
+#undef CONVERGED
+    free(host_r);
+    if (!rc && b_nonnegative) { /* as mg.c: a nonnegative source's solution is nonnegative */
+        ARG_MEM(K_CLAMP, 0, d->x);
+        ARG_VAL(K_CLAMP, 1, cl_long, n);
+        launch(d, K_CLAMP, n, 0);
+        rc = checked(d, err);
+    }
+    if (!rc) rc = copy(d, d->x, x, dn, 0, err);
+    *iters = it;
+    ohm_progress_end(&prog);
+    return rc;
+}
