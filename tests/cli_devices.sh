@@ -2,7 +2,9 @@
 # cli_devices.sh — `ohm devices` (issue 37): the machine's OpenCL devices
 # listed, each with its kernel test passed (PoCL's CPU device in CI); no
 # runtime, and a runtime without a driver, each one error line and exit 1;
-# a stray argument exit 2.  Without an OpenCL device this prints SKIP,
+# a stray argument exit 2.  Then -solve solver=mg device=: refusals (no
+# runtime, another solver), device=auto falling back to the host, and a
+# solve on the first device with double precision against the host's.  Without an OpenCL device this prints SKIP,
 # unless CI=true or OHM_REQUIRE_OPENCL is set (tests/test_device.c too).
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
@@ -14,6 +16,23 @@ expect_exit 1 "no driver" -- env OCL_ICD_VENDORS="$T/vendors" "$OHM" devices
 expect_error_line "no driver" "found no device: install a driver"
 expect_exit 2 "a stray argument" -- "$OHM" devices fast
 expect_error_line "a stray argument" "devices: unexpected 'fast'"
+
+# -solve device=: a solve on a device that is not there is one line, and
+# nothing is written; device= with another solver is a usage error;
+# device=auto without a GPU runs on the host
+SCENE=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
+       -light type=point pos=100,40,40 intensity=100)
+expect_exit 2 "device= with solver=direct" -- "$OHM" "${SCENE[@]}" -solve device=gpu
+expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve; solver=direct runs on the host"
+expect_exit 1 "device=gpu without a runtime" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
+  "$OHM" "${SCENE[@]}" -solve solver=mg device=gpu -write file="$T/none.vdb"
+expect_error_line "device=gpu without a runtime" "no OpenCL runtime"
+check "nothing written after a refused device" test ! -e "$T/none.vdb"
+expect_exit 0 "device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
+  "$OHM" --verbose "${SCENE[@]}" -solve solver=mg device=auto -stats file="$T/auto.json"
+check "device=auto without a runtime says it runs on the host" grep -q "the cycle runs on the host" "$T/stderr"
+check "device=auto without a runtime: the stats say host" $PY -c "
+import json; assert json.load(open('$T/auto.json'))['device'] == 'host'"
 
 set +e; "$OHM" devices >"$T/list" 2>"$T/err"; rc=$?; set -e
 if [ "$rc" != 0 ] && grep -qE "no OpenCL runtime|found no device" "$T/err"; then
@@ -30,4 +49,18 @@ check "device opencl:0 is listed with its memory and precision" \
   grep -qE "^opencl:0  .*(CPU|GPU), (fp64|no fp64), [0-9]+ compute units, [0-9.]+ GiB" "$T/list"
 check "every device passed its kernel test" \
   test "$(grep -c "kernel test: ok, triad [0-9.]* GB/s" "$T/list")" = "$(grep -c "^opencl:" "$T/list")"
+
+# the solve on the first device with double precision: the same power as
+# on the host (test_mg_scenes compares every cell)
+dev=$(grep -m1 -oE "^opencl:[0-9]+ .*, fp64," "$T/list" | cut -d' ' -f1 || true)
+if [ -n "$dev" ]; then
+  expect_exit 0 "solve on $dev" -- "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -stats file="$T/dev.json"
+  expect_exit 0 "solve on the host" -- "$OHM" "${SCENE[@]}" -solve solver=mg -stats file="$T/host.json"
+  check "$dev and the host: the same power out, the device named" $PY -c "
+import json; d, h = (json.load(open('$T/%s.json' % w)) for w in ('dev', 'host'))
+assert d['device'] != 'host' and h['device'] == 'host', (d['device'], h['device'])
+assert abs(d['power_out'] - h['power_out']) <= 1e-9 * h['power_out'] and d['conservation_error'] < 1e-10, (d, h)"
+else
+  bad "no device with double precision to solve on"
+fi
 finish
