@@ -60,6 +60,13 @@ if [ -n "$dev" ]; then
 import json; d, h = (json.load(open('$T/%s.json' % w)) for w in ('dev', 'host'))
 assert d['device'] != 'host' and h['device'] == 'host', (d['device'], h['device'])
 assert abs(d['power_out'] - h['power_out']) <= 1e-9 * h['power_out'] and d['conservation_error'] < 1e-10, (d, h)"
+  # a device too small for the hierarchy: refused before anything is copied
+  if [ "${OHM_HAVE_TEST_HOOKS:-0}" = 1 ]; then
+    expect_exit 1 "a device too small" -- env OHM_TEST_DEVICE_MEMORY_MB=1 \
+      "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -write file="$T/small.vdb"
+    expect_error_line "a device too small" "the hierarchy needs [0-9.]+ GiB, more than 90% of the device's 0.00 GiB"
+    check "nothing written after a device too small" test ! -e "$T/small.vdb"
+  fi
 else
   bad "no device with double precision to solve on"
 fi

@@ -58,6 +58,12 @@ static void describe(ohm_device *dev, const ohm_cl *cl)
     dev->global_bytes = (double)global;
     dev->max_alloc_bytes = (double)alloc;
     dev->fp64 = has_fp64(cl, dev->device_id);
+#ifdef OHM_TEST_HOOKS
+    /* test hook (tests/cli_devices.sh; builds for the suite only): a device
+     * this small, so that the out-of-device-memory refusal runs */
+    const char *cap = getenv("OHM_TEST_DEVICE_MEMORY_MB");
+    if (cap && atof(cap) > 0) dev->global_bytes = dev->max_alloc_bytes = atof(cap) * (1 << 20);
+#endif
     device_text(cl, dev->device_id, CL_DEVICE_NAME, dev->name, sizeof dev->name);
     device_text(cl, dev->device_id, CL_DEVICE_VERSION, dev->version, sizeof dev->version);
     if (cl->GetPlatformInfo(dev->platform_id, CL_PLATFORM_NAME, sizeof dev->platform, dev->platform, NULL) !=

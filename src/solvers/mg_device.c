@@ -89,6 +89,10 @@ static int cl_failed(ohm_error *err, cl_int st, const char *what, const ohm_mg_d
 /* a buffer of `bytes`, filled from host (NULL: left as it is) */
 static int buffer(ohm_mg_device *d, cl_mem *mem, size_t bytes, const void *host, ohm_error *err)
 {
+    if ((double)bytes > d->q.device->max_alloc_bytes)
+        return ohm_fail(err, OHM_ERR_NOMEM, "mg on %s: one array of %.2f GiB is more than the device allows in one "
+                        "buffer (%.2f GiB); use a smaller dim= or device=host",
+                        d->q.device->name, (double)bytes / (1 << 30), d->q.device->max_alloc_bytes / (1 << 30));
     cl_int st = CL_SUCCESS;
     *mem = d->cl.CreateBuffer(d->q.context, CL_MEM_READ_WRITE, bytes ? bytes : 4, NULL, &st);
     if (!*mem) return cl_failed(err, st, "allocating device memory", d);
@@ -464,7 +468,9 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
     ohm_mg_view_of(mg, &view);
     double need = device_bytes(&view);
     if (need > 0.9 * dev->global_bytes) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "mg on %s (opencl:%d): the hierarchy needs %.2f GiB, the device has %.2f GiB",
+        rc = ohm_fail(err, OHM_ERR_NOMEM,
+                      "mg on %s (opencl:%d): the hierarchy needs %.2f GiB, more than 90%% of the device's %.2f GiB; "
+                      "use a smaller dim= or device=host",
                       dev->name, picked, need / (1 << 30), dev->global_bytes / (1 << 30));
         ohm_mg_device_free(d);
         return rc;

@@ -1,0 +1,42 @@
+#!/usr/bin/env bash
+# gpu-bench.sh — ohm on this machine's OpenCL devices (issue 37): `ohm
+# devices` (each device's memory, precision and checked triad), then
+# solver=mg on the chosen device against the host's cores on the scale
+# study's block medium (tests/bench_device.c: one light to 1e-10, the
+# device's answer against the host's).  Writes docs/gpu.md.
+#   scripts/gpu-bench.sh [BUILD_DIR] [DEVICE] [N ...]
+# DEVICE default auto (a GPU), falling back to cpu (PoCL) where there is no
+# GPU; N default 100 216 (1e6 and 1e7 cells: about 2 GB on the host).
+set -euo pipefail
+cd "$(dirname "$0")/.."
+BUILD=${1:-build}
+DEVICE=${2:-auto}
+shift 2 || shift $# || true
+SIZES=("$@")
+[ ${#SIZES[@]} -gt 0 ] || SIZES=(100 216)
+cmake --build "$BUILD" --target ohm bench_device >/dev/null
+devices=$("$BUILD/ohm" devices 2>&1) || { echo "$devices" >&2; exit 1; }
+if [ "$DEVICE" = auto ] && ! grep -q ", GPU, fp64" <<<"$devices"; then DEVICE=cpu; fi
+rows=$("$BUILD/tests/bench_device" "$DEVICE" "${SIZES[@]}")
+{
+  echo "# ohm on OpenCL devices"
+  echo
+  echo "Measured by \`scripts/gpu-bench.sh\` on $(date -u +%F), $(nproc) host cores, device=$DEVICE."
+  echo
+  echo '```'
+  echo "$devices"
+  echo '```'
+  echo
+  echo "solver=mg on the scale study's block medium (blocks of 8³ cells, σs′ 1 or 10⁶ at random, σa 0.001/mm),"
+  echo "one light solved to 1e-10 from zero. The hierarchy is built on the host and copied to the device once"
+  echo "(a kept solver keeps it there for every relight); the host solve uses all the host's cores."
+  echo
+  echo "$rows"
+  if ! grep -q ", GPU, fp64" <<<"$devices"; then
+    echo
+    echo "This machine has no GPU: the device here is the CPU through PoCL, which runs the same kernels and"
+    echo "shows they agree with the host, not how fast a GPU is. The GPU figures wait for a machine with one"
+    echo "(issue 37); none are estimated here."
+  fi
+} > docs/gpu.md
+cat docs/gpu.md
