@@ -10,11 +10,13 @@
 # The figures for docs/extremes.md are the ROW lines printed at the end.
 # A second argument runs every row with that solver (-solve solver=NAME):
 #   bash tests/cli_extremes.sh build/ohm amg    (or: ctest -R cli_extremes_amg)
-# the iterative ones then solve to cg_tol=1e-12.
+# the iterative ones then solve to cg_tol=1e-12; a third runs solver=mg on an
+# OpenCL device (device=NAME: cpu is PoCL in CI; ctest -R cli_extremes_mg_device).
 #   bash tests/cli_extremes.sh build/ohm        (or: ctest -R cli_extremes)
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 SOLVER=${2:-}
+DEVICE=${3:-}
 [ "$SOLVER" != amg ] || {
   # Open MPI's plugins are dlclosed at MPI_Finalize, so LeakSanitizer sees
   # their process-lifetime allocations as leaks with one anonymous frame that no
@@ -31,6 +33,7 @@ with_solver() {
     if [ "$a" = -solve ] && [ -n "$SOLVER" ]; then
       WS+=("solver=$SOLVER")
       [ "$SOLVER" = direct ] || WS+=(cg_tol=1e-12)
+      [ -z "$DEVICE" ] || WS+=("device=$DEVICE")
     fi
   done
 }
