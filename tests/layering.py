@@ -4,7 +4,9 @@ by stage, and a file may include headers of its own stage or of an earlier
 one, never of a later one ("nothing below reaching up").  Includes of ohm's
 own headers name the folder ("grid/voxelize.h"); the C++ shims in wrappers/
 (ohm_vdb.h, ohm_oiio.h, ohm_gdcm.h), the generated ohm_version.h and the public
-vocabulary include/ohm/common.h (status codes) are below every stage.  The
+vocabulary include/ohm/common.h (status codes) are below every stage; a
+header the build generates from a stage's own file (solvers/mg_device_cl.h,
+the kernels' source as a string) belongs to that stage.  The
 public API (include/ohm.h, implemented in src/api/) is above them all but the
 command line, and the command line is its client: src/cli/ includes ohm.h
 (and ohm/cli.h, the command line's own entry points) and
@@ -34,6 +36,8 @@ WRAPPER_API = {"ohm_vdb.h", "ohm_oiio.h", "ohm_gdcm.h"}
 BELOW_ALL = WRAPPER_API | {"ohm_version.h", "ohm/common.h"}
 ERROR_VOCABULARY = {"base/ohm_error.h", "ohm/common.h"}  # what a wrapper may include of ohm's
 PUBLIC_API = {"ohm.h", "ohm/cli.h"}  # implemented in src/api/: above every stage but the command line
+# headers the build generates from a stage's own file (cmake/embed_text.cmake): of that stage
+GENERATED = {"solvers/mg_device_cl.h": "solvers/mg_device.cl"}
 SOURCES = (".c", ".h", ".cpp", ".hpp", ".cc")
 
 root = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -61,7 +65,8 @@ def in_src(header):
 
 def own_header(header):
     """Does this include name one of ohm's own headers (not a system or library one)?"""
-    return in_src(header) or header in PUBLIC or header in WRAPPER_HEADERS or header == "ohm_version.h"
+    return in_src(header) or header in PUBLIC or header in WRAPPER_HEADERS or header == "ohm_version.h" or \
+        header in GENERATED
 
 
 def includes(rel):
@@ -124,7 +129,9 @@ def stage_rule(stage):
             to = header.split("/")[0]
         else:
             return "names no stage folder"
-        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header not in PUBLIC_API:
+        generated = header in GENERATED and os.path.exists(os.path.join(src, GENERATED[header]))
+        if to not in STAGES or not os.path.exists(os.path.join(src, header)) and header not in PUBLIC_API and \
+                not generated:
             return "no such header under src/"
         if STAGES.index(to) > level:
             return "stage %s reaches up to %s" % (stage, to)

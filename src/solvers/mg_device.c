@@ -9,7 +9,7 @@
 #include <string.h>
 
 #include "device/devices.h"
-#include "mg_device_cl.h" /* ohm_mg_device_source: mg_device.cl, generated */
+#include "solvers/mg_device_cl.h" /* ohm_mg_device_source: mg_device.cl as a string, generated */
 #include "solvers/backend.h"
 
 /* Work-groups a kernel runs at most (grid-stride loops cover the rest):
