@@ -16,13 +16,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "device/devices.h"
-
-static int required(void)
-{
-    const char *ci = getenv("CI"), *req = getenv("OHM_REQUIRE_OPENCL");
-    return (ci && strcmp(ci, "true") == 0) || (req && *req && strcmp(req, "0") != 0);
-}
+#include "opencl_test.h"
 
 static void test_picks(const ohm_device *list, int n)
 {
@@ -101,7 +95,7 @@ int main(void)
     if (!rc) rc = ohm_device_list(&list, &n, &cl, &err);
     if (rc || n == 0) {
         if (!rc) ohm_cl_close(&cl);
-        if (required()) {
+        if (opencl_required()) {
             CHECK_MSG(0, "no OpenCL device (%s), but CI=true or OHM_REQUIRE_OPENCL is set", rc ? err.msg : "none");
             return check_summary();
         }

@@ -19,33 +19,9 @@
 
 #include "blocks.h"
 #include "check.h"
-#include "device/devices.h"
+#include "opencl_test.h"
 #include "solvers/mg.h"
 #include "solvers/mg_device.h"
-
-static int required(void)
-{
-    const char *ci = getenv("CI"), *req = getenv("OHM_REQUIRE_OPENCL");
-    return (ci && strcmp(ci, "true") == 0) || (req && *req && strcmp(req, "0") != 0);
-}
-
-/* opencl:N of the first device with double precision, or -1 */
-static int first_fp64_device(char spec[32])
-{
-    ohm_cl cl;
-    ohm_error err;
-    ohm_error_clear(&err);
-    if (ohm_cl_open(&cl, &err)) return -1;
-    ohm_device *list = NULL;
-    int n = 0, found = -1;
-    if (!ohm_device_list(&list, &n, &cl, &err))
-        for (int i = 0; i < n && found < 0; ++i)
-            if (list[i].fp64) found = i;
-    free(list);
-    ohm_cl_close(&cl);
-    if (found >= 0) snprintf(spec, 32, "opencl:%d", found);
-    return found;
-}
 
 /* The host's and the device's solutions of st for b: the largest cell
  * difference over the largest value, and the power balance on the device. */
@@ -177,7 +153,7 @@ int main(void)
 {
     char spec[32];
     if (first_fp64_device(spec) < 0) {
-        if (required()) {
+        if (opencl_required()) {
             CHECK_MSG(0, "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
             return check_summary();
         }

@@ -16,7 +16,7 @@
 #include <string.h>
 
 #include "check.h"
-#include "device/devices.h"
+#include "opencl_test.h"
 #include "tmp_files.h"
 #include "run_chain.h"
 
@@ -156,19 +156,9 @@ static void scenes(void)
 /* "mg device=opencl:N" for the first device with double precision, or NULL */
 static const char *device_solver(char buf[64])
 {
-    ohm_cl cl;
-    ohm_error err;
-    ohm_error_clear(&err);
-    if (ohm_cl_open(&cl, &err)) return NULL;
-    ohm_device *list = NULL;
-    int n = 0, found = -1;
-    if (!ohm_device_list(&list, &n, &cl, &err))
-        for (int i = 0; i < n && found < 0; ++i)
-            if (list[i].fp64) found = i;
-    free(list);
-    ohm_cl_close(&cl);
-    if (found < 0) return NULL;
-    snprintf(buf, 64, "mg device=opencl:%d", found);
+    char spec[32];
+    if (first_fp64_device(spec) < 0) return NULL;
+    snprintf(buf, 64, "mg device=%s", spec);
     return buf;
 }
 
@@ -180,9 +170,7 @@ int main(void)
     if ((mg_solver = device_solver(buf))) {
         scenes();
     } else {
-        const char *ci = getenv("CI"), *req = getenv("OHM_REQUIRE_OPENCL");
-        int required = (ci && strcmp(ci, "true") == 0) || (req && *req && strcmp(req, "0") != 0);
-        CHECK_MSG(!required, "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
+        CHECK_MSG(!opencl_required(), "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
         printf("SKIP: the device pass: no OpenCL device with double precision\n");
     }
     cleanup_tmp();

@@ -869,6 +869,20 @@ double ohm_mg_bytes_estimate(int64_t n)
 
 /* ---- the outer iteration --------------------------------------------------------------- */
 
+void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs, int *nonnegative)
+{
+    double s2 = 0, s1 = 0;
+    int nonneg = 1;
+    for (int64_t i = 0; i < n; ++i) {
+        s2 += b[i] * b[i];
+        s1 += fabs(b[i]);
+        nonneg &= b[i] >= 0;
+    }
+    *norm2 = sqrt(s2);
+    *sum_abs = s1;
+    *nonnegative = nonneg;
+}
+
 /* The cycle on r, in single precision: level 0's x = M (r / nr), scaled
  * so that M approximates (scale A)^-1 (mg_stencil); A^-1 r is then about
  * scale nr x.  Returns that factor. */
@@ -936,14 +950,9 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
     int64_t n = A->n;
     int th = m->threads;
     double *r = m->r, *p = m->p, *q = m->q;
-    double nb = 0, sb = 0;
-    int b_nonnegative = 1;
-    for (int64_t i = 0; i < n; ++i) {
-        nb += b[i] * b[i];
-        sb += fabs(b[i]);
-        b_nonnegative &= b[i] >= 0;
-    }
-    nb = sqrt(nb);
+    double nb, sb;
+    int b_nonnegative;
+    ohm_mg_rhs_sizes(b, n, &nb, &sb, &b_nonnegative);
     /* Converged when the residual is tol of b's and so is its sum: the sum
      * of b - A x is the power in less what the solution absorbs and lets
      * out (A's column sums are the sinks), and ||r||_2 <= tol ||b||_2 alone

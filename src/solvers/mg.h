@@ -112,6 +112,10 @@ typedef struct ohm_mg_view {
 
 void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view);
 
+/* What the outer iteration's stopping test needs of b (mg.c, mg_device.c):
+ * ||b||_2, sum |b|, and whether every b >= 0. */
+void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs, int *nonnegative);
+
 /* The Chebyshev smoother's two steps' coefficients (mg.c's smooth): the
  * first step's weight w0; the second's a (on x1 - y) and a2 (on the
  * Jacobi residual). */

@@ -552,14 +552,9 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
 {
     int64_t n = d->n;
     size_t dn = (size_t)n * sizeof(double);
-    double nb = 0, sb = 0;
-    int b_nonnegative = 1;
-    for (int64_t i = 0; i < n; ++i) {
-        nb += b[i] * b[i];
-        sb += fabs(b[i]);
-        b_nonnegative &= b[i] >= 0;
-    }
-    nb = sqrt(nb);
+    double nb, sb;
+    int b_nonnegative;
+    ohm_mg_rhs_sizes(b, n, &nb, &sb, &b_nonnegative);
 #define CONVERGED(nr, sr) ((nr) <= tol * nb && fabs(sr) <= tol * sb)
     *iters = 0;
     *relres = 0.0;
