@@ -86,6 +86,9 @@ SOLVER = os.environ.get("OHM_ADDON_SOLVER", "direct")
 if SOLVER == "auto" and obj.ohm.solver != "auto":
     problem("the panel's default solver is %s, not auto" % obj.ohm.solver)
 obj.ohm.solver = SOLVER
+# the panel's Device (Multigrid on an OpenCL device: PoCL's CPU in CI)
+DEVICE = os.environ.get("OHM_ADDON_DEVICE", "host")
+obj.ohm.device = DEVICE
 
 
 def status():
@@ -216,6 +219,8 @@ if MODE == "live":
     report["cells"] = int(s.result["unknowns"])
     report["factorizations_after_solve"] = session.get(obj).factorizations
     report["solver"] = s.solver
+    if (DEVICE != "host") != s.solver.startswith("mg on "):
+        problem("Device %s with Solver %s solved with %r" % (DEVICE, SOLVER, s.solver))
     if SOLVER == "auto" and (s.solver != "direct" or "Auto: direct" not in s.solver_note):
         problem("Auto at %d cells solved with %s (%s), expected the factor" % (report["cells"], s.solver,
                                                                            s.solver_note))

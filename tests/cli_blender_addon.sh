@@ -14,13 +14,15 @@ require_blender
 check "the build made ohm_blender.zip" test -s "$ZIP"
 # Blender keeps installed add-ons in its user folder: a fresh one per run
 export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
-# live and bake with the factor, then live with the multigrid and with Auto
-# (the panel's Solver, OHM_ADDON_SOLVER in the script)
-for run in live bake live:mg live:auto; do
-  mode=${run%%:*} solver=${run#*:}
+# live and bake with the factor, then live with the multigrid (on the host,
+# and on an OpenCL CPU device: PoCL) and with Auto (the panel's Solver and
+# Device, OHM_ADDON_SOLVER and OHM_ADDON_DEVICE in the script)
+for run in live bake live:mg live:mg:cpu live:auto; do
+  mode=${run%%:*} solver=${run#*:} device=host
   [ "$solver" != "$run" ] || solver=direct
+  case $solver in *:*) device=${solver#*:} solver=${solver%%:*} ;; esac
   mkdir -p "$T/$run"
-  OHM_ADDON_SOLVER=$solver expect_exit 0 "blender add-on: $mode, solver=$solver" -- "$BLENDER" -b --factory-startup \
+  OHM_ADDON_SOLVER=$solver OHM_ADDON_DEVICE=$device expect_exit 0 "blender add-on: $mode, solver=$solver, device=$device" -- "$BLENDER" -b --factory-startup \
     --python-exit-code 1 -P tests/blender_addon.py -- "$ZIP" samples/spot.obj "$T/$run" "$T/$run.json" "$mode"
   mode=$run
   if [ -s "$T/$mode.json" ]; then

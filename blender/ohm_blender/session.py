@@ -79,7 +79,7 @@ def _settings_signature(obj, bscene):
     st = obj.ohm
     return (bscene.unit_settings.scale_length, st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s),
             st.eta, st.volume_path, st.transfer_path, st.grid, st.dim, st.error, st.boundary, st.solver,
-            st.shadows)
+            st.device, st.shadows)
 
 
 def _channels(st):
@@ -182,7 +182,7 @@ class Session:
                "lights": lights,
                "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
                "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
-               "boundary": st.boundary, "solver": solver, "shadows": st.shadows,
+               "boundary": st.boundary, "solver": solver, "shadows": st.shadows, "device": st.device,
                "max_memory_mb": budget_mb, "max_dim": None if st.grid == "DIM" else max_dim,
                "signature": (_settings_signature(obj, bscene), geometry_hash(verts, tris)),
                "lights_signature": bridge.lights_signature(bscene)}
@@ -223,8 +223,10 @@ class Session:
             sc.run("voxelize", dim=job["dim"], **memory)
         else:
             sc.run("voxelize", error=job["error"], max_dim=job["max_dim"], **memory)
+        # the device runs mg's solve only (Auto's choice is made by then: gather)
+        device = {"device": job["device"]} if job["solver"] == "mg" and job["device"] != "host" else {}
         sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
-                 **memory)
+                 **memory, **device)
         job["exitance"] = sc.vertex_exitance()
 
     def finish(self, obj, job):
@@ -351,6 +353,8 @@ class Session:
         r = self.result = self.scene.result()
         self.factorizations = r["factorizations"]
         self.solver = self.scene.stat("solver") if r["solves"] else ""
+        if self.solver == "mg" and self.scene.stat("device") != "host":
+            self.solver += " on " + self.scene.stat("device")
 
 
 class Job:

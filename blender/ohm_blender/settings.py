@@ -53,6 +53,14 @@ class OhmSettings(bpy.types.PropertyGroup):
                                            "a quick first solve"),
                                           ("cg", "Conjugate gradients", "low memory"),
                                           ("amg", "Algebraic multigrid", "PETSc + hypre, for runs under mpirun")])
+    device: bpy.props.EnumProperty(
+        name="Device", default="host",
+        description="where Multigrid solves (also when Auto chooses it): the hierarchy stays on the device for "
+                    "Live relight and Bake ('ohm devices' lists them)",
+        items=[("host", "This computer's cores", "no OpenCL"),
+               ("auto", "GPU when there is one", "the first OpenCL GPU with double precision, else the cores"),
+               ("gpu", "GPU", "the first OpenCL GPU with double precision; refused when there is none"),
+               ("cpu", "OpenCL CPU", "an OpenCL CPU device (PoCL): the same kernels as a GPU's")])
     shadows: bpy.props.BoolProperty(name="Shadows", default=True, description="shadow rays against the mesh")
     max_memory_fraction: bpy.props.FloatProperty(
         name="Memory", min=0.05, max=0.9, default=0.5, subtype="FACTOR",

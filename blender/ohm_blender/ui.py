@@ -43,6 +43,8 @@ class OHM_PT_object(bpy.types.Panel):
         col.prop(st, "dim" if st.grid == "DIM" else "error")
         col.prop(st, "boundary")
         col.prop(st, "solver")
+        if st.solver in ("mg", "auto"):
+            col.prop(st, "device")
         col.prop(st, "shadows")
         col.prop(st, "max_memory_fraction")
         col.separator()
