@@ -10,7 +10,13 @@
  * Not a ctest: tests/CMakeLists.txt builds it as bench_device,
  * scripts/gpu-bench.sh runs it and writes docs/gpu.md.
  *
- *   bench_device DEVICE N...   DEVICE: gpu, cpu, opencl:K or auto */
+ *   bench_device DEVICE N...   DEVICE: gpu, cpu, opencl:K or auto
+ *   bench_device devices       what `ohm devices` prints
+ *
+ * Built twice: bench_device (with the tests) and ohm-gpu-bench, the same
+ * program from only the sources it uses, which needs nothing but libc and
+ * libm (libOpenCL.so.1 is loaded at run time) and so can be copied to a
+ * GPU machine without ohm's packages (scripts/gpu-pack.sh). */
 #define _POSIX_C_SOURCE 200809L
 #include <math.h>
 #include <stdio.h>
@@ -23,6 +29,7 @@
 #include "solvers/grid_order.h"
 #include "solvers/mg.h"
 #include "solvers/mg_device.h"
+#include "studies/devices.h"
 
 static int bench(const char *spec, int nx)
 {
@@ -89,8 +96,10 @@ out_grid:
 
 int main(int argc, char **argv)
 {
+    if (argc == 2 && strcmp(argv[1], "devices") == 0) return ohm_devices_main(0, NULL);
     if (argc < 3) {
-        fprintf(stderr, "usage: bench_device DEVICE N... (DEVICE: gpu, cpu, opencl:K, auto; block medium on N^3 cells)\n");
+        fprintf(stderr, "usage: bench_device DEVICE N... (DEVICE: gpu, cpu, opencl:K, auto; block medium on N^3 "
+                        "cells), or bench_device devices\n");
         return 2;
     }
     printf("| grid | cells | set-up on the host (s) | host solve (s) | device | copy to the device (s) | device "
