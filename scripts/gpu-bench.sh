@@ -3,7 +3,9 @@
 # devices` (each device's memory, precision and checked triad), then
 # solver=mg on the chosen device against the host's cores on the scale
 # study's block medium (tests/bench_device.c: one light to 1e-10, the
-# device's answer against the host's).  Writes docs/gpu.md.
+# device's answer against the host's).  Writes docs/gpu.md.  On a GPU
+# machine without ohm's packages, run scripts/gpu-pack.sh's folder instead
+# (its run.sh prints the same table).
 #   scripts/gpu-bench.sh [BUILD_DIR] [DEVICE] [N ...]
 # DEVICE default auto (a GPU), falling back to cpu (PoCL) where there is no
 # GPU; N default 100 216 (1e6 and 1e7 cells: about 2 GB on the host).
