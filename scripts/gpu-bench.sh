@@ -40,5 +40,10 @@ rows=$("$BUILD/tests/bench_device" "$DEVICE" "${SIZES[@]}")
     echo "shows they agree with the host, not how fast a GPU is. The GPU figures wait for a machine with one"
     echo "(issue 37); none are estimated here."
   fi
+  echo
+  echo "On PoCL a kernel is compiled when it is first launched, so the first solve in a process also pays for"
+  echo "the compilation (about a second here); the rows above are each a fresh hierarchy in one process."
+  echo "\`scripts/gpu-pack.sh\` packs \`ohm-gpu-bench\` (libc and libm only), Debian's ICD loader and a vendors"
+  echo "folder for a GPU machine that has none of ohm's packages; its \`run.sh\` prints these tables there."
 } > docs/gpu.md
 cat docs/gpu.md
