@@ -70,4 +70,16 @@ static void block_medium(ohm_channel_medium *med, const ohm_coeff *ss, double si
     med->eta = 1.4;
 }
 
+/* The network of g and its stencil for block_medium(ss, sigma_a) under the
+ * robin boundary; 0, or -1 with err set. */
+static inline int block_stencil(ohm_network *net, ohm_stencil *st, const ohm_voxel_grid *g, const ohm_coeff *ss,
+                                double sigma_a, ohm_error *err)
+{
+    ohm_channel_medium med;
+    block_medium(&med, ss, sigma_a);
+    memset(st, 0, sizeof *st);
+    if (ohm_network_build(net, g, NULL, err)) return -1;
+    return ohm_network_stencil(st, NULL, NULL, net, &med, OHM_BOUNDARY_ROBIN, err) ? -1 : 0;
+}
+
 #endif

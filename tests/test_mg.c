@@ -122,11 +122,8 @@ static void conservation(void)
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;
-    CHECK(ohm_network_build(&net, &g, NULL, &err) == 0);
-    ohm_channel_medium med;
-    block_medium(&med, ss, 0.01);
-    ohm_stencil st = {0};
-    CHECK(ohm_network_stencil(&st, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &err) == 0);
+    ohm_stencil st;
+    CHECK(block_stencil(&net, &st, &g, ss, 0.01, &err) == 0);
     int64_t n = net.n, its = 0;
     double *b = malloc((size_t)n * 8), *x = calloc((size_t)n, 8), relres = 0;
     for (int64_t v = 0; v < n; ++v) b[v] = 1.0 / (double)n;
