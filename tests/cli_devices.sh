@@ -66,6 +66,11 @@ assert abs(d['power_out'] - h['power_out']) <= 1e-9 * h['power_out'] and d['cons
       "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -write file="$T/small.vdb"
     expect_error_line "a device too small" "the hierarchy needs [0-9.]+ GiB, more than 90% of the device's 0.00 GiB"
     check "nothing written after a device too small" test ! -e "$T/small.vdb"
+    # kernels that do not build (a negative work-group size): one line with the compiler's words
+    expect_exit 1 "kernels that do not build" -- env OHM_TEST_KERNEL_OPTIONS="-D WG=-1" \
+      "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -write file="$T/broken.vdb"
+    expect_error_line "kernels that do not build" "a kernel failed to build for .*\\(CL_BUILD_PROGRAM_FAILURE\\): .*error"
+    check "nothing written after kernels that do not build" test ! -e "$T/broken.vdb"
   fi
 else
   bad "no device with double precision to solve on"

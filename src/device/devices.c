@@ -207,16 +207,29 @@ int ohm_device_build(cl_program *program, const ohm_device_queue *q, const char 
     if (!*program) return cl_fail(err, st, "creating a program");
     st = cl->BuildProgram(*program, 1, &q->device->device_id, options, NULL, NULL);
     if (st == CL_SUCCESS) return OHM_OK;
-    char log[1024] = "";
-    cl->GetProgramBuildInfo(*program, q->device->device_id, CL_PROGRAM_BUILD_LOG, sizeof log, log, NULL);
-    log[sizeof log - 1] = '\0';
+    /* the compiler's log, its first words on one line (the runtime refuses
+     * a buffer shorter than the whole log) */
+    char log[320] = "";
+    size_t need = 0;
+    char *whole = NULL;
+    if (cl->GetProgramBuildInfo(*program, q->device->device_id, CL_PROGRAM_BUILD_LOG, 0, NULL, &need) ==
+            CL_SUCCESS &&
+        need > 0 && (whole = malloc(need + 1)) &&
+        cl->GetProgramBuildInfo(*program, q->device->device_id, CL_PROGRAM_BUILD_LOG, need, whole, NULL) ==
+            CL_SUCCESS) {
+        whole[need] = '\0';
+        const char *start = whole;
+        while (*start == '\n' || *start == ' ') ++start;
+        snprintf(log, sizeof log, "%s", start);
+    }
+    free(whole);
     for (char *c = log; *c; ++c)
         if (*c == '\n') *c = ' ';
     cl->ReleaseProgram(*program);
     *program = NULL;
     char buf[24];
-    return ohm_fail(err, OHM_ERR_INTERNAL, "OpenCL: a kernel failed to build for %s (%s): %.300s", q->device->name,
-                    ohm_cl_status(st, buf), log);
+    return ohm_fail(err, OHM_ERR_INTERNAL, "OpenCL: a kernel failed to build for %s (%s): %s", q->device->name,
+                    ohm_cl_status(st, buf), log[0] ? log : "(the compiler left no log)");
 }
 
 static const char *triad_source =

@@ -400,6 +400,12 @@ static int build_kernels(ohm_mg_device *d, ohm_error *err)
     while (d->wg > max_wg && d->wg > 1) d->wg /= 2;
     char options[64];
     snprintf(options, sizeof options, "-D WG=%zu", d->wg);
+#ifdef OHM_TEST_HOOKS
+    /* test hook (tests/cli_devices.sh; builds for the suite only): other
+     * build options, so that a kernel that does not build is tested */
+    const char *test_options = getenv("OHM_TEST_KERNEL_OPTIONS");
+    if (test_options) snprintf(options, sizeof options, "%s", test_options);
+#endif
     int rc = ohm_device_build(&d->program, &d->q, ohm_mg_device_source, options, err);
     for (int k = 0; !rc && k < K_COUNT; ++k) {
         cl_int st = CL_SUCCESS;
