@@ -34,13 +34,14 @@ enum kernel_id {
     K_CYC_APPLY_DOT,
     K_DOT,
     K_COMBINE,
+    K_FILL_ZERO,
     K_DENSE_SOLVE,
     K_COUNT
 };
 static const char *const kernel_names[K_COUNT] = {
     "net_residual", "net_apply_dots", "outer_step", "to_single", "mixed_dot",    "direction", "clamp_negative",
     "jacobi0",      "jacobi",         "cheb", "cyc_residual", "gather",   "prolong",   "cyc_apply_dot",
-    "cycle_dot",    "combine",        "dense_solve"};
+    "cycle_dot",    "combine",        "fill_zero",   "dense_solve"};
 
 typedef struct dev_level {
     int64_t n, nc; /* its cells, the next level's (0 at the coarsest) */
@@ -269,7 +270,9 @@ static void coarse_solve(ohm_mg_device *d, int l, cl_mem rc, cl_mem ec)
     cycle(d, l, rc, L->c1);
     double rho1 = level_apply_dot(d, L, L->c1, L->v1, NULL), alpha1 = dot(d, L->c1, rc, n);
     if (!(rho1 > 0)) {
-        combine(d, ec, 0.0, L->c1, 0, NULL, n);
+        ARG_MEM(K_FILL_ZERO, 0, ec); /* as mg.c: a zero correction, whatever c1 holds */
+        ARG_VAL(K_FILL_ZERO, 1, cl_long, n);
+        launch(d, K_FILL_ZERO, n, 0);
         return;
     }
     double a1 = alpha1 / rho1;

@@ -253,6 +253,11 @@ __kernel void cycle_dot(__global const float *x, __global const float *y, long n
     group_sum2(s, 0, sa, sb, partial);
 }
 
+__kernel void fill_zero(__global float *x, long n)
+{
+    GRID_LOOP(i, n) x[i] = 0.0f;
+}
+
 /* out = a x + a2 y (has_y 0: a x) */
 __kernel void combine(__global const float *x, __global const float *y, int has_y, __global float *out, double a,
                       double a2, long n)
