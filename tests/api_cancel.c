@@ -241,10 +241,14 @@ static void *run_job(void *arg)
     return NULL;
 }
 
-static void two_threads(void)
+/* name: the program's, so that the two builds of this test (api_cancel and
+ * api_cancel_host_lapack), run at once by ctest -j, write different files */
+static void two_threads(const char *name)
 {
-    job alone = {"api_cancel_alone.vdb", NULL, 0, 0}, a = {"api_cancel_a.vdb", NULL, 0, 0},
-        b = {"api_cancel_b.vdb", NULL, 0, 0};
+    char paths[3][256];
+    static const char *const which[3] = {"alone", "a", "b"};
+    for (int i = 0; i < 3; ++i) snprintf(paths[i], sizeof paths[i], "%s_%s.vdb", name, which[i]);
+    job alone = {paths[0], NULL, 0, 0}, a = {paths[1], NULL, 0, 0}, b = {paths[2], NULL, 0, 0};
     run_job(&alone);
     pthread_t ta, tb;
     CHECK(pthread_create(&ta, NULL, run_job, &a) == 0 && pthread_create(&tb, NULL, run_job, &b) == 0);
@@ -264,10 +268,12 @@ static void two_threads(void)
     }
 }
 
-int main(void)
+int main(int argc, char **argv)
 {
+    const char *name = argc > 0 && argv[0] ? strrchr(argv[0], '/') : NULL;
+    name = name ? name + 1 : argc > 0 && argv[0] ? argv[0] : "api_cancel";
     cancel_factorization();
     cancel_monte_carlo();
-    two_threads();
+    two_threads(name);
     return check_summary();
 }
