@@ -524,13 +524,19 @@ void ohm_mg_device_free(ohm_mg_device *d)
 
 /* ---- the outer iteration (mg.c's ohm_mg_solve) -------------------------------------------- */
 
+/* the network's stencil as kernel k's first three arguments (off: level 0's) */
+static void set_network(ohm_mg_device *d, enum kernel_id k)
+{
+    ARG_MEM(k, 0, d->lev[0].off);
+    ARG_MEM(k, 1, d->g);
+    ARG_MEM(k, 2, d->sink);
+}
+
 /* r = b - A x on the device: (||r||, sum r) */
 static void residual(ohm_mg_device *d, double *nr, double *sr)
 {
     enum kernel_id k = K_NET_RESIDUAL;
-    ARG_MEM(k, 0, d->lev[0].off);
-    ARG_MEM(k, 1, d->g);
-    ARG_MEM(k, 2, d->sink);
+    set_network(d, k);
     ARG_MEM(k, 3, d->x);
     ARG_MEM(k, 4, d->b);
     ARG_MEM(k, 5, d->r);
@@ -631,9 +637,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
             ARG_VAL(K_DIRECTION, 3, double, beta);
             ARG_VAL(K_DIRECTION, 4, cl_long, n);
             launch(d, K_DIRECTION, n, 0);
-            ARG_MEM(K_NET_APPLY_DOTS, 0, d->lev[0].off);
-            ARG_MEM(K_NET_APPLY_DOTS, 1, d->g);
-            ARG_MEM(K_NET_APPLY_DOTS, 2, d->sink);
+            set_network(d, K_NET_APPLY_DOTS);
             ARG_MEM(K_NET_APPLY_DOTS, 3, d->p);
             ARG_MEM(K_NET_APPLY_DOTS, 4, d->r);
             ARG_MEM(K_NET_APPLY_DOTS, 5, d->ap);
