@@ -30,7 +30,7 @@ expect_error_line "device=gpu without a runtime" "no OpenCL runtime"
 check "nothing written after a refused device" test ! -e "$T/none.vdb"
 expect_exit 0 "device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
   "$OHM" --verbose "${SCENE[@]}" -solve solver=mg device=auto -stats file="$T/auto.json"
-check "device=auto without a runtime says it runs on the host" grep -q "the cycle runs on the host" "$T/stderr"
+check "device=auto without a runtime says it runs on the host" grep -q "device=auto: no GPU with double precision, it runs on the host" "$T/stderr"
 check "device=auto without a runtime: the stats say host" $PY -c "
 import json; assert json.load(open('$T/auto.json'))['device'] == 'host'"
 

@@ -8,7 +8,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "device/devices.h"
+#include "device/session.h"
 #include "solvers/mg_device_cl.h" /* ohm_mg_device_source: mg_device.cl as a string, generated */
 #include "solvers/backend.h"
 
@@ -53,10 +53,7 @@ typedef struct dev_level {
 } dev_level;
 
 struct ohm_mg_device {
-    ohm_cl cl;
-    ohm_device *devices;
-    int ndevices;
-    ohm_device_queue q;
+    ohm_device_session s;      /* the device, its queue, the buffers' bytes, launch failures */
     cl_program program;
     cl_kernel k[K_COUNT];
     size_t wg;                 /* work-group size                    */
@@ -71,51 +68,20 @@ struct ohm_mg_device {
     double *partial_host;
     dev_level lev[40];
     int nlevels;
-    double bytes;
-    cl_int status; /* the first failure of a kernel's launch since the last check */
 };
 
 /* ---- buffers and launches -------------------------------------------------------------- */
 
-static int cl_failed(ohm_error *err, cl_int st, const char *what, const ohm_mg_device *d)
-{
-    char buf[24];
-    int code = st == CL_MEM_OBJECT_ALLOCATION_FAILURE || st == CL_OUT_OF_RESOURCES || st == CL_OUT_OF_HOST_MEMORY
-                   ? OHM_ERR_NOMEM
-                   : OHM_ERR_INTERNAL;
-    return ohm_fail(err, code, "mg on %s: %s: %s", d->q.device ? d->q.device->name : "the device", what,
-                    ohm_cl_status(st, buf));
-}
+static const char ADVICE[] = "use a smaller dim= or device=host";
 
-/* a buffer of `bytes`, filled from host (NULL: left as it is) */
 static int buffer(ohm_mg_device *d, cl_mem *mem, size_t bytes, const void *host, ohm_error *err)
 {
-    if ((double)bytes > d->q.device->max_alloc_bytes)
-        return ohm_fail(err, OHM_ERR_NOMEM, "mg on %s: one array of %.2f GiB is more than the device allows in one "
-                        "buffer (%.2f GiB); use a smaller dim= or device=host",
-                        d->q.device->name, (double)bytes / (1 << 30), d->q.device->max_alloc_bytes / (1 << 30));
-    cl_int st = CL_SUCCESS;
-    *mem = d->cl.CreateBuffer(d->q.context, CL_MEM_READ_WRITE, bytes ? bytes : 4, NULL, &st);
-    if (!*mem) return cl_failed(err, st, "allocating device memory", d);
-    d->bytes += (double)bytes;
-    if (host && bytes) {
-        st = d->cl.EnqueueWriteBuffer(d->q.queue, *mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-        if (st != CL_SUCCESS) return cl_failed(err, st, "copying to the device", d);
-    }
-    return OHM_OK;
+    return ohm_device_buffer(&d->s, mem, bytes, host, ADVICE, err);
 }
 
-static void release(ohm_mg_device *d, cl_mem *mem)
-{
-    if (*mem) d->cl.ReleaseMemObject(*mem);
-    *mem = NULL;
-}
-
-/* kernel arguments, by kind; a failure is kept in d->status */
 static void arg(ohm_mg_device *d, enum kernel_id k, cl_uint i, size_t size, const void *value)
 {
-    cl_int st = d->cl.SetKernelArg(d->k[k], i, size, value);
-    if (st != CL_SUCCESS && d->status == CL_SUCCESS) d->status = st;
+    ohm_device_arg(&d->s, d->k[k], i, size, value);
 }
 #define ARG_MEM(k, i, m) arg(d, k, i, sizeof(cl_mem), &(m))
 #define ARG_VAL(k, i, type, v)                                                                                  \
@@ -133,9 +99,7 @@ static size_t groups_for(const ohm_mg_device *d, int64_t n)
 /* kernel k over n items (grid-stride), or over one work-group (single) */
 static void launch(ohm_mg_device *d, enum kernel_id k, int64_t n, int single)
 {
-    size_t local = d->wg, global = single ? d->wg : groups_for(d, n) * d->wg;
-    cl_int st = d->cl.EnqueueNDRangeKernel(d->q.queue, d->k[k], 1, NULL, &global, &local, 0, NULL, NULL);
-    if (st != CL_SUCCESS && d->status == CL_SUCCESS) d->status = st;
+    ohm_device_launch(&d->s, d->k[k], single ? d->wg : groups_for(d, n) * d->wg, d->wg);
 }
 
 /* a reduction kernel over n items: its two sums, added group by group in
@@ -146,11 +110,11 @@ static void reduce(ohm_mg_device *d, enum kernel_id k, int64_t n, cl_uint partia
     launch(d, k, n, 0);
     size_t groups = groups_for(d, n);
     sums[0] = sums[1] = 0;
-    if (d->status != CL_SUCCESS) return;
-    cl_int st = d->cl.EnqueueReadBuffer(d->q.queue, d->partial, CL_TRUE, 0, 2 * groups * sizeof(double),
-                                        d->partial_host, 0, NULL, NULL);
+    if (d->s.status != CL_SUCCESS) return;
+    cl_int st = d->s.cl.EnqueueReadBuffer(d->s.q.queue, d->partial, CL_TRUE, 0, 2 * groups * sizeof(double),
+                                          d->partial_host, 0, NULL, NULL);
     if (st != CL_SUCCESS) {
-        d->status = st;
+        d->s.status = st;
         return;
     }
     for (size_t g = 0; g < groups; ++g) {
@@ -398,22 +362,16 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
 static int build_kernels(ohm_mg_device *d, ohm_error *err)
 {
     size_t max_wg = 0;
-    d->cl.GetDeviceInfo(d->q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
+    d->s.cl.GetDeviceInfo(d->s.q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
     d->wg = WG_MAX;
     while (d->wg > max_wg && d->wg > 1) d->wg /= 2;
     char options[64];
     snprintf(options, sizeof options, "-D WG=%zu", d->wg);
-#ifdef OHM_TEST_HOOKS
-    /* test hook (tests/cli_devices.sh; builds for the suite only): other
-     * build options, so that a kernel that does not build is tested */
-    const char *test_options = getenv("OHM_TEST_KERNEL_OPTIONS");
-    if (test_options) snprintf(options, sizeof options, "%s", test_options);
-#endif
-    int rc = ohm_device_build(&d->program, &d->q, ohm_mg_device_source, options, err);
+    int rc = ohm_device_build(&d->program, &d->s.q, ohm_mg_device_source, ohm_device_build_options(options), err);
     for (int k = 0; !rc && k < K_COUNT; ++k) {
         cl_int st = CL_SUCCESS;
-        d->k[k] = d->cl.CreateKernel(d->program, kernel_names[k], &st);
-        if (!d->k[k]) rc = cl_failed(err, st, kernel_names[k], d);
+        d->k[k] = d->s.cl.CreateKernel(d->program, kernel_names[k], &st);
+        if (!d->k[k]) rc = ohm_device_failed(&d->s, err, st, kernel_names[k]);
     }
     return rc;
 }
@@ -441,8 +399,8 @@ static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
     if (!rc && !(d->partial_host = malloc(2 * MAX_GROUPS * sizeof(double))))
         rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
     if (!rc) {
-        cl_int s = d->cl.Finish(d->q.queue);
-        if (s != CL_SUCCESS) rc = cl_failed(err, s, "copying the hierarchy", d);
+        cl_int fin = d->s.cl.Finish(d->s.q.queue);
+        if (fin != CL_SUCCESS) rc = ohm_device_failed(&d->s, err, fin, "copying the hierarchy");
     }
     return rc;
 }
@@ -454,37 +412,21 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
     if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
     ohm_mg_device *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
-    int picked = -1;
-    int rc = ohm_cl_open(&d->cl, err);
-    if (!rc) rc = ohm_device_list(&d->devices, &d->ndevices, &d->cl, err);
-    if (!rc && d->ndevices == 0 && strcmp(spec, "auto") != 0)
-        rc = ohm_fail(err, OHM_ERR_INVALID, "device=%s: the OpenCL runtime %s found no device (see 'ohm devices')",
-                      spec, d->cl.path);
-    if (!rc) rc = ohm_device_pick(&picked, d->devices, d->ndevices, spec, err);
-    if (rc || picked < 0) {
-        /* device=auto without a runtime or a GPU: the host */
-        int host = strcmp(spec, "auto") == 0 && (picked < 0 || rc);
+    int opened = 0;
+    int rc = ohm_device_session_open(&d->s, &opened, spec, "mg", log, err);
+    if (rc || !opened) { /* an error, or device=auto on the host */
         ohm_mg_device_free(d);
-        if (host) {
-            ohm_log_info(log, "solve: device=auto: no GPU with double precision, the cycle runs on the host");
-            ohm_error_clear(err);
-            return OHM_OK;
-        }
         return rc;
     }
-    const ohm_device *dev = &d->devices[picked];
+    const ohm_device *dev = ohm_device_session_device(&d->s);
     ohm_mg_view view;
     ohm_mg_view_of(mg, &view);
     double need = device_bytes(&view);
-    if (need > 0.9 * dev->global_bytes) {
+    if (need > 0.9 * dev->global_bytes)
         rc = ohm_fail(err, OHM_ERR_NOMEM,
                       "mg on %s (opencl:%d): the hierarchy needs %.2f GiB, more than 90%% of the device's %.2f GiB; "
-                      "use a smaller dim= or device=host",
-                      dev->name, picked, need / (1 << 30), dev->global_bytes / (1 << 30));
-        ohm_mg_device_free(d);
-        return rc;
-    }
-    rc = ohm_device_queue_open(&d->q, &d->cl, dev, err);
+                      "%s",
+                      dev->name, d->s.picked, need / (1 << 30), dev->global_bytes / (1 << 30), ADVICE);
     if (!rc) rc = build_kernels(d, err);
     if (!rc) rc = upload(d, &view, err);
     if (rc) {
@@ -492,14 +434,14 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
         return rc;
     }
     ohm_log_info(log, "solve: mg on %s (opencl:%d): %d levels, %.1f MiB on the device, work-groups of %zu",
-                 dev->name, picked, d->nlevels, d->bytes / (1 << 20), d->wg);
+                 dev->name, d->s.picked, d->nlevels, d->s.bytes / (1 << 20), d->wg);
     *out = d;
     return OHM_OK;
 }
 
-const char *ohm_mg_device_name(const ohm_mg_device *d) { return d->q.device->name; }
+const char *ohm_mg_device_name(const ohm_mg_device *d) { return d->s.q.device->name; }
 
-double ohm_mg_device_bytes(const ohm_mg_device *d) { return d->bytes; }
+double ohm_mg_device_bytes(const ohm_mg_device *d) { return d->s.bytes; }
 
 void ohm_mg_device_free(ohm_mg_device *d)
 {
@@ -508,17 +450,15 @@ void ohm_mg_device_free(ohm_mg_device *d)
         dev_level *L = &d->lev[l];
         cl_mem *m[] = {&L->off, &L->c,  &L->invd, &L->agg, &L->start, &L->children, &L->b, &L->x,
                        &L->r,   &L->t,  &L->c1,   &L->v1,  &L->c2,    &L->v2,       &L->rt};
-        for (size_t i = 0; i < sizeof m / sizeof *m; ++i) release(d, m[i]);
+        for (size_t i = 0; i < sizeof m / sizeof *m; ++i) ohm_device_release(&d->s, m[i]);
     }
     cl_mem *m[] = {&d->g, &d->sink, &d->x, &d->b, &d->r, &d->p, &d->ap, &d->dense, &d->dense_y, &d->partial};
-    for (size_t i = 0; i < sizeof m / sizeof *m; ++i) release(d, m[i]);
+    for (size_t i = 0; i < sizeof m / sizeof *m; ++i) ohm_device_release(&d->s, m[i]);
     for (int k = 0; k < K_COUNT; ++k)
-        if (d->k[k]) d->cl.ReleaseKernel(d->k[k]);
-    if (d->program) d->cl.ReleaseProgram(d->program);
-    if (d->q.context) ohm_device_queue_close(&d->q);
+        if (d->k[k]) d->s.cl.ReleaseKernel(d->k[k]);
+    if (d->program) d->s.cl.ReleaseProgram(d->program);
     free(d->partial_host);
-    free(d->devices);
-    if (d->cl.library) ohm_cl_close(&d->cl);
+    ohm_device_session_close(&d->s);
     free(d);
 }
 
@@ -547,21 +487,6 @@ static void residual(ohm_mg_device *d, double *nr, double *sr)
     *sr = s[1];
 }
 
-static int copy(ohm_mg_device *d, cl_mem mem, void *host, size_t bytes, int to_device, ohm_error *err)
-{
-    cl_int st = to_device ? d->cl.EnqueueWriteBuffer(d->q.queue, mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL)
-                          : d->cl.EnqueueReadBuffer(d->q.queue, mem, CL_TRUE, 0, bytes, host, 0, NULL, NULL);
-    return st == CL_SUCCESS ? OHM_OK : cl_failed(err, st, to_device ? "copying to the device" : "copying back", d);
-}
-
-/* the launches' first failure since the last check, as an error */
-static int checked(ohm_mg_device *d, ohm_error *err)
-{
-    cl_int st = d->status;
-    d->status = CL_SUCCESS;
-    return st == CL_SUCCESS ? OHM_OK : cl_failed(err, st, "a kernel failed", d);
-}
-
 int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol, int64_t max_iter,
                         const ohm_log *log, int64_t *iters, double *relres, ohm_error *err)
 {
@@ -577,8 +502,8 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
         memset(x, 0, dn);
         return OHM_OK;
     }
-    int rc = copy(d, d->b, (void *)b, dn, 1, err);
-    if (!rc) rc = copy(d, d->x, x, dn, 1, err);
+    int rc = ohm_device_copy(&d->s, d->b, (void *)b, dn, 1, err);
+    if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
     if (rc) return rc;
     int64_t it = 0;
     int restarts = 0;
@@ -590,12 +515,12 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
     for (;;) {
         double nr, sr;
         residual(d, &nr, &sr);
-        if (!rc) rc = checked(d, err);
+        if (!rc) rc = ohm_device_checked(&d->s, err);
         if (rc) break;
         if (it == 0 && !(nr <= nb)) { /* a warm start worse than zero: start cold */
             memset(x, 0, dn);
-            rc = copy(d, d->x, x, dn, 1, err);
-            if (!rc) rc = copy(d, d->r, (void *)b, dn, 1, err);
+            rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
+            if (!rc) rc = ohm_device_copy(&d->s, d->r, (void *)b, dn, 1, err);
             if (rc) break;
             nr = nb;
             sr = 0;
@@ -608,8 +533,8 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
                 rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
                 break;
             }
-            rc = copy(d, d->x, x, dn, 0, err);
-            if (!rc) rc = copy(d, d->r, host_r, dn, 0, err);
+            rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);
+            if (!rc) rc = ohm_device_copy(&d->s, d->r, host_r, dn, 0, err);
             if (rc) break;
             if (ohm_scaled_backward_error(b, x, host_r, (size_t)n, d->norm_A) <= 0.01 * tol) break;
         }
@@ -645,7 +570,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
             reduce(d, K_NET_APPLY_DOTS, n, 7, s);
             pq = s[0];
             pr = s[1];
-            if ((rc = checked(d, err))) break;
+            if ((rc = ohm_device_checked(&d->s, err))) break;
             if (!(pq > 0)) break; /* converged to round-off */
             ARG_MEM(K_STEP, 0, d->x);
             ARG_MEM(K_STEP, 1, d->r);
@@ -654,7 +579,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
             ARG_VAL(K_STEP, 4, double, pr / pq);
             ARG_VAL(K_STEP, 5, cl_long, n);
             reduce(d, K_STEP, n, 6, s);
-            if ((rc = checked(d, err))) break;
+            if ((rc = ohm_device_checked(&d->s, err))) break;
             nr = sqrt(s[0]);
             sr = s[1];
             ++it;
@@ -675,9 +600,9 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
         ARG_MEM(K_CLAMP, 0, d->x);
         ARG_VAL(K_CLAMP, 1, cl_long, n);
         launch(d, K_CLAMP, n, 0);
-        rc = checked(d, err);
+        rc = ohm_device_checked(&d->s, err);
     }
-    if (!rc) rc = copy(d, d->x, x, dn, 0, err);
+    if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);
     *iters = it;
     ohm_progress_end(&prog);
     return rc;
