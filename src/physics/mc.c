@@ -1,5 +1,7 @@
 #include "physics/mc.h"
 
+#include "physics/mc_tally.h"
+
 #include "physics/fresnel.h"
 #include "base/log.h"
 #include "base/memory.h"
@@ -106,17 +108,9 @@ static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, 
 typedef struct mc_tally {
     const mc_scene *sc;
     int thread;
-    /* this batch's, in voxel units of weight x length and weight */
-    double *phi, *face;
-    /* over this thread's batches: sums, and sums of squares of batch values */
-    double *phi_sum, *phi_sq, *face_sum, *exit_sq;
-    double *handoff; /* n: weight handed to diffusion (mc.h), over every batch; NULL without */
-    double handed;
-    double absorbed, out, gated; /* weight, over every batch */
-    int cancelled;               /* it stopped early: the run was cancelled */
-    double batch_absorbed, batch_out; /* at the last batch's start, for: */
-    double absorbed_sq, out_sq;       /* sums of squares of batch totals */
-    int64_t truncated, events;
+    double *phi, *face; /* this batch's, in voxel units of weight x length and weight */
+    ohm_mc_sums sums;   /* over this thread's batches (mc_tally.h) */
+    int cancelled;      /* it stopped early: the run was cancelled */
 } mc_tally;
 
 /* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
@@ -260,9 +254,9 @@ static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c
         }
         if (wq == 0) continue;
         int64_t u = q ? unknown_at(net, n) : v;
-        t->handoff[u >= 0 ? u : v] += wq;
+        t->sums.handoff[u >= 0 ? u : v] += wq;
     }
-    t->handed += w;
+    t->sums.handed += w;
 }
 
 /* One photon of weight 1, from entry to its end (mc.h). */
@@ -284,7 +278,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
     int64_t ev = 0;
     for (;; ++ev) {
         if (ev >= MAX_EVENTS) {
-            t->truncated++;
+            t->sums.truncated++;
             break;
         }
         /* the nearest cell wall along u (Amanatides & Woo 1987) */
@@ -308,10 +302,10 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         else lost = -expm1(-x);
         if (scattered || sc->total_fluence) t->phi[v] += x > 1e-9 ? w * lost / sa : w * s;
         double w1 = w - w * lost;
-        t->absorbed += w - w1;
+        t->sums.absorbed += w - w1;
         w = w1;
         if (gated) {
-            t->gated += w;
+            t->sums.gated += w;
             w = 0;
             break;
         }
@@ -350,7 +344,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
                 if (R < 1.0 && rng_uniform(r) >= R) {
                     int64_t f = ohm_network_face(net, v, 2 * ax + (step > 0));
                     if (f >= 0) t->face[f] += w;
-                    t->out += w;
+                    t->sums.out += w;
                     w = 0;
                     break;
                 }
@@ -359,8 +353,8 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         }
         if (w < W_MIN) break;
     }
-    t->absorbed += w; /* what is left ends here (mc.h) */
-    t->events += ev;
+    t->sums.absorbed += w; /* what is left ends here (mc.h) */
+    t->sums.events += ev;
 }
 
 /* Fold one batch into the thread's sums, then clear it. */
@@ -370,24 +364,11 @@ static void fold_batch(mc_tally *t)
     int64_t n = net->n;
     for (int64_t v = 0; v < n; ++v) {
         double x = t->phi[v];
-        t->phi_sum[v] += x;
-        t->phi_sq[v] += x * x;
+        t->sums.phi_sum[v] += x;
+        t->sums.phi_sq[v] += x * x;
     }
-    for (int64_t f = 0, end; f < net->nfaces; f = end) { /* a cell's exitance: the mean of its faces' */
-        end = ohm_network_face_run_end(net, f);
-        double sum = 0;
-        for (int64_t q = f; q < end; ++q) {
-            sum += t->face[q];
-            t->face_sum[q] += t->face[q];
-        }
-        double mean = sum / (double)(end - f);
-        t->exit_sq[net->face_unknown[f]] += mean * mean;
-    }
-    double a = t->absorbed - t->batch_absorbed, o = t->out - t->batch_out;
-    t->absorbed_sq += a * a;
-    t->out_sq += o * o;
-    t->batch_absorbed = t->absorbed;
-    t->batch_out = t->out;
+    ohm_mc_fold_faces(&t->sums, net, t->face);
+    ohm_mc_fold_totals(&t->sums);
     memset(t->phi, 0, (size_t)n * sizeof *t->phi);
     memset(t->face, 0, (size_t)(net->nfaces ? net->nfaces : 1) * sizeof *t->face);
 }
@@ -431,88 +412,15 @@ static void tally_free(mc_tally *t)
 {
     free(t->phi);
     free(t->face);
-    free(t->phi_sum);
-    free(t->phi_sq);
-    free(t->face_sum);
-    free(t->exit_sq);
-    free(t->handoff);
+    ohm_mc_sums_free(&t->sums);
 }
 
 static int tally_alloc(mc_tally *t, const ohm_network *net, int handoff)
 {
     size_t n = (size_t)(net->n ? net->n : 1), nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    if (handoff > 0 && !(t->handoff = calloc(n, sizeof(double)))) return -1;
     t->phi = calloc(n, sizeof(double));
     t->face = calloc(nf, sizeof(double));
-    t->phi_sum = calloc(n, sizeof(double));
-    t->phi_sq = calloc(n, sizeof(double));
-    t->face_sum = calloc(nf, sizeof(double));
-    t->exit_sq = calloc(n, sizeof(double));
-    return t->phi && t->face && t->phi_sum && t->phi_sq && t->face_sum && t->exit_sq ? 0 : -1;
-}
-
-/* Thread k's sums into thread 0's, in thread order (reproducible). */
-static void merge_tallies(mc_tally *t, int nthreads, const ohm_network *net)
-{
-    for (int k = 1; k < nthreads; ++k) {
-        for (int64_t v = 0; v < net->n; ++v) {
-            t[0].phi_sum[v] += t[k].phi_sum[v];
-            t[0].phi_sq[v] += t[k].phi_sq[v];
-            t[0].exit_sq[v] += t[k].exit_sq[v];
-        }
-        for (int64_t f = 0; f < net->nfaces; ++f) t[0].face_sum[f] += t[k].face_sum[f];
-        for (int64_t v = 0; v < net->n && t[0].handoff; ++v) t[0].handoff[v] += t[k].handoff[v];
-        t[0].handed += t[k].handed;
-        t[0].absorbed += t[k].absorbed;
-        t[0].out += t[k].out;
-        t[0].gated += t[k].gated;
-        t[0].absorbed_sq += t[k].absorbed_sq;
-        t[0].out_sq += t[k].out_sq;
-        t[0].truncated += t[k].truncated;
-        t[0].events += t[k].events;
-    }
-}
-
-/* The standard error of the mean of B batch values with sum s and sum of
- * squares q (times scale). */
-static double batch_stderr(double s, double q, double scale)
-{
-    const double B = OHM_MC_BATCHES;
-    double var = (q - s * s / B) / (B * (B - 1.0));
-    return var > 0 ? scale * sqrt(var) : 0.0;
-}
-
-/* Means and standard errors, per unit of power: a batch of per_batch photons
- * of weight P / per_batch each; voxel units to mm (mc.h). */
-static void write_result(ohm_mc_result *res, const mc_tally *t, const mc_scene *sc, double P)
-{
-    const ohm_network *net = sc->net;
-    const double h = net->grid->h, B = OHM_MC_BATCHES;
-    const double k = P / (double)sc->per_batch / (h * h); /* batch tally -> W/mm^2 */
-    for (int64_t v = 0; v < net->n; ++v) {
-        res->fluence[v] = k * t->phi_sum[v] / B;
-        res->fluence_se[v] = batch_stderr(t->phi_sum[v], t->phi_sq[v], k);
-    }
-    for (int64_t f = 0; f < net->nfaces; ++f) res->face_exitance[f] = k * t->face_sum[f] / B;
-    for (int64_t f = 0, end; f < net->nfaces; f = end) {
-        end = ohm_network_face_run_end(net, f);
-        int64_t v = net->face_unknown[f];
-        double sum = 0;
-        for (int64_t q = f; q < end; ++q) sum += t->face_sum[q];
-        res->exitance_se[v] = batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
-    }
-    double photons = (double)sc->per_batch * B;
-    res->power_in = P;
-    res->power_absorbed = P * t->absorbed / photons;
-    res->power_out = P * t->out / photons;
-    res->power_handoff = P * t->handed / photons;
-    for (int64_t v = 0; v < net->n && t->handoff; ++v) res->handoff[v] = P * t->handoff[v] / photons;
-    res->power_gated = P * t->gated / photons;
-    res->power_absorbed_se = batch_stderr(t->absorbed, t->absorbed_sq, P / (double)sc->per_batch);
-    res->power_out_se = batch_stderr(t->out, t->out_sq, P / (double)sc->per_batch);
-    res->photons = (int64_t)photons;
-    res->truncated = t->truncated;
-    res->events = t->events;
+    return t->phi && t->face && !ohm_mc_sums_alloc(&t->sums, net, handoff) ? 0 : -1;
 }
 
 int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
@@ -572,11 +480,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     sc.cdf = malloc(nentries * sizeof *sc.cdf);
     mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);
     int rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
-    if (!rc) {
-        double run = 0;
-        for (size_t e = 0; e < nentries; ++e) sc.cdf[e] = (run += entries[e].power[channel]) / P;
-        sc.cdf[nentries - 1] = 1.0;
-    }
+    if (!rc) ohm_mc_entry_cdf(sc.cdf, entries, nentries, channel, P);
     for (int k = 0; k < nthreads && !rc; ++k) {
         tally[k].sc = &sc;
         tally[k].thread = k;
@@ -596,9 +500,9 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     for (int k = 1; k <= started; ++k) pthread_join(tid[k], NULL);
     for (int k = 0; k < nthreads && !rc; ++k)
         if (tally[k].cancelled) rc = ohm_fail_cancelled(err, "monte carlo");
-    if (!rc) {
-        merge_tallies(tally, nthreads, net);
-        write_result(res, &tally[0], &sc, P);
+    if (!rc) { /* thread k's sums into thread 0's, in thread order (reproducible) */
+        for (int k = 1; k < nthreads; ++k) ohm_mc_sums_merge(&tally[0].sums, &tally[k].sums, net);
+        ohm_mc_write_result(res, &tally[0].sums, net, sc.per_batch, P);
     }
     for (int k = 0; k < nthreads && tally; ++k) tally_free(&tally[k]);
     free(tally);
