@@ -23,7 +23,7 @@ expect_error_line "a stray argument" "devices: unexpected 'fast'"
 SCENE=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
        -light type=point pos=100,40,40 intensity=100)
 expect_exit 2 "device= with solver=direct" -- "$OHM" "${SCENE[@]}" -solve device=gpu
-expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve; solver=direct runs on the host"
+expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve or solver=mc's photons; solver=direct runs on the host"
 expect_exit 1 "device=gpu without a runtime" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
   "$OHM" "${SCENE[@]}" -solve solver=mg device=gpu -write file="$T/none.vdb"
 expect_error_line "device=gpu without a runtime" "no OpenCL runtime"
@@ -60,6 +60,24 @@ if [ -n "$dev" ]; then
 import json; d, h = (json.load(open('$T/%s.json' % w)) for w in ('dev', 'host'))
 assert d['device'] != 'host' and h['device'] == 'host', (d['device'], h['device'])
 assert abs(d['power_out'] - h['power_out']) <= 1e-9 * h['power_out'] and d['conservation_error'] < 1e-10, (d, h)"
+  # solver=mc on the device: the photons there, the books exact, the power
+  # out the host's within the two runs' noise (test_mc_device compares
+  # every cell); a device that is not there is one line, nothing written
+  MC=(-solve solver=mc photons=20000 seed=3)
+  expect_exit 0 "solver=mc on $dev" -- "$OHM" "${SCENE[@]}" "${MC[@]}" device="$dev" -stats file="$T/mcdev.json"
+  expect_exit 0 "solver=mc on the host" -- "$OHM" "${SCENE[@]}" "${MC[@]}" -stats file="$T/mchost.json"
+  check "solver=mc on $dev and the host: the device named, the books exact, the same light out" $PY -c "
+import json; d, h = (json.load(open('$T/%s.json' % w)) for w in ('mcdev', 'mchost'))
+assert d['device'] != 'host' and h['device'] == 'host', (d['device'], h['device'])
+assert d['conservation_error'] < 1e-10, d
+assert abs(d['power_out'] / h['power_out'] - 1) < 0.03, (d['power_out'], h['power_out'])"
+  expect_exit 1 "solver=mc on a device that is not there" -- \
+    "$OHM" "${SCENE[@]}" "${MC[@]}" device=opencl:99 -write file="$T/mc99.vdb"
+  expect_error_line "solver=mc on a device that is not there" "device=opencl:99: there are [0-9]+ OpenCL device"
+  check "nothing written after solver=mc on a device that is not there" test ! -e "$T/mc99.vdb"
+  # the tracer's published values on the device (ohm validate mc)
+  expect_exit 0 "ohm validate mc device=$dev" -- "$OHM" validate mc photons=50000 device="$dev"
+  check "ohm validate mc on $dev: the five published values pass" test "$(grep -c " pass$" "$T/stdout")" = 5
   # a device too small for the hierarchy: refused before anything is copied
   if [ "${OHM_HAVE_TEST_HOOKS:-0}" = 1 ]; then
     expect_exit 1 "a device too small" -- env OHM_TEST_DEVICE_MEMORY_MB=1 \

@@ -6,7 +6,7 @@ own headers name the folder ("grid/voxelize.h"); the C++ shims in wrappers/
 (ohm_vdb.h, ohm_oiio.h, ohm_gdcm.h), the generated ohm_version.h and the public
 vocabulary include/ohm/common.h (status codes) are below every stage; a
 header the build generates from a stage's own file (solvers/mg_device_cl.h,
-the kernels' source as a string) belongs to that stage.  The
+physics/mc_device_cl.h: the kernels' source as a string) belongs to that stage.  The
 public API (include/ohm.h, implemented in src/api/) is above them all but the
 command line, and the command line is its client: src/cli/ includes ohm.h
 (and ohm/cli.h, the command line's own entry points) and
@@ -37,7 +37,7 @@ BELOW_ALL = WRAPPER_API | {"ohm_version.h", "ohm/common.h"}
 ERROR_VOCABULARY = {"base/ohm_error.h", "ohm/common.h"}  # what a wrapper may include of ohm's
 PUBLIC_API = {"ohm.h", "ohm/cli.h"}  # implemented in src/api/: above every stage but the command line
 # headers the build generates from a stage's own file (cmake/embed_text.cmake): of that stage
-GENERATED = {"solvers/mg_device_cl.h": "solvers/mg_device.cl"}
+GENERATED = {"solvers/mg_device_cl.h": "solvers/mg_device.cl", "physics/mc_device_cl.h": "physics/mc_device.cl"}
 SOURCES = (".c", ".h", ".cpp", ".hpp", ".cc")
 
 root = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), ".."))
@@ -60,6 +60,9 @@ WRAPPER_HEADERS = {os.path.basename(f) for f in files_under(root, "wrappers") if
 
 
 def in_src(header):
+    """A stage's header: a file under src/, or one the build generates from a stage's file."""
+    if header in GENERATED:
+        return os.path.isfile(os.path.join(src, GENERATED[header]))
     return "/" in header and header.split("/")[0] in STAGES and os.path.isfile(os.path.join(src, header))
 
 

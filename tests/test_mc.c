@@ -25,7 +25,7 @@ static void test_published(void)
     memset(&v, 0, sizeof v);
     ohm_log quiet = {.verbosity = 0};
     ohm_error err = {0};
-    CHECK(ohm_validate_mc(&v, 100000, 7, 0, &quiet, &err) == 0);
+    CHECK(ohm_validate_mc(&v, 100000, 7, 0, NULL, &quiet, &err) == 0);
     ohm_validation_print(stdout, &v);
     CHECK(v.n == 6);
     for (int i = 0; i < v.n; ++i)

@@ -34,13 +34,11 @@ static void device_text(const ohm_cl *cl, cl_device_id d, cl_device_info what, c
     free(whole);
 }
 
-static int has_fp64(const ohm_cl *cl, cl_device_id d)
+static int has_fp64(const ohm_cl *cl, cl_device_id d, const char *extensions)
 {
     cl_device_fp_config config = 0;
     if (cl->GetDeviceInfo(d, CL_DEVICE_DOUBLE_FP_CONFIG, sizeof config, &config, NULL) == CL_SUCCESS && config)
         return 1;
-    char extensions[4096];
-    device_text(cl, d, CL_DEVICE_EXTENSIONS, extensions, sizeof extensions);
     return strstr(extensions, "cl_khr_fp64") != NULL;
 }
 
@@ -57,7 +55,10 @@ static void describe(ohm_device *dev, const ohm_cl *cl)
     dev->compute_units = (int)units;
     dev->global_bytes = (double)global;
     dev->max_alloc_bytes = (double)alloc;
-    dev->fp64 = has_fp64(cl, dev->device_id);
+    char extensions[8192];
+    device_text(cl, dev->device_id, CL_DEVICE_EXTENSIONS, extensions, sizeof extensions);
+    dev->fp64 = has_fp64(cl, dev->device_id, extensions);
+    dev->atomics64 = strstr(extensions, "cl_khr_int64_base_atomics") != NULL;
 #ifdef OHM_TEST_HOOKS
     /* test hook (tests/cli_devices.sh; builds for the suite only): a device
      * this small, so that the out-of-device-memory refusal runs */

@@ -17,6 +17,7 @@ typedef struct ohm_device {
     char platform[96], name[96], version[64];
     int is_gpu;           /* CL_DEVICE_TYPE_GPU (or an accelerator)  */
     int fp64;             /* double precision                        */
+    int atomics64;        /* cl_khr_int64_base_atomics: the tracer's tallies */
     int compute_units;
     double global_bytes;  /* CL_DEVICE_GLOBAL_MEM_SIZE               */
     double max_alloc_bytes; /* CL_DEVICE_MAX_MEM_ALLOC_SIZE: one buffer */

@@ -1,5 +1,6 @@
 #include "physics/mc.h"
 
+#include "physics/mc_device.h"
 #include "physics/mc_tally.h"
 
 #include "physics/fresnel.h"
@@ -466,6 +467,13 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
         res->seconds = ohm_now() - t0;
         return OHM_OK;
     }
+    res->device[0] = '\0';
+    int on_device = 0;
+    int rc = ohm_mc_device_trace(&on_device, res, net, med, entries, nentries, channel, P, sc.per_batch, params, err);
+    if (rc || on_device) {
+        res->seconds = ohm_now() - t0;
+        return rc;
+    }
     /* per thread: this batch's fluence and faces, the sums, the squares */
     double need = (double)nthreads * ((4.0 + (sc.handoff > 0)) * (double)n + 2.0 * (double)nf) * sizeof(double);
     double limit = ohm_memory_limit(params->max_memory);
@@ -479,7 +487,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     }
     sc.cdf = malloc(nentries * sizeof *sc.cdf);
     mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);
-    int rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
+    rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
     if (!rc) ohm_mc_entry_cdf(sc.cdf, entries, nentries, channel, P);
     for (int k = 0; k < nthreads && !rc; ++k) {
         tally[k].sc = &sc;

@@ -65,6 +65,8 @@ typedef struct ohm_mc_params {
                            the nearest cell centres so that its place is kept
                            (ohm_mc_result.handoff) */
     const ohm_log *log; /* progress; NULL: quiet */
+    const char *device; /* NULL or "host": the host's threads; gpu, cpu,
+                           opencl:N, auto: an OpenCL device (mc_device.h) */
 } ohm_mc_params;
 
 /* One channel and frame.  Arrays are the caller's: fluence, fluence_se,
@@ -85,7 +87,8 @@ typedef struct ohm_mc_result {
     int64_t events;                   /* path segments (cell crossings and
                                          scatterings), for the speed figures   */
     double seconds;
-    int threads;
+    int threads;                      /* host threads, or the device's compute units */
+    char device[96];                  /* the OpenCL device it ran on; "": the host */
 } ohm_mc_result;
 
 /* Trace the entries' power of channel `channel` through medium med. */

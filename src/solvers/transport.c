@@ -32,6 +32,7 @@ static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_
     sol->mc_events += r->events;
     sol->mc_truncated += r->truncated;
     if (r->threads > sol->mc_threads) sol->mc_threads = r->threads;
+    if (r->device[0] && !sol->device[0]) snprintf(sol->device, sizeof sol->device, "%s", r->device);
     return OHM_OK;
 }
 

@@ -640,9 +640,10 @@ static const ohm_opt_spec solve_opts[] = {
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
     {"device", OHM_OPT_STRING, "host",
-     "solver=mg: where the solve runs: host (this machine's cores), gpu (the first GPU with double precision), "
-     "cpu (an OpenCL CPU device, e.g. PoCL), opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is "
-     "one, else the host); the hierarchy stays on the device for relights",
+     "solver=mg or mc: where the solve (mg) or the photons (mc, and the hybrid's beside mg) run: host (this "
+     "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
+     "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, else the host); mg's hierarchy "
+     "stays on the device for relights",
      NULL, 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
@@ -804,8 +805,10 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
     p->num.solver = ohm_opt_str(inv, "solver");
     p->num.device = ohm_opt_str(inv, "device");
-    if (strcmp(p->num.device, "host") != 0 && strcmp(p->num.solver, "mg") != 0)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: device=%s runs solver=mg's solve; solver=%s runs on the host",
+    if (strcmp(p->num.device, "host") != 0 && strcmp(p->num.solver, "mg") != 0 && strcmp(p->num.solver, "mc") != 0)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "%s: -solve: device=%s runs solver=mg's solve or solver=mc's photons; solver=%s runs on the "
+                        "host",
                         inv->where, p->num.device, p->num.solver);
     if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
     p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
@@ -813,6 +816,7 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
     p->mc.threads = (int)ohm_opt_int(inv, "threads");
     p->mc.log = &s->log;
+    p->mc.device = p->num.device; /* solver=mc's photons, and the hybrid's beside mg */
     p->op.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
         if (ohm_opt_given(inv, "depth_band"))

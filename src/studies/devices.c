@@ -35,8 +35,9 @@ static int list_devices(const ohm_cl *cl, ohm_error *err)
     int failed = 0;
     for (int i = 0; !rc && i < n; ++i) {
         const ohm_device *d = &list[i];
-        printf("opencl:%d  %s  [%s]  %s, %s, %d compute units, %.1f GiB (one buffer up to %.1f GiB), %s\n", i,
-               d->name, d->platform, d->is_gpu ? "GPU" : "CPU", d->fp64 ? "fp64" : "no fp64", d->compute_units,
+        printf("opencl:%d  %s  [%s]  %s, %s%s, %d compute units, %.1f GiB (one buffer up to %.1f GiB), %s\n", i,
+               d->name, d->platform, d->is_gpu ? "GPU" : "CPU", d->fp64 ? "fp64" : "no fp64",
+               d->atomics64 ? "" : ", no 64-bit atomics (solver=mc cannot run there)", d->compute_units,
                d->global_bytes / (1 << 30), d->max_alloc_bytes / (1 << 30), d->version);
         ohm_device_queue q;
         ohm_error derr;

@@ -38,6 +38,8 @@ static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_
         else if (k == 4 && !strncmp(argv[i], "seed", k) && number && x >= 0 && x < 9e15) cfg->seed = (uint64_t)x;
         else if (k == 6 && !strncmp(argv[i], "hybrid", k) && number && x >= 0 && x <= 1000 && x == floor(x))
             cfg->hybrid = (int)x;
+        else if (k == 6 && !strncmp(argv[i], "device", k) && *val)
+            cfg->device = val; /* checked where it is opened (devices.h) */
         else if (k == 7 && !strncmp(argv[i], "fresnel", k) && (!strcmp(val, "exact") || !strcmp(val, "polynomial")))
             cfg->fresnel = strcmp(val, "exact") ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
         else if (k == 7 && !strncmp(argv[i], "deposit", k) &&
@@ -48,7 +50,8 @@ static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_
         else
             return ohm_fail(err, OHM_ERR_USAGE,
                             "validate transport: '%s': expected h=0..10 size=4..1000 photons=16.. seed=N "
-                            "fresnel=exact|polynomial deposit=exponential|point|surface hybrid=0..1000",
+                            "fresnel=exact|polynomial deposit=exponential|point|surface hybrid=0..1000 "
+                            "device=host|gpu|cpu|opencl:N|auto",
                             argv[i]);
     }
     return OHM_OK;
@@ -77,17 +80,22 @@ static int validate_main(int argc, char **argv, int verbosity)
         ohm_validation_print(stdout, &v);
         return 0;
     }
-    if (argc > 1 && strcmp(argv[1], "transport") == 0) {
+    /* transport: the Monte Carlo reference, then diffusion against it; mc:
+     * the reference alone (its published values) */
+    int transport = argc > 1 && strcmp(argv[1], "transport") == 0, mc_only = argc > 1 && strcmp(argv[1], "mc") == 0;
+    if (transport || mc_only) {
         ohm_transport_config cfg;
         ohm_transport_config_default(&cfg);
         int trc = transport_args(&cfg, argc - 2, argv + 2, &err);
-        if (!trc) trc = ohm_validate_mc(&v, cfg.photons, cfg.seed, cfg.threads, &log, &err);
-        if (!trc) trc = ohm_validate_transport(&v, &cfg, &log, &err);
+        if (!trc) trc = ohm_validate_mc(&v, cfg.photons, cfg.seed, cfg.threads, cfg.device, &log, &err);
+        if (!trc && transport) trc = ohm_validate_transport(&v, &cfg, &log, &err);
         if (trc) return report(trc, &err);
         return ohm_validation_print(stdout, &v) ? 1 : 0;
     }
     if (argc > 1) {
-        fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv | transport [h=MM] [size=MM] [photons=N] [seed=N] [fresnel=exact|polynomial] [deposit=exponential|point|surface] [hybrid=N]]\n");
+        fprintf(stderr, "ohm: error: usage: ohm validate [figure1 FILE.csv | transport [h=MM] [size=MM] [photons=N] "
+                        "[seed=N] [fresnel=exact|polynomial] [deposit=exponential|point|surface] [hybrid=N] "
+                        "[device=D] | mc [photons=N] [seed=N] [device=D]]\n");
         return 2;
     }
     int vrc = ohm_validate_all(&v, &log, &err);

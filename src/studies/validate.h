@@ -74,6 +74,7 @@ typedef struct ohm_transport_config {
     ohm_fresnel fresnel;      /* the diffusion solve's settings            */
     ohm_deposit deposit;
     int hybrid;               /* > 0: -solve hybrid= (solve.h, mc.handoff)  */
+    const char *device;       /* where the photons run (mc.h): NULL/host, gpu, cpu, opencl:N, auto */
     double tol_fluence_mean, tol_fluence_rms, tol_absorbed, tol_reflectance, tol_rings;
 } ohm_transport_config;
 void ohm_transport_config_default(ohm_transport_config *cfg); /* issue 13's targets, h 1, size 60, 1e6 */
@@ -83,7 +84,8 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
  * values, `photons` each (random stream `seed`): van de Hulst's matched slab (MCML's check), MCML's
  * mismatched half-space, MCX's cube60 absorbed fraction; each row passes
  * within 4 combined standard errors; and its speed on cube60. */
-int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const ohm_log *log, ohm_error *err);
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const char *device,
+                    const ohm_log *log, ohm_error *err);
 
 /* All of the above, in order. */
 int ohm_validate_all(ohm_validation *v, const ohm_log *log, ohm_error *err);
