@@ -6,7 +6,9 @@
 #   libOpenCL.so.1  Debian's ICD loader (ocl-icd), loaded by ohm at run time
 #   vendors/        nvidia.icd: one line, the NVIDIA driver's OpenCL library
 #   run.sh          `ohm devices`, then solver=mg on the device against the
-#                   host's cores on the block medium (10^6, 10^7, 10^8 cells)
+#                   host's cores on the block medium (10^6, 10^7, 10^8 cells),
+#                   then the Monte Carlo tracer on MCX's cube60 (10^8 photons
+#                   on the device, 10^6 on the host)
 # run.sh prints the Markdown that scripts/gpu-bench.sh writes to docs/gpu.md.
 #   scripts/gpu-pack.sh [BUILD_DIR]      -> BUILD_DIR/gpu-pack
 set -euo pipefail
@@ -24,7 +26,9 @@ echo "libnvidia-opencl.so.1" > "$PACK/vendors/nvidia.icd"
 cat > "$PACK/run.sh" <<'RUN'
 #!/bin/sh
 # ohm's travelling GPU benchmark: DEVICE (default gpu) and SIZES (default
-# 100 216 464: 1e6, 1e7, 1e8 cells; 464 needs ~30 GB of host memory).
+# 100 216 464: 1e6, 1e7, 1e8 cells; 464 needs ~30 GB of host memory), then
+# cube60 with PHOTONS on the device (default 1e8) and HOST_PHOTONS on the
+# host (default 1e6).
 # The machine's own vendors folder is used when it has one, else ours.
 set -e
 cd "$(dirname "$0")"
@@ -39,6 +43,8 @@ echo '```'
 echo '```'
 echo
 ./ohm-gpu-bench "${DEVICE:-gpu}" ${SIZES:-100 216 464}
+echo
+./ohm-gpu-bench "${DEVICE:-gpu}" mc ${PHOTONS:-1e8} ${HOST_PHOTONS:-1e6}
 RUN
 chmod +x "$PACK/run.sh"
 echo "gpu-pack: $PACK ($(du -sh "$PACK" | cut -f1)): ohm-gpu-bench needs $(ldd "$PACK/ohm-gpu-bench" | awk '/=>/{print $1}' | tr '\n' ' ')"

@@ -28,7 +28,8 @@ PACK="$(dirname "$(realpath "$OHM")")/gpu-pack"
 mkdir -p "$T/vendors"
 cp /etc/OpenCL/vendors/*.icd "$T/vendors/" 2>/dev/null || true
 expect_exit 0 "the pack's run.sh on an OpenCL CPU device" -- \
-  env -i PATH=/usr/bin:/bin OCL_ICD_VENDORS="$T/vendors" DEVICE=cpu SIZES=24 "$PACK/run.sh"
+  env -i PATH=/usr/bin:/bin OCL_ICD_VENDORS="$T/vendors" DEVICE=cpu SIZES=24 PHOTONS=32000 HOST_PHOTONS=32000 \
+  "$PACK/run.sh"
 cat "$T/stdout"
 check "the pack listed a device that passed its kernel test" grep -q "kernel test: ok" "$T/stdout"
 check "the pack solved on the device as on the host (within 1e-6 of the peak)" $PY -c "
@@ -36,4 +37,8 @@ import sys
 row = [l for l in open('$T/stdout') if l.startswith('| 24^3')][0].split('|')
 its_host, its_dev, diff = row[4].split('(')[1].split()[0], row[8].split('(')[1].split()[0], float(row[10])
 assert its_host == its_dev and diff <= 1e-6, (its_host, its_dev, diff)"
+check "the pack traced cube60 on the device and the host, each within 4 se of MCX's 17.69708%" $PY -c "
+rows = [l.split('|') for l in open('$T/stdout') if '% ±' in l]
+assert len(rows) == 2 and rows[1][1].strip().startswith('host'), rows
+for r in rows: assert abs(float(r[6])) <= 4 and float(r[4]) > 0, r"
 finish
