@@ -18,19 +18,26 @@ expect_exit 2 "a stray argument" -- "$OHM" devices fast
 expect_error_line "a stray argument" "devices: unexpected 'fast'"
 
 # -solve device=: a solve on a device that is not there is one line, and
-# nothing is written; device= with another solver is a usage error;
-# device=auto without a GPU runs on the host
+# nothing is written; device= with another solver that traces no photons
+# is a usage error;
+# device=auto without a GPU, or on a grid too small to pay for one, runs
+# on the host
 SCENE=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
        -light type=point pos=100,40,40 intensity=100)
 expect_exit 2 "device= with solver=direct" -- "$OHM" "${SCENE[@]}" -solve device=gpu
-expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve or solver=mc's photons; solver=direct runs on the host"
+expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve and traced photons \\(solver=mc, hybrid=\\); solver=direct traces none here and runs on the host"
 expect_exit 1 "device=gpu without a runtime" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
   "$OHM" "${SCENE[@]}" -solve solver=mg device=gpu -write file="$T/none.vdb"
 expect_error_line "device=gpu without a runtime" "no OpenCL runtime"
 check "nothing written after a refused device" test ! -e "$T/none.vdb"
 expect_exit 0 "device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
   "$OHM" --verbose "${SCENE[@]}" -solve solver=mg device=auto -stats file="$T/auto.json"
-check "device=auto without a runtime says it runs on the host" grep -q "device=auto: no GPU with double precision, it runs on the host" "$T/stderr"
+check "device=auto on a grid too small to pay for a device: the host" \
+  grep -q "device=auto: [0-9]* cells, fewer than 65536: the cycle runs on the host" "$T/stderr"
+expect_exit 0 "solver=mc device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
+  "$OHM" --verbose "${SCENE[@]}" -solve solver=mc photons=2000 device=auto
+check "device=auto without a runtime says it runs on the host" \
+  grep -q "monte carlo: device=auto: no GPU with double precision, it runs on the host" "$T/stderr"
 check "device=auto without a runtime: the stats say host" $PY -c "
 import json; assert json.load(open('$T/auto.json'))['device'] == 'host'"
 
@@ -78,6 +85,14 @@ assert abs(d['power_out'] / h['power_out'] - 1) < 0.03, (d['power_out'], h['powe
   # the tracer's published values on the device (ohm validate mc)
   expect_exit 0 "ohm validate mc device=$dev" -- "$OHM" validate mc photons=50000 device="$dev"
   check "ohm validate mc on $dev: the five published values pass" test "$(grep -c " pass$" "$T/stdout")" = 5
+  # solver=direct with the hybrid's photons on the device: they ran there
+  BEAM=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
+        -light type=pencil pos=0,0,100 dir=0,0,-1 intensity=1)
+  expect_exit 0 "solver=direct, the hybrid's photons on $dev" -- \
+    "$OHM" "${BEAM[@]}" -solve hybrid=5 photons=20000 device="$dev" -stats file="$T/hyb.json"
+  check "solver=direct, the hybrid's photons on $dev: the device named, the books exact" $PY -c "
+import json; d = json.load(open('$T/hyb.json'))
+assert d['device'] != 'host' and d['hybrid'] == 5 and d['conservation_error'] < 1e-10, d"
   # a device too small for the hierarchy: refused before anything is copied
   if [ "${OHM_HAVE_TEST_HOOKS:-0}" = 1 ]; then
     expect_exit 1 "a device too small" -- env OHM_TEST_DEVICE_MEMORY_MB=1 \

@@ -33,6 +33,10 @@ static double array_diff(const double *a, const double *b, size_t n, double *sca
 
 /* the second solver every scene is compared with: "mg", or "mg device=opencl:N" */
 static const char *mg_solver = "mg";
+/* " device=opencl:N" in the device pass: the hybrid's photons run where
+ * device= says for either solver, so its direct solve traces them there too
+ * (the same photons; mc_device.h) */
+static char photon_device[48] = "";
 
 /* The scene `lines` solved with `solve` + " solver=direct", then with
  * mg_solver; relight: after the solve, replace the light and relight. */
@@ -43,7 +47,8 @@ static void compare(const char *what, const char *lines, const char *solve, cons
     ohm_state s[2];
     int ok = 1;
     for (int q = 0; q < 2; ++q) {
-        snprintf(text[q], sizeof text[q], "%s%s solver=%s\n", lines, solve, solvers[q]);
+        snprintf(text[q], sizeof text[q], "%s%s solver=%s%s\n", lines, solve, solvers[q],
+                 q == 0 && strstr(solve, "hybrid=") ? photon_device : "");
         ok &= run_lines(&s[q], text[q]) == 0;
     }
     for (int q = 0; ok && relight_light && q < 2; ++q) {
@@ -159,6 +164,7 @@ static const char *device_solver(char buf[64])
     char spec[32];
     if (first_fp64_device(spec) < 0) return NULL;
     snprintf(buf, 64, "mg device=%s", spec);
+    snprintf(photon_device, sizeof photon_device, " device=%s", spec);
     return buf;
 }
 

@@ -17,6 +17,13 @@
  * are read back in one small transfer. */
 enum { MAX_GROUPS = 1024, WG_MAX = 256 };
 
+/* device=auto leaves a grid smaller than this on the host: here the host's
+ * whole solve of 40^3 block-medium cells takes 0.02 s (docs/gpu.md), the
+ * order of what a device solve spends on its ~800 kernel launches and ~40
+ * synchronous read-backs of partial sums alone (14 iterations), before the
+ * set-up.  To be re-measured on a GPU (issue 37). */
+enum { AUTO_MIN_CELLS = 1 << 16 };
+
 enum kernel_id {
     K_NET_RESIDUAL,
     K_NET_APPLY_DOTS,
@@ -410,6 +417,13 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
 {
     *out = NULL;
     if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
+    ohm_mg_view view;
+    ohm_mg_view_of(mg, &view);
+    if (strcmp(spec, "auto") == 0 && view.fine->n < AUTO_MIN_CELLS) {
+        ohm_log_info(log, "solve: device=auto: %lld cells, fewer than %d: the cycle runs on the host",
+                     (long long)view.fine->n, AUTO_MIN_CELLS);
+        return OHM_OK;
+    }
     ohm_mg_device *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
     int opened = 0;
@@ -419,8 +433,6 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
         return rc;
     }
     const ohm_device *dev = ohm_device_session_device(&d->s);
-    ohm_mg_view view;
-    ohm_mg_view_of(mg, &view);
     double need = device_bytes(&view);
     if (need > 0.9 * dev->global_bytes)
         rc = ohm_fail(err, OHM_ERR_NOMEM,

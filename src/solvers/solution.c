@@ -81,7 +81,8 @@ void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *re
 {
     snprintf(sol->solver, sizeof sol->solver, "%s", rep->solver);
     snprintf(sol->solver_reason, sizeof sol->solver_reason, "%s", rep->reason);
-    snprintf(sol->device, sizeof sol->device, "%s", rep->device);
+    if (rep->device[0]) /* else the hybrid's photons may have named one (transport.c) */
+        snprintf(sol->device, sizeof sol->device, "%s", rep->device);
     snprintf(sol->ordering, sizeof sol->ordering, "%s", rep->ordering);
     sol->factors = rep->factors;
     sol->analyses = rep->analyses;

@@ -156,7 +156,8 @@ typedef struct ohm_solution {
     int solve_threads;                  /* diffusion: threads that solved the media at
                                            once (keep=1 relights), 1: one after another */
     char solver_reason[256];            /* why (auto's estimate, or "asked for")      */
-    char device[96];                    /* mg: the OpenCL device it ran on; "": host  */
+    char device[96];                    /* the OpenCL device mg's solve or the traced
+                                           photons (mc, the hybrid's) ran on; "": host */
     int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
                                            summed over columns                        */
     double cg_relres;                   /* largest final relative residual            */

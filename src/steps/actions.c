@@ -640,7 +640,7 @@ static const ohm_opt_spec solve_opts[] = {
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
     {"device", OHM_OPT_STRING, "host",
-     "solver=mg or mc: where the solve (mg) or the photons (mc, and the hybrid's beside mg) run: host (this "
+     "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
      "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, else the host); mg's hierarchy "
      "stays on the device for relights",
@@ -761,6 +761,20 @@ static int material_from_scan(ohm_state *s, ohm_media_params *p, float **density
     return OHM_OK;
 }
 
+/* device= names where mg's cycle and traced photons (solver=mc, and the
+ * hybrid's beside any solver) run: asked of a solve with neither, once
+ * hybrid=auto is settled, it would do nothing, and says so. */
+static int device_has_work(const ohm_solve_params *p, const ohm_invocation *inv, ohm_error *err)
+{
+    const char *dev = p->num.device;
+    if (!dev || strcmp(dev, "host") == 0 || strcmp(dev, "auto") == 0) return OHM_OK;
+    if (strcmp(p->num.solver, "mg") == 0 || strcmp(p->num.solver, "mc") == 0 || p->mc.handoff > 0) return OHM_OK;
+    return ohm_fail(err, OHM_ERR_USAGE,
+                    "%s: -solve: device=%s runs solver=mg's solve and traced photons (solver=mc, hybrid=); "
+                    "solver=%s traces none here and runs on the host",
+                    inv->where, dev, p->num.solver);
+}
+
 /* -solve hybrid=auto|N (solve.h), after p's boundary, solver and band are
  * set: auto is OHM_HYBRID_PENCIL for a pencil beam where the hybrid applies
  * (optical media, the Fresnel boundary, every cell), else 0. */
@@ -805,18 +819,13 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
     p->num.solver = ohm_opt_str(inv, "solver");
     p->num.device = ohm_opt_str(inv, "device");
-    if (strcmp(p->num.device, "host") != 0 && strcmp(p->num.solver, "mg") != 0 && strcmp(p->num.solver, "mc") != 0)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "%s: -solve: device=%s runs solver=mg's solve or solver=mc's photons; solver=%s runs on the "
-                        "host",
-                        inv->where, p->num.device, p->num.solver);
     if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
     p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
     p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
     p->mc.seed = (uint64_t)ohm_opt_int(inv, "seed");
     p->mc.threads = (int)ohm_opt_int(inv, "threads");
     p->mc.log = &s->log;
-    p->mc.device = p->num.device; /* solver=mc's photons, and the hybrid's beside mg */
+    p->mc.device = p->num.device; /* solver=mc's photons, and the hybrid's beside any solver */
     p->op.band_k = ohm_opt_real(inv, "depth_band");
     if (ohm_opt_given(inv, "depth_band_error")) {
         if (ohm_opt_given(inv, "depth_band"))
@@ -1056,6 +1065,7 @@ static int run_solve(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     free(density);
     if (!rc && p.mc.handoff > 0 && strcmp(ohm_opt_str(inv, "hybrid"), "auto") == 0)
         rc = ohm_solver_settle_auto_hybrid(s->solver, s->lights, s->nlights, err);
+    if (!rc) rc = device_has_work(ohm_solver_params(s->solver), inv, err);
     if (!rc) rc = ohm_solver_setup(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = ohm_solver_solve(s->solver, s->lights, s->nlights, err);
     if (!rc) rc = check_solution_finite(ohm_solver_solution(s->solver), inv->where, err);
