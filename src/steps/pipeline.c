@@ -553,6 +553,8 @@ void ohm_help_overview(FILE *f)
           "  ohm run PIPELINE_FILE        the same actions, one per line, after 'ohm-pipeline 1'\n"
           "  ohm help [ACTION]            this overview, or one action's options\n"
           "  ohm validate                 the solver against exact references: a table, exit 1 on failure\n"
+          "  ohm validate transport|mc    diffusion against Monte Carlo transport, or the tracer against\n"
+          "                               published values (photons= seed= device=)\n"
           "  ohm bench [key=value ...]    the paper's Table 2 for a mesh, with this machine's limits (bench help)\n"
           "  ohm accuracy [key=value ...] error against resolution and solver, measured (accuracy help)\n"
           "  ohm devices                  the OpenCL devices (device=opencl:N), each one's kernels tested\n"
