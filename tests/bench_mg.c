@@ -46,11 +46,11 @@ static int bench(int nx)
 {
     ohm_voxel_grid g;
     ohm_coeff *ss = NULL;
-    if (make_blocks(&g, nx, &ss, 8)) return 1;
+    if (ohm_block_medium_grid(&g, nx, &ss, 8)) return 1;
     ohm_error err;
     ohm_error_clear(&err);
     ohm_channel_medium med;
-    block_medium(&med, ss, 0.001);
+    ohm_block_medium(&med, ss, 0.001);
     ohm_network net;
     ohm_stencil st = {0};
     ohm_mg *mg = NULL;
@@ -62,7 +62,7 @@ static int bench(int nx)
     b = malloc((size_t)n * sizeof *b), z = malloc((size_t)n * sizeof *z), x = calloc((size_t)n, sizeof *x);
     if (!b || !z || !x) goto out;
     uint64_t seed = 3;
-    for (int64_t v = 0; v < n; ++v) b[v] = lcg(&seed);
+    for (int64_t v = 0; v < n; ++v) b[v] = ohm_lcg(&seed);
     ohm_grid_layout layout = ohm_grid_layout_of(&net);
     double t0 = ohm_now();
     if (ohm_mg_setup(&mg, &st, &layout, 0, &err)) goto out;

@@ -60,6 +60,32 @@ expect_exit 2 "bad max" -- "$OHM" bench max=2
 expect_error_line "bad max" "bench: max=2: expected 0 or 1"
 expect_exit 2 "no value" -- "$OHM" bench csv
 expect_error_line "no value" "bench: option 'csv' needs a value"
+expect_exit 2 "bad device_sizes" -- "$OHM" bench device=cpu device_sizes=4
+expect_error_line "bad device_sizes" "bench: device_sizes=4: expected grid sizes 8..2000"
+
+# device=: the device's tables after Table 2 (studies/device_bench.h), on
+# stdout and in md=: the block medium solved there as on the host, cube60
+# traced there and on the host, each within 4 se of MCX's 17.69708%
+if "$OHM" devices >/dev/null 2>&1; then
+  expect_exit 0 "bench device=cpu" -- "$OHM" bench sizes=8x8x4 frames=1 device=cpu device_sizes=16 photons=20000 \
+    md="$T/dev.md"
+  check "bench device=cpu: the device's tables are in md= as on stdout" grep -q "### On device=cpu: the Monte Carlo" "$T/dev.md"
+  check "bench device=cpu: mg on the device as on the host, cube60 on both within 4 se of MCX" $PY - "$T/dev.md" <<'PY'
+import sys
+rows = [l.split('|') for l in open(sys.argv[1]) if l.startswith('| 16^3') or '% ±' in l]
+assert len(rows) == 3, rows
+mg, dev, host = rows
+assert mg[4].split('(')[1] == mg[8].split('(')[1] and float(mg[10]) <= 1e-6, mg
+assert host[1].strip().startswith('host') and not dev[1].strip().startswith('host'), (dev, host)
+for r in (dev, host):
+    assert abs(float(r[6])) <= 4, r
+PY
+elif [ "${CI:-}" = true ] || { [ -n "${OHM_REQUIRE_OPENCL:-}" ] && [ "$OHM_REQUIRE_OPENCL" != 0 ]; }; then
+  bad "no OpenCL device for bench device=, but CI=true or OHM_REQUIRE_OPENCL is set"
+else
+  echo "SKIP: bench device=: no OpenCL device"
+fi
+
 # a missing mesh is a failure (exit 1), not a usage error
 expect_exit 1 "missing mesh" -- "$OHM" bench mesh="$T/none.obj" sizes=8x8x4 frames=1
 expect_error_line "missing mesh" "none.obj"

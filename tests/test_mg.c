@@ -27,7 +27,7 @@
  * must not trip on. */
 static int make_irregular(ohm_voxel_grid *g)
 {
-    if (grid_alloc(g, 30, 0.5)) return -1;
+    if (ohm_cube_grid(g, 30, 0.5)) return -1;
     for (int k = 0; k < 30; ++k)
         for (int j = 0; j < 30; ++j)
             for (int i = 0; i < 30; ++i) {
@@ -37,7 +37,7 @@ static int make_irregular(ohm_voxel_grid *g)
                 int sheet = i == 27 && j >= 2 && j < 20 && k >= 2 && k < 20;
                 g->inside[ohm_voxel_index(g, i, j, k)] = (uint8_t)(ball || speck || sheet);
             }
-    count_inside(g);
+    ohm_grid_count_inside(g);
     return 0;
 }
 
@@ -52,7 +52,7 @@ static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_b
     CHECK(ohm_cholesky_start(&s, &err) == 0);
     CHECK(ohm_network_build(&net, g, NULL, &err) == 0);
     ohm_channel_medium med;
-    block_medium(&med, ss, 0.01);
+    ohm_block_medium(&med, ss, 0.01);
     cholmod_sparse *A = NULL;
     ohm_stencil st = {0};
     CHECK_MSG(ohm_network_assemble(&A, NULL, NULL, &net, &med, b, &s.cc, &err) == 0, "%s", err.msg);
@@ -61,7 +61,7 @@ static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_b
     double *bv = malloc((size_t)n * sizeof *bv), *xd = malloc((size_t)n * sizeof *xd);
     double *xm = calloc((size_t)n, sizeof *xm), *y1 = malloc((size_t)n * sizeof *y1), *y2 = malloc((size_t)n * 8);
     uint64_t seed = 7;
-    for (int64_t v = 0; v < n; ++v) bv[v] = lcg(&seed) < 0.05 ? lcg(&seed) : 0.0;
+    for (int64_t v = 0; v < n; ++v) bv[v] = ohm_lcg(&seed) < 0.05 ? ohm_lcg(&seed) : 0.0;
     bv[n / 2] = 1.0;
     /* the stencil is A */
     ohm_sym_upper_mult(A, bv, y1);
@@ -118,7 +118,7 @@ static void conservation(void)
 {
     ohm_voxel_grid g;
     ohm_coeff *ss = NULL;
-    CHECK(make_blocks(&g, 40, &ss, 5) == 0);
+    CHECK(ohm_block_medium_grid(&g, 40, &ss, 5) == 0);
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;
@@ -151,12 +151,12 @@ static int64_t block_iterations(int nx)
 {
     ohm_voxel_grid g;
     ohm_coeff *ss = NULL;
-    if (make_blocks(&g, nx, &ss, 8)) return -1;
+    if (ohm_block_medium_grid(&g, nx, &ss, 8)) return -1;
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;
     ohm_channel_medium med;
-    block_medium(&med, ss, 0.01);
+    ohm_block_medium(&med, ss, 0.01);
     ohm_stencil st = {0};
     int64_t its = -1;
     if (!ohm_network_build(&net, &g, NULL, &err)) {
@@ -164,7 +164,7 @@ static int64_t block_iterations(int nx)
             int64_t n = net.n;
             double *b = calloc((size_t)n, 8), *x = calloc((size_t)n, 8), relres = 0;
             uint64_t seed = 3;
-            for (int64_t v = 0; v < n; ++v) b[v] = lcg(&seed);
+            for (int64_t v = 0; v < n; ++v) b[v] = ohm_lcg(&seed);
             ohm_grid_layout layout = ohm_grid_layout_of(&net);
             ohm_mg *mg = NULL;
             if (b && x && !ohm_mg_setup(&mg, &st, &layout, 0, &err) &&
@@ -187,7 +187,7 @@ int main(void)
     CHECK(make_irregular(&g) == 0);
     ohm_coeff *ss = malloc(g.interior_cells * sizeof *ss);
     uint64_t seed = 11;
-    for (size_t v = 0; v < g.interior_cells; ++v) ss[v] = lcg(&seed) < 0.5 ? 1.0f : 1e6f;
+    for (size_t v = 0; v < g.interior_cells; ++v) ss[v] = ohm_lcg(&seed) < 0.5 ? 1.0f : 1e6f;
     static const ohm_boundary modes[] = {OHM_BOUNDARY_ROBIN, OHM_BOUNDARY_NEUMANN, OHM_BOUNDARY_DIRICHLET};
     for (int q = 0; q < 3; ++q) {
         int64_t its = 0;

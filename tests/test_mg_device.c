@@ -65,7 +65,7 @@ static void blocks(const char *spec)
 {
     ohm_voxel_grid g;
     ohm_coeff *ss = NULL;
-    CHECK(make_blocks(&g, 40, &ss, 5) == 0);
+    CHECK(ohm_block_medium_grid(&g, 40, &ss, 5) == 0);
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;
@@ -90,7 +90,7 @@ static void blocks(const char *spec)
 static void shell(const char *spec)
 {
     ohm_voxel_grid g;
-    CHECK(grid_alloc(&g, 30, 0.5) == 0);
+    CHECK(ohm_cube_grid(&g, 30, 0.5) == 0);
     for (int k = 0; k < 30; ++k)
         for (int j = 0; j < 30; ++j)
             for (int i = 0; i < 30; ++i) {
@@ -98,7 +98,7 @@ static void shell(const char *spec)
                 int hole = fabs(x) < 3 && fabs(y) < 3 && z > 0;
                 g.inside[i + 30 * (j + 30 * k)] = r >= 9 && r <= 14 && !hole;
             }
-    count_inside(&g);
+    ohm_grid_count_inside(&g);
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;
@@ -118,9 +118,9 @@ static void shell(const char *spec)
 static void refusals(void)
 {
     ohm_voxel_grid g;
-    CHECK(grid_alloc(&g, 12, 1.0) == 0);
+    CHECK(ohm_cube_grid(&g, 12, 1.0) == 0);
     memset(g.inside, 1, 12 * 12 * 12);
-    count_inside(&g);
+    ohm_grid_count_inside(&g);
     ohm_error err;
     ohm_error_clear(&err);
     ohm_network net;

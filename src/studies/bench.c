@@ -29,6 +29,7 @@
 #include "base/ohm_error.h"
 #include "base/output.h"
 #include "solvers/solve.h"
+#include "studies/device_bench.h"
 #include "studies/subcommand.h"
 #include "studies/triad.h"
 #include "grid/voxelize.h"
@@ -80,6 +81,10 @@ typedef struct bench_options {
     const char *ordering;
     ohm_shadows shadows;
     const char *csv, *md;
+    const char *device;    /* device=: also the device rows (device_bench.h); NULL: none */
+    int device_sizes[BENCH_MAX_SIZES]; /* the block medium's N^3 there     */
+    size_t ndevice_sizes;
+    double photons;        /* cube60 on the device; the host traces 1/100 (>= 1e5) */
 } bench_options;
 
 typedef struct bench_machine {
@@ -87,6 +92,7 @@ typedef struct bench_machine {
     double bandwidth;      /* triad, bytes/s                                  */
     double dense_rate;     /* dgemm, flop/s                                   */
     double available;      /* memory, bytes                                   */
+    char *device_tables;   /* device=: its Markdown tables (device_bench.h), or NULL */
 } bench_machine;
 
 typedef struct bench_row {
@@ -118,8 +124,10 @@ typedef struct bench_figures {
 
 /* ---- usage and option parsing ------------------------------------------------ */
 
-static const char *const option_names[] = {"mesh",   "size",  "material", "sizes", "max", "mem",
-                                           "max_time", "frames", "batch", "ordering", "shadows", "csv", "md"};
+static const char *const option_names[] = {"mesh",    "size",     "material", "sizes",        "max",
+                                           "mem",     "max_time", "frames",   "batch",        "ordering",
+                                           "shadows", "csv",      "md",       "device",       "device_sizes",
+                                           "photons"};
 enum { NOPTIONS = sizeof option_names / sizeof *option_names };
 
 static void usage(FILE *f)
@@ -149,7 +157,12 @@ static void usage(FILE *f)
             "  ordering=NAME    metis|amd|nesdis|grid|best (default grid, what -solve picks for a mesh)\n"
             "  shadows=MODE     shadow rays in the source: mesh (Embree, as -solve does) | grid | none (default mesh)\n"
             "  csv=FILE         every raw figure, one row per grid\n"
-            "  md=FILE          the Markdown table\n",
+            "  md=FILE          the Markdown table\n"
+            "  device=D         also an OpenCL device against this machine's cores (gpu, cpu, opencl:N, auto; see\n"
+            "                   'ohm devices'): solver=mg on the block medium (sigma_s' 1 or 1e6 in blocks of 8^3)\n"
+            "                   and the Monte Carlo tracer on MCX's cube60 (default: none)\n"
+            "  device_sizes=N,...  the block medium's N^3 grids on the device (default 100,216: 1e6, 1e7 cells)\n"
+            "  photons=N        cube60's photons on the device; the host traces N/100, at least 1e5 (default 1e6)\n",
             ohm_preset_names, MAX_GROWTH);
 }
 
@@ -231,6 +244,10 @@ static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err
     o->batch = 1;
     o->ordering = "grid"; /* what -solve's ordering=auto picks for a mesh */
     o->shadows = OHM_SHADOWS_MESH;
+    o->device_sizes[0] = 100;
+    o->device_sizes[1] = 216;
+    o->ndevice_sizes = 2;
+    o->photons = 1e6;
     int seen[NOPTIONS] = {0};
     for (int i = 0; i < argc; ++i) {
         const char *word = argv[i];
@@ -293,6 +310,23 @@ static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err
             else if (strcmp(v, "grid") == 0) o->shadows = OHM_SHADOWS_GRID;
             else if (strcmp(v, "none") == 0) o->shadows = OHM_SHADOWS_NONE;
             else return usage_error(err, "shadows=%s: expected mesh, grid or none", v);
+        } else if (strcmp(key, "device") == 0) {
+            if (!*v) return usage_error(err, "device=: expected gpu, cpu, opencl:N or auto");
+            o->device = v; /* checked where it is opened (devices.h) */
+        } else if (strcmp(key, "device_sizes") == 0) {
+            o->ndevice_sizes = 0;
+            for (const char *q = v; *q;) {
+                char *end;
+                long nx = strtol(q, &end, 10);
+                if (end == q || nx < 8 || nx > 2000 || o->ndevice_sizes == BENCH_MAX_SIZES || (*end && *end != ','))
+                    return usage_error(err, "device_sizes=%s: expected grid sizes 8..2000, e.g. 100,216", v);
+                o->device_sizes[o->ndevice_sizes++] = (int)nx;
+                q = *end ? end + 1 : end;
+            }
+            if (!o->ndevice_sizes) return usage_error(err, "device_sizes=: expected grid sizes, e.g. 100,216");
+        } else if (strcmp(key, "photons") == 0) {
+            if (parse_double(v, 16, 1e12, &x)) return usage_error(err, "photons=%s: expected a count 16..1e12", v);
+            o->photons = x;
         } else if (strcmp(key, "csv") == 0 || strcmp(key, "md") == 0) {
             if (!*v) return usage_error(err, "%s=: expected a file name", key);
             if (strcmp(key, "csv") == 0) o->csv = v;
@@ -728,6 +762,32 @@ static void write_markdown(FILE *f, const bench_row *rows, size_t nrows, const b
             "every solve.\n"
             "* factor GFlop/s: CHOLMOD's flop count for one factorization over its time; of dgemm: that rate over "
             "the dense dgemm rate above.\n");
+    if (m->device_tables) fprintf(f, "\n%s", m->device_tables);
+}
+
+/* device=: the device's tables (device_bench.h) into m->device_tables. */
+static int measure_device(bench_machine *m, const bench_options *o, const ohm_log *log, ohm_error *err)
+{
+    size_t size = 0;
+    FILE *f = open_memstream(&m->device_tables, &size);
+    if (!f) return ohm_fail(err, OHM_ERR_NOMEM, "bench: out of memory for the device's tables");
+    ohm_log_info(log, "bench: device=%s: the block medium and cube60, on the device and on the host", o->device);
+    fprintf(f, "### On device=%s: solver=mg on the block medium\n\n", o->device);
+    fprintf(f, "σs′ 1 or 10⁶ in blocks of 8³ cells at random, σa 0.001/mm, robin; one light to 1e-10 from zero; "
+               "the hierarchy built on the host once and copied to the device (timed apart).\n\n");
+    ohm_device_bench_mg_header(f);
+    int rc = OHM_OK;
+    for (size_t i = 0; i < o->ndevice_sizes && !rc; ++i) rc = ohm_device_bench_mg(f, o->device, o->device_sizes[i], err);
+    if (!rc) {
+        fprintf(f, "\n### On device=%s: the Monte Carlo tracer on MCX's cube60\n\n", o->device);
+        fprintf(f, "60³ cells of 1 mm, σa 0.005, σs 1/mm, g 0.01, a pencil beam, no reflection, a 5 ns gate; the time "
+                   "includes opening the device, building the kernels and copying the scene.\n\n");
+        ohm_device_bench_mc_header(f);
+        rc = ohm_device_bench_cube60(f, o->device, (int64_t)o->photons, 1, err);
+    }
+    if (!rc) rc = ohm_device_bench_cube60(f, NULL, (int64_t)fmax(1e5, o->photons / 100), 1, err);
+    fclose(f);
+    return rc;
 }
 
 /* A CSV field: quoted when it holds a comma, quote or newline. */
@@ -818,11 +878,12 @@ static int run(const bench_options *o, const ohm_log *log, ohm_error *err)
     ohm_mesh mesh;
     rc = read_mesh(&mesh, o, log, err);
     if (rc) return rc;
-    bench_machine machine;
+    bench_machine machine = {0};
     bench_row *rows = calloc(o->nsizes + 1, sizeof *rows);
     size_t nrows = 0;
     if (!rows) rc = ohm_fail(err, OHM_ERR_NOMEM, "bench: out of memory");
     if (!rc) rc = measure_machine(&machine, log, err);
+    if (!rc && o->device) rc = measure_device(&machine, o, log, err);
     for (size_t i = 0; i < o->nsizes && !rc; ++i) {
         bench_row *row = &rows[nrows];
         ohm_voxel_grid g;
@@ -864,6 +925,7 @@ static int run(const bench_options *o, const ohm_log *log, ohm_error *err)
     if (!rc && o->md) rc = write_file(o->md, write_markdown, rows, nrows, &machine, o, &mat, err);
     if (!rc && o->csv) rc = write_file(o->csv, write_csv, rows, nrows, &machine, o, &mat, err);
     free(rows);
+    free(machine.device_tables);
     return rc;
 }
 
