@@ -104,6 +104,15 @@ assert d['device'] != 'host' and d['hybrid'] == 5 and d['conservation_error'] < 
       "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -write file="$T/broken.vdb"
     expect_error_line "kernels that do not build" "a kernel failed to build for .*\\(CL_BUILD_PROGRAM_FAILURE\\): .*error"
     check "nothing written after kernels that do not build" test ! -e "$T/broken.vdb"
+    # a device without double precision (mg), or without 64-bit atomics (mc)
+    expect_exit 1 "a device without double precision" -- env OHM_TEST_DEVICE_LACKS=fp64 \
+      "$OHM" "${SCENE[@]}" -solve solver=mg device="$dev" -write file="$T/nofp64.vdb"
+    expect_error_line "a device without double precision" "has no double precision \\(cl_khr_fp64\\)"
+    check "nothing written after a device without double precision" test ! -e "$T/nofp64.vdb"
+    expect_exit 1 "solver=mc on a device without 64-bit atomics" -- env OHM_TEST_DEVICE_LACKS=atomics64 \
+      "$OHM" "${SCENE[@]}" "${MC[@]}" device="$dev" -write file="$T/noatom.vdb"
+    expect_error_line "solver=mc on a device without 64-bit atomics" "has no 64-bit atomics \\(cl_khr_int64_base_atomics\\)"
+    check "nothing written after a device without 64-bit atomics" test ! -e "$T/noatom.vdb"
   fi
 else
   bad "no device with double precision to solve on"

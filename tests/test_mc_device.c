@@ -16,7 +16,8 @@
  *    seed gives another sample;
  *  - through ohm_solve (solver=mc device=): the solution names the device;
  *  - a device that is not there, no runtime (device=auto falls back to the
- *    host), too little device memory, a kernel that fails to build: one
+ *    host), too little device memory, a kernel that fails to build, a
+ *    device without 64-bit atomics or double precision (test hooks): one
  *    error each, with its code.
  * Without OpenCL it prints SKIP, unless CI=true or OHM_REQUIRE_OPENCL. */
 
@@ -336,6 +337,11 @@ static void refusals(const char *spec)
     setenv("OHM_TEST_KERNEL_OPTIONS", "-D WG=", 1);
     refused("a kernel that fails to build", &s, spec, OHM_ERR_INTERNAL, "failed to build");
     unsetenv("OHM_TEST_KERNEL_OPTIONS");
+    setenv("OHM_TEST_DEVICE_LACKS", "atomics64", 1);
+    refused("a device without 64-bit atomics", &s, spec, OHM_ERR_INVALID, "has no 64-bit atomics");
+    setenv("OHM_TEST_DEVICE_LACKS", "fp64", 1);
+    refused("a device without double precision", &s, spec, OHM_ERR_INVALID, "has no double precision");
+    unsetenv("OHM_TEST_DEVICE_LACKS");
     setenv("OHM_OPENCL_LIBRARY", "/nonexistent/libOpenCL.so.1", 1);
     refused("no runtime", &s, "gpu", OHM_ERR_INVALID, "OpenCL");
     traced t = {0};

@@ -64,6 +64,11 @@ static void describe(ohm_device *dev, const ohm_cl *cl)
      * this small, so that the out-of-device-memory refusal runs */
     const char *cap = getenv("OHM_TEST_DEVICE_MEMORY_MB");
     if (cap && atof(cap) > 0) dev->global_bytes = dev->max_alloc_bytes = atof(cap) * (1 << 20);
+    /* ... and devices without double precision or 64-bit atomics, so that
+     * those refusals run (test_mc_device, cli_devices.sh) */
+    const char *lacks = getenv("OHM_TEST_DEVICE_LACKS");
+    if (lacks && strstr(lacks, "fp64")) dev->fp64 = 0;
+    if (lacks && strstr(lacks, "atomics64")) dev->atomics64 = 0;
 #endif
     device_text(cl, dev->device_id, CL_DEVICE_NAME, dev->name, sizeof dev->name);
     device_text(cl, dev->device_id, CL_DEVICE_VERSION, dev->version, sizeof dev->version);
