@@ -1,9 +1,8 @@
 #include "physics/mc.h"
 
+#include "physics/fresnel.h"
 #include "physics/mc_device.h"
 #include "physics/mc_tally.h"
-
-#include "physics/fresnel.h"
 #include "base/log.h"
 #include "base/memory.h"
 #include "base/parallel.h"
@@ -65,6 +64,12 @@ static void rng_seed(rng *r, uint64_t seed, uint64_t batch)
     for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
 }
 
+/* the steps the device takes alike (mc_step.h) */
+typedef rng mc_rng;
+#define MC_UNIFORM(r) rng_uniform(r)
+#define MC_REFLECTANCE_INSIDE(m, mu) ohm_fresnel_reflectance_inside(m, mu)
+#include "physics/mc_step.h"
+
 /* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
 static inline double rng_depth(rng *r)
 {
@@ -114,45 +119,6 @@ typedef struct mc_tally {
     int cancelled;      /* it stopped early: the run was cancelled */
 } mc_tally;
 
-/* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
- * Wang, Jacques & Zheng 1995, Eqs. 3.28-3.31). */
-static inline void scatter(double u[3], double g, rng *r)
-{
-    double cos_t;
-    if (g != 0.0) {
-        double q = (1.0 - g * g) / (1.0 - g + 2.0 * g * rng_uniform(r));
-        cos_t = (1.0 + g * g - q * q) / (2.0 * g);
-        if (cos_t < -1.0) cos_t = -1.0;
-        if (cos_t > 1.0) cos_t = 1.0;
-    } else {
-        cos_t = 2.0 * rng_uniform(r) - 1.0;
-    }
-    /* (cos, sin) of a uniform azimuth by rejection from the unit disk (von
-     * Neumann 1951): 1.27 draws on average, cheaper than sincos */
-    double a, b, q2;
-    do {
-        a = 2.0 * rng_uniform(r) - 1.0;
-        b = 2.0 * rng_uniform(r) - 1.0;
-        q2 = a * a + b * b;
-    } while (q2 > 1.0 || q2 < 1e-300);
-    double sin_t = sqrt(1.0 - cos_t * cos_t), cos_p = (a * a - b * b) / q2, sin_p = 2.0 * a * b / q2;
-    if (fabs(u[2]) > 0.99999) {
-        u[0] = sin_t * cos_p;
-        u[1] = sin_t * sin_p;
-        u[2] = u[2] > 0 ? cos_t : -cos_t;
-        return;
-    }
-    double tmp = sqrt(1.0 - u[2] * u[2]);
-    double ux = sin_t * (u[0] * u[2] * cos_p - u[1] * sin_p) / tmp + u[0] * cos_t;
-    double uy = sin_t * (u[1] * u[2] * cos_p + u[0] * sin_p) / tmp + u[1] * cos_t;
-    double uz = -sin_t * cos_p * tmp + u[2] * cos_t;
-    /* renormalise: the rotation's round-off would drift over thousands of events */
-    double inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz);
-    u[0] = ux * inv;
-    u[1] = uy * inv;
-    u[2] = uz * inv;
-}
-
 /* Where photon starts: entry e's point, or uniformly over its face; in voxel
  * coordinates where cell i spans [i, i+1). */
 static void start_point(const mc_scene *sc, const ohm_light_entry *e, const int32_t c[3], rng *r, double p[3])
@@ -199,27 +165,6 @@ static inline double cell_g(const mc_scene *sc, int64_t v)
 static inline double cell_eta(const mc_scene *sc, int64_t v)
 {
     return sc->med->eta_v ? sc->med->eta_v[v] : sc->eta;
-}
-
-/* Crossing from a cell of index ev into one of ew along axis ax: reflected
- * with the Fresnel probability (u mirrored; returns 0) or refracted by
- * Snell's law, the tangential components times ev / ew (returns 1). */
-static inline int cross_interface(double u[3], int ax, double ev, double ew, rng *r)
-{
-    double m = ev / ew, mu = fabs(u[ax]);
-    double R = ohm_fresnel_reflectance_inside(m, mu);
-    if (R >= 1.0 || rng_uniform(r) < R) {
-        u[ax] = -u[ax];
-        return 0;
-    }
-    double len2 = 0;
-    for (int a = 0; a < 3; ++a)
-        if (a != ax) {
-            u[a] *= m;
-            len2 += u[a] * u[a];
-        }
-    u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
-    return 1;
 }
 
 /* The hybrid's handoff (mc.h): weight w at p (voxel coordinates) in unknown
@@ -297,10 +242,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
         path_left -= s;
         /* absorption along the segment, exactly: w e^(-sa s); its track
          * length integral w (1 - e^(-sa s)) / sa is the fluence tally */
-        double x = sa * s, lost; /* 1 - e^-x, by its series where x is small (the common case:
-                                    one exp per segment was 15% of the time, measured) */
-        if (x < 1e-2) lost = x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))));
-        else lost = -expm1(-x);
+        double x = sa * s, lost = mc_absorbed_fraction(x);
         if (scattered || sc->total_fluence) t->phi[v] += x > 1e-9 ? w * lost / sa : w * s;
         double w1 = w - w * lost;
         t->sums.absorbed += w - w1;
@@ -320,7 +262,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
                 w = 0;
                 break;
             }
-            scatter(u, gv, r);
+            mc_scatter(u, gv, r);
             tau = rng_depth(r);
         } else {
             tau -= ss * s;
@@ -334,7 +276,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             n[ax] += step;
             int64_t nv = unknown_at(net, n);
             if (nv >= 0 && sc->med->eta_v && sc->med->eta_v[nv] != sc->med->eta_v[v] &&
-                !cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
+                !mc_cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
                 /* reflected at an internal change of index: stays in v */
             } else if (nv >= 0) {
                 c[ax] = n[ax];

@@ -7,6 +7,9 @@
  * the weight floor and the hybrid's handoff after `handoff_at` reduced
  * scatterings.  Lengths are in voxels, cell i spanning [i, i+1).
  *
+ * mc_step.h's steps (absorption, scattering, crossing an interface) are
+ * the host's own source, put in here by the build.
+ *
  * What differs from the host, and why:
  * - random numbers: Philox4x32-10 (Salmon et al., SC'11, "Parallel random
  *   numbers: as easy as 1, 2, 3"), keyed by the seed, its counter the
@@ -158,57 +161,12 @@ double reflectance_inside(double eta, double mu)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-/* mc.c's scatter: Henyey-Greenstein (MCML's Spin) */
-void scatter(double u[3], double g, rng *r)
-{
-    double cos_t;
-    if (g != 0.0) {
-        double q = (1.0 - g * g) / (1.0 - g + 2.0 * g * uniform(r));
-        cos_t = clamp((1.0 + g * g - q * q) / (2.0 * g), -1.0, 1.0);
-    } else {
-        cos_t = 2.0 * uniform(r) - 1.0;
-    }
-    double a, b, q2;
-    do {
-        a = 2.0 * uniform(r) - 1.0;
-        b = 2.0 * uniform(r) - 1.0;
-        q2 = a * a + b * b;
-    } while (q2 > 1.0 || q2 < 1e-300);
-    double sin_t = sqrt(1.0 - cos_t * cos_t), cos_p = (a * a - b * b) / q2, sin_p = 2.0 * a * b / q2;
-    if (fabs(u[2]) > 0.99999) {
-        u[0] = sin_t * cos_p;
-        u[1] = sin_t * sin_p;
-        u[2] = u[2] > 0 ? cos_t : -cos_t;
-        return;
-    }
-    double tmp = sqrt(1.0 - u[2] * u[2]);
-    double ux = sin_t * (u[0] * u[2] * cos_p - u[1] * sin_p) / tmp + u[0] * cos_t;
-    double uy = sin_t * (u[1] * u[2] * cos_p + u[0] * sin_p) / tmp + u[1] * cos_t;
-    double uz = -sin_t * cos_p * tmp + u[2] * cos_t;
-    double inv = rsqrt(ux * ux + uy * uy + uz * uz);
-    u[0] = ux * inv;
-    u[1] = uy * inv;
-    u[2] = uz * inv;
-}
-
-/* mc.c's cross_interface: reflected (0) or refracted (1) */
-int cross_interface(double u[3], int ax, double ev, double ew, rng *r)
-{
-    double m = ev / ew, mu = fabs(u[ax]);
-    double R = reflectance_inside(m, mu);
-    if (R >= 1.0 || uniform(r) < R) {
-        u[ax] = -u[ax];
-        return 0;
-    }
-    double len2 = 0;
-    for (int a = 0; a < 3; ++a)
-        if (a != ax) {
-            u[a] *= m;
-            len2 += u[a] * u[a];
-        }
-    u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
-    return 1;
-}
+/* the steps the host takes alike: one source, mc_step.h (the build puts
+ * its text here) */
+typedef rng mc_rng;
+#define MC_UNIFORM(r) uniform(r)
+#define MC_REFLECTANCE_INSIDE(m, mu) reflectance_inside(m, mu)
+#include "physics/mc_step.h"
 
 #ifdef MC_HANDOFF
 /* mc.c's hand_off: w shared between the 8 cell centres around p */
@@ -304,9 +262,7 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
             int gated = s >= path_left;
             if (gated) s = path_left, scatters = 0;
             path_left -= s;
-            double x = sa * s, lost;
-            if (x < 1e-2) lost = x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))));
-            else lost = -expm1(-x);
+            double x = sa * s, lost = mc_absorbed_fraction(x);
             if (scattered || total_fluence) pending += x > 1e-9 ? w * lost / sa : w * s;
             double w1 = w - w * lost;
             tot[0] += w - w1;
@@ -328,7 +284,7 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                     break;
                 }
 #endif
-                scatter(u, g, &r);
+                mc_scatter(u, g, &r);
                 tau = -log(1.0 - uniform(&r));
             } else {
                 tau -= ss * s;
@@ -342,7 +298,7 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                 n[ax] += step;
                 int nv = unknown_at(&sc, n);
 #ifdef MC_CELL_ETA
-                int stays = nv >= 0 && etav[nv] != etav[v] && !cross_interface(u, ax, etav[v], etav[nv], &r);
+                int stays = nv >= 0 && etav[nv] != etav[v] && !mc_cross_interface(u, ax, etav[v], etav[nv], &r);
 #else
                 int stays = 0;
 #endif

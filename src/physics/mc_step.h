@@ -1,0 +1,81 @@
+/* mc_step.h — the Monte Carlo tracer's steps that the host (mc.c) and the
+ * device (mc_device.cl) take alike: one source for both, written in what C11
+ * and OpenCL C share (the build puts this text before mc_device.cl's; mc.c
+ * includes it).  The includer defines:
+ *   mc_rng                     its random-number state's type
+ *   MC_UNIFORM(r)              a double uniform on [0, 1) from r
+ *   MC_REFLECTANCE_INSIDE(m, mu)  fresnel.h's ohm_fresnel_reflectance_inside
+ * Lengths in voxels, directions unit vectors. */
+#ifndef OHM_PHYSICS_MC_STEP_H
+#define OHM_PHYSICS_MC_STEP_H
+
+/* 1 - e^-x, the fraction of a segment's weight absorbed over optical depth
+ * x: by its series where x is small (the common case: one exp per segment
+ * was 15% of the host's time, measured). */
+static inline double mc_absorbed_fraction(double x)
+{
+    if (x < 1e-2) return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))));
+    return -expm1(-x);
+}
+
+/* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
+ * Wang, Jacques & Zheng 1995, Eqs. 3.28-3.31). */
+static inline void mc_scatter(double u[3], double g, mc_rng *r)
+{
+    double cos_t;
+    if (g != 0.0) {
+        double q = (1.0 - g * g) / (1.0 - g + 2.0 * g * MC_UNIFORM(r));
+        cos_t = (1.0 + g * g - q * q) / (2.0 * g);
+        if (cos_t < -1.0) cos_t = -1.0;
+        if (cos_t > 1.0) cos_t = 1.0;
+    } else {
+        cos_t = 2.0 * MC_UNIFORM(r) - 1.0;
+    }
+    /* (cos, sin) of a uniform azimuth by rejection from the unit disk (von
+     * Neumann 1951): 1.27 draws on average, cheaper than sincos */
+    double a, b, q2;
+    do {
+        a = 2.0 * MC_UNIFORM(r) - 1.0;
+        b = 2.0 * MC_UNIFORM(r) - 1.0;
+        q2 = a * a + b * b;
+    } while (q2 > 1.0 || q2 < 1e-300);
+    double sin_t = sqrt(1.0 - cos_t * cos_t), cos_p = (a * a - b * b) / q2, sin_p = 2.0 * a * b / q2;
+    if (fabs(u[2]) > 0.99999) {
+        u[0] = sin_t * cos_p;
+        u[1] = sin_t * sin_p;
+        u[2] = u[2] > 0 ? cos_t : -cos_t;
+        return;
+    }
+    double tmp = sqrt(1.0 - u[2] * u[2]);
+    double ux = sin_t * (u[0] * u[2] * cos_p - u[1] * sin_p) / tmp + u[0] * cos_t;
+    double uy = sin_t * (u[1] * u[2] * cos_p + u[0] * sin_p) / tmp + u[1] * cos_t;
+    double uz = -sin_t * cos_p * tmp + u[2] * cos_t;
+    /* renormalise: the rotation's round-off would drift over thousands of events */
+    double inv = 1.0 / sqrt(ux * ux + uy * uy + uz * uz);
+    u[0] = ux * inv;
+    u[1] = uy * inv;
+    u[2] = uz * inv;
+}
+
+/* Crossing from a cell of index ev into one of ew along axis ax: reflected
+ * with the Fresnel probability (u mirrored; returns 0) or refracted by
+ * Snell's law, the tangential components times ev / ew (returns 1). */
+static inline int mc_cross_interface(double u[3], int ax, double ev, double ew, mc_rng *r)
+{
+    double m = ev / ew, mu = fabs(u[ax]);
+    double R = MC_REFLECTANCE_INSIDE(m, mu);
+    if (R >= 1.0 || MC_UNIFORM(r) < R) {
+        u[ax] = -u[ax];
+        return 0;
+    }
+    double len2 = 0;
+    for (int a = 0; a < 3; ++a)
+        if (a != ax) {
+            u[a] *= m;
+            len2 += u[a] * u[a];
+        }
+    u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
+    return 1;
+}
+
+#endif
