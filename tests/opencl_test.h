@@ -1,7 +1,7 @@
 /* opencl_test.h — what the tests that run on an OpenCL device share
- * (test_device.c, test_mg_device.c, test_mg_scenes.c): whether a missing
- * device is a failure (CI=true or OHM_REQUIRE_OPENCL set, as for Blender) or
- * a SKIP, and the first device with double precision. */
+ * (test_device.c, test_mg_device.c, test_mg_scenes.c, test_mc_device.c):
+ * whether a missing device is a failure (CI=true or OHM_REQUIRE_OPENCL set,
+ * as for Blender) or a SKIP, and the first device with double precision. */
 #ifndef OHM_TESTS_OPENCL_TEST_H
 #define OHM_TESTS_OPENCL_TEST_H
 
@@ -9,6 +9,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "check.h"
 #include "device/devices.h"
 
 static inline int opencl_required(void)
@@ -34,6 +35,22 @@ static inline int first_fp64_device(char spec[32])
     ohm_cl_close(&cl);
     if (found >= 0) snprintf(spec, 32, "opencl:%d", found);
     return found;
+}
+
+/* The device a test runs on: "opencl:N" into spec and 1, or 0 after
+ * printing SKIP — or after a failed check when CI=true or
+ * OHM_REQUIRE_OPENCL asks for a device. */
+static inline int device_for_test(char spec[32])
+{
+    if (first_fp64_device(spec) >= 0) {
+        printf("device %s\n", spec);
+        return 1;
+    }
+    if (opencl_required())
+        CHECK_MSG(0, "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
+    else
+        printf("SKIP: no OpenCL device with double precision\n");
+    return 0;
 }
 
 #endif

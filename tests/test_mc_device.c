@@ -355,15 +355,7 @@ static void refusals(const char *spec)
 int main(void)
 {
     char spec[32];
-    if (first_fp64_device(spec) < 0) {
-        if (opencl_required()) {
-            CHECK_MSG(0, "no OpenCL device with double precision, but CI=true or OHM_REQUIRE_OPENCL is set");
-            return check_summary();
-        }
-        printf("SKIP: no OpenCL device with double precision\n");
-        return 0;
-    }
-    printf("device %s\n", spec);
+    if (!device_for_test(spec)) return check_summary();
     philox_known_answers(spec);
     published(spec);
     against_host(spec);

@@ -111,12 +111,27 @@ int ohm_device_checked(ohm_device_session *s, ohm_error *err)
     return st == CL_SUCCESS ? OHM_OK : ohm_device_failed(s, err, st, "a kernel failed");
 }
 
-const char *ohm_device_build_options(const char *options)
+size_t ohm_device_group_size(const ohm_device_session *s, size_t most)
+{
+    size_t max_wg = 0, wg = most;
+    s->cl.GetDeviceInfo(s->q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
+    while (wg > max_wg && wg > 1) wg /= 2;
+    return wg;
+}
+
+int ohm_device_kernels(ohm_device_session *s, cl_program *program, cl_kernel *kernels, const char *const *names,
+                       int count, const char *source, const char *options, ohm_error *err)
 {
 #ifdef OHM_TEST_HOOKS
-    /* test hook (tests/cli_devices.sh; builds for the suite only) */
+    /* test hook (tests/cli_devices.sh, test_mc_device.c; builds for the suite only) */
     const char *test_options = getenv("OHM_TEST_KERNEL_OPTIONS");
-    if (test_options) return test_options;
+    if (test_options) options = test_options;
 #endif
-    return options;
+    int rc = ohm_device_build(program, &s->q, source, options, err);
+    for (int k = 0; !rc && k < count; ++k) {
+        cl_int st = CL_SUCCESS;
+        kernels[k] = s->cl.CreateKernel(*program, names[k], &st);
+        if (!kernels[k]) rc = ohm_device_failed(s, err, st, names[k]);
+    }
+    return rc;
 }

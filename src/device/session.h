@@ -56,9 +56,14 @@ void ohm_device_launch(ohm_device_session *s, cl_kernel k, size_t global, size_t
 /* The launches' first failure since the last check, as an error; cleared. */
 int ohm_device_checked(ohm_device_session *s, ohm_error *err);
 
-/* The kernels' build options: `options`, or under OHM_TEST_HOOKS the
- * environment's OHM_TEST_KERNEL_OPTIONS (so that a kernel that fails to
- * build is tested). */
-const char *ohm_device_build_options(const char *options);
+/* The largest power of two up to `most` that the device runs in one
+ * work-group. */
+size_t ohm_device_group_size(const ohm_device_session *s, size_t most);
+
+/* `source` built into *program with `options` (or, under OHM_TEST_HOOKS,
+ * the environment's OHM_TEST_KERNEL_OPTIONS, so that a kernel that fails
+ * to build is tested), and its kernels names[0..count) into kernels. */
+int ohm_device_kernels(ohm_device_session *s, cl_program *program, cl_kernel *kernels, const char *const *names,
+                       int count, const char *source, const char *options, ohm_error *err);
 
 #endif

@@ -64,12 +64,6 @@ static void rng_seed(rng *r, uint64_t seed, uint64_t batch)
     for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
 }
 
-/* the steps the device takes alike (mc_step.h) */
-typedef rng mc_rng;
-#define MC_UNIFORM(r) rng_uniform(r)
-#define MC_REFLECTANCE_INSIDE(m, mu) ohm_fresnel_reflectance_inside(m, mu)
-#include "physics/mc_step.h"
-
 /* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
 static inline double rng_depth(rng *r)
 {
@@ -167,43 +161,19 @@ static inline double cell_eta(const mc_scene *sc, int64_t v)
     return sc->med->eta_v ? sc->med->eta_v[v] : sc->eta;
 }
 
-/* The hybrid's handoff (mc.h): weight w at p (voxel coordinates) in unknown
- * v, cell c, shared between the 8 cell centres around p by trilinear weights,
- * which keeps its centroid at p (a diffusion source acts at a cell centre); a
- * share whose cell is not an unknown stays in v. */
-static void hand_off(const mc_scene *sc, mc_tally *t, int64_t v, const int32_t c[3], const double p[3], double w)
-{
-    const ohm_network *net = sc->net;
-    int32_t side[3];
-    double f[3];
-    for (int a = 0; a < 3; ++a) {
-        double d = p[a] - (c[a] + 0.5);
-        side[a] = d >= 0 ? 1 : -1;
-        f[a] = fabs(d);
-        /* toward a face of the object there is no cell centre to share with:
-         * extrapolate from the one on the other side instead (a negative
-         * share there), which keeps the centroid too */
-        int32_t n[3] = {c[0], c[1], c[2]};
-        n[a] += side[a];
-        if (unknown_at(net, n) < 0) {
-            side[a] = -side[a];
-            f[a] = -f[a];
-        }
-    }
-    for (int q = 0; q < 8; ++q) {
-        double wq = w;
-        int32_t n[3];
-        for (int a = 0; a < 3; ++a) {
-            int far = (q >> a) & 1;
-            wq *= far ? f[a] : 1.0 - f[a];
-            n[a] = c[a] + (far ? side[a] : 0);
-        }
-        if (wq == 0) continue;
-        int64_t u = q ? unknown_at(net, n) : v;
-        t->sums.handoff[u >= 0 ? u : v] += wq;
-    }
-    t->sums.handed += w;
-}
+/* the steps the device takes alike (mc_step.h): absorption, scattering,
+ * an index change, the hybrid's handoff into this thread's sums */
+typedef rng mc_rng;
+typedef int64_t mc_index;
+typedef struct mc_to {
+    const mc_scene *sc;
+    mc_tally *t;
+} mc_to;
+#define MC_UNIFORM(r) rng_uniform(r)
+#define MC_REFLECTANCE_INSIDE(m, mu) ohm_fresnel_reflectance_inside(m, mu)
+#define MC_UNKNOWN_AT(to, n) unknown_at((to)->sc->net, n)
+#define MC_HANDOFF_ADD(to, u, w) ((to)->t->sums.handoff[u] += (w))
+#include "physics/mc_step.h"
 
 /* One photon of weight 1, from entry to its end (mc.h). */
 static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
@@ -227,18 +197,8 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             t->sums.truncated++;
             break;
         }
-        /* the nearest cell wall along u (Amanatides & Woo 1987) */
-        double sb = INFINITY;
-        int ax = 0;
-        for (int a = 0; a < 3; ++a) {
-            double ta = u[a] > 0 ? (c[a] + 1.0 - p[a]) / u[a] : u[a] < 0 ? (c[a] - p[a]) / u[a] : INFINITY;
-            if (ta < sb) sb = ta, ax = a;
-        }
-        if (sb < 0) sb = 0;
-        int scatters = ss * sb > tau;
-        double s = scatters ? tau / ss : sb;
-        int gated = s >= path_left;
-        if (gated) s = path_left, scatters = 0;
+        int ax, scatters, gated;
+        double s = mc_segment(c, p, u, ss, tau, path_left, &ax, &scatters, &gated);
         path_left -= s;
         /* absorption along the segment, exactly: w e^(-sa s); its track
          * length integral w (1 - e^(-sa s)) / sa is the fluence tally */
@@ -258,7 +218,8 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
             scattered = 1;
             /* the hybrid's: diffusion from here (the margin: ten steps of 1 - 0.9 sum to 0.99..9) */
             if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff - 1e-9) {
-                hand_off(sc, t, v, c, p, w);
+                mc_hand_off(&(mc_to){sc, t}, v, c, p, w);
+                t->sums.handed += w;
                 w = 0;
                 break;
             }

@@ -138,20 +138,11 @@ static double device_need(const ohm_network *net, const mc_layout *l, const ohm_
 static int build_kernels(mc_dev *d, const ohm_channel_medium *med, const mc_layout *l, int handoff,
                          ohm_error *err)
 {
-    size_t max_wg = 0;
-    d->s.cl.GetDeviceInfo(d->s.q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
-    d->wg = WG_MAX;
-    while (d->wg > max_wg && d->wg > 1) d->wg /= 2;
+    d->wg = ohm_device_group_size(&d->s, WG_MAX);
     char options[160];
     snprintf(options, sizeof options, "-D WG=%zu%s%s%s%s", d->wg, l->varies ? " -D MC_VARIES" : "",
              med->g_v ? " -D MC_CELL_G" : "", med->eta_v ? " -D MC_CELL_ETA" : "", handoff > 0 ? " -D MC_HANDOFF" : "");
-    int rc = ohm_device_build(&d->program, &d->s.q, ohm_mc_device_source, ohm_device_build_options(options), err);
-    for (int k = 0; !rc && k < K_COUNT; ++k) {
-        cl_int st = CL_SUCCESS;
-        d->k[k] = d->s.cl.CreateKernel(d->program, kernel_names[k], &st);
-        if (!d->k[k]) rc = ohm_device_failed(&d->s, err, st, kernel_names[k]);
-    }
-    return rc;
+    return ohm_device_kernels(&d->s, &d->program, d->k, kernel_names, K_COUNT, ohm_mc_device_source, options, err);
 }
 
 static int upload(mc_dev *d, const ohm_network *net, const ohm_channel_medium *med, const mc_layout *l,

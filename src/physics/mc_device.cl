@@ -7,8 +7,9 @@
  * the weight floor and the hybrid's handoff after `handoff_at` reduced
  * scatterings.  Lengths are in voxels, cell i spanning [i, i+1).
  *
- * mc_step.h's steps (absorption, scattering, crossing an interface) are
- * the host's own source, put in here by the build.
+ * mc_step.h's steps (a segment, absorption, scattering, crossing an
+ * interface, the hybrid's handoff) are the host's own source, put in here
+ * by the build.
  *
  * What differs from the host, and why:
  * - random numbers: Philox4x32-10 (Salmon et al., SC'11, "Parallel random
@@ -162,43 +163,20 @@ double reflectance_inside(double eta, double mu)
 }
 
 /* the steps the host takes alike: one source, mc_step.h (the build puts
- * its text here) */
+ * its text here) — the hybrid's handoff into the grid's handoff tally */
 typedef rng mc_rng;
+typedef int mc_index;
 #define MC_UNIFORM(r) uniform(r)
 #define MC_REFLECTANCE_INSIDE(m, mu) reflectance_inside(m, mu)
-#include "physics/mc_step.h"
-
 #ifdef MC_HANDOFF
-/* mc.c's hand_off: w shared between the 8 cell centres around p */
-void hand_off(const scene *sc, __global double *handoff, int v, const int c[3], const double p[3], double w)
-{
-    int side[3];
-    double f[3];
-    for (int a = 0; a < 3; ++a) {
-        double d = p[a] - (c[a] + 0.5);
-        side[a] = d >= 0 ? 1 : -1;
-        f[a] = fabs(d);
-        int n[3] = {c[0], c[1], c[2]};
-        n[a] += side[a];
-        if (unknown_at(sc, n) < 0) {
-            side[a] = -side[a];
-            f[a] = -f[a];
-        }
-    }
-    for (int q = 0; q < 8; ++q) {
-        double wq = w;
-        int n[3];
-        for (int a = 0; a < 3; ++a) {
-            int far = (q >> a) & 1;
-            wq *= far ? f[a] : 1.0 - f[a];
-            n[a] = c[a] + (far ? side[a] : 0);
-        }
-        if (wq == 0) continue;
-        int u = q ? unknown_at(sc, n) : v;
-        add_double(&handoff[u >= 0 ? u : v], wq);
-    }
-}
+typedef struct mc_to {
+    const scene *sc;
+    __global double *handoff;
+} mc_to;
+#define MC_UNKNOWN_AT(to, n) unknown_at((to)->sc, n)
+#define MC_HANDOFF_ADD(to, u, w) add_double(&(to)->handoff[u], w)
 #endif
+#include "physics/mc_step.h"
 
 /* ---- one photon per work-item ------------------------------------------------------------- */
 
@@ -250,17 +228,8 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                 tot[5] += 1;
                 break;
             }
-            double sb = INFINITY;
-            int ax = 0;
-            for (int a = 0; a < 3; ++a) {
-                double ta = u[a] > 0 ? (c[a] + 1.0 - p[a]) / u[a] : u[a] < 0 ? (c[a] - p[a]) / u[a] : INFINITY;
-                if (ta < sb) sb = ta, ax = a;
-            }
-            if (sb < 0) sb = 0;
-            int scatters = ss * sb > tau;
-            double s = scatters ? tau / ss : sb;
-            int gated = s >= path_left;
-            if (gated) s = path_left, scatters = 0;
+            int ax, scatters, gated;
+            double s = mc_segment(c, p, u, ss, tau, path_left, &ax, &scatters, &gated);
             path_left -= s;
             double x = sa * s, lost = mc_absorbed_fraction(x);
             if (scattered || total_fluence) pending += x > 1e-9 ? w * lost / sa : w * s;
@@ -278,7 +247,8 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                 scattered = 1;
 #ifdef MC_HANDOFF
                 if (handoff_at > 0 && (reduced += 1.0 - g) >= handoff_at - 1e-9) {
-                    hand_off(&sc, handoff, v, c, p, w);
+                    mc_to to = {&sc, handoff};
+                    mc_hand_off(&to, v, c, p, w);
                     tot[3] += w;
                     w = 0;
                     break;

@@ -5,7 +5,11 @@
  *   mc_rng                     its random-number state's type
  *   MC_UNIFORM(r)              a double uniform on [0, 1) from r
  *   MC_REFLECTANCE_INSIDE(m, mu)  fresnel.h's ohm_fresnel_reflectance_inside
- * Lengths in voxels, directions unit vectors. */
+ * and for the hybrid's handoff (mc_hand_off, compiled where they are):
+ *   mc_to, mc_index            where the shares go; an unknown's number
+ *   MC_UNKNOWN_AT(to, n)       the unknown of grid cell n[3], or -1
+ *   MC_HANDOFF_ADD(to, u, w)   w added to unknown u's handed-off weight
+ * Lengths in voxels (cell i spans [i, i+1)), directions unit vectors. */
 #ifndef OHM_PHYSICS_MC_STEP_H
 #define OHM_PHYSICS_MC_STEP_H
 
@@ -16,6 +20,27 @@ static inline double mc_absorbed_fraction(double x)
 {
     if (x < 1e-2) return x * (1.0 - x * (0.5 - x * (1.0 / 6.0 - x * (1.0 / 24.0 - x / 120.0))));
     return -expm1(-x);
+}
+
+/* The next segment from p along u in cell c: to the nearest wall
+ * (Amanatides & Woo 1987; *axis its axis), or shorter where it ends in a
+ * scattering (optical depth tau left at scattering coefficient ss:
+ * *scatters) or at the time gate (path_left: *gated).  Its length. */
+static inline double mc_segment(const int c[3], const double p[3], const double u[3], double ss, double tau,
+                                double path_left, int *axis, int *scatters, int *gated)
+{
+    double sb = INFINITY;
+    *axis = 0;
+    for (int a = 0; a < 3; ++a) {
+        double ta = u[a] > 0 ? (c[a] + 1.0 - p[a]) / u[a] : u[a] < 0 ? (c[a] - p[a]) / u[a] : INFINITY;
+        if (ta < sb) sb = ta, *axis = a;
+    }
+    if (sb < 0) sb = 0;
+    *scatters = ss * sb > tau;
+    double s = *scatters ? tau / ss : sb;
+    *gated = s >= path_left;
+    if (*gated) s = path_left, *scatters = 0;
+    return s;
 }
 
 /* Henyey-Greenstein: a new direction at cosine cos_t from u (MCML's Spin,
@@ -77,5 +102,43 @@ static inline int mc_cross_interface(double u[3], int ax, double ev, double ew, 
     u[ax] = copysign(sqrt(fmax(0.0, 1.0 - len2)), u[ax]);
     return 1;
 }
+
+#ifdef MC_HANDOFF_ADD
+/* The hybrid's handoff (mc.h): weight w at p in unknown v, cell c, shared
+ * between the 8 cell centres around p by trilinear weights, which keeps its
+ * centroid at p (a diffusion source acts at a cell centre); a share whose
+ * cell is not an unknown stays in v. */
+static inline void mc_hand_off(const mc_to *to, mc_index v, const int c[3], const double p[3], double w)
+{
+    int side[3];
+    double f[3];
+    for (int a = 0; a < 3; ++a) {
+        double d = p[a] - (c[a] + 0.5);
+        side[a] = d >= 0 ? 1 : -1;
+        f[a] = fabs(d);
+        /* toward a face of the object there is no cell centre to share with:
+         * extrapolate from the one on the other side instead (a negative
+         * share there), which keeps the centroid too */
+        int n[3] = {c[0], c[1], c[2]};
+        n[a] += side[a];
+        if (MC_UNKNOWN_AT(to, n) < 0) {
+            side[a] = -side[a];
+            f[a] = -f[a];
+        }
+    }
+    for (int q = 0; q < 8; ++q) {
+        double wq = w;
+        int n[3];
+        for (int a = 0; a < 3; ++a) {
+            int far = (q >> a) & 1;
+            wq *= far ? f[a] : 1.0 - f[a];
+            n[a] = c[a] + (far ? side[a] : 0);
+        }
+        if (wq == 0) continue;
+        mc_index u = q ? MC_UNKNOWN_AT(to, n) : v;
+        MC_HANDOFF_ADD(to, u >= 0 ? u : v, wq);
+    }
+}
+#endif
 
 #endif

@@ -368,19 +368,10 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
 
 static int build_kernels(ohm_mg_device *d, ohm_error *err)
 {
-    size_t max_wg = 0;
-    d->s.cl.GetDeviceInfo(d->s.q.device->device_id, CL_DEVICE_MAX_WORK_GROUP_SIZE, sizeof max_wg, &max_wg, NULL);
-    d->wg = WG_MAX;
-    while (d->wg > max_wg && d->wg > 1) d->wg /= 2;
+    d->wg = ohm_device_group_size(&d->s, WG_MAX);
     char options[64];
     snprintf(options, sizeof options, "-D WG=%zu", d->wg);
-    int rc = ohm_device_build(&d->program, &d->s.q, ohm_mg_device_source, ohm_device_build_options(options), err);
-    for (int k = 0; !rc && k < K_COUNT; ++k) {
-        cl_int st = CL_SUCCESS;
-        d->k[k] = d->s.cl.CreateKernel(d->program, kernel_names[k], &st);
-        if (!d->k[k]) rc = ohm_device_failed(&d->s, err, st, kernel_names[k]);
-    }
-    return rc;
+    return ohm_device_kernels(&d->s, &d->program, d->k, kernel_names, K_COUNT, ohm_mg_device_source, options, err);
 }
 
 static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
