@@ -78,6 +78,15 @@ import json; d, h = (json.load(open('$T/%s.json' % w)) for w in ('mcdev', 'mchos
 assert d['device'] != 'host' and h['device'] == 'host', (d['device'], h['device'])
 assert d['conservation_error'] < 1e-10, d
 assert abs(d['power_out'] / h['power_out'] - 1) < 0.03, (d['power_out'], h['power_out'])"
+  # a solve keeps the device open across its frames and channels: one
+  # opening for an orbit of 2 frames x 3 channels, for solver=mc and for
+  # the hybrid's photons beside direct
+  expect_exit 0 "solver=mc on $dev, 2 frames x 3 channels" -- "$OHM" --verbose "${SCENE[@]}" orbit=2 "${MC[@]}" \
+    device="$dev" -stats file="$T/mcorbit.json"
+  check "solver=mc on $dev opened the device once for 6 traces" test "$(grep -c "monte carlo: on " "$T/stderr")" = 1
+  check "solver=mc on $dev: 6 traces' photons, the books exact" $PY -c "
+import json; d = json.load(open('$T/mcorbit.json'))
+assert d['mc_photons'] == 6 * 20000 and d['frames'] == 2 and d['conservation_error'] < 1e-10, d"
   expect_exit 1 "solver=mc on a device that is not there" -- \
     "$OHM" "${SCENE[@]}" "${MC[@]}" device=opencl:99 -write file="$T/mc99.vdb"
   expect_error_line "solver=mc on a device that is not there" "device=opencl:99: there are [0-9]+ OpenCL device"
@@ -89,7 +98,9 @@ assert abs(d['power_out'] / h['power_out'] - 1) < 0.03, (d['power_out'], h['powe
   BEAM=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
         -light type=pencil pos=0,0,100 dir=0,0,-1 intensity=1)
   expect_exit 0 "solver=direct, the hybrid's photons on $dev" -- \
-    "$OHM" "${BEAM[@]}" -solve hybrid=5 photons=20000 device="$dev" -stats file="$T/hyb.json"
+    "$OHM" --verbose "${BEAM[@]}" orbit=2 -solve hybrid=5 photons=20000 device="$dev" -stats file="$T/hyb.json"
+  check "the hybrid's photons: the device opened once per channel's solve, not per frame" \
+    test "$(grep -c "monte carlo: on " "$T/stderr")" -le 3
   check "solver=direct, the hybrid's photons on $dev: the device named, the books exact" $PY -c "
 import json; d = json.load(open('$T/hyb.json'))
 assert d['device'] != 'host' and d['hybrid'] == 5 and d['conservation_error'] < 1e-10, d"

@@ -371,8 +371,12 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
         return OHM_OK;
     }
     res->device[0] = '\0';
-    int on_device = 0;
-    int rc = ohm_mc_device_trace(&on_device, res, net, med, entries, nentries, channel, P, sc.per_batch, params, err);
+    ohm_mc_device *dev = params->kept;
+    int rc = dev ? OHM_OK : ohm_mc_device_open(&dev, params->device, params->log, err);
+    int on_device = dev != NULL;
+    if (!rc && on_device)
+        rc = ohm_mc_device_run(dev, res, net, med, entries, nentries, channel, P, sc.per_batch, params, err);
+    if (dev != params->kept) ohm_mc_device_free(dev);
     if (rc || on_device) {
         res->seconds = ohm_now() - t0;
         return rc;

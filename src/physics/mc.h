@@ -66,7 +66,11 @@ typedef struct ohm_mc_params {
                            (ohm_mc_result.handoff) */
     const ohm_log *log; /* progress; NULL: quiet */
     const char *device; /* NULL or "host": the host's threads; gpu, cpu,
-                           opencl:N, auto: an OpenCL device (mc_device.h) */
+                           opencl:N, auto: an OpenCL device (mc_device.h),
+                           opened for this trace */
+    struct ohm_mc_device *kept; /* a device kept open by the caller
+                                   (mc_device.h), which traces instead of
+                                   `device`; NULL: none */
 } ohm_mc_params;
 
 /* One channel and frame.  Arrays are the caller's: fluence, fluence_se,

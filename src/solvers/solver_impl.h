@@ -51,6 +51,9 @@ typedef struct hybrid_part {
     double *fluence, *face;       /* n and nf per column                   */
     double *fluence_se, *exit_se; /* scratch for the tracer                */
     double *power;                /* 3 per column: in, absorbed, out (W)    */
+    struct ohm_mc_device *device; /* the photons' device (device=), opened at
+                                     the first trace and kept; NULL: the host */
+    int device_opened;
 } hybrid_part;
 
 /* One distinct channel material's matrix and its set-up backend (a factor,

@@ -5,6 +5,8 @@
  * belong to the batch's work (batch.c). */
 #include "solvers/solver_impl.h"
 
+#include "physics/mc_device.h"
+
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -21,11 +23,13 @@ static void book_entries(double *incident, double *entered, const ohm_light_entr
 /* Trace a frame's entries in channel c through med (mc.h) into r, with the
  * solve's fluence choice and memory cap; the tracer's counts are booked. */
 static int trace_entries(ohm_solution *sol, ohm_mc_result *r, const ohm_channel_medium *med,
-                         const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_error *err)
+                         const ohm_light_entries *in, int c, const ohm_solve_params *params, ohm_mc_device *device,
+                         ohm_error *err)
 {
     ohm_mc_params mp = params->mc;
     mp.total_fluence = params->src.total_fluence;
     mp.max_memory = params->num.max_memory;
+    mp.kept = device; /* kept open across the solve's traces (mc_device.h) */
     int rc = ohm_mc_trace(r, &sol->net, med, in->entry, in->count, c, &mp, err);
     if (rc) return rc;
     sol->mc_photons += r->photons;
@@ -52,6 +56,8 @@ int ohm_hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_erro
 void ohm_hybrid_free(hybrid_part *h)
 {
     free(h->fluence), free(h->face), free(h->fluence_se), free(h->exit_se), free(h->power);
+    ohm_mc_device_free(h->device);
+    h->device = NULL;
 }
 
 /* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
@@ -65,6 +71,10 @@ int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_pa
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
     ohm_light_entries in = {0};
     int rc = OHM_OK;
+    if (!h->device_opened) { /* the photons' device, once for the solve */
+        h->device_opened = 1;
+        rc = ohm_mc_device_open(&h->device, params->mc.device, params->mc.log, err);
+    }
     for (size_t j = 0; j < nb && !rc; ++j) {
         rc = ohm_frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
         if (rc) break;
@@ -74,7 +84,7 @@ int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_pa
                            .face_exitance = h->face + j * nf,
                            .exitance_se = h->exit_se,
                            .handoff = B + j * n};
-        rc = trace_entries(sol, &r, med, &in, c, params, err);
+        rc = trace_entries(sol, &r, med, &in, c, params, h->device, err);
         if (rc) break;
         h->power[3 * j] = r.power_in;
         h->power[3 * j + 1] = r.power_absorbed;
@@ -152,6 +162,9 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     }
     snprintf(sol->solver, sizeof sol->solver, "mc");
     snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
+    ohm_mc_device *device = NULL; /* device=: open for every frame and channel */
+    rc = ohm_mc_device_open(&device, params->mc.device, params->mc.log, err);
+    if (rc) return rc;
     ohm_light_entries in = {0};
     for (size_t fr = 0; fr < frames && !rc; ++fr) {
         double t0 = ohm_now();
@@ -178,7 +191,7 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
             } else {
                 ohm_channel_medium med;
                 ohm_medium_for(&med, mat, params, c);
-                rc = trace_entries(sol, r, &med, &in, c, params, err);
+                rc = trace_entries(sol, r, &med, &in, c, params, device, err);
                 if (rc) break;
                 sol->t_solve += r->seconds;
                 sol->solves += r->photons > 0;
@@ -191,6 +204,7 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
         }
     }
     ohm_light_entries_free(&in);
+    ohm_mc_device_free(device);
     return rc;
 }
 
