@@ -41,6 +41,11 @@ mc_rows=$("$BUILD/tests/bench_device" "$DEVICE" mc "$photons" "${HOST_PHOTONS:-1
   echo
   echo "$rows"
   echo
+  # the hierarchy's device memory per cell, from the largest row: what 1e9 cells would need
+  awk -F'|' '/^\| [0-9]+\^3/ {cells = $3 + 0; mib = $8 + 0} END {
+    if (cells > 0) printf("The device holds %.0f B per cell (the largest row: %.0f MiB for %.3g cells), so 10⁹ cells would need %.0f GB of device memory.\n", mib * 1048576 / cells, mib, cells, mib * 1048576 / cells)
+  }' <<<"$rows"
+  echo
   echo "The Monte Carlo tracer (solver=mc, \`ohm validate transport|mc\`, the hybrid's photons) on MCX's cube60:"
   echo "60³ cells of 1 mm, σa 0.005, σs 1/mm, g 0.01, a pencil beam, no reflection, a 5 ns gate. One photon per"
   echo "work-item, Philox4x32-10 random numbers, tallies in double by 64-bit compare-and-swap; the time includes"
@@ -55,6 +60,21 @@ mc_rows=$("$BUILD/tests/bench_device" "$DEVICE" mc "$photons" "${HOST_PHOTONS:-1
     echo "(issue 37); none are estimated here."
   fi
   echo
+  cat <<'DESIGN'
+## What runs where, and in what precision
+
+| part | where | precision | why |
+|---|---|---|---|
+| voxelizing, materials, the network's conductances, light entries and sources, shadow rays | host | double | done once per scene or per light; the device would wait on them either way |
+| mg's hierarchy (aggregation, Galerkin coarse operators, the coarsest factor) | host, once; copied to the device | single (cycle), double (coarsest factor) | built once and kept for every relight (`keep=1`, the library's relight, the add-on's Live) |
+| mg's solve: the outer flexible CG, the K-cycle, smoothing, restriction, prolongation, the coarsest solve | device | outer CG double on the network's own stencil; cycle single | a preconditioner need only approximate A⁻¹, and floats halve what its passes stream; the outer iteration in double keeps the solution and the power books as exact as direct's (agreement 10⁻¹⁴–10⁻¹⁵ of the peak here) |
+| Monte Carlo photons (solver=mc, the hybrid's, `ohm validate`) | device | double paths, double tallies | the same physics as the host's tracer step for step (one source: mc_step.h); tallies by 64-bit compare-and-swap (a device needs cl_khr_int64_base_atomics); a seed's photon k follows the same path whatever the launch (Philox4x32-10) |
+| batches' sums, standard errors, the books, `.vdb` output | host | double | the host's code (mc_tally.c, the solution's books) for both |
+
+A device without double precision is refused in one line (the outer iteration and the tracer need it);
+`device=auto` falls back to the host where there is no GPU, and leaves grids under 2¹⁶ cells there.
+
+DESIGN
   echo "On PoCL a kernel is compiled when it is first launched, so the first solve in a process also pays for"
   echo "the compilation (about a second here); the rows above are each a fresh hierarchy in one process."
   echo "\`scripts/gpu-pack.sh\` packs \`ohm-gpu-bench\` (libc and libm only), Debian's ICD loader and a vendors"
