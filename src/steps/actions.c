@@ -642,12 +642,13 @@ static const ohm_opt_spec solve_opts[] = {
     {"device", OHM_OPT_STRING, "host",
      "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
-     "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, else the host); mg's hierarchy "
-     "stays on the device for relights",
+     "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, and for mg a grid of 2^16 "
+     "cells or more, else the host); mg's hierarchy stays on the device for relights",
      NULL, 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
-    {"seed", OHM_OPT_INT, "1", "solver=mc and hybrid=: random seed; the same seed and threads= repeat a run bit for bit", NULL, 0,
+    {"seed", OHM_OPT_INT, "1", "solver=mc and hybrid=: random seed; the same seed and threads= repeat a run bit for bit (on a "
+     "device, the same seed repeats every photon's path, its sums to the order of the atomic additions)", NULL, 0,
      9.007199254740992e15, 0},
     {"threads", OHM_OPT_INT, "0", "solver=mc and hybrid=: threads (0: every core)", NULL, 0, 1024, 0},
     {"hybrid", OHM_OPT_STRING, "auto",
