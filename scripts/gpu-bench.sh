@@ -72,7 +72,8 @@ mc_rows=$("$BUILD/tests/bench_device" "$DEVICE" mc "$photons" "${HOST_PHOTONS:-1
 | batches' sums, standard errors, the books, `.vdb` output | host | double | the host's code (mc_tally.c, the solution's books) for both |
 
 A device without double precision is refused in one line (the outer iteration and the tracer need it);
-`device=auto` falls back to the host where there is no GPU, and leaves grids under 2¹⁶ cells there.
+`device=auto` falls back to the host where there is no GPU, and leaves grids under 2¹⁶ cells and traces
+of fewer than 2¹⁷ photons there.
 
 DESIGN
   echo "On PoCL a kernel is compiled when it is first launched, so the first solve in a process also pays for"

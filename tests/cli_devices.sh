@@ -34,8 +34,14 @@ expect_exit 0 "device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRAR
   "$OHM" --verbose "${SCENE[@]}" -solve solver=mg device=auto -stats file="$T/auto.json"
 check "device=auto on a grid too small to pay for a device: the host" \
   grep -q "device=auto: [0-9]* cells, fewer than 65536: the cycle runs on the host" "$T/stderr"
+expect_exit 0 "solver=mc device=auto, few photons: the host" -- \
+  "$OHM" --verbose "${SCENE[@]}" -solve solver=mc photons=2000 device=auto -stats file="$T/mcauto.json"
+check "solver=mc device=auto, few photons: too few to pay for a device" \
+  grep -q "monte carlo: device=auto: 2000 photons, fewer than 131072: they run on the host" "$T/stderr"
+check "solver=mc device=auto, few photons: the stats say host" $PY -c "
+import json; assert json.load(open('$T/mcauto.json'))['device'] == 'host'"
 expect_exit 0 "solver=mc device=auto without a runtime: the host" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
-  "$OHM" --verbose "${SCENE[@]}" -solve solver=mc photons=2000 device=auto
+  "$OHM" --verbose "${SCENE[@]}" -voxelize dim=8 -solve solver=mc photons=140000 device=auto
 check "device=auto without a runtime says it runs on the host" \
   grep -q "monte carlo: device=auto: no GPU with double precision, it runs on the host" "$T/stderr"
 check "device=auto without a runtime: the stats say host" $PY -c "

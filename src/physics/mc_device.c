@@ -23,6 +23,11 @@ enum { WG_MAX = 64, NTOTALS = 6 /* mc_device.cl's */ };
 enum { FIRST_LAUNCH = 4096, MAX_LAUNCH = 1 << 22 };
 static const double LAUNCH_SECONDS = 0.1;
 static const char ADVICE[] = "use a coarser grid or device=host";
+/* device=auto traces fewer photons than this on the host: here they take
+ * the host's two cores about 0.7 s (190 photons/ms, docs/gpu.md), the
+ * order of opening a device and building its kernels the first time
+ * (0.2-1 s on PoCL).  To be re-measured on a GPU (issue 37). */
+enum { AUTO_MIN_PHOTONS = 1 << 17 };
 
 enum { K_TRACE, K_FOLD, K_ZERO, K_COUNT };
 static const char *const kernel_names[K_COUNT] = {"trace", "fold", "fill_zero"};
@@ -84,10 +89,17 @@ void ohm_mc_device_free(ohm_mc_device *d)
     free(d);
 }
 
-int ohm_mc_device_open(ohm_mc_device **out, const char *spec, const ohm_log *log, ohm_error *err)
+int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, const ohm_log *log,
+                       ohm_error *err)
 {
     *out = NULL;
     if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
+    if (photons <= 0) photons = 1000000; /* mc.h's default */
+    if (strcmp(spec, "auto") == 0 && photons < AUTO_MIN_PHOTONS) {
+        ohm_log_info(log, "monte carlo: device=auto: %lld photons, fewer than %d: they run on the host",
+                     (long long)photons, AUTO_MIN_PHOTONS);
+        return OHM_OK;
+    }
     ohm_mc_device *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "monte carlo: out of memory");
     int opened = 0;

@@ -14,13 +14,16 @@
 typedef struct ohm_mc_device ohm_mc_device;
 
 /* The device `spec` names (gpu, cpu, opencl:N, auto; devices.h), open for
- * tracing: *out NULL and OHM_OK when that is the host (host, or auto
- * without a GPU).  No runtime, no such device, a device without double
+ * tracing `photons` per trace (0: mc.h's default, 10^6): *out NULL and
+ * OHM_OK when that is the host
+ * (host; auto without a GPU, or for fewer photons than pay for opening
+ * one).  No runtime, no such device, a device without double
  * precision or 64-bit atomics: an error that says which.  A solve keeps one
  * open across its frames and channels (ohm_mc_params.kept), so the queue,
  * the built kernels, the network's layout and the tallies' buffers are
  * made once. */
-int ohm_mc_device_open(ohm_mc_device **out, const char *spec, const ohm_log *log, ohm_error *err);
+int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, const ohm_log *log,
+                       ohm_error *err);
 
 /* Trace on d into res (its arrays zeroed by the caller), P the entries'
  * power in `channel`, per_batch photons in each of the OHM_MC_BATCHES
