@@ -642,8 +642,8 @@ static const ohm_opt_spec solve_opts[] = {
     {"device", OHM_OPT_STRING, "host",
      "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
-     "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, and for mg a grid of 2^16 "
-     "cells or more, else the host); mg's hierarchy stays on the device for relights",
+     "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, for a grid of 2^16 cells or "
+     "more and traces of 2^17 photons or more, else the host); mg's hierarchy stays on the device for relights",
      NULL, 0, 0, 0},
     {"photons", OHM_OPT_REAL, "1e6", "solver=mc and hybrid=: photons per frame and channel (the noise falls as 1/sqrt(photons))",
      NULL, 16, 1e12, 0},
