@@ -123,11 +123,6 @@ int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, c
     return OHM_OK;
 }
 
-const char *ohm_mc_device_name(const ohm_mc_device *d)
-{
-    return d->s.q.device->name;
-}
-
 /* Device memory a network's trace needs (bytes), entries and medium included. */
 static double device_need(const ohm_network *net, size_t ncells, const ohm_channel_medium *med, int varies,
                           size_t nentries, int handoff)

@@ -33,7 +33,6 @@ int ohm_mc_device_run(ohm_mc_device *d, ohm_mc_result *res, const ohm_network *n
                       const ohm_light_entry *entries, size_t nentries, int channel, double P, int64_t per_batch,
                       const ohm_mc_params *params, ohm_error *err);
 
-const char *ohm_mc_device_name(const ohm_mc_device *d);
 void ohm_mc_device_free(ohm_mc_device *d); /* NULL is fine */
 
 #endif
