@@ -15,6 +15,7 @@
  *  - a seed repeats a run (to the order of the atomic additions), another
  *    seed gives another sample;
  *  - through ohm_solve (solver=mc device=): the solution names the device;
+ *  - a cancelled run stops after its first launch, and the next one runs;
  *  - a device that is not there, no runtime (device=auto falls back to the
  *    host), too little device memory, a kernel that fails to build, a
  *    device without 64-bit atomics or double precision (test hooks): one
@@ -22,6 +23,7 @@
  * Without OpenCL it prints SKIP, unless CI=true or OHM_REQUIRE_OPENCL. */
 
 #include <math.h>
+#include <stdatomic.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -326,6 +328,32 @@ static void refused(const char *what, const scene *s, const char *spec, int code
     traced_free(&t);
 }
 
+/* A run asked to stop: the device stops after its first launch with
+ * OHM_ERR_CANCELLED, and the next run on the same scene traces normally. */
+static void cancelled(const char *spec)
+{
+    scene s;
+    CHECK(scene_build(&s) == 0);
+    atomic_int stop = 1;
+    ohm_log log = {.verbosity = 0, .cancel = &stop};
+    size_t n = (size_t)s.net.n, nf = (size_t)s.net.nfaces;
+    double *phi = calloc(n, 8), *se = calloc(n, 8), *face = calloc(nf, 8), *ese = calloc(n, 8);
+    ohm_mc_result r = {.fluence = phi, .fluence_se = se, .face_exitance = face, .exitance_se = ese};
+    ohm_mc_params p = {.photons = 10000000, .seed = 1, .device = spec, .log = &log};
+    ohm_error err;
+    ohm_error_clear(&err);
+    int rc = ohm_mc_trace(&r, &s.net, &s.med, s.in.entry, s.in.count, 0, &p, &err);
+    printf("a cancelled run: %d, '%s' after %.2f s\n", rc, err.msg, r.seconds);
+    CHECK_MSG(rc == OHM_ERR_CANCELLED && strstr(err.msg, "cancelled"), "%d '%s'", rc, err.msg);
+    atomic_store(&stop, 0);
+    p.photons = 16000;
+    ohm_error_clear(&err);
+    CHECK_MSG(ohm_mc_trace(&r, &s.net, &s.med, s.in.entry, s.in.count, 0, &p, &err) == 0 && r.power_absorbed > 0,
+              "after a cancel: %s", err.msg);
+    free(phi), free(se), free(face), free(ese);
+    scene_free(&s);
+}
+
 static void refusals(const char *spec)
 {
     scene s;
@@ -360,6 +388,7 @@ int main(void)
     published(spec);
     against_host(spec);
     through_solve(spec);
+    cancelled(spec);
     refusals(spec);
     return check_summary();
 }
