@@ -44,25 +44,33 @@ static inline double ground_of(const double *ga, const ohm_network *net, const o
     return ga ? ga[v] : ohm_network_ground_conductance(med, net->grid->h, v);
 }
 
+/* Unknown v's sink, ground plus its boundary faces' (from *f, advanced
+ * past them: they come in unknown order), computed where it is needed
+ * rather than held n long beside a large solve.  X holds the scaled
+ * unknowns with eta_v (network.h): their sinks are s_v times phi's. */
+static double unknown_sink(const double *ga, const double *gb, const ohm_network *net, const ohm_channel_medium *med,
+                           int64_t v, int64_t *f)
+{
+    double s = ground_of(ga, net, med, v);
+    for (; *f < net->nfaces && net->face_unknown[*f] == v; ++*f) s += gb[*f];
+    return med->eta_v ? s * ohm_network_unknown_scale(med, v) : s;
+}
+
 static int correct_constant_modes(channel_tally *t, const ohm_network *net, double *X, const double *B, size_t ncols,
                                   const double *ga, const double *gb, const ohm_operator *op,
                                   const ohm_channel_medium *med)
 {
-    int64_t n = net->n, np = net->npieces;
+    int64_t n = net->n, np = net->npieces, f = 0;
     double *sink = calloc((size_t)np, sizeof *sink), *diag = calloc((size_t)np, sizeof *diag);
-    double *defect = malloc((size_t)np * sizeof *defect), *vsink = malloc((size_t)n * sizeof *vsink);
-    if (!sink || !diag || !defect || !vsink) {
-        free(sink), free(diag), free(defect), free(vsink);
+    double *defect = malloc((size_t)np * sizeof *defect);
+    if (!sink || !diag || !defect) {
+        free(sink), free(diag), free(defect);
         return -1;
     }
-    for (int64_t v = 0; v < n; ++v) vsink[v] = ground_of(ga, net, med, v);
-    for (int64_t f = 0; f < net->nfaces; ++f) vsink[net->face_unknown[f]] += gb[f];
-    if (med->eta_v) /* X holds the scaled unknowns (network.h): their sinks are s_v times phi's */
-        for (int64_t v = 0; v < n; ++v) vsink[v] *= ohm_network_unknown_scale(med, v);
     const int64_t *piece = net->piece; /* NULL: one piece, 0 */
     for (int64_t v = 0; v < n; ++v) {
         int64_t p = piece ? piece[v] : 0;
-        sink[p] += vsink[v];
+        sink[p] += unknown_sink(ga, gb, net, med, v, &f);
         diag[p] += ohm_operator_diag(op, v);
     }
     int any = 0;
@@ -71,7 +79,8 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         double *x = X + col * (size_t)n;
         const double *b = B + col * (size_t)n;
         for (int64_t p = 0; p < np; ++p) defect[p] = 0;
-        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - vsink[v] * x[v];
+        f = 0;
+        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - unknown_sink(ga, gb, net, med, v, &f) * x[v];
         double xmax = 0;
         for (int64_t v = 0; v < n; ++v) xmax = fmax(xmax, fabs(x[v]));
         for (int64_t p = 0; p < np; ++p) {
@@ -83,7 +92,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
             if (xmax > 0 && fabs(c) / xmax > t->mode_shift) t->mode_shift = fabs(c) / xmax;
         }
     }
-    free(sink), free(diag), free(defect), free(vsink);
+    free(sink), free(diag), free(defect);
     return any;
 }
 
