@@ -1,6 +1,7 @@
 /* network.c — topology and assembly of the diffusion network (network.h). */
 #include "physics/network.h"
 
+#include <float.h>
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -268,7 +269,9 @@ static inline double edge_conductance(const ohm_channel_medium *m, double h, int
 {
     if (m->resistance_mode)
         return m->resistance_v ? 1.0 / (0.5 * m->resistance_v[v] + 0.5 * m->resistance_v[w]) : 1.0 / m->resistance;
-    return h * 2.0 * dv * dw / (dv + dw); /* harmonic mean: series resistors of half cells */
+    /* harmonic mean: series resistors of half cells; dv dw first, so that
+     * v's row and w's compute the same bits (link_single rounds both) */
+    return h * 2.0 * (dv * dw) / (dv + dw);
 }
 
 /* The interface term of network.h's G between cells of index ev and ew (in
@@ -470,6 +473,16 @@ static int assembly_begin(assembly *as, const ohm_network *net, const ohm_channe
     return OHM_OK;
 }
 
+/* A link's conductance as the network holds it, for every solver: rounded
+ * to single precision (network.h), a positive one kept positive.  One
+ * beyond FLT_MAX is kept as it is: the stencil refuses it (stencil_rows),
+ * an assembled A holds it. */
+static inline double link_single(double g)
+{
+    if (!(g > 0) || g > FLT_MAX) return g;
+    return g < FLT_MIN ? FLT_MIN : (double)(float)g;
+}
+
 /* Row v, visited in increasing order by the walk w (the assembly's own, or
  * one thread's), its sinks booked to its piece in sink[]. */
 static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, assembly_row *r)
@@ -485,11 +498,11 @@ static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, 
     for (int d = 0; d < 6; ++d) {
         int64_t u = r->nb[d] = walk_across(w, d);
         r->ge[d] = 0.0;
-        if (u >= 0 && co->uniform) r->ge[d] = co->g_edge;
+        if (u >= 0 && co->uniform) r->ge[d] = link_single(co->g_edge);
         else if (u >= 0) {
             double du = cell_D(co, med, u);
-            r->ge[d] = as->per_cell_eta ? edge_conductance_eta(co, med, h, v, u, dv, du)
-                                        : edge_conductance(med, h, v, u, dv, du);
+            r->ge[d] = link_single(as->per_cell_eta ? edge_conductance_eta(co, med, h, v, u, dv, du)
+                                                    : edge_conductance(med, h, v, u, dv, du));
         } else if (u == -1) ++r->nfaces;
         else if (u == -3) ++nclosure_v;
     }
@@ -627,8 +640,9 @@ static void stencil_rows(void *user, int64_t i)
         /* the stencil's rule (network.h): a +x link is v + 1's, every link's
          * conductance > 0 */
         for (int d = 0; d < 6; ++d)
-            if (r.nb[d] >= 0 && (!(r.ge[d] > 0) || (d < 2 && r.nb[d] != v + (d ? 1 : -1)))) sh->broken = 1;
-        for (int a = 0; a < 3; ++a) st->g[v][a] = r.ge[2 * a + 1];
+            if (r.nb[d] >= 0 && (!(r.ge[d] > 0 && r.ge[d] <= FLT_MAX) || (d < 2 && r.nb[d] != v + (d ? 1 : -1))))
+                sh->broken = 1;
+        for (int a = 0; a < 3; ++a) st->g[v][a] = (float)r.ge[2 * a + 1]; /* exact: link_single's */
         double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
         for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
         st->sink[v] = sink;
@@ -650,7 +664,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
         if (!st->off || !st->g || !st->sink) {
             ohm_stencil_free(st);
             return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil of %lld unknowns (%.0f MB)",
-                            (long long)n, (double)n * 48 / 1e6);
+                            (long long)n, (double)n * 36 / 1e6);
         }
     }
     assembly as;

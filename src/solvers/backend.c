@@ -56,11 +56,12 @@ double ohm_operator_norm_inf(const ohm_operator *op)
     return op->stencil ? ohm_stencil_norm_inf(op->stencil) : ohm_sym_upper_norm_inf(op->A);
 }
 
-double ohm_scaled_backward_error(const double *b, const double *x, const double *r, size_t n, double normA)
+/* ||r|| / (normA ||x|| + ||b||) from the three infinity norms (nr: NaN
+ * propagates) */
+static double scaled_error(double nr, const double *b, const double *x, size_t n, double normA)
 {
-    double nr = 0, nx = 0, nb = 0;
+    double nx = 0, nb = 0;
     for (size_t i = 0; i < n; ++i) {
-        nr = fmax(nr, fabs(r[i]));
         nx = fmax(nx, fabs(x[i]));
         nb = fmax(nb, fabs(b[i]));
     }
@@ -68,12 +69,28 @@ double ohm_scaled_backward_error(const double *b, const double *x, const double 
     return denom > 0 ? nr / denom : (nr > 0 ? INFINITY : 0.0);
 }
 
+double ohm_scaled_backward_error(const double *b, const double *x, const double *r, size_t n, double normA)
+{
+    double nr = 0;
+    for (size_t i = 0; i < n; ++i) nr = fmax(nr, fabs(r[i]));
+    return scaled_error(nr, b, x, n, normA);
+}
+
 double ohm_operator_backward_error(const ohm_operator *op, const double *B, const double *X, size_t ncols,
                                    double normA)
 {
     size_t n = (size_t)op->n;
     if (!(normA > 0)) normA = ohm_operator_norm_inf(op);
-    double *r = malloc((n ? n : 1) * sizeof *r), worst = 0;
+    double worst = 0;
+    if (op->stencil) { /* row by row: no n-long residual beside a large solve's vectors */
+        for (size_t c = 0; c < ncols; ++c) {
+            const double *b = B + c * n, *x = X + c * n;
+            double e = scaled_error(ohm_stencil_residual_inf(op->stencil, b, x, 0), b, x, n, normA);
+            if (!(e <= worst)) worst = e;
+        }
+        return worst;
+    }
+    double *r = malloc((n ? n : 1) * sizeof *r);
     if (!r) return INFINITY; /* cannot check: report it as failed, never as passed */
     for (size_t c = 0; c < ncols; ++c) {
         const double *b = B + c * n, *x = X + c * n;

@@ -20,21 +20,22 @@
  * 2010).  The smoother is two Chebyshev steps on D^-1 A; the coarsest level
  * (at most a few hundred cells) is solved by a dense Cholesky factor.
  *
- * The cycle runs in single precision, on a copy of the stencil scaled by
- * 1 / ||A||_inf (a preconditioner need only be near A^-1, and floats halve
- * the bytes its passes stream); the outer iteration is flexible CG (the
- * K-cycle is not a fixed linear operator) in double precision on the
- * network's own stencil, stopping, like solver=cg, at ||b - A x||_2 <= tol
- * ||b||_2 of the true residual, and once the power balance holds to tol as
- * well (ohm_mg_solve): the solution and the books are as exact as the
- * double-precision cycle's were.
+ * The cycle runs in single precision, on the network's own stencil (its
+ * links are single precision already, network.h) with its own inverse
+ * diagonal: a preconditioner need only be near A^-1, and floats halve the
+ * bytes its passes stream.  The outer iteration is flexible CG (the
+ * K-cycle is not a fixed linear operator) in double precision on the same
+ * stencil, stopping, like solver=cg, at ||b - A x||_2 <= tol ||b||_2 of the
+ * true residual, and once the power balance holds to tol as well
+ * (ohm_mg_solve): the solution and the books are as exact as a
+ * double-precision cycle's.
  *
- * Memory per unknown: the network's stencil (48 B, the driver's), its
- * single-precision conductances and inverse diagonal (20 B), the aggregate
- * map (4 B), three outer vectors in double (24 B) and four of the cycle's
- * in single (16 B), and the coarse levels (an eighth as many cells each,
- * with their stencil, map and up to nine vectors): about 123 B per unknown
- * in all at 1e7 cells (docs/multigrid.md). */
+ * Memory per unknown: the network's stencil (36 B, the driver's), the
+ * inverse diagonal (4 B), the aggregate map (4 B), three outer vectors in
+ * double (24 B) and four of the cycle's in single (16 B), and the coarse
+ * levels (an eighth as many cells each, with their stencil, map and up to
+ * nine vectors): about 95 B per unknown in all at 1e7 cells
+ * (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
@@ -87,15 +88,16 @@ double ohm_mg_bytes_estimate(int64_t n);
 void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
 
 /* The hierarchy as built, read-only, for running its cycle elsewhere (an
- * OpenCL device: mg_device.h).  Level l's single-precision stencil (off,
- * c: the +x, +y, +z links and the sink, scaled by `scale`), its inverse
- * diagonal, its map into level l + 1 (NULL at the coarsest) and whether the
- * K-cycle solves it; the coarsest level's dense lower Cholesky factor
- * (ndense x ndense, row-major). */
+ * OpenCL device: mg_device.h).  Level l's stencil (off, g: the +x, +y, +z
+ * links in single precision, sink; level 0's are the network's), its
+ * inverse diagonal, its map into level l + 1 (NULL at the coarsest) and
+ * whether the K-cycle solves it; the coarsest level's dense lower Cholesky
+ * factor (ndense x ndense, row-major). */
 typedef struct ohm_mg_level_view {
     int64_t n;
     const int32_t (*off)[4];
-    const float (*c)[4];
+    const float (*g)[3];
+    const double *sink;
     const float *invd;
     const int32_t *agg;
     int kcycle;
@@ -103,7 +105,7 @@ typedef struct ohm_mg_level_view {
 
 typedef struct ohm_mg_view {
     const ohm_stencil *fine; /* the outer iteration's operator */
-    double scale, norm_A;
+    double norm_A;
     int nlevels;
     ohm_mg_level_view lev[40];
     const double *dense;
@@ -116,6 +118,10 @@ void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view);
  * ||b||_2, sum |b|, and whether every b >= 0. */
 void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs, int *nonnegative);
 
+/* s for the cycle's right-hand side s r (mg.c's precondition, mg_device.c's):
+ * ||A||_inf / ||r||_inf, so that it is at most ||A||_inf. */
+double ohm_mg_rhs_scale(double norm_A, double nr);
+
 /* The Chebyshev smoother's two steps' coefficients (mg.c's smooth): the
  * first step's weight w0; the second's a (on x1 - y) and a2 (on the
  * Jacobi residual). */
@@ -123,6 +129,10 @@ void ohm_mg_smoother(double *w0, double *a, double *a2);
 
 /* y = A x for the stencil's matrix (network.h), on up to `threads` cores. */
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
+
+/* ||b - A x||_inf, row by row, with no vector of its own (threads <= 0:
+ * every usable core). */
+double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const double *x, int threads);
 
 /* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
 double ohm_stencil_norm_inf(const ohm_stencil *st);

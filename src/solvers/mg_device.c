@@ -66,7 +66,7 @@ struct ohm_mg_device {
     size_t wg;                 /* work-group size                    */
     int64_t n;
     const ohm_stencil *fine;
-    double scale, norm_A;
+    double norm_A;
     cl_mem g, sink;            /* the network's stencil (off: level 0's) */
     cl_mem x, b, r, p, ap;     /* the outer iteration's (ap = A p), double */
     cl_mem dense, dense_y;
@@ -287,11 +287,11 @@ static void cycle(ohm_mg_device *d, int l, cl_mem b, cl_mem x)
     smooth(d, L, &L->r, b, L->t, x); /* post-smoothed: x */
 }
 
-/* level 0's x = M (r / nr), scaled (mg.c's precondition); returns the factor */
+/* level 0's x = M (s r) (mg.c's precondition); returns 1 / s */
 static double precondition(ohm_mg_device *d, double nr)
 {
     dev_level *L0 = &d->lev[0];
-    double s = nr > 0 ? 1.0 / nr : 1.0;
+    double s = ohm_mg_rhs_scale(d->norm_A, nr);
     ARG_MEM(K_TO_SINGLE, 0, d->r);
     ARG_MEM(K_TO_SINGLE, 1, L0->b);
     ARG_VAL(K_TO_SINGLE, 2, double, s);
@@ -299,7 +299,7 @@ static double precondition(ohm_mg_device *d, double nr)
     launch(d, K_TO_SINGLE, d->n, 0);
     if (d->nlevels == 1) dense_solve(d, L0->b, L0->x);
     else cycle(d, 0, L0->b, L0->x);
-    return d->scale / s;
+    return 1.0 / s;
 }
 
 /* ---- set-up ------------------------------------------------------------------------------- */
@@ -324,7 +324,7 @@ static int children_of(int64_t **start, int32_t **children, const int32_t *agg, 
 /* the bytes the device will hold, before anything is copied */
 static double device_bytes(const ohm_mg_view *v)
 {
-    double bytes = (double)v->fine->n * (3 * 8 + 8 + 5 * 8); /* g, sink; x b r p q */
+    double bytes = (double)v->fine->n * (3 * 4 + 8 + 5 * 8); /* g, sink; x b r p q */
     for (int l = 0; l < v->nlevels; ++l) {
         double n = (double)v->lev[l].n;
         bytes += n * (16 + 16 + 4); /* off, c, invd */
@@ -332,6 +332,19 @@ static double device_bytes(const ohm_mg_view *v)
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
     }
     return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
+}
+
+/* Level lv's stencil as the device's cycle reads it: the +x, +y, +z links
+ * and the sink in one float4 per cell (the host's values: its cycle reads
+ * the sink as a float too); a host copy for the upload, or NULL. */
+static float (*cycle_copy(const ohm_mg_level_view *lv))[4]
+{
+    float(*c)[4] = malloc((size_t)(lv->n ? lv->n : 1) * sizeof *c);
+    for (int64_t v = 0; c && v < lv->n; ++v) {
+        for (int a = 0; a < 3; ++a) c[v][a] = lv->g[v][a];
+        c[v][3] = (float)lv->sink[v];
+    }
+    return c;
 }
 
 static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error *err)
@@ -343,9 +356,12 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
     L->n = n;
     L->kcycle = lv->kcycle;
     L->nc = l < v->nlevels - 1 ? v->lev[l + 1].n : 0;
-    int rc = buffer(d, &L->off, (size_t)n * sizeof *lv->off, lv->off, err);
-    if (!rc) rc = buffer(d, &L->c, (size_t)n * sizeof *lv->c, lv->c, err);
+    float(*c)[4] = cycle_copy(lv);
+    int rc = !c ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's copy", l)
+                : buffer(d, &L->off, (size_t)n * sizeof *lv->off, lv->off, err);
+    if (!rc) rc = buffer(d, &L->c, (size_t)n * sizeof *c, c, err);
     if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);
+    free(c);
     if (!rc) rc = buffer(d, &L->b, (size_t)n * f, NULL, err);
     if (!rc) rc = buffer(d, &L->x, (size_t)n * f, NULL, err);
     if (!rc && L->nc) {
@@ -381,13 +397,12 @@ static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
     size_t dn = (size_t)n * sizeof(double);
     d->fine = st;
     d->n = n;
-    d->scale = v->scale;
     d->norm_A = v->norm_A;
     d->nlevels = v->nlevels;
     d->ndense = v->ndense;
     int rc = OHM_OK;
     for (int l = 0; !rc && l < v->nlevels; ++l) rc = upload_level(d, v, l, err);
-    if (!rc) rc = buffer(d, &d->g, 3 * dn, st->g, err);
+    if (!rc) rc = buffer(d, &d->g, (size_t)n * sizeof *st->g, st->g, err);
     if (!rc) rc = buffer(d, &d->sink, dn, st->sink, err);
     cl_mem *outer[] = {&d->x, &d->b, &d->r, &d->p, &d->ap};
     for (size_t i = 0; !rc && i < sizeof outer / sizeof *outer; ++i) rc = buffer(d, outer[i], dn, NULL, err);
@@ -490,6 +505,14 @@ static void residual(ohm_mg_device *d, double *nr, double *sr)
     *sr = s[1];
 }
 
+/* x's negative values set to 0 (mg.c's clamp_negative) */
+static void clamp(ohm_mg_device *d)
+{
+    ARG_MEM(K_CLAMP, 0, d->x);
+    ARG_VAL(K_CLAMP, 1, cl_long, d->n);
+    launch(d, K_CLAMP, d->n, 0);
+}
+
 int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol, int64_t max_iter,
                         const ohm_log *log, int64_t *iters, double *relres, ohm_error *err)
 {
@@ -509,7 +532,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
     if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
     if (rc) return rc;
     int64_t it = 0;
-    int restarts = 0;
+    int restarts = 0, clamps = 0;
     ohm_progress prog;
     ohm_progress_begin(&prog, log, "solve: mg");
     double t_reported = prog.t_begin;
@@ -530,8 +553,15 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
             for (int64_t i = 0; i < n; ++i) sr += b[i];
         }
         *relres = nr / nb;
+        if (CONVERGED(nr, sr) && b_nonnegative && clamps < 2) { /* clamped and judged again, as mg.c */
+            ++clamps;
+            clamp(d);
+            residual(d, &nr, &sr);
+            if ((rc = ohm_device_checked(&d->s, err))) break;
+            *relres = nr / nb;
+        }
         if (CONVERGED(nr, sr)) break;
-        if (restarts > 0) { /* stagnated at the floor: read x and r back to judge */
+        if (restarts > 1) { /* stagnated at the floor (mg.c): read x and r back to judge */
             if (!host_r && !(host_r = malloc(dn))) {
                 rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
                 break;
@@ -600,9 +630,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
 #undef CONVERGED
     free(host_r);
     if (!rc && b_nonnegative) { /* as mg.c: a nonnegative source's solution is nonnegative */
-        ARG_MEM(K_CLAMP, 0, d->x);
-        ARG_VAL(K_CLAMP, 1, cl_long, n);
-        launch(d, K_CLAMP, n, 0);
+        clamp(d);
         rc = ohm_device_checked(&d->s, err);
     }
     if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);

@@ -9,35 +9,21 @@
 
 /* ---- stencil rows: sum of the neighbours' links times x, and the diagonal ---- */
 
-/* the network's (double): off[v] = (-y, +y, -z, +z) offsets (0: none), g
- * three +x, +y, +z conductances per cell, sink the ground (mg.c's
- * DEFINE_ROW, physics/network.h's ohm_stencil) */
-inline double net_row(__global const int4 *off, __global const double *g, __global const double *sink,
-                      __global const double *x, long v, long n, double *diag)
+/* (A x)_v for the network's stencil (in double, from its single-precision
+ * links), in flux form, as mg.c's row_apply: sink_v x_v + sum_w g_vw (x_v -
+ * x_w), so that the rows' sum keeps the power balance's digits.  off[v] =
+ * (-y, +y, -z, +z) offsets (0: none), g three +x, +y, +z conductances per
+ * cell, sink the ground and boundary (physics/network.h's ohm_stencil). */
+inline double net_apply(__global const int4 *off, __global const float *g, __global const double *sink,
+                        __global const double *x, long v, long n)
 {
     int4 o = off[v];
-    double d = sink[v] + g[3 * v + 1] + g[3 * v + 2];
-    double s = g[3 * v + 1] * x[v + o.y] + g[3 * v + 2] * x[v + o.w];
-    if (v < n - 1) {
-        d += g[3 * v];
-        s += g[3 * v] * x[v + 1];
-    }
-    if (v > 0) {
-        double gx = g[3 * (v - 1)];
-        d += gx;
-        s += gx * x[v - 1];
-    }
-    if (o.x) {
-        double gy = g[3 * (v + o.x) + 1];
-        d += gy;
-        s += gy * x[v + o.x];
-    }
-    if (o.z) {
-        double gz = g[3 * (v + o.z) + 2];
-        d += gz;
-        s += gz * x[v + o.z];
-    }
-    *diag = d;
+    double xv = x[v];
+    double s = sink[v] * xv + g[3 * v + 1] * (xv - x[v + o.y]) + g[3 * v + 2] * (xv - x[v + o.w]);
+    if (v < n - 1) s += g[3 * v] * (xv - x[v + 1]);
+    if (v > 0) s += g[3 * (v - 1)] * (xv - x[v - 1]);
+    if (o.x) s += g[3 * (v + o.x) + 1] * (xv - x[v + o.x]);
+    if (o.z) s += g[3 * (v + o.z) + 2] * (xv - x[v + o.z]);
     return s;
 }
 
@@ -92,7 +78,7 @@ inline void group_sum2(double a, double b, __local double *sa, __local double *s
 /* ---- the outer iteration (double) ---- */
 
 /* r = b - A x; partials ||r||^2 and sum r */
-__kernel void net_residual(__global const int4 *off, __global const double *g, __global const double *sink,
+__kernel void net_residual(__global const int4 *off, __global const float *g, __global const double *sink,
                            __global const double *x, __global const double *b, __global double *r, long n,
                            __global double *partial)
 {
@@ -100,8 +86,7 @@ __kernel void net_residual(__global const int4 *off, __global const double *g, _
     double s2 = 0, s1 = 0;
     GRID_LOOP(v, n)
     {
-        double d, s = net_row(off, g, sink, x, v, n, &d);
-        double rv = b[v] - (d * x[v] - s);
+        double rv = b[v] - net_apply(off, g, sink, x, v, n);
         r[v] = rv;
         s2 += rv * rv;
         s1 += rv;
@@ -110,7 +95,7 @@ __kernel void net_residual(__global const int4 *off, __global const double *g, _
 }
 
 /* q = A p; partials p.q and p.r */
-__kernel void net_apply_dots(__global const int4 *off, __global const double *g, __global const double *sink,
+__kernel void net_apply_dots(__global const int4 *off, __global const float *g, __global const double *sink,
                              __global const double *p, __global const double *r, __global double *q, long n,
                              __global double *partial)
 {
@@ -118,8 +103,7 @@ __kernel void net_apply_dots(__global const int4 *off, __global const double *g,
     double pq = 0, pr = 0;
     GRID_LOOP(v, n)
     {
-        double d, s = net_row(off, g, sink, p, v, n, &d);
-        double qv = d * p[v] - s;
+        double qv = net_apply(off, g, sink, p, v, n);
         q[v] = qv;
         pq += p[v] * qv;
         pr += p[v] * r[v];
