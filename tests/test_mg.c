@@ -41,6 +41,35 @@ static int make_irregular(ohm_voxel_grid *g)
     return 0;
 }
 
+/* The stencil's runs (network.h) against A's links: they cover the
+ * unknowns in order, each is longest (its neighbours' offsets differ), and
+ * every unknown's y and z neighbours are where A couples it. */
+static void check_runs(const ohm_stencil *st, const cholmod_sparse *A, const ohm_network *net)
+{
+    int64_t n = st->n, sy = net->grid->dims[0], sz = sy * net->grid->dims[1];
+    int32_t(*expect)[4] = calloc((size_t)n, sizeof *expect);
+    const int64_t *Ap = A->p, *Ai = A->i;
+    for (int64_t u = 0; u < n; ++u) /* A's upper triangle: column u's rows w < u are its lower neighbours */
+        for (int64_t p = Ap[u]; p < Ap[u + 1]; ++p) {
+            int64_t w = Ai[p], cells = net->cell[u] - net->cell[w];
+            int a = cells == sy ? 0 : cells == sz ? 2 : -1; /* -y or -z; -x needs no offset */
+            if (w == u || a < 0) continue;
+            expect[u][a] = (int32_t)(w - u);
+            expect[w][a + 1] = (int32_t)(u - w);
+        }
+    size_t wrong = 0, short_runs = 0;
+    CHECK(st->nruns >= 1 && st->run_start[0] == 0 && st->run_start[st->nruns] == n);
+    for (int64_t r = 0; r < st->nruns; ++r) {
+        CHECK(st->run_start[r] < st->run_start[r + 1]);
+        if (r + 1 < st->nruns && memcmp(st->run_off[r], st->run_off[r + 1], sizeof st->run_off[r]) == 0) ++short_runs;
+        for (int64_t v = st->run_start[r]; v < st->run_start[r + 1]; ++v)
+            wrong += memcmp(st->run_off[r], expect[v], sizeof expect[v]) != 0;
+    }
+    CHECK_MSG(wrong == 0, "%zu unknowns' runs name other neighbours than A's", wrong);
+    CHECK_MSG(short_runs == 0, "%zu runs could have been joined to the next", short_runs);
+    free(expect);
+}
+
 /* mg against the factor on grid g, boundary b: the largest cell difference
  * relative to the largest fluence. */
 static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_boundary b, int64_t *its_out)
@@ -73,6 +102,7 @@ static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_b
     }
     CHECK_MSG(dy <= 1e-14 * ymax, "stencil vs A: %g of %g", dy, ymax);
     CHECK_REL(ohm_stencil_norm_inf(&st), ohm_sym_upper_norm_inf(A), 1e-14);
+    check_runs(&st, A, &net);
     /* the factor's solution */
     cholmod_factor *L = NULL;
     double berr = 0;

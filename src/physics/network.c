@@ -601,10 +601,97 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
 void ohm_stencil_free(ohm_stencil *st)
 {
     if (!st) return;
-    free(st->off);
-    free(st->g);
+    free(st->run_start);
+    free(st->run_off);
+    free(st->gx);
+    free(st->gy);
+    free(st->gz);
     free(st->sink);
     memset(st, 0, sizeof *st);
+}
+
+/* A stencil's runs as they are found (network.h), in increasing unknowns:
+ * a new run where the offsets change. */
+typedef struct run_list {
+    int64_t n, cap;
+    int64_t *start;
+    int32_t (*off)[4];
+    int failed; /* out of memory */
+} run_list;
+
+static void run_push(run_list *rl, int64_t v, const int32_t off[4])
+{
+    if (rl->n && memcmp(rl->off[rl->n - 1], off, sizeof rl->off[0]) == 0) return;
+    if (rl->n == rl->cap) {
+        int64_t cap = rl->cap ? 2 * rl->cap : 256;
+        int64_t *start = realloc(rl->start, (size_t)cap * sizeof *start);
+        if (start) rl->start = start;
+        int32_t(*o)[4] = start ? realloc(rl->off, (size_t)cap * sizeof *o) : NULL;
+        if (!o) {
+            rl->failed = 1;
+            return;
+        }
+        rl->off = o;
+        rl->cap = cap;
+    }
+    rl->start[rl->n] = v;
+    memcpy(rl->off[rl->n], off, sizeof rl->off[0]);
+    rl->n++;
+}
+
+static void run_list_free(run_list *rl)
+{
+    free(rl->start);
+    free(rl->off);
+    memset(rl, 0, sizeof *rl);
+}
+
+/* st's runs: the lists of consecutive stretches of its unknowns, in order,
+ * joined (a run cut only by where one list ends and the next begins is
+ * one run).  OHM_ERR_NOMEM. */
+static int runs_adopt(ohm_stencil *st, const run_list *lists, int count, ohm_error *err)
+{
+    free(st->run_start);
+    free(st->run_off);
+    st->run_start = NULL;
+    st->run_off = NULL;
+    st->nruns = 0;
+    int64_t total = 0;
+    for (int i = 0; i < count; ++i) {
+        if (lists[i].failed)
+            return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil's runs");
+        total += lists[i].n;
+    }
+    st->run_start = malloc((size_t)(total + 1) * sizeof *st->run_start);
+    st->run_off = malloc((size_t)(total ? total : 1) * sizeof *st->run_off);
+    if (!st->run_start || !st->run_off)
+        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil's %lld runs", (long long)total);
+    int64_t r = 0;
+    for (int i = 0; i < count; ++i)
+        for (int64_t k = 0; k < lists[i].n; ++k) {
+            if (r && memcmp(st->run_off[r - 1], lists[i].off[k], sizeof st->run_off[0]) == 0) continue;
+            st->run_start[r] = lists[i].start[k];
+            memcpy(st->run_off[r], lists[i].off[k], sizeof st->run_off[0]);
+            ++r;
+        }
+    st->run_start[r] = st->n;
+    st->nruns = r;
+    return OHM_OK;
+}
+
+double ohm_stencil_bytes(const ohm_stencil *st)
+{
+    return (double)st->n * (3 * sizeof(float) + sizeof(double)) +
+           (double)st->nruns * (sizeof *st->run_start + sizeof *st->run_off) + sizeof *st->run_start;
+}
+
+int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err)
+{
+    run_list rl = {0};
+    for (int64_t v = 0; v < st->n; ++v) run_push(&rl, v, off[v]);
+    int rc = runs_adopt(st, &rl, 1, err);
+    run_list_free(&rl);
+    return rc;
 }
 
 /* One thread's share of the stencil: unknowns v0 .. v1-1, its own walk
@@ -615,6 +702,7 @@ typedef struct stencil_share {
     double *ga, *gb;
     int64_t v0, v1;
     double *sink;
+    run_list runs; /* the share's, joined afterwards */
     int overflow; /* an offset beyond 32 bits */
     int broken;   /* a link the stencil cannot hold: no conductance, or a
                      +x neighbour that is not the next unknown */
@@ -632,17 +720,21 @@ static void stencil_rows(void *user, int64_t i)
     for (int64_t v = sh->v0; v < sh->v1; ++v) {
         assembly_row r;
         assembly_next(as, &w, sh->sink, v, &r);
+        int32_t off[4];
         for (int d = 2; d < 6; ++d) {
             int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
             if (delta < INT32_MIN || delta > INT32_MAX) sh->overflow = 1;
-            st->off[v][d - 2] = (int32_t)delta;
+            off[d - 2] = (int32_t)delta;
         }
+        run_push(&sh->runs, v, off);
         /* the stencil's rule (network.h): a +x link is v + 1's, every link's
          * conductance > 0 */
         for (int d = 0; d < 6; ++d)
             if (r.nb[d] >= 0 && (!(r.ge[d] > 0 && r.ge[d] <= FLT_MAX) || (d < 2 && r.nb[d] != v + (d ? 1 : -1))))
                 sh->broken = 1;
-        for (int a = 0; a < 3; ++a) st->g[v][a] = (float)r.ge[2 * a + 1]; /* exact: link_single's */
+        st->gx[v] = (float)r.ge[1]; /* exact: link_single's */
+        st->gy[v] = (float)r.ge[3];
+        st->gz[v] = (float)r.ge[5];
         double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
         for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
         st->sink[v] = sink;
@@ -655,16 +747,17 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
 {
     int64_t n = net->n;
     size_t m = (size_t)(n ? n : 1);
-    if (st->n != n || !st->off) { /* else a refill: same network, new values */
+    if (st->n != n || !st->gx) { /* else a refill: same network, new values (the runs made again) */
         ohm_stencil_free(st);
-        st->off = malloc(m * sizeof *st->off);
-        st->g = malloc(m * sizeof *st->g);
+        st->gx = malloc(m * sizeof *st->gx);
+        st->gy = malloc(m * sizeof *st->gy);
+        st->gz = malloc(m * sizeof *st->gz);
         st->sink = malloc(m * sizeof *st->sink);
         st->n = n;
-        if (!st->off || !st->g || !st->sink) {
+        if (!st->gx || !st->gy || !st->gz || !st->sink) {
             ohm_stencil_free(st);
             return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil of %lld unknowns (%.0f MB)",
-                            (long long)n, (double)n * 36 / 1e6);
+                            (long long)n, (double)n * 20 / 1e6);
         }
     }
     assembly as;
@@ -677,17 +770,21 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
     stencil_share sh[16];
     size_t np = (size_t)(net->npieces ? net->npieces : 1);
     for (int i = 0; i < shares; ++i) {
-        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, 0, 0};
+        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, {0}, 0, 0};
         if (!(sh[i].sink = i == 0 ? as.sink : calloc(np, sizeof *sh[i].sink))) rc = OHM_ERR_NOMEM;
     }
     if (!rc) ohm_parallel_for(shares, shares, stencil_rows, sh);
     int overflow = 0, broken = 0;
+    run_list lists[16];
     for (int i = 0; i < shares; ++i) {
         overflow |= sh[i].overflow;
         broken |= sh[i].broken;
         for (size_t p = 0; i > 0 && sh[i].sink && p < np; ++p) as.sink[p] += sh[i].sink[p];
         if (i > 0) free(sh[i].sink);
+        lists[i] = sh[i].runs;
     }
+    if (!rc && !overflow && !broken) rc = runs_adopt(st, lists, shares, err) ? OHM_ERR_NOMEM : OHM_OK;
+    for (int i = 0; i < shares; ++i) run_list_free(&lists[i]);
     if (rc || overflow || broken) {
         assembly_free(&as);
         if (rc) return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);

@@ -231,40 +231,60 @@ double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int
 const char *ohm_boundary_name(ohm_boundary b);
 
 /* The network's matrix as a 7-point stencil over its unknowns, what a
- * matrix-free solver reads instead of the assembled A (36 B per unknown
- * against CHOLMOD's 24 per entry, four entries per unknown): row v is
- *   (sink[v] + sum_d g_vd) x_v - sum_d g_vd x_w(v,d)
- * over the directions d (ohm_face_offset's order) in which v has a
- * neighbour w(v, d) (ohm_stencil_neighbour).  g_vd is g[v][d / 2] for the
- * +x, +y, +z links (d odd) and the neighbour's g[w][d / 2] for the -x, -y,
- * -z ones: each link's conductance is stored once, by its lower unknown,
- * and is > 0 exactly where the link is (0 where there is none).  Unknowns
- * are numbered in cell order, so a +x neighbour is always v + 1 and needs
- * no index: only the y and z neighbours' offsets are stored.  The values
- * are ohm_network_assemble's, by the same code: A = the stencil's matrix,
- * up to the order its diagonal is summed in. */
+ * matrix-free solver reads instead of the assembled A (28 B per unknown and
+ * a few per run, against CHOLMOD's 24 per entry, four entries per
+ * unknown): row v is
+ *   sink[v] x_v + sum_w g_vw (x_v - x_w)
+ * over v's face neighbours w.  Each link's conductance is stored once, by
+ * its lower unknown, in gx, gy or gz by its axis, and is > 0 exactly where
+ * the link is (0 where there is none).  Unknowns are numbered in cell
+ * order, so a +x neighbour is always v + 1 and needs no index; the y and
+ * z neighbours' offsets (w - v) are the same along most of a row of cells,
+ * so they are stored per run: a run is a longest stretch of consecutive
+ * unknowns whose four offsets are equal (a row of a box is one run; an
+ * object's ragged edge cuts a row into a few).  A solver's rows then read
+ * their neighbours at fixed distances, as a box's would, and vectorise.
+ * The values are ohm_network_assemble's, by the same code: A = the
+ * stencil's matrix, up to the order its diagonal is summed in. */
 typedef struct ohm_stencil {
     int64_t n;
-    int32_t (*off)[4]; /* the -y, +y, -z, +z neighbour's unknown minus v; 0: none */
-    float (*g)[3];     /* conductance of the +x, +y, +z links; 0: none    */
-    double *sink;      /* ground + boundary (+ closure) conductance, scaled as
-                          the diagonal (network.h: s_v with eta_v)        */
+    int64_t nruns;
+    int64_t *run_start;    /* nruns + 1: run r is unknowns run_start[r] ..
+                              run_start[r + 1] - 1                         */
+    int32_t (*run_off)[4]; /* run r's -y, +y, -z, +z neighbour minus v; 0: none */
+    float *gx, *gy, *gz;   /* conductance of v's +x, +y, +z link; 0: none  */
+    double *sink;          /* ground + boundary (+ closure) conductance, scaled
+                              as the diagonal (network.h: s_v with eta_v)   */
 } ohm_stencil;
 
-/* Unknown v's neighbour across face d (0..5, ohm_face_offset), or -1. */
-static inline int64_t ohm_stencil_neighbour(const ohm_stencil *st, int64_t v, int d)
+/* The run holding unknown v, from *cursor (a run at or before v's; 0 to
+ * start): O(1) for unknowns visited in increasing order. */
+static inline int64_t ohm_stencil_run(const ohm_stencil *st, int64_t v, int64_t *cursor)
 {
-    if (d == 0) return v > 0 && st->g[v - 1][0] > 0 ? v - 1 : -1;
-    if (d == 1) return st->g[v][0] > 0 ? v + 1 : -1;
-    int32_t o = st->off[v][d - 2];
-    return o ? v + o : -1;
+    int64_t r = *cursor;
+    while (st->run_start[r + 1] <= v) ++r;
+    return *cursor = r;
 }
 
-/* The conductance of the link from v across face d to its neighbour w. */
-static inline double ohm_stencil_link(const ohm_stencil *st, int64_t v, int d, int64_t w)
+/* The run holding unknown v, by bisection. */
+static inline int64_t ohm_stencil_run_of(const ohm_stencil *st, int64_t v)
 {
-    return d & 1 ? st->g[v][d >> 1] : st->g[w][d >> 1];
+    int64_t lo = 0, hi = st->nruns; /* run_start[lo] <= v < run_start[hi] */
+    while (hi - lo > 1) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (st->run_start[mid] <= v) lo = mid;
+        else hi = mid;
+    }
+    return lo;
 }
+
+/* The bytes st holds. */
+double ohm_stencil_bytes(const ohm_stencil *st);
+
+/* st's runs from per-unknown offsets off[v] (-y, +y, -z, +z; st->n of
+ * them), replacing any it has: for a stencil built cell by cell (a coarse
+ * level's).  OHM_ERR_NOMEM. */
+int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err);
 
 /* Fill *st (zeroed, or this network's stencil to refill with another
  * medium) and ga, gb as ohm_network_assemble does; the same checks. */

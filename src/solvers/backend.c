@@ -44,9 +44,9 @@ void ohm_operator_apply(const ohm_operator *op, const double *x, double *y)
     else ohm_sym_upper_mult(op->A, x, y);
 }
 
-double ohm_operator_diag(const ohm_operator *op, int64_t v)
+double ohm_operator_diag(const ohm_operator *op, int64_t v, int64_t *cursor)
 {
-    if (op->stencil) return ohm_stencil_diag(op->stencil, v);
+    if (op->stencil) return ohm_stencil_diag(op->stencil, v, cursor);
     const int64_t *Ap = op->A->p;
     return ((const double *)op->A->x)[Ap[v + 1] - 1]; /* the diagonal closes each column (network.h) */
 }

@@ -68,10 +68,11 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         return -1;
     }
     const int64_t *piece = net->piece; /* NULL: one piece, 0 */
+    int64_t cursor = 0;
     for (int64_t v = 0; v < n; ++v) {
         int64_t p = piece ? piece[v] : 0;
         sink[p] += unknown_sink(ga, gb, net, med, v, &f);
-        diag[p] += ohm_operator_diag(op, v);
+        diag[p] += ohm_operator_diag(op, v, &cursor);
     }
     int any = 0;
     for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];

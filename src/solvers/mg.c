@@ -52,28 +52,18 @@ static const double KCYCLE_MAX_RATIO = 0.25;
  * as good as 6. */
 static const double CHEB_LMAX = 2.0, CHEB_RATIO = 6.0;
 
-/* A level's operator: network.h's ohm_stencil (offsets, the links'
- * single-precision conductances, the sinks) and the smoother's inverse
- * diagonal.  Level 0 is the network's own stencil, shared with the outer
- * iteration: its links are already single precision (network.h), so the
- * cycle needs no copy of them, only invd.  A coarse level owns its arrays.
- * The cycle's vectors are floats: the preconditioner only needs to be near
- * A^-1, and floats halve the bytes each pass streams, while the outer
- * iteration's residual and steps stay in double (so the solution and the
- * books are as exact as with a double cycle). */
-typedef struct mg_stencil {
-    int64_t n;
-    const int32_t (*off)[4]; /* as ohm_stencil's: -y, +y, -z, +z; 0: none */
-    const float (*g)[3];     /* the +x, +y, +z links' conductances        */
-    const double *sink;      /* ground + boundary: the diagonal beyond the links */
-    float *invd;             /* 1 / the diagonal (the smoother's, so that it divides nothing) */
-    int32_t (*own_off)[4];   /* a coarse level's (off, g and sink point here) */
-    float (*own_g)[3];
-    double *own_sink;
-} mg_stencil;
-
+/* A level: its operator, network.h's ohm_stencil (level 0: the network's
+ * own, shared with the outer iteration, whose links are single precision
+ * already, so the cycle needs no copy of them; a coarse level's: the
+ * Galerkin sums, owned), the smoother's inverse diagonal, and the cycle's
+ * vectors, floats: the preconditioner only needs to be near A^-1, and
+ * floats halve the bytes each pass streams, while the outer iteration's
+ * residual and steps stay in double (so the solution and the books are as
+ * exact as with a double cycle). */
 typedef struct mg_level {
-    mg_stencil st; /* this level's operator: level 0's converted, a coarse level's the Galerkin sums */
+    ohm_stencil st;
+    int owns_st; /* a coarse level's: freed with the level */
+    float *invd; /* 1 / the diagonal (the smoother's, so that it divides nothing) */
     int64_t n;
     /* n: the next level's cell holding this one; NULL at the coarsest.  32
      * bits: a coarse level has fewer cells than the grid, which the
@@ -147,119 +137,135 @@ static double run(kernel *k, int64_t n, int threads)
 
 /* ---- the stencils' rows ---------------------------------------------------------------- */
 
+/* Rows lo .. hi-1 of a stencil cut where its runs end (network.h): in
+ * each stretch a .. e-1 the neighbours lie at the fixed distances ym, yp,
+ * zm, zp (0: none), so a row loop over it reads every array at a fixed
+ * offset and vectorises.  The first and last unknowns come alone, as
+ * edge stretches: their -x (+x) neighbour's index would fall outside the
+ * vectors. */
+typedef struct stretch {
+    const ohm_stencil *st;
+    int64_t v, hi, run; /* the next row, the end, its run */
+    int64_t a, e, ym, yp, zm, zp;
+    int edge;
+} stretch;
+
+static inline stretch stretches(const ohm_stencil *st, int64_t lo, int64_t hi)
+{
+    return (stretch){.st = st, .v = lo, .hi = hi, .run = lo < hi ? ohm_stencil_run_of(st, lo) : 0};
+}
+
+static inline int next_stretch(stretch *it)
+{
+    const ohm_stencil *st = it->st;
+    int64_t v = it->v;
+    if (v >= it->hi) return 0;
+    int64_t r = ohm_stencil_run(st, v, &it->run), end = st->run_start[r + 1];
+    const int32_t *o = st->run_off[r];
+    it->ym = o[0], it->yp = o[1], it->zm = o[2], it->zp = o[3];
+    it->a = v;
+    it->edge = v == 0 || v == st->n - 1;
+    if (it->edge) it->e = v + 1;
+    else it->e = end < it->hi ? (end < st->n - 1 ? end : st->n - 1) : (it->hi < st->n - 1 ? it->hi : st->n - 1);
+    it->v = it->e;
+    return 1;
+}
+
+/* The statements ... for every row v in lo .. hi-1 of ST, stretch by stretch, with v's
+ * neighbours' distances ym, yp, zm, zp, my = (ym != 0), mz = (zm != 0) and
+ * edge (1 for the first and last unknowns) in scope, constant in each
+ * stretch's loop. */
+#define FOR_ROWS(ST, LO, HI, ...)                                                                               \
+    for (stretch it_ = stretches(ST, LO, HI); next_stretch(&it_);) {                                            \
+        const int64_t ym = it_.ym, yp = it_.yp, zm = it_.zm, zp = it_.zp;                                       \
+        const float my = ym != 0, mz = zm != 0;                                                                 \
+        (void)ym, (void)yp, (void)zm, (void)zp, (void)my, (void)mz;                                             \
+        if (it_.edge)                                                                                           \
+            for (int64_t v = it_.a; v < it_.e; ++v) {                                                           \
+                const int edge = 1;                                                                             \
+                (void)edge;                                                                                     \
+                __VA_ARGS__                                                                                     \
+            }                                                                                                   \
+        else                                                                                                    \
+            for (int64_t v = it_.a; v < it_.e; ++v) {                                                           \
+                const int edge = 0;                                                                             \
+                (void)edge;                                                                                     \
+                __VA_ARGS__                                                                                     \
+            }                                                                                                   \
+    }
+
+/* The arguments of a row function: a row, its neighbours' distances. */
+#define ROW_ARGS v, ym, yp, zm, zp, my, mz, edge
+#define ROW_PARAMS int64_t v, int64_t ym, int64_t yp, int64_t zm, int64_t zp, float my, float mz, int edge
+
 /* (A x)_v for the network's stencil, in double, in flux form:
  *   sink_v x_v + sum_w g_vw (x_v - x_w)
  * (network.h's KCL), not diag_v x_v - sum_w g_vw x_w.  Each link's term is
  * the exact negative of its term in w's row, so the rows' sum is the
- * sinks' sum Σ sink x up to the rounding of those terms, not of diag_v
- * x_v: where the links dwarf the sinks (sigma_s' 1e6 beside sigma_a 1e-3)
- * the other form loses the power balance's last digits to cancellation
- * (a point source in the block medium: 6e-11 of the power in against
- * tol = 1e-10).  A missing link's conductance is 0 and its offset 0, so
- * its term is 0 without a branch; only the lower neighbours' conductances
- * are selected (their offset 0 would point at v's own upper links). */
-static inline double row_apply(const ohm_stencil *st, const double *x, int64_t v)
+ * sinks' sum sum sink x up to the rounding of those terms, not of diag_v
+ * x_v, where the links may dwarf the sinks (sigma_s' 1e6 beside sigma_a
+ * 1e-3).  A missing link's conductance is 0 (and a missing lower
+ * neighbour's is masked by my, mz), its distance 0, so its term is 0
+ * without a branch. */
+static inline double net_apply(const ohm_stencil *st, const double *x, ROW_PARAMS)
 {
-    const int32_t *off = st->off[v];
-    const float(*g)[3] = (const float(*)[3])st->g;
+    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
     double xv = x[v];
-    int64_t wy = v + off[0], wz = v + off[2];
-    double gy = off[0] ? g[wy][1] : 0.0, gz = off[2] ? g[wz][2] : 0.0;
-    double s = st->sink[v] * xv + g[v][1] * (xv - x[v + off[1]]) + gy * (xv - x[wy]) +
-               g[v][2] * (xv - x[v + off[3]]) + gz * (xv - x[wz]);
-    if (v < st->n - 1) s += g[v][0] * (xv - x[v + 1]);
-    if (v > 0) s += g[v - 1][0] * (xv - x[v - 1]);
+    double s = st->sink[v] * xv + gy[v] * (xv - x[v + yp]) + (double)(my * gy[v + ym]) * (xv - x[v + ym]) +
+               gz[v] * (xv - x[v + zp]) + (double)(mz * gz[v + zm]) * (xv - x[v + zm]);
+    if (!edge || v < st->n - 1) s += gx[v] * (xv - x[v + 1]);
+    if (!edge || v > 0) s += gx[v - 1] * (xv - x[v - 1]);
     return s;
 }
 
-/* The cycle's row v (single precision): its links' sum, sum_w g_vw x_w,
- * and its diagonal (so (A x)_v is diag x_v - that sum): the links stored
- * by v (+x, +y, +z; 0 where there is none) and by its lower neighbours
- * (-x: v - 1's +x link, 0 when it is none; -y, -z: at their offsets).
- *
- * A row with rows on either side (0 < v < n - 1) needs no branch: a
- * missing link's conductance is 0 and its offset 0, so its term is 0 x_v;
- * only the lower neighbours' conductances are selected.  By measurement
- * 20-30% faster than testing each link.  A caller that does not use the
- * diagonal leaves its additions to the compiler to drop. */
-static inline float cycle_row(const mg_stencil *st, const float *x, int64_t v, float *diag)
+/* Row v's diagonal, sink + its links, in double. */
+static inline double row_diag(const ohm_stencil *st, ROW_PARAMS)
 {
-    const int32_t *off = st->off[v];
-    const float(*g)[3] = st->g;
-    int64_t wy = v + off[0], wz = v + off[2];
-    float gy = off[0] ? g[wy][1] : 0, gz = off[2] ? g[wz][2] : 0, sink = (float)st->sink[v];
-    if (v > 0 && v < st->n - 1) {
-        float gx = g[v - 1][0];
-        *diag = sink + g[v][0] + g[v][1] + g[v][2] + gx + gy + gz;
-        return g[v][0] * x[v + 1] + gx * x[v - 1] + g[v][1] * x[v + off[1]] + gy * x[wy] + g[v][2] * x[v + off[3]] +
-               gz * x[wz];
-    }
-    float d = sink + g[v][1] + g[v][2] + gy + gz;
-    float sum = g[v][1] * x[v + off[1]] + gy * x[wy] + g[v][2] * x[v + off[3]] + gz * x[wz];
-    if (v < st->n - 1) {
-        d += g[v][0];
-        sum += g[v][0] * x[v + 1];
-    }
-    if (v > 0) {
-        d += g[v - 1][0];
-        sum += g[v - 1][0] * x[v - 1];
-    }
-    *diag = d;
-    return sum;
+    (void)yp, (void)zp;
+    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
+    double d = st->sink[v] + gx[v] + gy[v] + gz[v] + my * gy[v + ym] + mz * gz[v + zm];
+    if (!edge || v > 0) d += gx[v - 1]; /* 0 unless v - 1's +x link is v */
+    return d;
 }
 
-static inline float cycle_row_apply(const mg_stencil *st, const float *x, int64_t v)
+/* The cycle's row v, in single precision: its links' sum, sum_w g_vw x_w
+ * (so (A x)_v is diag x_v - that sum, and the Jacobi step (b_v + that sum)
+ * / diag_v). */
+static inline float cyc_sum(const ohm_stencil *st, const float *x, ROW_PARAMS)
 {
-    float d, sum = cycle_row(st, x, v, &d);
-    return d * x[v] - sum;
+    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
+    float s = gy[v] * x[v + yp] + my * gy[v + ym] * x[v + ym] + gz[v] * x[v + zp] + mz * gz[v + zm] * x[v + zm];
+    if (!edge || v < st->n - 1) s += gx[v] * x[v + 1];
+    if (!edge || v > 0) s += gx[v - 1] * x[v - 1];
+    return s;
+}
+
+/* (A x)_v in the cycle's precision, its diagonal from the sink and links */
+static inline float cyc_apply(const ohm_stencil *st, const float *x, ROW_PARAMS)
+{
+    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
+    float d = (float)st->sink[v] + gx[v] + gy[v] + gz[v] + my * gy[v + ym] + mz * gz[v + zm];
+    if (!edge || v > 0) d += gx[v - 1];
+    return d * x[v] - cyc_sum(st, x, ROW_ARGS);
 }
 
 /* D^-1 (b - A x) in row v, from the stored inverse diagonal (no division) */
-static inline float cycle_jacobi(const mg_stencil *st, const float *x, const float *b, int64_t v)
+static inline float cyc_jacobi(const mg_level *L, const float *x, const float *b, ROW_PARAMS)
 {
-    float d, sum = cycle_row(st, x, v, &d);
-    (void)d;
-    return (b[v] + sum) * st->invd[v] - x[v];
+    return (b[v] + cyc_sum(&L->st, x, ROW_ARGS)) * L->invd[v] - x[v];
 }
 
-/* The cycle's diagonal in row v, without a vector. */
-static inline double cycle_diag(const mg_stencil *st, int64_t v)
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v, int64_t *cursor)
 {
-    const float *g = st->g[v];
-    const int32_t *off = st->off[v];
-    double d = st->sink[v] + g[0] + g[1] + g[2];
-    if (v > 0) d += st->g[v - 1][0]; /* 0 unless v - 1's +x link is v */
-    if (off[0]) d += st->g[v + off[0]][1];
-    if (off[2]) d += st->g[v + off[2]][2];
-    return d;
-}
-
-/* The cycle's neighbour of v across its +a face (a = 0, 1, 2), or -1. */
-static inline int64_t cycle_upper(const mg_stencil *st, int64_t v, int a)
-{
-    if (a == 0) return st->g[v][0] > 0 ? v + 1 : -1;
-    int32_t o = st->off[v][2 * a - 1];
-    return o ? v + o : -1;
-}
-
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
-{
-    double d = st->sink[v];
-    for (int dir = 0; dir < 6; ++dir) {
-        int64_t w = ohm_stencil_neighbour(st, v, dir);
-        if (w >= 0) d += ohm_stencil_link(st, v, dir, w);
-    }
-    return d;
+    const int32_t *o = st->run_off[ohm_stencil_run(st, v, cursor)];
+    return row_diag(st, v, o[0], o[1], o[2], o[3], o[0] != 0, o[2] != 0, 1);
 }
 
 double ohm_stencil_norm_inf(const ohm_stencil *st)
 {
     /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
     double norm = 0;
-    for (int64_t v = 0; v < st->n; ++v) {
-        double d = ohm_stencil_diag(st, v);
-        norm = fmax(norm, 2.0 * d - st->sink[v]);
-    }
+    FOR_ROWS(st, 0, st->n, norm = fmax(norm, 2.0 * row_diag(st, ROW_ARGS) - st->sink[v]);)
     return norm;
 }
 
@@ -268,7 +274,7 @@ double ohm_stencil_norm_inf(const ohm_stencil *st)
 static void apply_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    for (int64_t v = lo; v < hi; ++v) k->out[v] = row_apply(k->st, k->x, v);
+    FOR_ROWS(k->st, lo, hi, k->out[v] = net_apply(k->st, k->x, ROW_ARGS);)
 }
 
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads)
@@ -281,10 +287,10 @@ void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int th
 static void residual_inf_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double worst = 0;
-    for (int64_t v = lo; v < hi; ++v) {
-        double r = fabs(k->y[v] - row_apply(k->st, k->x, v));
+    FOR_ROWS(k->st, lo, hi, {
+        double r = fabs(k->y[v] - net_apply(k->st, k->x, ROW_ARGS));
         if (!(r <= worst)) worst = r; /* NaN propagates */
-    }
+    })
     k->partial[chunk] = worst;
 }
 
@@ -302,12 +308,12 @@ double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const do
 static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0, sr = 0;
-    for (int64_t v = lo; v < hi; ++v) {
-        double r = k->y[v] - row_apply(k->st, k->x, v);
+    FOR_ROWS(k->st, lo, hi, {
+        double r = k->y[v] - net_apply(k->st, k->x, ROW_ARGS);
         k->out[v] = r;
         s += r * r;
         sr += r;
-    }
+    })
     k->partial[chunk] = s;
     k->partial2[chunk] = sr;
 }
@@ -316,12 +322,12 @@ static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double pq = 0, pr = 0;
-    for (int64_t v = lo; v < hi; ++v) {
-        double q = row_apply(k->st, k->x, v);
+    FOR_ROWS(k->st, lo, hi, {
+        double q = net_apply(k->st, k->x, ROW_ARGS);
         k->out[v] = q;
         pq += k->x[v] * q;
         pr += k->x[v] * k->z[v];
-    }
+    })
     k->partial[chunk] = pq;
     k->partial2[chunk] = pr;
 }
@@ -374,13 +380,13 @@ static void direction_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 /* y = A x, returning x.q (q NULL: x.y) in the same pass */
 static void cycle_apply_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    const mg_stencil *st = &k->L->st;
+    const ohm_stencil *st = &k->L->st;
     double s = 0;
-    for (int64_t v = lo; v < hi; ++v) {
-        double y = cycle_row_apply(st, k->xf, v);
-        k->outf[v] = (float)y;
-        s += k->xf[v] * (k->yf ? (double)k->yf[v] : y);
-    }
+    FOR_ROWS(st, lo, hi, {
+        float y = cyc_apply(st, k->xf, ROW_ARGS);
+        k->outf[v] = y;
+        s += k->xf[v] * (k->yf ? (double)k->yf[v] : (double)y);
+    })
     k->partial[chunk] = s;
 }
 
@@ -420,24 +426,23 @@ static void combine(float *out, double a, const float *x, double a2, const float
 static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    const mg_stencil *st = &k->L->st;
-    const double w = k->a;
-    if (!k->xf)
-        for (int64_t v = lo; v < hi; ++v) k->outf[v] = (float)(w * k->bf[v] * st->invd[v]);
-    else
-        for (int64_t v = lo; v < hi; ++v) k->outf[v] = k->xf[v] + (float)w * cycle_jacobi(st, k->xf, k->bf, v);
+    const mg_level *L = k->L;
+    const float w = (float)k->a, *x = k->xf, *b = k->bf;
+    float *out = k->outf;
+    if (!x)
+        for (int64_t v = lo; v < hi; ++v) out[v] = w * b[v] * L->invd[v];
+    else FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + w * cyc_jacobi(L, x, b, ROW_ARGS);)
 }
 
 /* out = x + a (x - y) + c D^-1 (b - A x), y NULL: 0 (Chebyshev's second step) */
 static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    const mg_stencil *st = &k->L->st;
-    const float a = (float)k->a, a2 = (float)k->a2;
-    for (int64_t v = lo; v < hi; ++v) {
-        float x = k->xf[v], y = k->yf ? k->yf[v] : 0.0f;
-        k->outf[v] = x + a * (x - y) + a2 * cycle_jacobi(st, k->xf, k->bf, v);
-    }
+    const mg_level *L = k->L;
+    const float a = (float)k->a, a2 = (float)k->a2, *x = k->xf, *y = k->yf, *b = k->bf;
+    float *out = k->outf;
+    if (!y) FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + a * x[v] + a2 * cyc_jacobi(L, x, b, ROW_ARGS);)
+    else FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + a * (x[v] - y[v]) + a2 * cyc_jacobi(L, x, b, ROW_ARGS);)
 }
 
 /* Two Chebyshev steps for A out = b from y (NULL: zero), the first into
@@ -473,8 +478,8 @@ static void restrict_job(void *user, int64_t K)
     kernel *k = user;
     const mg_level *L = k->L;
     memset(k->outf + L->coarse_at[K], 0, (size_t)(L->coarse_at[K + 1] - L->coarse_at[K]) * sizeof *k->outf);
-    for (int64_t v = L->fine_at[K]; v < L->fine_at[K + 1]; ++v)
-        k->outf[L->agg[v]] += k->bf[v] - cycle_row_apply(&L->st, k->xf, v);
+    FOR_ROWS(&L->st, L->fine_at[K], L->fine_at[K + 1],
+             k->outf[L->agg[v]] += k->bf[v] - cyc_apply(&L->st, k->xf, ROW_ARGS);)
 }
 
 static void restrict_residual(const mg_level *L, const float *x, const float *b, float *rc, int threads)
@@ -576,10 +581,8 @@ static void cycle(const ohm_mg *m, int l, const float *b, float *x)
 
 static void level_free(mg_level *L)
 {
-    free(L->st.own_off);
-    free(L->st.own_g);
-    free(L->st.own_sink);
-    free(L->st.invd);
+    if (L->owns_st) ohm_stencil_free(&L->st);
+    free(L->invd);
     free(L->agg);
     free(L->fine_at);
     free(L->coarse_at);
@@ -669,11 +672,11 @@ static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3
 static void inverse_diagonal_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    mg_stencil *st = (mg_stencil *)&k->L->st;
-    for (int64_t v = lo; v < hi; ++v) {
-        double d = cycle_diag(st, v);
-        st->invd[v] = d > 0 ? (float)(1.0 / d) : 0.0f;
-    }
+    const mg_level *L = k->L;
+    FOR_ROWS(&L->st, lo, hi, {
+        double d = row_diag(&L->st, ROW_ARGS);
+        L->invd[v] = d > 0 ? (float)(1.0 / d) : 0.0f;
+    })
 }
 
 /* The smoother's inverse diagonal of level l's stencil, once its links are
@@ -681,7 +684,7 @@ static void inverse_diagonal_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 static int inverse_diagonal(ohm_mg *m, int l, ohm_error *err)
 {
     mg_level *L = &m->lev[l];
-    if (!(L->st.invd = array(m, L->n, sizeof *L->st.invd)))
+    if (!(L->invd = array(m, L->n, sizeof *L->invd)))
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for %lld cells' diagonal", (long long)L->n);
     kernel k = {.fn = inverse_diagonal_k, .L = L};
     run(&k, L->n, m->threads);
@@ -692,53 +695,59 @@ static int inverse_diagonal(ohm_mg *m, int l, ohm_error *err)
  * diagonal. */
 static int fine_stencil(ohm_mg *m, ohm_error *err)
 {
-    const ohm_stencil *st = m->fine;
-    mg_level *L = &m->lev[0];
-    L->st.n = st->n;
-    L->st.off = (const int32_t(*)[4])st->off;
-    L->st.g = (const float(*)[3])st->g;
-    L->st.sink = st->sink;
+    m->lev[0].st = *m->fine;
     return inverse_diagonal(m, 0, err);
 }
 
 /* Level l + 1's stencil, the Galerkin product P^T A P of level l's with
- * piecewise-constant P: exactly sums of conductances (mg.h). */
+ * piecewise-constant P: exactly sums of conductances (mg.h).  Its offsets
+ * are found cell by cell, then kept as runs (network.h). */
 static int galerkin(ohm_mg *m, int l, ohm_error *err)
 {
     const mg_level *L = &m->lev[l];
     mg_level *C = &m->lev[l + 1];
     int64_t nc = C->n;
-    mg_stencil *cs = &C->st;
+    size_t mc = (size_t)(nc ? nc : 1);
+    ohm_stencil *cs = &C->st;
     cs->n = nc;
-    cs->own_off = calloc((size_t)(nc ? nc : 1), sizeof *cs->own_off);
-    cs->own_g = calloc((size_t)(nc ? nc : 1), sizeof *cs->own_g);
-    cs->own_sink = calloc((size_t)(nc ? nc : 1), sizeof *cs->own_sink);
-    cs->off = (const int32_t(*)[4])cs->own_off;
-    cs->g = (const float(*)[3])cs->own_g;
-    cs->sink = cs->own_sink;
-    m->bytes += (double)nc * (sizeof *cs->own_off + sizeof *cs->own_g + sizeof *cs->own_sink);
-    if (!cs->own_off || !cs->own_g || !cs->own_sink)
+    C->owns_st = 1;
+    cs->gx = calloc(mc, sizeof *cs->gx);
+    cs->gy = calloc(mc, sizeof *cs->gy);
+    cs->gz = calloc(mc, sizeof *cs->gz);
+    cs->sink = calloc(mc, sizeof *cs->sink);
+    int32_t(*off)[4] = calloc(mc, sizeof *off);
+    if (!cs->gx || !cs->gy || !cs->gz || !cs->sink || !off) {
+        free(off);
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level of %lld cells", (long long)nc);
-    const mg_stencil *st = &L->st;
-    for (int64_t v = 0; v < L->n; ++v) {
+    }
+    const ohm_stencil *st = &L->st;
+    const float *g[3] = {st->gx, st->gy, st->gz};
+    float *cg[3] = {cs->gx, cs->gy, cs->gz};
+    int overflow = 0;
+    FOR_ROWS(st, 0, L->n, {
         int64_t I = L->agg[v];
-        cs->own_sink[I] += st->sink[v];
+        cs->sink[I] += st->sink[v];
+        int64_t up[3] = {g[0][v] > 0 ? v + 1 : -1, yp ? v + yp : -1, zp ? v + zp : -1};
         for (int a = 0; a < 3; ++a) {
-            int64_t w = cycle_upper(st, v, a);
-            if (w < 0) continue;
-            int64_t J = L->agg[w];
+            if (up[a] < 0) continue;
+            int64_t J = L->agg[up[a]];
             if (J == I) continue; /* inside the block: neither a link nor a sink */
             /* the blocks are neighbours across their +a face: J is I's +a
              * neighbour (I + 1 for +x, coarse cells being in cell order too) */
-            cs->own_g[I][a] += st->g[v][a];
+            cg[a][I] += g[a][v];
             if (a == 0) continue;
             int64_t delta = J - I;
-            if (delta > INT32_MAX) return ohm_fail(err, OHM_ERR_INTERNAL, "mg: a coarse offset overflows");
-            cs->own_off[I][2 * a - 1] = (int32_t)delta;
-            cs->own_off[J][2 * a - 2] = (int32_t)-delta;
+            if (delta > INT32_MAX) overflow = 1;
+            off[I][2 * a - 1] = (int32_t)delta;
+            off[J][2 * a - 2] = (int32_t)-delta;
         }
-    }
-    return inverse_diagonal(m, l + 1, err);
+    })
+    int rc = overflow ? ohm_fail(err, OHM_ERR_INTERNAL, "mg: a coarse offset overflows")
+                      : ohm_stencil_set_runs(cs, (const int32_t(*)[4])off, err);
+    free(off);
+    m->bytes += (double)nc * (3 * sizeof(float) + sizeof(double)) +
+                (double)cs->nruns * (sizeof *cs->run_start + sizeof *cs->run_off);
+    return rc ? rc : inverse_diagonal(m, l + 1, err);
 }
 
 /* The coarsest level's dense Cholesky factor. */
@@ -752,14 +761,14 @@ static int dense_factor(ohm_mg *m, ohm_error *err)
     if (!m->dense || !(m->dense_x = array(m, n, sizeof(double))))
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the coarsest level");
     double *A = m->dense;
-    const mg_stencil *st = &L->st;
-    for (int64_t v = 0; v < n; ++v) {
-        A[v * n + v] = cycle_diag(st, v);
-        for (int a = 0; a < 3; ++a) {
-            int64_t w = cycle_upper(st, v, a);
-            if (w >= 0) A[v * n + w] = A[w * n + v] = -(double)st->g[v][a];
-        }
-    }
+    const ohm_stencil *st = &L->st;
+    FOR_ROWS(st, 0, n, {
+        A[v * n + v] = row_diag(st, ROW_ARGS);
+        int64_t up[3] = {st->gx[v] > 0 ? v + 1 : -1, yp ? v + yp : -1, zp ? v + zp : -1};
+        const float g[3] = {st->gx[v], st->gy[v], st->gz[v]};
+        for (int a = 0; a < 3; ++a)
+            if (up[a] >= 0) A[v * n + up[a]] = A[up[a] * n + v] = -(double)g[a];
+    })
     for (int64_t j = 0; j < n; ++j) { /* lower factor in place, row-major */
         double s = A[j * n + j];
         for (int64_t k = 0; k < j; ++k) s -= A[j * n + k] * A[j * n + k];
@@ -860,10 +869,8 @@ void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view)
     for (int l = 0; l < mg->nlevels; ++l) {
         const mg_level *L = &mg->lev[l];
         view->lev[l] = (ohm_mg_level_view){.n = L->n,
-                                           .off = L->st.off,
-                                           .g = L->st.g,
-                                           .sink = L->st.sink,
-                                           .invd = L->st.invd,
+                                           .st = &L->st,
+                                           .invd = L->invd,
                                            .agg = L->agg,
                                            .kcycle = L->kcycle};
     }
@@ -873,11 +880,13 @@ void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view)
 
 double ohm_mg_bytes_estimate(int64_t n)
 {
-    /* fine: the network's stencil 36, the inverse diagonal 4, the
-     * aggregate map 4, the outer r p q 24, the cycle's b x r t 16; the coarse
-     * levels together about n/7 cells of stencil 36 and inverse diagonal 4,
-     * map 4 and up to nine vectors of 4 */
-    double fine = 36 + 4 + 4 + 24 + 16, coarse = (40 + 4 + 36) / 7.0;
+    /* fine: the network's stencil 20 and its runs (24 B each, allowed 4
+     * per cell: runs of 6 cells on average, where a solid's rows are one
+     * run each and a voxelized surface's a few), the inverse diagonal 4,
+     * the aggregate map 4, the outer r p q 24, the cycle's b x r t 16; the
+     * coarse levels together about n/7 cells of stencil 24 and inverse
+     * diagonal 4, map 4 and up to nine vectors of 4 */
+    double fine = 20 + 4 + 4 + 4 + 24 + 16, coarse = (28 + 4 + 36) / 7.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
@@ -928,10 +937,10 @@ void ohm_mg_precondition(ohm_mg *m, const double *r, double *z)
 
 /* Bytes one cycle at level l streams, each array counted once per pass as
  * STREAM counts them (gathered neighbours hit the cache; a write's
- * allocating read is not counted), per level visit: the stencil's offsets
- * 16, links 12 and sinks 8 (read only where the diagonal is: residuals and
- * products), the inverse diagonal 4, the aggregate map 4, a vector 4 per
- * cell. */
+ * allocating read is not counted), per level visit: the stencil's links
+ * 12 and sinks 8 (read only where the diagonal is: residuals and
+ * products; its runs are a few bytes per row of cells), the inverse
+ * diagonal 4, the aggregate map 4, a vector 4 per cell. */
 static double cycle_bytes(const ohm_mg *m, int l);
 
 static double coarse_solve_bytes(const ohm_mg *m, int l)
@@ -940,20 +949,20 @@ static double coarse_solve_bytes(const ohm_mg *m, int l)
     double n = (double)L->n;
     if (l == m->nlevels - 1) return 8.0 * n * n + 8.0 * n; /* the dense factor's two sweeps */
     if (!L->kcycle) return cycle_bytes(m, l);
-    /* two cycles, two applications with a dot (off, g, sink, x, out: 44),
+    /* two cycles, two applications with a dot (g, sink, x, out: 28),
      * three dots (8) and two combinations (12) */
-    return 2.0 * cycle_bytes(m, l) + (2.0 * 44 + 3.0 * 8 + 2.0 * 12) * n;
+    return 2.0 * cycle_bytes(m, l) + (2.0 * 28 + 3.0 * 8 + 2.0 * 12) * n;
 }
 
 static double cycle_bytes(const ohm_mg *m, int l)
 {
     double n = (double)m->lev[l].n, nc = (double)m->lev[l + 1].n;
-    /* pre-smoothing: from zero (b, invd, out: 12), a Chebyshev step (off,
-     * g, x, b, invd, out: 44); the residual restricted (off, g, sink, x, b,
-     * agg: 48, the coarse sums 4 nc); the correction prolonged (x, agg, out:
-     * 12, the coarse values 4 nc); post-smoothing: two steps (44, and 48
-     * with the previous iterate) */
-    return (12 + 44 + 48 + 12 + 44 + 48) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
+    /* pre-smoothing: from zero (b, invd, out: 12), a Chebyshev step (g, x,
+     * b, invd, out: 28); the residual restricted (g, sink, x, b, agg: 32,
+     * the coarse sums 4 nc); the correction prolonged (x, agg, out: 12, the
+     * coarse values 4 nc); post-smoothing: two steps (28, and 32 with the
+     * previous iterate) */
+    return (12 + 28 + 32 + 12 + 28 + 32) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
 }
 
 double ohm_mg_cycle_bytes(const ohm_mg *m)
@@ -1138,7 +1147,7 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     rep->precond_setups++;
     rep->levels = ohm_mg_levels(s->mg, NULL);
     snprintf(rep->solver, sizeof rep->solver, "mg");
-    double held = ohm_mg_bytes(s->mg) + 36.0 * (double)n; /* and the stencil it reads */
+    double held = ohm_mg_bytes(s->mg) + ohm_stencil_bytes(st); /* and the stencil it reads */
     if (held > rep->bytes) rep->bytes = held;
     return OHM_OK;
 }

@@ -30,11 +30,11 @@
  * (ohm_mg_solve): the solution and the books are as exact as a
  * double-precision cycle's.
  *
- * Memory per unknown: the network's stencil (36 B, the driver's), the
- * inverse diagonal (4 B), the aggregate map (4 B), three outer vectors in
- * double (24 B) and four of the cycle's in single (16 B), and the coarse
- * levels (an eighth as many cells each, with their stencil, map and up to
- * nine vectors): about 95 B per unknown in all at 1e7 cells
+ * Memory per unknown: the network's stencil (20 B, the driver's, and its
+ * runs), the inverse diagonal (4 B), the aggregate map (4 B), three outer
+ * vectors in double (24 B) and four of the cycle's in single (16 B), and
+ * the coarse levels (an eighth as many cells each, with their stencil, map
+ * and up to nine vectors): about 78 B per unknown in all at 1e7 cells
  * (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
@@ -88,16 +88,13 @@ double ohm_mg_bytes_estimate(int64_t n);
 void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
 
 /* The hierarchy as built, read-only, for running its cycle elsewhere (an
- * OpenCL device: mg_device.h).  Level l's stencil (off, g: the +x, +y, +z
- * links in single precision, sink; level 0's are the network's), its
- * inverse diagonal, its map into level l + 1 (NULL at the coarsest) and
- * whether the K-cycle solves it; the coarsest level's dense lower Cholesky
- * factor (ndense x ndense, row-major). */
+ * OpenCL device: mg_device.h).  Level l's stencil (network.h's form; level
+ * 0's is the network's), its inverse diagonal, its map into level l + 1
+ * (NULL at the coarsest) and whether the K-cycle solves it; the coarsest
+ * level's dense lower Cholesky factor (ndense x ndense, row-major). */
 typedef struct ohm_mg_level_view {
     int64_t n;
-    const int32_t (*off)[4];
-    const float (*g)[3];
-    const double *sink;
+    const ohm_stencil *st;
     const float *invd;
     const int32_t *agg;
     int kcycle;
@@ -137,7 +134,8 @@ double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const do
 /* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
 double ohm_stencil_norm_inf(const ohm_stencil *st);
 
-/* A's diagonal entry in row v. */
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v);
+/* A's diagonal entry in row v; *cursor as network.h's ohm_stencil_run
+ * (0 to start: O(1) for rows visited in increasing order). */
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v, int64_t *cursor);
 
 #endif

@@ -334,15 +334,31 @@ static double device_bytes(const ohm_mg_view *v)
     return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
 }
 
-/* Level lv's stencil as the device's cycle reads it: the +x, +y, +z links
- * and the sink in one float4 per cell (the host's values: its cycle reads
- * the sink as a float too); a host copy for the upload, or NULL. */
-static float (*cycle_copy(const ohm_mg_level_view *lv))[4]
+/* The device's kernels read a stencil cell by cell, as the grid's
+ * work-items do (a work-item per cell, where the host's rows go run by
+ * run): these are the host copies for the upload, or NULL. */
+
+/* st's -y, +y, -z, +z offsets for every cell, from its runs */
+static int32_t (*cell_offsets(const ohm_stencil *st))[4]
 {
-    float(*c)[4] = malloc((size_t)(lv->n ? lv->n : 1) * sizeof *c);
-    for (int64_t v = 0; c && v < lv->n; ++v) {
-        for (int a = 0; a < 3; ++a) c[v][a] = lv->g[v][a];
-        c[v][3] = (float)lv->sink[v];
+    int32_t(*off)[4] = malloc((size_t)(st->n ? st->n : 1) * sizeof *off);
+    for (int64_t r = 0; off && r < st->nruns; ++r)
+        for (int64_t v = st->run_start[r]; v < st->run_start[r + 1]; ++v) memcpy(off[v], st->run_off[r], sizeof *off);
+    return off;
+}
+
+/* st's +x, +y, +z links side by side, with its sink when with_sink (the
+ * cycle's float4: the host's values, its cycle reading the sink as a float
+ * too), else 3 per cell (the outer iteration's) */
+static float *cell_links(const ohm_stencil *st, int with_sink)
+{
+    int w = with_sink ? 4 : 3;
+    float *c = malloc((size_t)(st->n ? st->n : 1) * (size_t)w * sizeof *c);
+    for (int64_t v = 0; c && v < st->n; ++v) {
+        c[w * v] = st->gx[v];
+        c[w * v + 1] = st->gy[v];
+        c[w * v + 2] = st->gz[v];
+        if (with_sink) c[w * v + 3] = (float)st->sink[v];
     }
     return c;
 }
@@ -356,12 +372,14 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
     L->n = n;
     L->kcycle = lv->kcycle;
     L->nc = l < v->nlevels - 1 ? v->lev[l + 1].n : 0;
-    float(*c)[4] = cycle_copy(lv);
-    int rc = !c ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's copy", l)
-                : buffer(d, &L->off, (size_t)n * sizeof *lv->off, lv->off, err);
-    if (!rc) rc = buffer(d, &L->c, (size_t)n * sizeof *c, c, err);
+    float *c = cell_links(lv->st, 1);
+    int32_t(*off)[4] = cell_offsets(lv->st);
+    int rc = !c || !off ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's copy", l)
+                        : buffer(d, &L->off, (size_t)n * sizeof *off, off, err);
+    if (!rc) rc = buffer(d, &L->c, (size_t)n * 4 * f, c, err);
     if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);
     free(c);
+    free(off);
     if (!rc) rc = buffer(d, &L->b, (size_t)n * f, NULL, err);
     if (!rc) rc = buffer(d, &L->x, (size_t)n * f, NULL, err);
     if (!rc && L->nc) {
@@ -402,7 +420,10 @@ static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
     d->ndense = v->ndense;
     int rc = OHM_OK;
     for (int l = 0; !rc && l < v->nlevels; ++l) rc = upload_level(d, v, l, err);
-    if (!rc) rc = buffer(d, &d->g, (size_t)n * sizeof *st->g, st->g, err);
+    float *g = rc ? NULL : cell_links(st, 0);
+    if (!rc && !g) rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the stencil's copy");
+    if (!rc) rc = buffer(d, &d->g, (size_t)n * 3 * sizeof *g, g, err);
+    free(g);
     if (!rc) rc = buffer(d, &d->sink, dn, st->sink, err);
     cl_mem *outer[] = {&d->x, &d->b, &d->r, &d->p, &d->ap};
     for (size_t i = 0; !rc && i < sizeof outer / sizeof *outer; ++i) rc = buffer(d, outer[i], dn, NULL, err);

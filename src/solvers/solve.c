@@ -112,7 +112,7 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
 static int slot_make_stencil(void *maker, const ohm_stencil **out, ohm_error *err)
 {
     medium_slot *m = maker;
-    int rc = m->stencil.off ? OHM_OK : ohm_network_stencil(&m->stencil, NULL, NULL, m->net, &m->med, m->boundary, err);
+    int rc = m->stencil.gx ? OHM_OK : ohm_network_stencil(&m->stencil, NULL, NULL, m->net, &m->med, m->boundary, err);
     *out = rc ? NULL : &m->stencil;
     return rc;
 }
