@@ -102,7 +102,7 @@ struct kernel {
     const double *x, *y, *z; /* double operands (the outer iteration's) */
     double *out, *out2;
     const float *xf, *yf, *bf; /* single operands (the cycle's) */
-    float *outf;
+    float *outf, *out_tmp;
     double a, a2;
     int64_t n;
     int chunks;
@@ -171,28 +171,43 @@ static inline int next_stretch(stretch *it)
     return 1;
 }
 
-/* The statements ... for every row v in lo .. hi-1 of ST, stretch by stretch, with v's
- * neighbours' distances ym, yp, zm, zp, my = (ym != 0), mz = (zm != 0) and
- * edge (1 for the first and last unknowns) in scope, constant in each
- * stretch's loop. */
-#define FOR_ROWS(ST, LO, HI, ...)                                                                               \
+/* The statements ... for every row v in lo .. hi-1 of ST, stretch by
+ * stretch, with v's neighbours' distances ym, yp, zm, zp, my = (ym != 0),
+ * mz = (zm != 0) and edge (1 for the first and last unknowns) in scope,
+ * constant in each stretch's loop, and S, a local copy of ST (the loop's
+ * stores cannot move its arrays).  FOR_ROWS_EACH is for statements that
+ * write row v's own output only, in an array no row reads, and
+ * FOR_ROWS_SUM("omp simd reduction(+ : s, t)", ...) for those that also
+ * add into the variables named there:
+ * the compiler is told so (OpenMP's simd, with -fopenmp-simd), since it
+ * cannot prove it (every array is float, and a dozen run-time overlap
+ * tests are more than it will make; a sum's order is fixed by the stretch,
+ * not by the cores), and vectorises the loop. */
+#define FOR_ROWS_(PRAGMA, ST, LO, HI, ...)                                                                      \
     for (stretch it_ = stretches(ST, LO, HI); next_stretch(&it_);) {                                            \
-        const int64_t ym = it_.ym, yp = it_.yp, zm = it_.zm, zp = it_.zp;                                       \
+        const ohm_stencil S_ = *it_.st, *S = &S_;                                                               \
+        (void)S;                                                                                                \
+        const int64_t ym = it_.ym, yp = it_.yp, zm = it_.zm, zp = it_.zp, a_ = it_.a, e_ = it_.e;               \
         const float my = ym != 0, mz = zm != 0;                                                                 \
         (void)ym, (void)yp, (void)zm, (void)zp, (void)my, (void)mz;                                             \
         if (it_.edge)                                                                                           \
-            for (int64_t v = it_.a; v < it_.e; ++v) {                                                           \
+            for (int64_t v = a_; v < e_; ++v) {                                                                 \
                 const int edge = 1;                                                                             \
                 (void)edge;                                                                                     \
                 __VA_ARGS__                                                                                     \
             }                                                                                                   \
-        else                                                                                                    \
-            for (int64_t v = it_.a; v < it_.e; ++v) {                                                           \
+        else {                                                                                                  \
+            PRAGMA                                                                                              \
+            for (int64_t v = a_; v < e_; ++v) {                                                                 \
                 const int edge = 0;                                                                             \
                 (void)edge;                                                                                     \
                 __VA_ARGS__                                                                                     \
             }                                                                                                   \
+        }                                                                                                       \
     }
+#define FOR_ROWS(ST, LO, HI, ...) FOR_ROWS_(, ST, LO, HI, __VA_ARGS__)
+#define FOR_ROWS_EACH(ST, LO, HI, ...) FOR_ROWS_(_Pragma("omp simd"), ST, LO, HI, __VA_ARGS__)
+#define FOR_ROWS_SUM(SIMD, ST, LO, HI, ...) FOR_ROWS_(_Pragma(SIMD), ST, LO, HI, __VA_ARGS__)
 
 /* The arguments of a row function: a row, its neighbours' distances. */
 #define ROW_ARGS v, ym, yp, zm, zp, my, mz, edge
@@ -250,9 +265,9 @@ static inline float cyc_apply(const ohm_stencil *st, const float *x, ROW_PARAMS)
 }
 
 /* D^-1 (b - A x) in row v, from the stored inverse diagonal (no division) */
-static inline float cyc_jacobi(const mg_level *L, const float *x, const float *b, ROW_PARAMS)
+static inline float cyc_jacobi(const ohm_stencil *st, const float *invd, const float *x, const float *b, ROW_PARAMS)
 {
-    return (b[v] + cyc_sum(&L->st, x, ROW_ARGS)) * L->invd[v] - x[v];
+    return (b[v] + cyc_sum(st, x, ROW_ARGS)) * invd[v] - x[v];
 }
 
 double ohm_stencil_diag(const ohm_stencil *st, int64_t v, int64_t *cursor)
@@ -265,7 +280,7 @@ double ohm_stencil_norm_inf(const ohm_stencil *st)
 {
     /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
     double norm = 0;
-    FOR_ROWS(st, 0, st->n, norm = fmax(norm, 2.0 * row_diag(st, ROW_ARGS) - st->sink[v]);)
+    FOR_ROWS(st, 0, st->n, norm = fmax(norm, 2.0 * row_diag(S, ROW_ARGS) - S->sink[v]);)
     return norm;
 }
 
@@ -274,7 +289,9 @@ double ohm_stencil_norm_inf(const ohm_stencil *st)
 static void apply_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    FOR_ROWS(k->st, lo, hi, k->out[v] = net_apply(k->st, k->x, ROW_ARGS);)
+    const double *x = k->x;
+    double *out = k->out;
+    FOR_ROWS_EACH(k->st, lo, hi, out[v] = net_apply(S, x, ROW_ARGS);)
 }
 
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads)
@@ -287,8 +304,9 @@ void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int th
 static void residual_inf_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double worst = 0;
+    const double *x = k->x, *b = k->y;
     FOR_ROWS(k->st, lo, hi, {
-        double r = fabs(k->y[v] - net_apply(k->st, k->x, ROW_ARGS));
+        double r = fabs(b[v] - net_apply(S, x, ROW_ARGS));
         if (!(r <= worst)) worst = r; /* NaN propagates */
     })
     k->partial[chunk] = worst;
@@ -308,9 +326,11 @@ double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const do
 static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0, sr = 0;
-    FOR_ROWS(k->st, lo, hi, {
-        double r = k->y[v] - net_apply(k->st, k->x, ROW_ARGS);
-        k->out[v] = r;
+    const double *x = k->x, *b = k->y;
+    double *out = k->out;
+    FOR_ROWS_SUM("omp simd reduction(+ : s, sr)", k->st, lo, hi, {
+        double r = b[v] - net_apply(S, x, ROW_ARGS);
+        out[v] = r;
         s += r * r;
         sr += r;
     })
@@ -322,11 +342,13 @@ static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double pq = 0, pr = 0;
-    FOR_ROWS(k->st, lo, hi, {
-        double q = net_apply(k->st, k->x, ROW_ARGS);
-        k->out[v] = q;
-        pq += k->x[v] * q;
-        pr += k->x[v] * k->z[v];
+    const double *p = k->x, *r = k->z;
+    double *out = k->out;
+    FOR_ROWS_SUM("omp simd reduction(+ : pq, pr)", k->st, lo, hi, {
+        double q = net_apply(S, p, ROW_ARGS);
+        out[v] = q;
+        pq += p[v] * q;
+        pr += p[v] * r[v];
     })
     k->partial[chunk] = pq;
     k->partial2[chunk] = pr;
@@ -338,9 +360,11 @@ static void step_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0, sr = 0, alpha = k->a;
     double *x = k->out, *r = k->out2;
+    const double *p = k->x, *q = k->y;
+#pragma omp simd reduction(+ : s, sr)
     for (int64_t i = lo; i < hi; ++i) {
-        x[i] += alpha * k->x[i];
-        double ri = r[i] - alpha * k->y[i];
+        x[i] += alpha * p[i];
+        double ri = r[i] - alpha * q[i];
         r[i] = ri;
         s += ri * ri;
         sr += ri;
@@ -360,7 +384,10 @@ static void to_single_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 static void mixed_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0;
-    for (int64_t i = lo; i < hi; ++i) s += (double)k->xf[i] * k->y[i];
+    const float *z = k->xf;
+    const double *q = k->y;
+#pragma omp simd reduction(+ : s)
+    for (int64_t i = lo; i < hi; ++i) s += (double)z[i] * q[i];
     k->partial[chunk] = s;
 }
 
@@ -380,12 +407,13 @@ static void direction_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 /* y = A x, returning x.q (q NULL: x.y) in the same pass */
 static void cycle_apply_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    const ohm_stencil *st = &k->L->st;
     double s = 0;
-    FOR_ROWS(st, lo, hi, {
-        float y = cyc_apply(st, k->xf, ROW_ARGS);
-        k->outf[v] = y;
-        s += k->xf[v] * (k->yf ? (double)k->yf[v] : (double)y);
+    const float *x = k->xf, *q = k->yf;
+    float *out = k->outf;
+    FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi, {
+        float y = cyc_apply(S, x, ROW_ARGS);
+        out[v] = y;
+        s += x[v] * (q ? (double)q[v] : (double)y);
     })
     k->partial[chunk] = s;
 }
@@ -399,7 +427,9 @@ static double level_apply_dot(const mg_level *L, const float *x, float *y, const
 static void dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0;
-    for (int64_t i = lo; i < hi; ++i) s += (double)k->xf[i] * k->yf[i];
+    const float *x = k->xf, *y = k->yf;
+#pragma omp simd reduction(+ : s)
+    for (int64_t i = lo; i < hi; ++i) s += (double)x[i] * y[i];
     k->partial[chunk] = s;
 }
 
@@ -427,11 +457,11 @@ static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
     const mg_level *L = k->L;
-    const float w = (float)k->a, *x = k->xf, *b = k->bf;
+    const float w = (float)k->a, *x = k->xf, *b = k->bf, *invd = L->invd;
     float *out = k->outf;
     if (!x)
-        for (int64_t v = lo; v < hi; ++v) out[v] = w * b[v] * L->invd[v];
-    else FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + w * cyc_jacobi(L, x, b, ROW_ARGS);)
+        for (int64_t v = lo; v < hi; ++v) out[v] = w * b[v] * invd[v];
+    else FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + w * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
 }
 
 /* out = x + a (x - y) + c D^-1 (b - A x), y NULL: 0 (Chebyshev's second step) */
@@ -439,10 +469,10 @@ static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
     const mg_level *L = k->L;
-    const float a = (float)k->a, a2 = (float)k->a2, *x = k->xf, *y = k->yf, *b = k->bf;
+    const float a = (float)k->a, a2 = (float)k->a2, *x = k->xf, *y = k->yf, *b = k->bf, *invd = L->invd;
     float *out = k->outf;
-    if (!y) FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + a * x[v] + a2 * cyc_jacobi(L, x, b, ROW_ARGS);)
-    else FOR_ROWS(&L->st, lo, hi, out[v] = x[v] + a * (x[v] - y[v]) + a2 * cyc_jacobi(L, x, b, ROW_ARGS);)
+    if (!y) FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + a * x[v] + a2 * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
+    else FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + a * (x[v] - y[v]) + a2 * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
 }
 
 /* Two Chebyshev steps for A out = b from y (NULL: zero), the first into
@@ -472,19 +502,39 @@ static void smooth(const mg_level *L, const float *y, const float *b, float *tmp
 
 /* rc = P^T (b - A x): each coarse cell's the sum of its cells' residuals,
  * slab by slab (a coarse slab's cells are its two fine layers' and no
- * other's), the residual never stored. */
+ * other's).  The slab's residuals are computed first, into r, in a loop
+ * that vectorises, then added into their coarse cells while still in the
+ * cache (the additions, a scatter, do not vectorise: at 1e7 cells one loop
+ * doing both took as long as two Chebyshev steps). */
 static void restrict_job(void *user, int64_t K)
 {
     kernel *k = user;
     const mg_level *L = k->L;
-    memset(k->outf + L->coarse_at[K], 0, (size_t)(L->coarse_at[K + 1] - L->coarse_at[K]) * sizeof *k->outf);
-    FOR_ROWS(&L->st, L->fine_at[K], L->fine_at[K + 1],
-             k->outf[L->agg[v]] += k->bf[v] - cyc_apply(&L->st, k->xf, ROW_ARGS);)
+    int64_t f0 = L->fine_at[K], f1 = L->fine_at[K + 1];
+    const float *x = k->xf, *b = k->bf;
+    const int32_t *agg = L->agg;
+    float *rc = k->outf, *r = k->out_tmp;
+    FOR_ROWS_EACH(&L->st, f0, f1, r[v] = b[v] - cyc_apply(S, x, ROW_ARGS);)
+    memset(rc + L->coarse_at[K], 0, (size_t)(L->coarse_at[K + 1] - L->coarse_at[K]) * sizeof *rc);
+    /* consecutive cells in x share their coarse cell: summed in a register
+     * before it is added, not through memory (a chain of stores and loads) */
+    int32_t cur = f0 < f1 ? agg[f0] : 0;
+    float acc = 0;
+    for (int64_t v = f0; v < f1; ++v) {
+        if (agg[v] != cur) {
+            rc[cur] += acc;
+            cur = agg[v];
+            acc = 0;
+        }
+        acc += r[v];
+    }
+    if (f0 < f1) rc[cur] += acc;
 }
 
-static void restrict_residual(const mg_level *L, const float *x, const float *b, float *rc, int threads)
+/* r: n floats of room for the residual */
+static void restrict_residual(const mg_level *L, const float *x, const float *b, float *r, float *rc, int threads)
 {
-    kernel k = {.L = L, .xf = x, .bf = b, .outf = rc};
+    kernel k = {.L = L, .xf = x, .bf = b, .outf = rc, .out_tmp = r};
     if (L->n < PARALLEL_MIN || threads <= 1)
         for (int64_t K = 0; K < L->nslabs; ++K) restrict_job(&k, K);
     else ohm_parallel_for(L->nslabs, threads, restrict_job, &k);
@@ -571,7 +621,7 @@ static void cycle(const ohm_mg *m, int l, const float *b, float *x)
     const mg_level *C = &m->lev[l + 1];
     int th = m->threads;
     smooth(L, NULL, b, x, L->t, th); /* pre-smoothed: t */
-    restrict_residual(L, L->t, b, C->b, th);
+    restrict_residual(L, L->t, b, L->r, C->b, th); /* r: free until the correction */
     coarse_solve(m, l + 1, C->b, C->x);
     prolong_add(L, L->t, C->x, L->r, th); /* corrected: r */
     smooth(L, L->r, b, L->t, x, th);      /* post-smoothed: x */
