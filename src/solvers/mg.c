@@ -87,7 +87,8 @@ struct ohm_mg {
     double *dense;                 /* the coarsest level's Cholesky factor, n x n, lower */
     double *dense_x;               /* its solution, in double (the sweeps' work)         */
     int64_t ndense;
-    double *r, *p, *q; /* the outer flexible CG's vectors              */
+    double *r, *q; /* the outer flexible CG's residual and A p, in double */
+    float *p;      /* its direction, in floats, times a scale (ohm_mg_solve) */
     double norm_A;
     double bytes;
 };
@@ -222,16 +223,19 @@ static inline int next_stretch(stretch *it)
  * 1e-3).  A missing link's conductance is 0 (and a missing lower
  * neighbour's is masked by my, mz), its distance 0, so its term is 0
  * without a branch. */
-static inline double net_apply(const ohm_stencil *st, const double *x, ROW_PARAMS)
-{
-    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
-    double xv = x[v];
-    double s = st->sink[v] * xv + gy[v] * (xv - x[v + yp]) + (double)(my * gy[v + ym]) * (xv - x[v + ym]) +
-               gz[v] * (xv - x[v + zp]) + (double)(mz * gz[v + zm]) * (xv - x[v + zm]);
-    if (!edge || v < st->n - 1) s += gx[v] * (xv - x[v + 1]);
-    if (!edge || v > 0) s += gx[v - 1] * (xv - x[v - 1]);
-    return s;
-}
+#define DEFINE_NET_APPLY(NAME, XTYPE)                                                                           \
+    static inline double NAME(const ohm_stencil *st, const XTYPE *x, ROW_PARAMS)                                \
+    {                                                                                                           \
+        const float *gx = st->gx, *gy = st->gy, *gz = st->gz;                                                   \
+        double xv = x[v];                                                                                       \
+        double s = st->sink[v] * xv + gy[v] * (xv - x[v + yp]) + (double)(my * gy[v + ym]) * (xv - x[v + ym]) + \
+                   gz[v] * (xv - x[v + zp]) + (double)(mz * gz[v + zm]) * (xv - x[v + zm]);                     \
+        if (!edge || v < st->n - 1) s += gx[v] * (xv - x[v + 1]);                                               \
+        if (!edge || v > 0) s += gx[v - 1] * (xv - x[v - 1]);                                                   \
+        return s;                                                                                               \
+    }
+DEFINE_NET_APPLY(net_apply, double)       /* the residual's, of the double iterate */
+DEFINE_NET_APPLY(net_apply_single, float) /* the outer direction's, kept in floats */
 
 /* Row v's diagonal, sink + its links, in double. */
 static inline double row_diag(const ohm_stencil *st, ROW_PARAMS)
@@ -338,14 +342,16 @@ static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     k->partial2[chunk] = sr;
 }
 
-/* q = A p (p in x, q in out); returns p.q, and p.r (r in z) in k.sum2 */
+/* q = A p for the direction p = a pt (pt in xf, q in out); returns pt.q,
+ * and pt.r (r in z) in k.sum2 */
 static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    double pq = 0, pr = 0;
-    const double *p = k->x, *r = k->z;
+    double pq = 0, pr = 0, a = k->a;
+    const float *p = k->xf;
+    const double *r = k->z;
     double *out = k->out;
     FOR_ROWS_SUM("omp simd reduction(+ : pq, pr)", k->st, lo, hi, {
-        double q = net_apply(S, p, ROW_ARGS);
+        double q = a * net_apply_single(S, p, ROW_ARGS);
         out[v] = q;
         pq += p[v] * q;
         pr += p[v] * r[v];
@@ -354,16 +360,18 @@ static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     k->partial2[chunk] = pr;
 }
 
-/* The outer step: x += alpha p, r -= alpha q; returns ||r||^2, and the
- * sum of r (the power the books miss) in k.sum2. */
+/* The outer step: x += alpha p with p = a pt (alpha a in a2, pt in xf), r
+ * -= alpha q; returns ||r||^2, and the sum of r (the power the books miss)
+ * in k.sum2. */
 static void step_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    double s = 0, sr = 0, alpha = k->a;
+    double s = 0, sr = 0, alpha = k->a, alpha_p = k->a2;
     double *x = k->out, *r = k->out2;
-    const double *p = k->x, *q = k->y;
+    const float *p = k->xf;
+    const double *q = k->y;
 #pragma omp simd reduction(+ : s, sr)
     for (int64_t i = lo; i < hi; ++i) {
-        x[i] += alpha * p[i];
+        x[i] += alpha_p * p[i];
         double ri = r[i] - alpha * q[i];
         r[i] = ri;
         s += ri * ri;
@@ -391,15 +399,16 @@ static void mixed_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     k->partial[chunk] = s;
 }
 
-/* The outer direction: p = a xf - beta p (beta in a2; 0: p = a xf) */
+/* The outer direction, in floats: pt = z - c pt (z in xf, pt in outf, c in
+ * a; 0: pt = z) */
 static void direction_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
-    double *p = k->out;
-    if (k->a2 == 0)
-        for (int64_t i = lo; i < hi; ++i) p[i] = k->a * k->xf[i];
+    const float *z = k->xf, c = (float)k->a;
+    float *p = k->outf;
+    if (c == 0) memcpy(p + lo, z + lo, (size_t)(hi - lo) * sizeof *p);
     else
-        for (int64_t i = lo; i < hi; ++i) p[i] = k->a * k->xf[i] - k->a2 * p[i];
+        for (int64_t i = lo; i < hi; ++i) p[i] = z[i] - c * p[i];
 }
 
 /* ---- the cycle's kernels (single) ------------------------------------------------------ */
@@ -890,7 +899,7 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
     for (int l = 0; l < m->nlevels && !rc; ++l) rc = level_vectors(m, l, err);
     int64_t n = st->n;
     size_t d = sizeof(double);
-    if (!rc && (!(m->r = array(m, n, d)) || !(m->p = array(m, n, d)) || !(m->q = array(m, n, d))))
+    if (!rc && (!(m->r = array(m, n, d)) || !(m->p = array(m, n, sizeof(float))) || !(m->q = array(m, n, d))))
         rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for %lld unknowns", (long long)n);
     if (rc) {
         ohm_mg_free(m);
@@ -933,10 +942,10 @@ double ohm_mg_bytes_estimate(int64_t n)
     /* fine: the network's stencil 20 and its runs (24 B each, allowed 4
      * per cell: runs of 6 cells on average, where a solid's rows are one
      * run each and a voxelized surface's a few), the inverse diagonal 4,
-     * the aggregate map 4, the outer r p q 24, the cycle's b x r t 16; the
-     * coarse levels together about n/7 cells of stencil 24 and inverse
-     * diagonal 4, map 4 and up to nine vectors of 4 */
-    double fine = 20 + 4 + 4 + 4 + 24 + 16, coarse = (28 + 4 + 36) / 7.0;
+     * the aggregate map 4, the outer r and q in double and p in float 20,
+     * the cycle's b x r t 16; the coarse levels together about n/7 cells of
+     * stencil 24 and inverse diagonal 4, map 4 and up to nine vectors of 4 */
+    double fine = 20 + 4 + 4 + 4 + 20 + 16, coarse = (28 + 4 + 36) / 7.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
@@ -1041,7 +1050,8 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
     const float *z = m->lev[0].x; /* the preconditioned residual, z = kz * this */
     int64_t n = A->n;
     int th = m->threads;
-    double *r = m->r, *p = m->p, *q = m->q;
+    double *r = m->r, *q = m->q;
+    float *p = m->p;
     double nb, sb;
     int b_nonnegative;
     ohm_mg_rhs_sizes(b, n, &nb, &sb, &b_nonnegative);
@@ -1104,22 +1114,30 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
         }
         ++restarts;
         /* flexible CG (Notay, "Flexible conjugate gradients", SIAM J. Sci.
-         * Comput. 22, 2000), one direction kept: p = z - beta p with
-         * beta = z.q / p.q making p A-orthogonal to the last (q = A p) */
-        double beta = 0, pq = 0, pr = 0;
+         * Comput. 22, 2000), one direction kept: p = kz z - beta p with
+         * beta = kz z.q / p.q making p A-orthogonal to the last (q = A p).
+         * p is kept as pscale pt, pt in floats: any direction will do, so
+         * long as q is A times the one taken (computed in double from pt's
+         * own values), and x and r move along it together.  pt is of z's
+         * size whatever the residual's, far inside a float's range; 4 B a
+         * cell fewer than a double p, and 4 fewer streamed by three of the
+         * iteration's passes. */
+        double beta = 0, pq = 0, pr = 0, pscale = 0;
         for (int first = 1; !CONVERGED(nr, sr) && it < max_iter; first = 0) {
             double kz = precondition(m, r, nr);
             if (!first) {
                 kernel kb = {.fn = mixed_dot_k, .xf = z, .y = q};
                 beta = kz * run(&kb, n, th) / pq;
             }
-            kernel kd = {.fn = direction_k, .xf = z, .out = p, .a = kz, .a2 = beta};
+            /* p = kz z - beta pscale pt = kz (z - (beta pscale / kz) pt) */
+            kernel kd = {.fn = direction_k, .xf = z, .outf = p, .a = first ? 0.0 : beta * pscale / kz};
             run(&kd, n, th);
-            kernel kq = {.fn = apply_dots_k, .st = A, .x = p, .z = r, .out = q};
-            pq = run(&kq, n, th);
-            pr = kq.sum2;
+            pscale = kz;
+            kernel kq = {.fn = apply_dots_k, .st = A, .xf = p, .z = r, .out = q, .a = pscale};
+            pq = pscale * run(&kq, n, th);
+            pr = pscale * kq.sum2;
             if (!(pq > 0)) break; /* converged to round-off (or A not positive definite) */
-            kernel ks = {.fn = step_k, .x = p, .y = q, .out = x, .out2 = r, .a = pr / pq};
+            kernel ks = {.fn = step_k, .xf = p, .y = q, .out = x, .out2 = r, .a = pr / pq, .a2 = pr / pq * pscale};
             nr = sqrt(run(&ks, n, th));
             sr = ks.sum2;
             ++it;

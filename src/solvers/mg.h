@@ -31,10 +31,11 @@
  * double-precision cycle's.
  *
  * Memory per unknown: the network's stencil (20 B, the driver's, and its
- * runs), the inverse diagonal (4 B), the aggregate map (4 B), three outer
- * vectors in double (24 B) and four of the cycle's in single (16 B), and
+ * runs), the inverse diagonal (4 B), the aggregate map (4 B), the outer
+ * residual and A p in double and its direction in single (20 B), four of
+ * the cycle's vectors in single (16 B), and
  * the coarse levels (an eighth as many cells each, with their stencil, map
- * and up to nine vectors): about 78 B per unknown in all at 1e7 cells
+ * and up to nine vectors): about 74 B per unknown in all at 1e7 cells
  * (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
