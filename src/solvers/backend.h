@@ -82,10 +82,8 @@ typedef struct ohm_operator {
 /* y = A x, whichever form op holds. */
 void ohm_operator_apply(const ohm_operator *op, const double *x, double *y);
 
-/* A's diagonal entry of row v; *cursor: 0 before the first call, then
- * kept by the caller (a stencil's rows are found in O(1) when visited in
- * increasing order). */
-double ohm_operator_diag(const ohm_operator *op, int64_t v, int64_t *cursor);
+/* A's diagonal entry of row v. */
+double ohm_operator_diag(const ohm_operator *op, int64_t v);
 
 /* ||A||_inf. */
 double ohm_operator_norm_inf(const ohm_operator *op);

@@ -3,6 +3,7 @@
  * per face; the constant-mode correction of nearly singular pieces, which
  * makes that law hold exactly; and each channel's tally, added to the
  * solution in channel order. */
+#include "solvers/mg.h"
 #include "solvers/solver_impl.h"
 
 #include <math.h>
@@ -68,12 +69,14 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         return -1;
     }
     const int64_t *piece = net->piece; /* NULL: one piece, 0 */
-    int64_t cursor = 0;
-    for (int64_t v = 0; v < n; ++v) {
-        int64_t p = piece ? piece[v] : 0;
-        sink[p] += unknown_sink(ga, gb, net, med, v, &f);
-        diag[p] += ohm_operator_diag(op, v, &cursor);
-    }
+    if (op->stencil) /* its sinks are these, in one vectorised pass */
+        ohm_stencil_piece_sums(op->stencil, piece, sink, diag);
+    else
+        for (int64_t v = 0; v < n; ++v) {
+            int64_t p = piece ? piece[v] : 0;
+            sink[p] += unknown_sink(ga, gb, net, med, v, &f);
+            diag[p] += ohm_operator_diag(op, v);
+        }
     int any = 0;
     for (int64_t p = 0; p < np; ++p) any |= sink[p] < NEAR_SINGULAR * diag[p];
     for (size_t col = 0; any && col < ncols; ++col) {

@@ -104,10 +104,10 @@ struct kernel {
     double *out, *out2;
     const float *xf, *yf, *bf; /* single operands (the cycle's) */
     float *outf, *out_tmp;
-    double a, a2;
+    double a, a2, a3;
     int64_t n;
     int chunks;
-    double partial[CHUNKS], partial2[CHUNKS]; /* a reduction's (two at most) */
+    double partial[CHUNKS], partial2[CHUNKS], partial3[CHUNKS]; /* a reduction's (three at most) */
     double sum2;                              /* the second reduction's total */
 };
 
@@ -274,9 +274,9 @@ static inline float cyc_jacobi(const ohm_stencil *st, const float *invd, const f
     return (b[v] + cyc_sum(st, x, ROW_ARGS)) * invd[v] - x[v];
 }
 
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v, int64_t *cursor)
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
 {
-    const int32_t *o = st->run_off[ohm_stencil_run(st, v, cursor)];
+    const int32_t *o = st->run_off[ohm_stencil_run_of(st, v)];
     return row_diag(st, v, o[0], o[1], o[2], o[3], o[0] != 0, o[2] != 0, 1);
 }
 
@@ -304,26 +304,53 @@ void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int th
     run(&k, st->n, threads);
 }
 
-/* the largest |b - A x| (b in y) of the rows, into partial[chunk] */
+/* the largest |b - A x| (b in y), |x| and |b| of the rows, into
+ * partial[chunk], partial2[chunk] and partial3[chunk] */
 static void residual_inf_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    double worst = 0;
+    double worst = 0, nx = 0, nb = 0;
     const double *x = k->x, *b = k->y;
     FOR_ROWS(k->st, lo, hi, {
         double r = fabs(b[v] - net_apply(S, x, ROW_ARGS));
         if (!(r <= worst)) worst = r; /* NaN propagates */
+        if (fabs(x[v]) > nx) nx = fabs(x[v]);
+        if (fabs(b[v]) > nb) nb = fabs(b[v]);
     })
     k->partial[chunk] = worst;
+    k->partial2[chunk] = nx;
+    k->partial3[chunk] = nb;
 }
 
-double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const double *x, int threads)
+void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const double *x, int threads, double *nr,
+                                double *nx, double *nb)
 {
     kernel k = {.fn = residual_inf_k, .st = st, .x = x, .y = b};
     run(&k, st->n, threads > 0 ? threads : ohm_usable_cores());
-    double worst = 0;
-    for (int i = 0; i < k.chunks; ++i)
-        if (!(k.partial[i] <= worst)) worst = k.partial[i];
-    return worst;
+    *nr = *nx = *nb = 0;
+    for (int i = 0; i < k.chunks; ++i) {
+        if (!(k.partial[i] <= *nr)) *nr = k.partial[i];
+        if (k.partial2[i] > *nx) *nx = k.partial2[i];
+        if (k.partial3[i] > *nb) *nb = k.partial3[i];
+    }
+}
+
+/* each piece's sums of the sinks and of the diagonal (piece NULL: one) */
+void ohm_stencil_piece_sums(const ohm_stencil *st, const int64_t *piece, double *sink, double *diag)
+{
+    if (!piece) {
+        double s = 0, d = 0;
+        FOR_ROWS_SUM("omp simd reduction(+ : s, d)", st, 0, st->n, {
+            s += S->sink[v];
+            d += row_diag(S, ROW_ARGS);
+        })
+        sink[0] += s;
+        diag[0] += d;
+        return;
+    }
+    FOR_ROWS(st, 0, st->n, {
+        sink[piece[v]] += S->sink[v];
+        diag[piece[v]] += row_diag(S, ROW_ARGS);
+    })
 }
 
 /* out = b - A x (b in y); returns ||out||^2, and its sum in k.sum2 */
@@ -361,19 +388,22 @@ static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 }
 
 /* The outer step: x += alpha p with p = a pt (alpha a in a2, pt in xf), r
- * -= alpha q; returns ||r||^2, and the sum of r (the power the books miss)
- * in k.sum2. */
+ * -= alpha q, and the next cycle's right-hand side outf = a3 r in the same
+ * pass (to_single_k's, not a pass of its own); returns ||r||^2, and the
+ * sum of r (the power the books miss) in k.sum2. */
 static void step_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    double s = 0, sr = 0, alpha = k->a, alpha_p = k->a2;
+    double s = 0, sr = 0, alpha = k->a, alpha_p = k->a2, scale = k->a3;
     double *x = k->out, *r = k->out2;
     const float *p = k->xf;
     const double *q = k->y;
+    float *rhs = k->outf;
 #pragma omp simd reduction(+ : s, sr)
     for (int64_t i = lo; i < hi; ++i) {
         x[i] += alpha_p * p[i];
         double ri = r[i] - alpha * q[i];
         r[i] = ri;
+        rhs[i] = (float)(scale * ri);
         s += ri * ri;
         sr += ri;
     }
@@ -974,14 +1004,27 @@ void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs
  * contrast the stencil holds.  A^-1 r is then about x / s: returns 1 / s. */
 double ohm_mg_rhs_scale(double norm_A, double nr) { return nr > 0 ? (norm_A > 0 ? norm_A : 1.0) / nr : 1.0; }
 
-static double precondition(const ohm_mg *m, const double *r, double nr)
+/* level 0's x = M b, b = s r already in level 0's b */
+static void precondition_rhs(const ohm_mg *m)
 {
     const mg_level *L0 = &m->lev[0];
-    double s = ohm_mg_rhs_scale(m->norm_A, nr);
-    kernel k = {.fn = to_single_k, .x = r, .outf = L0->b, .a = s};
-    run(&k, L0->n, m->threads);
     if (m->nlevels == 1) dense_solve(m, L0->b, L0->x);
     else cycle(m, 0, L0->b, L0->x);
+}
+
+/* level 0's b = s r, s = ohm_mg_rhs_scale(norm_A, nr); returns s */
+static double rhs_of(const ohm_mg *m, const double *r, double nr)
+{
+    double s = ohm_mg_rhs_scale(m->norm_A, nr);
+    kernel k = {.fn = to_single_k, .x = r, .outf = m->lev[0].b, .a = s};
+    run(&k, m->lev[0].n, m->threads);
+    return s;
+}
+
+static double precondition(const ohm_mg *m, const double *r, double nr)
+{
+    double s = rhs_of(m, r, nr);
+    precondition_rhs(m);
     return 1.0 / s;
 }
 
@@ -1098,12 +1141,8 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
             *relres = nr / nb;
         }
         if (CONVERGED(nr, sr)) break;
-        /* stagnated at the floor: the backward error at round-off after a
-         * second restart.  Not after the first: its recursive residual
-         * may have drifted from the true one by more than tol in the sum
-         * alone (a point source in the block medium: 1.4e-10), which one
-         * more round from the true residual removes. */
-        if (restarts > 1 && ohm_scaled_backward_error(b, x, r, (size_t)n, m->norm_A) <= 0.01 * tol) break;
+        /* stagnated at the floor */
+        if (restarts > 0 && ohm_scaled_backward_error(b, x, r, (size_t)n, m->norm_A) <= 0.01 * tol) break;
         if (it >= max_iter || restarts > 5) {
             *iters = it;
             ohm_progress_end(&prog);
@@ -1123,8 +1162,10 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
          * cell fewer than a double p, and 4 fewer streamed by three of the
          * iteration's passes. */
         double beta = 0, pq = 0, pr = 0, pscale = 0;
+        double s = rhs_of(m, r, nr); /* the cycle's right-hand side s r; then each step's */
         for (int first = 1; !CONVERGED(nr, sr) && it < max_iter; first = 0) {
-            double kz = precondition(m, r, nr);
+            precondition_rhs(m);
+            double kz = 1.0 / s;
             if (!first) {
                 kernel kb = {.fn = mixed_dot_k, .xf = z, .y = q};
                 beta = kz * run(&kb, n, th) / pq;
@@ -1137,7 +1178,18 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
             pq = pscale * run(&kq, n, th);
             pr = pscale * kq.sum2;
             if (!(pq > 0)) break; /* converged to round-off (or A not positive definite) */
-            kernel ks = {.fn = step_k, .xf = p, .y = q, .out = x, .out2 = r, .a = pr / pq, .a2 = pr / pq * pscale};
+            /* scaled by the norm before the step: the new residual is
+             * smaller, so s r stays below ||A||_inf (ohm_mg_rhs_scale) */
+            s = ohm_mg_rhs_scale(m->norm_A, nr);
+            kernel ks = {.fn = step_k,
+                         .xf = p,
+                         .y = q,
+                         .out = x,
+                         .out2 = r,
+                         .outf = m->lev[0].b,
+                         .a = pr / pq,
+                         .a2 = pr / pq * pscale,
+                         .a3 = s};
             nr = sqrt(run(&ks, n, th));
             sr = ks.sum2;
             ++it;

@@ -128,15 +128,19 @@ void ohm_mg_smoother(double *w0, double *a, double *a2);
 /* y = A x for the stencil's matrix (network.h), on up to `threads` cores. */
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
 
-/* ||b - A x||_inf, row by row, with no vector of its own (threads <= 0:
- * every usable core). */
-double ohm_stencil_residual_inf(const ohm_stencil *st, const double *b, const double *x, int threads);
+/* ||b - A x||_inf, ||x||_inf and ||b||_inf in one pass, row by row, with
+ * no vector of its own (threads <= 0: every usable core). */
+void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const double *x, int threads, double *nr,
+                                double *nx, double *nb);
+
+/* Add each piece's sum of the sinks and of A's diagonal into sink[p],
+ * diag[p] (piece[v]: unknown v's piece; NULL: one piece, 0). */
+void ohm_stencil_piece_sums(const ohm_stencil *st, const int64_t *piece, double *sink, double *diag);
 
 /* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
 double ohm_stencil_norm_inf(const ohm_stencil *st);
 
-/* A's diagonal entry in row v; *cursor as network.h's ohm_stencil_run
- * (0 to start: O(1) for rows visited in increasing order). */
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v, int64_t *cursor);
+/* A's diagonal entry in row v (its run found by bisection). */
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v);
 
 #endif

@@ -582,7 +582,7 @@ int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol
             *relres = nr / nb;
         }
         if (CONVERGED(nr, sr)) break;
-        if (restarts > 1) { /* stagnated at the floor (mg.c): read x and r back to judge */
+        if (restarts > 0) { /* stagnated at the floor: read x and r back to judge */
             if (!host_r && !(host_r = malloc(dn))) {
                 rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
                 break;
