@@ -13,6 +13,8 @@
 #include <openvdb/Metadata.h>
 #include <openvdb/io/Archive.h>
 #include <openvdb/io/File.h>
+#include <openvdb/io/GridDescriptor.h>
+#include <openvdb/io/io.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/MeshToVolume.h>
 #include <openvdb/tools/Prune.h>
@@ -26,6 +28,7 @@
 #include <fstream>
 #include <memory>
 #include <new>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -136,16 +139,35 @@ std::string dir_of(const std::string &path)
     return path.substr(0, slash);
 }
 
-// Archive::write(std::ostream&, ..., seekable) is protected; io::File::write
-// wraps it but never checks the stream after writing (a full disk would go
-// unnoticed).  This writer gives the same seekable file format and lets us
-// check the stream.
-class CheckedWriter : public openvdb::io::Archive {
+// A .vdb file written one grid at a time, so that a caller holds one grid's
+// tree at a time, not all of them (a scan's 14 grids at 2.7e7 cells are
+// ~1.6 GB of trees).  The format is what Archive::write gives for grids of
+// distinct names (seekable, no instancing): the header, the file's (empty)
+// metadata, the grid count, then each grid's descriptor and data through
+// Archive's own writeGrid, with the stream flags Archive::write sets.
+// io::File::write also never checks the stream after writing (a full disk
+// would go unnoticed); this writer does.
+class StreamingWriter : public openvdb::io::Archive {
 public:
-    void write_to(std::ostream &os, const openvdb::GridCPtrVec &grids) const
+    void begin(std::ostream &os, int32_t count)
     {
-        this->Archive::write(os, grids, /*seekable=*/true, openvdb::MetaMap());
+        meta_.reset(new openvdb::io::StreamMetadata);
+        openvdb::io::setStreamMetadataPtr(os, meta_, /*transfer=*/false);
+        openvdb::io::setDataCompression(os, compression());
+        openvdb::io::setWriteGridStatsMetadata(os, isGridStatsMetadataEnabled());
+        writeHeader(os, /*seekable=*/true);
+        openvdb::MetaMap().writeMeta(os);
+        os.write(reinterpret_cast<const char *>(&count), sizeof count);
     }
+    void add(std::ostream &os, const openvdb::GridBase::ConstPtr &grid)
+    {
+        openvdb::io::GridDescriptor gd(grid->getName(), grid->type(), grid->saveFloatAsHalf());
+        writeGrid(gd, grid, os, /*seekable=*/true);
+        openvdb::io::setDataCompression(os, compression()); // a grid may change it
+    }
+
+private:
+    openvdb::io::StreamMetadata::Ptr meta_;
 };
 
 } // namespace
@@ -382,14 +404,30 @@ int ohm_vdb_grid_foreach_active(const ohm_vdb_grid *g, ohm_vdb_voxel_fn fn, void
     OHM_VDB_CATCH(err)
 }
 
-int ohm_vdb_write(const char *path, ohm_vdb_grid *const *grids, size_t n, ohm_error *err)
+struct ohm_vdb_writer {
+    std::string path;
+    std::ofstream os;
+    StreamingWriter archive;
+    size_t expected = 0, written = 0;
+    std::set<std::string> names;
+};
+
+// The writer's stream failed or threw: close it and remove what it wrote.
+static int writer_failed(ohm_vdb_writer *w, int code, const char *why, ohm_error *err)
+{
+    int rc = ohm_fail(err, code, "cannot write '%s': %s", w->path.c_str(), why);
+    w->os.close();
+    remove_partial(w->path.c_str());
+    return rc;
+}
+
+int ohm_vdb_writer_open(ohm_vdb_writer **out, const char *path, size_t ngrids, ohm_error *err)
 {
     OHM_VDB_TRY
+    if (!out) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_writer_open: NULL output");
+    *out = nullptr;
     if (!path || !*path) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_write: empty path");
-    if (n > 0 && !grids) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_write: NULL grid array");
-    for (size_t i = 0; i < n; ++i)
-        if (!grids[i])
-            return ohm_fail(err, OHM_ERR_INVALID, "cannot write '%s': grid %zu is NULL", path, i);
+    if (ngrids > INT32_MAX) return ohm_fail(err, OHM_ERR_INVALID, "cannot write '%s': %zu grids", path, ngrids);
     openvdb::initialize();
 
     // Check the destination first so the message says what is wrong.
@@ -407,40 +445,97 @@ int ohm_vdb_write(const char *path, ohm_vdb_grid *const *grids, size_t n, ohm_er
     if (stat(path, &st) == 0 && S_ISDIR(st.st_mode))
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': it is a directory", path);
 
-    openvdb::GridCPtrVec vec;
-    vec.reserve(n);
-    for (size_t i = 0; i < n; ++i) vec.push_back(grids[i]->grid);
-
-    std::ofstream os;
+    std::unique_ptr<ohm_vdb_writer> w(new ohm_vdb_writer);
+    w->path = path;
+    w->expected = ngrids;
     errno = 0;
-    os.open(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
-    if (!os.is_open() || os.fail())
+    w->os.open(path, std::ios_base::out | std::ios_base::binary | std::ios_base::trunc);
+    if (!w->os.is_open() || w->os.fail())
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", path,
                         errno ? std::strerror(errno) : "cannot open for writing");
     try {
-        CheckedWriter().write_to(os, vec);
+        w->archive.begin(w->os, static_cast<int32_t>(ngrids));
     } catch (const std::bad_alloc &) {
-        os.close();
-        remove_partial(path);
-        return ohm_fail(err, OHM_ERR_NOMEM, "cannot write '%s': out of memory", path);
+        return writer_failed(w.get(), OHM_ERR_NOMEM, "out of memory", err);
     } catch (const std::exception &e) {
-        os.close();
-        remove_partial(path);
-        return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", path, e.what());
+        return writer_failed(w.get(), OHM_ERR_IO, e.what(), err);
+    }
+    if (w->os.fail()) return writer_failed(w.get(), OHM_ERR_IO, std::strerror(errno ? errno : EIO), err);
+    *out = w.release();
+    return OHM_OK;
+    OHM_VDB_CATCH(err)
+}
+
+int ohm_vdb_writer_add(ohm_vdb_writer *w, const ohm_vdb_grid *g, ohm_error *err)
+{
+    OHM_VDB_TRY
+    if (!w || !g) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_writer_add: NULL argument");
+    if (w->written == w->expected)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "cannot write '%s': more than the %zu grids announced", w->path.c_str(),
+                        w->expected);
+    if (!w->names.insert(g->grid->getName()).second)
+        return ohm_fail(err, OHM_ERR_INTERNAL, "cannot write '%s': two grids named '%s'", w->path.c_str(),
+                        g->grid->getName().c_str());
+    try {
+        w->archive.add(w->os, g->grid);
+    } catch (const std::bad_alloc &) {
+        return writer_failed(w, OHM_ERR_NOMEM, "out of memory", err);
+    } catch (const std::exception &e) {
+        return writer_failed(w, OHM_ERR_IO, e.what(), err);
+    }
+    if (w->os.fail()) return writer_failed(w, OHM_ERR_IO, std::strerror(errno ? errno : EIO), err);
+    w->written++;
+    return OHM_OK;
+    OHM_VDB_CATCH(err)
+}
+
+int ohm_vdb_writer_close(ohm_vdb_writer *w, ohm_error *err)
+{
+    OHM_VDB_TRY
+    if (!w) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_writer_close: NULL writer");
+    std::unique_ptr<ohm_vdb_writer> owned(w);
+    if (!w->os.is_open()) return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': an earlier write failed", w->path.c_str());
+    if (w->written != w->expected) {
+        char why[96];
+        std::snprintf(why, sizeof why, "%zu grids written of the %zu announced", w->written, w->expected);
+        return writer_failed(w, OHM_ERR_INTERNAL, why, err);
     }
     errno = 0;
-    os.flush();
-    const bool flushed = !os.fail();
+    w->os.flush();
+    const bool flushed = !w->os.fail();
     const int flush_errno = errno;
-    os.close();
-    if (!flushed || os.fail()) {
+    w->os.close();
+    if (!flushed || w->os.fail()) {
         const int e = flush_errno ? flush_errno : errno;
-        remove_partial(path);
-        return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", path,
-                        e ? std::strerror(e) : "write failed");
+        remove_partial(w->path.c_str());
+        return ohm_fail(err, OHM_ERR_IO, "cannot write '%s': %s", w->path.c_str(), e ? std::strerror(e) : "write failed");
     }
     return OHM_OK;
     OHM_VDB_CATCH(err)
+}
+
+void ohm_vdb_writer_abort(ohm_vdb_writer *w)
+{
+    if (!w) return;
+    try {
+        if (w->os.is_open()) w->os.close();
+        remove_partial(w->path.c_str());
+    } catch (...) {
+    }
+    delete w;
+}
+
+int ohm_vdb_write(const char *path, ohm_vdb_grid *const *grids, size_t n, ohm_error *err)
+{
+    if (!path || !*path) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_write: empty path");
+    if (n > 0 && !grids) return ohm_fail(err, OHM_ERR_INVALID, "ohm_vdb_write: NULL grid array");
+    for (size_t i = 0; i < n; ++i)
+        if (!grids[i]) return ohm_fail(err, OHM_ERR_INVALID, "cannot write '%s': grid %zu is NULL", path, i);
+    ohm_vdb_writer *w = nullptr;
+    int rc = ohm_vdb_writer_open(&w, path, n, err);
+    for (size_t i = 0; !rc && i < n; ++i)
+        if ((rc = ohm_vdb_writer_add(w, grids[i], err))) ohm_vdb_writer_abort(w);
+    return rc ? rc : ohm_vdb_writer_close(w, err);
 }
 
 int ohm_vdb_read(ohm_vdb_grid ***out, size_t *n, const char *path, ohm_error *err)

@@ -79,9 +79,21 @@ int ohm_vdb_grid_get_value(const ohm_vdb_grid *g, const int32_t ijk[3], float *v
 typedef int (*ohm_vdb_voxel_fn)(void *user, const int32_t ijk[3], float value);
 int ohm_vdb_grid_foreach_active(const ohm_vdb_grid *g, ohm_vdb_voxel_fn fn, void *user, ohm_error *err);
 
-/* Write grids to one .vdb file (with blosc/zip compression as OpenVDB
- * chooses); file-level metadata none.  Overwrites `path`. */
+/* Write grids of distinct names to one .vdb file (with blosc/zip
+ * compression as OpenVDB chooses); file-level metadata none.  Overwrites
+ * `path`; on failure removes what it wrote. */
 int ohm_vdb_write(const char *path, ohm_vdb_grid *const *grids, size_t n, ohm_error *err);
+
+/* The same file written one grid at a time, so that only the grid being
+ * written need exist: open with the number of grids to come, add each (a
+ * grid may be freed once added), close.  Any failure (and an abort, or a
+ * close with fewer grids than announced) removes the file; after a failed
+ * add, only ohm_vdb_writer_abort. */
+typedef struct ohm_vdb_writer ohm_vdb_writer;
+int ohm_vdb_writer_open(ohm_vdb_writer **out, const char *path, size_t ngrids, ohm_error *err);
+int ohm_vdb_writer_add(ohm_vdb_writer *w, const ohm_vdb_grid *g, ohm_error *err);
+int ohm_vdb_writer_close(ohm_vdb_writer *w, ohm_error *err); /* frees w */
+void ohm_vdb_writer_abort(ohm_vdb_writer *w);                /* frees w; NULL is fine */
 
 /* Read every float grid of a file.  *out is a malloc'd array of n handles;
  * free each with ohm_vdb_grid_free and the array with free().  A grid that is
