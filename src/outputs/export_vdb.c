@@ -55,24 +55,30 @@ static int on_interface(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k
 }
 
 /* Collect the narrow band (sign from the inside test, magnitude from the exact
- * mesh distance) and the interior.  Where the inside test changes sign with no
- * mesh nearby — across a hole the winding number closed — the surface sits
- * between the two cells: half a voxel from each. */
-static int collect(const ohm_voxel_grid *g, voxel_list *surface, voxel_list *density)
+ * mesh distance).  Where the inside test changes sign with no mesh nearby —
+ * across a hole the winding number closed — the surface sits between the
+ * two cells: half a voxel from each. */
+static int collect_surface(const ohm_voxel_grid *g, voxel_list *surface)
 {
     const float band = (float)g->band, half = (float)(0.5 * g->h);
     for (int32_t k = 0; k < g->dims[2]; ++k)
         for (int32_t j = 0; j < g->dims[1]; ++j)
             for (int32_t i = 0; i < g->dims[0]; ++i) {
                 size_t idx = ohm_voxel_index(g, i, j, k);
-                int in = g->inside[idx];
                 float d = (float)ohm_voxel_dist(g, idx);
                 if (on_interface(g, i, j, k) && !(d <= (float)g->h)) d = half;
-                if (d <= band) {
-                    if (list_push(surface, i, j, k, in ? -d : d)) return -1;
-                }
-                if (in && list_push(density, i, j, k, 1.0f)) return -1;
+                if (d <= band && list_push(surface, i, j, k, g->inside[idx] ? -d : d)) return -1;
             }
+    return 0;
+}
+
+/* The interior, density 1. */
+static int collect_density(const ohm_voxel_grid *g, voxel_list *density)
+{
+    for (int32_t k = 0; k < g->dims[2]; ++k)
+        for (int32_t j = 0; j < g->dims[1]; ++j)
+            for (int32_t i = 0; i < g->dims[0]; ++i)
+                if (g->inside[ohm_voxel_index(g, i, j, k)] && list_push(density, i, j, k, 1.0f)) return -1;
     return 0;
 }
 
@@ -91,140 +97,168 @@ static int set_common_meta(ohm_vdb_grid *grid, const ohm_voxel_grid *g, const oh
     return rc;
 }
 
+/* The solution grids' room: the active cells' indices and values, n of
+ * each at most, filled by each grid in turn. */
+typedef struct grid_room {
+    int32_t *ijk;
+    float *val;
+} grid_room;
+
 /* One solution grid: values per unknown, active where `where` is non-zero
- * (NULL: every unknown). */
-static int solution_grid(ohm_vdb_grid **out, const char *name, const char *quantity, const ohm_voxel_grid *g,
-                         const ohm_solution *sol, const double *values, const int *where,
+ * (NULL: every unknown), written to w and freed. */
+static int solution_grid(ohm_vdb_writer *w, grid_room *room, const char *name, const char *quantity,
+                         const ohm_voxel_grid *g, const ohm_solution *sol, const double *values, const int *where,
                          const ohm_vdb_provenance *prov, ohm_error *err)
 {
-    voxel_list l = {0};
     const ohm_network *net = &sol->net;
+    size_t count = 0;
     for (int64_t v = 0; v < net->n; ++v) {
         if (where && !where[v]) continue;
-        int32_t ijk[3];
-        ohm_voxel_coords(g, net->cell[v], ijk);
-        int32_t i = ijk[0], j = ijk[1], k = ijk[2];
-        if (list_push(&l, i, j, k, (float)values[v])) {
-            list_free(&l);
-            return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting %s", name);
-        }
+        ohm_voxel_coords(g, net->cell[v], room->ijk + 3 * count);
+        room->val[count++] = (float)values[v];
     }
-    int rc = ohm_vdb_grid_create(out, name, OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
-    if (!rc) rc = ohm_vdb_grid_set_values(*out, l.ijk, l.val, l.n, err);
-    if (!rc) rc = set_common_meta(*out, g, prov, err);
-    if (!rc) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_quantity", quantity, err);
-    if (!rc && prov && prov->material) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_material", prov->material, err);
-    if (!rc && prov && prov->solve) rc = ohm_vdb_grid_set_meta_string(*out, "ohm_solve", prov->solve, err);
+    ohm_vdb_grid *grid = NULL;
+    int rc = ohm_vdb_grid_create(&grid, name, OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
+    if (!rc) rc = ohm_vdb_grid_set_values(grid, room->ijk, room->val, count, err);
+    if (!rc) rc = set_common_meta(grid, g, prov, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_string(grid, "ohm_quantity", quantity, err);
+    if (!rc && prov && prov->material) rc = ohm_vdb_grid_set_meta_string(grid, "ohm_material", prov->material, err);
+    if (!rc && prov && prov->solve) rc = ohm_vdb_grid_set_meta_string(grid, "ohm_solve", prov->solve, err);
     /* Values are physical and unscaled (see docs/blender.md: EEVEE keeps half
      * floats, so values below ~6e-8 vanish there; scale intensity= instead). */
-    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_value_scale", 1.0, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(grid, "ohm_value_scale", 1.0, err);
     if (!rc)
-        rc = ohm_vdb_grid_set_meta_string(*out, "ohm_scaling",
+        rc = ohm_vdb_grid_set_meta_string(grid, "ohm_scaling",
                                           "none: values are W/mm^2 for the lights' stated intensities; the solution "
                                           "is linear in intensity=",
                                           err);
-    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_in_W", sol->power_in, err);
-    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_power_out_W", sol->power_out, err);
-    if (!rc) rc = ohm_vdb_grid_set_meta_double(*out, "ohm_residual", sol->residual, err);
-    list_free(&l);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(grid, "ohm_power_in_W", sol->power_in, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(grid, "ohm_power_out_W", sol->power_out, err);
+    if (!rc) rc = ohm_vdb_grid_set_meta_double(grid, "ohm_residual", sol->residual, err);
+    if (!rc) rc = ohm_vdb_writer_add(w, grid, err);
+    ohm_vdb_grid_free(grid);
     return rc;
 }
 
-enum { MAX_GRIDS = 2 + 6 * OHM_MAX_CHANNELS };
+/* The object's grid from its voxels (surface: a level set; density: a fog
+ * volume), written to w and freed with its list. */
+static int object_grid(ohm_vdb_writer *w, const ohm_voxel_grid *g, int surface, const ohm_vdb_provenance *prov,
+                       ohm_error *err)
+{
+    voxel_list l = {0};
+    if (surface ? collect_surface(g, &l) : collect_density(g, &l)) {
+        list_free(&l);
+        return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting voxels");
+    }
+    ohm_vdb_grid *grid = NULL;
+    int rc = surface ? ohm_vdb_grid_create(&grid, "surface", OHM_VDB_CLASS_LEVEL_SET, (float)g->band, g->h, g->origin,
+                                           err)
+                     : ohm_vdb_grid_create(&grid, "density", OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
+    if (!rc) rc = ohm_vdb_grid_set_values(grid, l.ijk, l.val, l.n, err);
+    list_free(&l);
+    if (!rc) rc = surface ? ohm_vdb_grid_finish_level_set(grid, err) : ohm_vdb_grid_prune(grid, err);
+    if (!rc) rc = set_common_meta(grid, g, prov, err);
+    if (!rc) rc = ohm_vdb_writer_add(w, grid, err);
+    ohm_vdb_grid_free(grid);
+    return rc;
+}
+
+/* The grids a solution adds for channel c (solution_grids' order). */
+static size_t channel_grids(const ohm_solution *sol, int c)
+{
+    return 2 + (sol->fluence_se[c] != NULL) + (sol->exitance_se[c] != NULL) + ohm_solution_medium(NULL, sol, c, 0) +
+           ohm_solution_medium(NULL, sol, c, 1);
+}
+
+/* Every channel's grids of frame `frame`, written to w one at a time. */
+static int solution_grids(ohm_vdb_writer *w, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
+                          const ohm_vdb_provenance *prov, ohm_error *err)
+{
+    size_t n = (size_t)(sol->n ? sol->n : 1);
+    grid_room room = {malloc(3 * n * sizeof *room.ijk), malloc(n * sizeof *room.val)};
+    int *boundary_cell = calloc(n, sizeof *boundary_cell);
+    double *cell_values = malloc(n * sizeof *cell_values); /* a channel's exitance or medium, in turn */
+    int rc = !room.ijk || !room.val || !boundary_cell || !cell_values ? ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory")
+                                                                        : OHM_OK;
+    for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) boundary_cell[sol->net.face_unknown[f]] = 1;
+    static const char *suffix[3] = {"_r", "_g", "_b"};
+    size_t off = (size_t)frame * (size_t)sol->n;
+    for (int c = 0; c < sol->channels && !rc; ++c) {
+        char name[32];
+        const char *sfx = sol->channels == 1 ? "" : suffix[c];
+        snprintf(name, sizeof name, "fluence%s", sfx);
+        rc = solution_grid(w, &room, name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off, NULL, prov, err);
+        if (rc) break;
+        snprintf(name, sizeof name, "exitance%s", sfx);
+        ohm_solution_exitance_frame(cell_values, sol, c, frame);
+        rc = solution_grid(w, &room, name,
+                           "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g, sol,
+                           cell_values, boundary_cell, prov, err);
+        /* solver=mc: the standard errors beside the values */
+        if (!rc && sol->fluence_se[c]) {
+            snprintf(name, sizeof name, "fluence_se%s", sfx);
+            rc = solution_grid(w, &room, name, "Monte Carlo standard error of the fluence, W/mm^2", g, sol,
+                               sol->fluence_se[c] + off, NULL, prov, err);
+        }
+        if (!rc && sol->exitance_se[c]) {
+            snprintf(name, sizeof name, "exitance_se%s", sfx);
+            rc = solution_grid(w, &room, name, "Monte Carlo standard error of the exitance, W/mm^2", g, sol,
+                               sol->exitance_se[c] + off, boundary_cell, prov, err);
+        }
+        /* the material, when it varies cell by cell (scans) */
+        if (!rc && ohm_solution_medium(cell_values, sol, c, 0)) {
+            snprintf(name, sizeof name, "sigma_a%s", sfx);
+            rc = solution_grid(w, &room, name, "absorption coefficient sigma_a, 1/mm", g, sol, cell_values, NULL, prov,
+                               err);
+        }
+        if (!rc && ohm_solution_medium(cell_values, sol, c, 1)) {
+            snprintf(name, sizeof name, "sigma_s%s", sfx);
+            rc = solution_grid(w, &room, name, "reduced scattering coefficient sigma_s', 1/mm", g, sol, cell_values,
+                               NULL, prov, err);
+        }
+    }
+    free(room.ijk);
+    free(room.val);
+    free(boundary_cell);
+    free(cell_values);
+    return rc;
+}
+
+/* The wrapper names the temporary file it was given: name the user's file
+ * instead, in err's message. */
+static void name_user_file(ohm_error *err, const char *tmp, const char *path)
+{
+    const char *at = err ? strstr(err->msg, tmp) : NULL;
+    if (!at) return;
+    char msg[OHM_ERROR_MSG_MAX];
+    snprintf(msg, sizeof msg, "%.*s%s%s", (int)(at - err->msg), err->msg, path, at + strlen(tmp));
+    snprintf(err->msg, sizeof err->msg, "%s", msg);
+}
 
 int ohm_export_vdb(const char *path, const ohm_voxel_grid *g, const ohm_solution *sol, int frame,
                    const ohm_vdb_provenance *prov, ohm_output_batch *batch, ohm_error *err)
 {
     if (!g || !g->inside) return ohm_fail(err, OHM_ERR_INVALID, "write: nothing to write: run -voxelize first");
-    voxel_list surface = {0}, density = {0};
-    ohm_vdb_grid *grids[MAX_GRIDS] = {NULL};
+    if (sol && (frame < 0 || frame >= sol->frames))
+        return ohm_fail(err, OHM_ERR_INTERNAL, "write: frame %d of %d", frame, sol->frames);
     size_t ngrids = 2;
-    int *boundary_cell = NULL;
-    double *cell_exitance = NULL; /* one channel's, in turn */
+    for (int c = 0; sol && c < sol->channels; ++c) ngrids += channel_grids(sol, c);
+    /* one grid at a time (ohm_vdb_writer): its tree, not every grid's, held
+     * beside the solution */
     ohm_output out;
-    int out_open = 0;
-    int rc = OHM_OK;
-
-    if (collect(g, &surface, &density)) {
-        rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory collecting voxels");
-        goto done;
-    }
-    rc = ohm_vdb_grid_create(&grids[0], "surface", OHM_VDB_CLASS_LEVEL_SET, (float)g->band, g->h, g->origin, err);
-    if (!rc) rc = ohm_vdb_grid_set_values(grids[0], surface.ijk, surface.val, surface.n, err);
-    if (!rc) rc = ohm_vdb_grid_finish_level_set(grids[0], err);
-    if (!rc) rc = set_common_meta(grids[0], g, prov, err);
-    if (!rc) rc = ohm_vdb_grid_create(&grids[1], "density", OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
-    if (!rc) rc = ohm_vdb_grid_set_values(grids[1], density.ijk, density.val, density.n, err);
-    if (!rc) rc = ohm_vdb_grid_prune(grids[1], err);
-    if (!rc) rc = set_common_meta(grids[1], g, prov, err);
-    if (!rc && sol && (frame < 0 || frame >= sol->frames))
-        rc = ohm_fail(err, OHM_ERR_INTERNAL, "write: frame %d of %d", frame, sol->frames);
-    if (!rc && sol) {
-        boundary_cell = calloc((size_t)(sol->n ? sol->n : 1), sizeof *boundary_cell);
-        cell_exitance = malloc((size_t)(sol->n ? sol->n : 1) * sizeof *cell_exitance);
-        if (!boundary_cell || !cell_exitance) rc = ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
-        for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) boundary_cell[sol->net.face_unknown[f]] = 1;
-        static const char *suffix[3] = {"_r", "_g", "_b"};
-        for (int c = 0; c < sol->channels && !rc; ++c) {
-            char name[32];
-            const char *sfx = sol->channels == 1 ? "" : suffix[c];
-            snprintf(name, sizeof name, "fluence%s", sfx);
-            size_t off = (size_t)frame * (size_t)sol->n;
-            rc = solution_grid(&grids[ngrids++], name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off,
-                               NULL, prov, err);
-            if (rc) break;
-            snprintf(name, sizeof name, "exitance%s", sfx);
-            ohm_solution_exitance_frame(cell_exitance, sol, c, frame);
-            rc = solution_grid(&grids[ngrids++], name,
-                               "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g,
-                               sol, cell_exitance, boundary_cell, prov, err);
-            /* solver=mc: the standard errors beside the values */
-            if (!rc && sol->fluence_se[c]) {
-                snprintf(name, sizeof name, "fluence_se%s", sfx);
-                rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the fluence, W/mm^2", g, sol,
-                                   sol->fluence_se[c] + off, NULL, prov, err);
-            }
-            if (!rc && sol->exitance_se[c]) {
-                snprintf(name, sizeof name, "exitance_se%s", sfx);
-                rc = solution_grid(&grids[ngrids++], name, "Monte Carlo standard error of the exitance, W/mm^2", g,
-                                   sol, sol->exitance_se[c] + off, boundary_cell, prov, err);
-            }
-            /* the material, when it varies cell by cell (scans), in turn
-             * through the exitance's buffer */
-            if (!rc && ohm_solution_medium(cell_exitance, sol, c, 0)) {
-                snprintf(name, sizeof name, "sigma_a%s", sfx);
-                rc = solution_grid(&grids[ngrids++], name, "absorption coefficient sigma_a, 1/mm", g, sol,
-                                   cell_exitance, NULL, prov, err);
-            }
-            if (!rc && ohm_solution_medium(cell_exitance, sol, c, 1)) {
-                snprintf(name, sizeof name, "sigma_s%s", sfx);
-                rc = solution_grid(&grids[ngrids++], name, "reduced scattering coefficient sigma_s', 1/mm", g, sol,
-                                   cell_exitance, NULL, prov, err);
-            }
-        }
-    }
-    if (rc) goto done;
-
-    rc = ohm_output_begin(&out, path, batch, err);
-    if (rc) goto done;
-    out_open = 1;
-    rc = ohm_vdb_write(ohm_output_tmp_path(&out), grids, ngrids, err);
+    int rc = ohm_output_begin(&out, path, batch, err);
+    if (rc) return rc;
+    ohm_vdb_writer *w = NULL;
+    rc = ohm_vdb_writer_open(&w, ohm_output_tmp_path(&out), ngrids, err);
+    if (!rc) rc = object_grid(w, g, 1, prov, err);
+    if (!rc) rc = object_grid(w, g, 0, prov, err);
+    if (!rc && sol) rc = solution_grids(w, g, sol, frame, prov, err);
+    if (rc) ohm_vdb_writer_abort(w);
+    else rc = ohm_vdb_writer_close(w, err);
     if (rc) {
-        /* The wrapper names the temporary file; name the user's file instead. */
-        char why[OHM_ERROR_MSG_MAX];
-        snprintf(why, sizeof why, "%s", err ? err->msg : "");
-        rc = ohm_fail(err, rc, "cannot write '%s': %s", path, why);
-        goto done;
+        name_user_file(err, ohm_output_tmp_path(&out), path);
+        ohm_output_abort(&out);
+        return rc;
     }
-    rc = ohm_output_commit(&out, err);
-    out_open = 0;
-
-done:
-    if (out_open) ohm_output_abort(&out);
-    for (size_t i = 0; i < MAX_GRIDS; ++i) ohm_vdb_grid_free(grids[i]);
-    free(boundary_cell);
-    free(cell_exitance);
-    list_free(&surface);
-    list_free(&density);
-    return rc;
+    return ohm_output_commit(&out, err);
 }

@@ -122,6 +122,11 @@ typedef struct ohm_backend_ops {
     int (*solve)(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
                  ohm_backend_report *rep, ohm_error *err);
     void (*destroy)(void *state); /* NULL is fine */
+    /* Optional: drop what setup built, before the driver refills the
+     * operator for the next channel and calls setup again, so that the old
+     * set-up and the new assembly are not held at once.  NULL: setup
+     * replaces it itself. */
+    void (*release)(void *state);
     /* OHM_BACKEND_TRANSPORT only (create, setup, solve NULL): every frame
      * and channel of these lights solved into the solver's solution. */
     int (*transport)(struct ohm_solver *s, const struct ohm_light *lights, size_t nlights, ohm_error *err);

@@ -1219,13 +1219,20 @@ typedef struct mg_state {
     ohm_backend_config cfg;
 } mg_state;
 
-static void mg_destroy(void *state)
+static void mg_release(void *state)
 {
     mg_state *s = state;
-    if (!s) return;
     ohm_mg_device_free(s->device);
+    s->device = NULL;
     ohm_mg_free(s->mg);
-    free(s);
+    s->mg = NULL;
+}
+
+static void mg_destroy(void *state)
+{
+    if (!state) return;
+    mg_release(state);
+    free(state);
 }
 
 static int mg_create(void **state, const ohm_backend_config *cfg, ohm_error *err)
@@ -1252,10 +1259,7 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     int rc =
         ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
     if (rc) return rc;
-    ohm_mg_device_free(s->device);
-    s->device = NULL;
-    ohm_mg_free(s->mg);
-    s->mg = NULL;
+    mg_release(s);
     double t0 = ohm_now();
     const ohm_stencil *st = op->stencil;
     if (!st) rc = op->make_stencil(op->maker, &st, err);
@@ -1293,4 +1297,5 @@ const ohm_backend_ops ohm_backend_mg = {.name = "mg",
                                         .setup = mg_setup,
                                         .solve = mg_solve,
                                         .destroy = mg_destroy,
+                                        .release = mg_release,
                                         .caps = OHM_BACKEND_STENCIL | OHM_BACKEND_WARM_START};

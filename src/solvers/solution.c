@@ -54,11 +54,11 @@ int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss)
     const ohm_coeff *values = ss ? sol->medium_ss[c] : sol->medium_sa[c];
     const ohm_curve *curve = ss ? &sol->medium_ss_curve[c] : &sol->medium_sa_curve[c];
     if (values) {
-        for (int64_t v = 0; v < sol->n; ++v) out[v] = values[v];
+        for (int64_t v = 0; out && v < sol->n; ++v) out[v] = values[v];
         return 1;
     }
     if (!sol->medium_density || !curve->n) return 0;
-    for (int64_t v = 0; v < sol->n; ++v) out[v] = ohm_curve_at(curve, sol->medium_density[v]);
+    for (int64_t v = 0; out && v < sol->n; ++v) out[v] = ohm_curve_at(curve, sol->medium_density[v]);
     return 1;
 }
 

@@ -140,6 +140,7 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     if (ohm_log_cancelled(s->log)) return ohm_fail_cancelled(err, "solve");
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
     if (rc) return rc;
+    if (s->backend->release) s->backend->release(m->state); /* the last channel's set-up, before this assembly */
     ohm_channel_medium med;
     ohm_medium_for(&med, &s->mat, &s->params, k);
     double t0 = ohm_now();

@@ -258,7 +258,7 @@ void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int chann
 /* Channel c's sigma_a (ss = 0) or reduced scattering sigma_s' (ss = 1), 1/mm,
  * per unknown into out[n], when it varies cell by cell (returns 1; for the
  * sigma_a / sigma_s output grids); 0, out untouched, when it is the
- * material's constant. */
+ * material's constant.  out NULL: only whether it varies. */
 int ohm_solution_medium(double *out, const ohm_solution *sol, int c, int ss);
 
 /* Whether any coefficient varies cell by cell (ohm_solution_medium). */
