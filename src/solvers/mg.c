@@ -1060,11 +1060,11 @@ static double cycle_bytes(const ohm_mg *m, int l)
 {
     double n = (double)m->lev[l].n, nc = (double)m->lev[l + 1].n;
     /* pre-smoothing: from zero (b, invd, out: 12), a Chebyshev step (g, x,
-     * b, invd, out: 28); the residual restricted (g, sink, x, b, agg: 32,
-     * the coarse sums 4 nc); the correction prolonged (x, agg, out: 12, the
-     * coarse values 4 nc); post-smoothing: two steps (28, and 32 with the
-     * previous iterate) */
-    return (12 + 28 + 32 + 12 + 28 + 32) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
+     * b, invd, out: 28); the residual restricted (g, sink, x, b, agg, and the
+     * slab's residuals written: 36, the coarse sums 4 nc); the correction
+     * prolonged (x, agg, out: 12, the coarse values 4 nc); post-smoothing:
+     * two steps (28, and 32 with the previous iterate) */
+    return (12 + 28 + 36 + 12 + 28 + 32) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
 }
 
 double ohm_mg_cycle_bytes(const ohm_mg *m)
