@@ -106,7 +106,7 @@ static int reserve_faces(ohm_network *net, int64_t *cap, int64_t need)
 /* Union-find that always links the larger root under the smaller, so every
  * parent[x] <= x and each piece's root is its smallest unknown; path halving
  * keeps that (a grandparent is never larger than a parent). */
-static inline int64_t find_root(int64_t *parent, int64_t x)
+static inline int32_t find_root(int32_t *parent, int32_t x)
 {
     while (parent[x] != x) {
         parent[x] = parent[parent[x]];
@@ -159,6 +159,9 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
         n = (int64_t)grid->interior_cells;
     }
     if (n == 0) return ohm_fail(err, OHM_ERR_INVALID, "network: the voxel object has no interior cells");
+    if (n > INT32_MAX) /* the voxelizer keeps grids below 2^31 cells; pieces are labelled in 32 bits */
+        return ohm_fail(err, OHM_ERR_USAGE, "network: %lld interior cells, more than 2^31; use a larger voxel=",
+                        (long long)n);
     int index_failed = ohm_cell_index_alloc(&net->unknowns, ncells);
     net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
@@ -184,11 +187,11 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     /* One walk: boundary faces in unknown order (then direction), matrix
      * entries, closure faces, and pieces joined across lower neighbours. */
     int64_t nfaces = 0, offdiag = 0, nclosure = 0, cap = 0;
-    int64_t *parent = net->piece;
+    int32_t *parent = net->piece;
     walk w;
     walk_begin(&w, net);
     for (int64_t v = 0; v < n; ++v) {
-        parent[v] = v;
+        parent[v] = (int32_t)v;
         walk_to(&w, v);
         if (reserve_faces(net, &cap, nfaces + 6)) goto nomem;
         for (int d = 0; d < 6; ++d) {
@@ -201,7 +204,7 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
                 ++nclosure;
             } else if (x >= 0 && x < v) {
                 ++offdiag;
-                int64_t ra = find_root(parent, v), rb = find_root(parent, x);
+                int32_t ra = find_root(parent, (int32_t)v), rb = find_root(parent, (int32_t)x);
                 if (ra < rb) parent[rb] = ra;
                 else if (rb < ra) parent[ra] = rb;
             }
@@ -209,13 +212,13 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     }
     /* Number the pieces 0.. in the order of their smallest unknown, in place:
      * parent[v] < v is already labelled and lies in v's piece. */
-    int64_t npieces = 0;
+    int32_t npieces = 0;
     for (int64_t v = 0; v < n; ++v) {
-        int64_t p = parent[v];
+        int32_t p = parent[v];
         net->piece[v] = p == v ? npieces++ : net->piece[p];
     }
     net->npieces = npieces;
-    if (npieces == 1) { /* every label is 0: keep none (8 B per cell less, network.h) */
+    if (npieces == 1) { /* every label is 0: keep none (4 B per cell less, network.h) */
         free(net->piece);
         net->piece = NULL;
     }

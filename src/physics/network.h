@@ -62,9 +62,11 @@ typedef struct ohm_network {
     int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
     uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
     int64_t npieces;              /* connected pieces (face-adjacent cells)   */
-    int64_t *piece;               /* n: piece of unknown u, numbered in the order
+    int32_t *piece;               /* n: piece of unknown u, numbered in the order
                                      of their smallest unknown; NULL when
-                                     npieces == 1 (all 0: not worth 8 B a cell) */
+                                     npieces == 1 (all 0: not worth 4 B a cell);
+                                     32 bits: the voxelizer keeps grids below
+                                     2^31 cells (checked in the build) */
     int64_t nnz;                  /* entries of the upper triangle of A       */
     ohm_mirrors mirror;           /* symmetry planes (above); -1: none        */
     const uint8_t *active;        /* depth band: the cells that are unknowns

@@ -68,7 +68,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         free(sink), free(diag), free(defect);
         return -1;
     }
-    const int64_t *piece = net->piece; /* NULL: one piece, 0 */
+    const int32_t *piece = net->piece; /* NULL: one piece, 0 */
     if (op->stencil) /* its sinks are these, in one vectorised pass */
         ohm_stencil_piece_sums(op->stencil, piece, sink, diag);
     else

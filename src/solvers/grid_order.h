@@ -36,7 +36,7 @@ typedef struct ohm_grid_layout {
     const int64_t *cell;
     int64_t n;
     int64_t dims[3];
-    const int64_t *piece;
+    const int32_t *piece;
     int64_t npieces;
 } ohm_grid_layout;
 

@@ -335,7 +335,7 @@ void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const do
 }
 
 /* each piece's sums of the sinks and of the diagonal (piece NULL: one) */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const int64_t *piece, double *sink, double *diag)
+void ohm_stencil_piece_sums(const ohm_stencil *st, const int32_t *piece, double *sink, double *diag)
 {
     if (!piece) {
         double s = 0, d = 0;
