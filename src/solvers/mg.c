@@ -167,7 +167,10 @@ static inline int next_stretch(stretch *it)
     it->a = v;
     it->edge = v == 0 || v == st->n - 1;
     if (it->edge) it->e = v + 1;
-    else it->e = end < it->hi ? (end < st->n - 1 ? end : st->n - 1) : (it->hi < st->n - 1 ? it->hi : st->n - 1);
+    else { /* to the run's end, the range's or the last unknown, whichever is first */
+        int64_t e = end < it->hi ? end : it->hi;
+        it->e = e < st->n - 1 ? e : st->n - 1;
+    }
     it->v = it->e;
     return 1;
 }
@@ -217,10 +220,9 @@ static inline int next_stretch(stretch *it)
 /* (A x)_v for the network's stencil, in double, in flux form:
  *   sink_v x_v + sum_w g_vw (x_v - x_w)
  * (network.h's KCL), not diag_v x_v - sum_w g_vw x_w.  Each link's term is
- * the exact negative of its term in w's row, so the rows' sum is the
- * sinks' sum sum sink x up to the rounding of those terms, not of diag_v
- * x_v, where the links may dwarf the sinks (sigma_s' 1e6 beside sigma_a
- * 1e-3).  A missing link's conductance is 0 (and a missing lower
+ * the exact negative of its term in w's row, so the rows' sum is
+ * sum_v sink_v x_v up to the rounding of those terms, not of diag_v x_v,
+ * where the links may dwarf the sinks (sigma_s' 1e6 beside sigma_a 1e-3).  A missing link's conductance is 0 (and a missing lower
  * neighbour's is masked by my, mz), its distance 0, so its term is 0
  * without a branch. */
 #define DEFINE_NET_APPLY(NAME, XTYPE)                                                                           \
