@@ -144,37 +144,60 @@ static double against_factor(const ohm_voxel_grid *g, const ohm_coeff *ss, ohm_b
     return dmax;
 }
 
+/* The block medium of nx^3 cells in blocks of `block` cells (sigma_a
+ * 0.01), its network and stencil, for a test; 0, or -1 (checked). */
+typedef struct block_case {
+    ohm_voxel_grid g;
+    ohm_coeff *ss;
+    ohm_network net;
+    ohm_stencil st;
+    ohm_grid_layout layout;
+} block_case;
+
+static int block_case_open(block_case *c, int nx, int block)
+{
+    memset(c, 0, sizeof *c);
+    ohm_error err;
+    ohm_error_clear(&err);
+    int ok = ohm_block_medium_grid(&c->g, nx, &c->ss, block) == 0 &&
+             block_stencil(&c->net, &c->st, &c->g, c->ss, 0.01, &err) == 0;
+    CHECK_MSG(ok, "the block medium at %d^3: %s", nx, err.msg);
+    if (ok) c->layout = ohm_grid_layout_of(&c->net);
+    return ok ? 0 : -1;
+}
+
+static void block_case_close(block_case *c)
+{
+    ohm_stencil_free(&c->st);
+    ohm_network_free(&c->net);
+    ohm_voxel_grid_free(&c->g);
+    free(c->ss);
+}
+
 /* A uniform source on a box: what the solution sinks (ground and boundary)
  * is what went in, to round-off, through every level's correction. */
 static void conservation(void)
 {
-    ohm_voxel_grid g;
-    ohm_coeff *ss = NULL;
-    CHECK(ohm_block_medium_grid(&g, 40, &ss, 5) == 0);
+    block_case c;
+    if (block_case_open(&c, 40, 5)) return;
     ohm_error err;
     ohm_error_clear(&err);
-    ohm_network net;
-    ohm_stencil st;
-    CHECK(block_stencil(&net, &st, &g, ss, 0.01, &err) == 0);
-    int64_t n = net.n, its = 0;
+    int64_t n = c.net.n, its = 0;
     double *b = malloc((size_t)n * 8), *x = calloc((size_t)n, 8), relres = 0;
     for (int64_t v = 0; v < n; ++v) b[v] = 1.0 / (double)n;
-    ohm_grid_layout layout = ohm_grid_layout_of(&net);
     ohm_mg *mg = NULL;
-    CHECK(ohm_mg_setup(&mg, &st, &layout, 2, &err) == 0);
+    CHECK(ohm_mg_setup(&mg, &c.st, &c.layout, 2, &err) == 0);
     CHECK(mg && ohm_mg_solve(mg, x, b, 1e-12, 500, NULL, &its, &relres, &err) == 0);
     double sunk = 0;
-    for (int64_t v = 0; v < n; ++v) sunk += st.sink[v] * x[v];
+    for (int64_t v = 0; v < n; ++v) sunk += c.st.sink[v] * x[v];
     CHECK_MSG(fabs(sunk - 1.0) <= 1e-10, "1 W in, %.15g W sunk", sunk);
     int64_t cells = 0;
     int levels = mg ? ohm_mg_levels(mg, &cells) : 0;
     CHECK_MSG(levels >= 3 && cells < n + n / 6, "%d levels, %lld cells for %lld", levels, (long long)cells,
               (long long)n);
     ohm_mg_free(mg);
-    ohm_stencil_free(&st);
-    ohm_network_free(&net);
-    ohm_voxel_grid_free(&g);
-    free(ss), free(b), free(x);
+    block_case_close(&c);
+    free(b), free(x);
 }
 
 /* A solve gives the same bits on one core as on two (mg.c: the loops are
@@ -183,33 +206,26 @@ static void conservation(void)
  * where the kernels start sharing work. */
 static void same_bits_on_any_cores(void)
 {
-    ohm_voxel_grid g;
-    ohm_coeff *ss = NULL;
-    CHECK(ohm_block_medium_grid(&g, 48, &ss, 8) == 0);
+    block_case c;
+    if (block_case_open(&c, 48, 8)) return;
     ohm_error err;
     ohm_error_clear(&err);
-    ohm_network net;
-    ohm_stencil st;
-    CHECK(block_stencil(&net, &st, &g, ss, 0.01, &err) == 0);
-    int64_t n = net.n, its[2] = {-1, -1};
+    int64_t n = c.net.n, its[2] = {-1, -1};
     CHECK_MSG(n > 65536, "%lld cells: too few to share work", (long long)n);
     double *b = malloc((size_t)n * 8), *x[2] = {calloc((size_t)n, 8), calloc((size_t)n, 8)}, relres = 0;
     uint64_t seed = 5;
     for (int64_t v = 0; v < n; ++v) b[v] = ohm_lcg(&seed);
-    ohm_grid_layout layout = ohm_grid_layout_of(&net);
     for (int t = 0; t < 2; ++t) {
         ohm_mg *mg = NULL;
-        CHECK_MSG(ohm_mg_setup(&mg, &st, &layout, t + 1, &err) == 0, "%s", err.msg);
+        CHECK_MSG(ohm_mg_setup(&mg, &c.st, &c.layout, t + 1, &err) == 0, "%s", err.msg);
         CHECK_MSG(mg && ohm_mg_solve(mg, x[t], b, 1e-10, 500, NULL, &its[t], &relres, &err) == 0, "%s", err.msg);
         ohm_mg_free(mg);
     }
     CHECK_MSG(its[0] > 0 && its[0] == its[1], "%lld iterations on one core, %lld on two", (long long)its[0],
               (long long)its[1]);
     CHECK_MSG(memcmp(x[0], x[1], (size_t)n * sizeof *x[0]) == 0, "the solutions on one and two cores differ");
-    ohm_stencil_free(&st);
-    ohm_network_free(&net);
-    ohm_voxel_grid_free(&g);
-    free(ss), free(b), free(x[0]), free(x[1]);
+    block_case_close(&c);
+    free(b), free(x[0]), free(x[1]);
 }
 
 /* Iterations on the block medium (blocks of 8 cells, 1e6 contrast) of
