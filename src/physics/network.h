@@ -243,8 +243,9 @@ const char *ohm_boundary_name(ohm_boundary b);
  * order, so a +x neighbour is always v + 1 and needs no index; the y and
  * z neighbours' offsets (w - v) are the same along most of a row of cells,
  * so they are stored per run: a run is a longest stretch of consecutive
- * unknowns whose four offsets are equal (a row of a box is one run; an
- * object's ragged edge cuts a row into a few).  A solver's rows then read
+ * unknowns whose four offsets are equal (the rows of a box's plane between
+ * its first and last are one run; an object's ragged edge cuts a row into a
+ * few).  A solver's rows then read
  * their neighbours at fixed distances, as a box's would, and vectorise.
  * The values are ohm_network_assemble's, by the same code: A = the
  * stencil's matrix, up to the order its diagonal is summed in. */
