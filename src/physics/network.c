@@ -705,7 +705,8 @@ typedef struct stencil_share {
     double *ga, *gb;
     int64_t v0, v1;
     double *sink;
-    run_list runs; /* the share's, joined afterwards */
+    run_list runs; /* the share's, joined afterwards (not on a refill) */
+    int find_runs;
     int overflow; /* an offset beyond 32 bits */
     int broken;   /* a link the stencil cannot hold: no conductance, or a
                      +x neighbour that is not the next unknown */
@@ -729,7 +730,7 @@ static void stencil_rows(void *user, int64_t i)
             if (delta < INT32_MIN || delta > INT32_MAX) sh->overflow = 1;
             off[d - 2] = (int32_t)delta;
         }
-        run_push(&sh->runs, v, off);
+        if (sh->find_runs) run_push(&sh->runs, v, off);
         /* the stencil's rule (network.h): a +x link is v + 1's, every link's
          * conductance > 0 */
         for (int d = 0; d < 6; ++d)
@@ -750,7 +751,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
 {
     int64_t n = net->n;
     size_t m = (size_t)(n ? n : 1);
-    if (st->n != n || !st->gx) { /* else a refill: same network, new values (the runs made again) */
+    if (st->n != n || !st->gx) { /* else a refill: same network and runs, new values */
         ohm_stencil_free(st);
         st->gx = malloc(m * sizeof *st->gx);
         st->gy = malloc(m * sizeof *st->gy);
@@ -773,7 +774,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
     stencil_share sh[16];
     size_t np = (size_t)(net->npieces ? net->npieces : 1);
     for (int i = 0; i < shares; ++i) {
-        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, {0}, 0, 0};
+        sh[i] = (stencil_share){&as, st, ga, gb, n * i / shares, n * (i + 1) / shares, NULL, {0}, !st->run_start, 0, 0};
         if (!(sh[i].sink = i == 0 ? as.sink : calloc(np, sizeof *sh[i].sink))) rc = OHM_ERR_NOMEM;
     }
     if (!rc) ohm_parallel_for(shares, shares, stencil_rows, sh);
@@ -786,7 +787,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
         if (i > 0) free(sh[i].sink);
         lists[i] = sh[i].runs;
     }
-    if (!rc && !overflow && !broken) rc = runs_adopt(st, lists, shares, err) ? OHM_ERR_NOMEM : OHM_OK;
+    if (!rc && !overflow && !broken && !st->run_start) rc = runs_adopt(st, lists, shares, err) ? OHM_ERR_NOMEM : OHM_OK;
     for (int i = 0; i < shares; ++i) run_list_free(&lists[i]);
     if (rc || overflow || broken) {
         assembly_free(&as);
