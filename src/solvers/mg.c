@@ -74,8 +74,8 @@ typedef struct mg_level {
      * .. coarse_at[K + 1] - 1 */
     int64_t *fine_at, *coarse_at, nslabs;
     float *b, *x;                   /* the level's right-hand side and correction */
-    float *r, *t;                   /* the cycle's temporaries                    */
-    float *c1, *v1, *c2, *v2, *rt;  /* the K-cycle's, solving this level          */
+    float *t;                       /* the cycle's temporary (cycle)              */
+    float *c1, *v1, *c2, *rt;       /* the K-cycle's, solving this level          */
     int kcycle;                     /* this level is solved by the K-cycle        */
 } mg_level;
 
@@ -180,7 +180,7 @@ static inline int next_stretch(stretch *it)
  * mz = (zm != 0) and edge (1 for the first and last unknowns) in scope,
  * constant in each stretch's loop, and S, a local copy of ST (the loop's
  * stores cannot move its arrays).  FOR_ROWS_EACH is for statements that
- * write row v's own output only, in an array no row reads, and
+ * write row v's own output only, in an array no other row reads, and
  * FOR_ROWS_SUM("omp simd reduction(+ : s, t)", ...) for those that also
  * add into the variables named there:
  * the compiler is told so (OpenMP's simd, with -fopenmp-simd), since it
@@ -445,17 +445,21 @@ static void direction_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 
 /* ---- the cycle's kernels (single) ------------------------------------------------------ */
 
-/* y = A x, returning x.q (q NULL: x.y) in the same pass */
+/* y = A x, returning x.q (q NULL: x.y) in the same pass; y NULL: only
+ * x.A x, nothing stored */
 static void cycle_apply_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0;
     const float *x = k->xf, *q = k->yf;
     float *out = k->outf;
-    FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi, {
-        float y = cyc_apply(S, x, ROW_ARGS);
-        out[v] = y;
-        s += x[v] * (q ? (double)q[v] : (double)y);
-    })
+    if (!out)
+        FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi,
+                     s += x[v] * (double)cyc_apply(S, x, ROW_ARGS);)
+    else FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi, {
+            float y = cyc_apply(S, x, ROW_ARGS);
+            out[v] = y;
+            s += x[v] * (q ? (double)q[v] : (double)y);
+        })
     k->partial[chunk] = s;
 }
 
@@ -531,6 +535,8 @@ void ohm_mg_smoother(double *w0, double *a, double *a2)
     *a2 = 2.0 * rho1 / delta;
 }
 
+/* out may be y: the second step reads y in its own row only (an update in
+ * place, which saves the cycle a vector per level); tmp is neither. */
 static void smooth(const mg_level *L, const float *y, const float *b, float *tmp, float *out, int threads)
 {
     double w0, a, a2;
@@ -572,7 +578,7 @@ static void restrict_job(void *user, int64_t K)
     if (f0 < f1) rc[cur] += acc;
 }
 
-/* r: n floats of room for the residual */
+/* r: n floats of room for the residual (the cycle lends its temporary) */
 static void restrict_residual(const mg_level *L, const float *x, const float *b, float *r, float *rc, int threads)
 {
     kernel k = {.L = L, .xf = x, .bf = b, .outf = rc, .out_tmp = r};
@@ -581,7 +587,7 @@ static void restrict_residual(const mg_level *L, const float *x, const float *b,
     else ohm_parallel_for(L->nslabs, threads, restrict_job, &k);
 }
 
-/* out = x + P e */
+/* out = x + P e (out may be x) */
 static void prolong_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
@@ -643,7 +649,7 @@ static void coarse_solve(const ohm_mg *m, int l, const float *rc, float *ec)
     double a1 = alpha1 / rho1;
     combine(L->rt, 1.0, rc, -a1, L->v1, n, th);
     cycle(m, l, L->rt, L->c2);
-    double beta = level_apply_dot(L, L->c2, L->v2, NULL, th);
+    double beta = level_apply_dot(L, L->c2, NULL, NULL, th); /* c2.A c2: A c2 itself is not needed */
     double gamma = dot(L->c2, L->v1, n, th), alpha2 = dot(L->c2, L->rt, n, th);
     double rho2 = beta - gamma * gamma / rho1;
     if (!(rho2 > 0)) {
@@ -661,11 +667,11 @@ static void cycle(const ohm_mg *m, int l, const float *b, float *x)
     const mg_level *L = &m->lev[l];
     const mg_level *C = &m->lev[l + 1];
     int th = m->threads;
-    smooth(L, NULL, b, x, L->t, th); /* pre-smoothed: t */
-    restrict_residual(L, L->t, b, L->r, C->b, th); /* r: free until the correction */
+    smooth(L, NULL, b, L->t, x, th);            /* pre-smoothed: x (t: its first step) */
+    restrict_residual(L, x, b, L->t, C->b, th); /* t: the slabs' residuals */
     coarse_solve(m, l + 1, C->b, C->x);
-    prolong_add(L, L->t, C->x, L->r, th); /* corrected: r */
-    smooth(L, L->r, b, L->t, x, th);      /* post-smoothed: x */
+    prolong_add(L, x, C->x, x, th); /* corrected, in place */
+    smooth(L, x, b, L->t, x, th);   /* post-smoothed, in place (smooth) */
 }
 
 /* ---- set-up ---------------------------------------------------------------------------- */
@@ -677,7 +683,7 @@ static void level_free(mg_level *L)
     free(L->agg);
     free(L->fine_at);
     free(L->coarse_at);
-    float *v[] = {L->b, L->x, L->r, L->t, L->c1, L->v1, L->c2, L->v2, L->rt};
+    float *v[] = {L->b, L->x, L->t, L->c1, L->v1, L->c2, L->rt};
     for (size_t i = 0; i < sizeof v / sizeof v[0]; ++i) free(v[i]);
     memset(L, 0, sizeof *L);
 }
@@ -886,10 +892,10 @@ static int level_vectors(ohm_mg *m, int l, ohm_error *err)
     size_t f = sizeof(float);
     int last = l == m->nlevels - 1;
     if (!(L->b = array(m, n, f)) || !(L->x = array(m, n, f))) goto nomem;
-    if (!last && (!(L->r = array(m, n, f)) || !(L->t = array(m, n, f)))) goto nomem;
+    if (!last && !(L->t = array(m, n, f))) goto nomem;
     L->kcycle = l > 0 && l <= KCYCLE_LEVELS && !last && (double)n <= KCYCLE_MAX_RATIO * (double)m->lev[l - 1].n;
     if (L->kcycle && (!(L->c1 = array(m, n, f)) || !(L->v1 = array(m, n, f)) || !(L->c2 = array(m, n, f)) ||
-                      !(L->v2 = array(m, n, f)) || !(L->rt = array(m, n, f))))
+                      !(L->rt = array(m, n, f))))
         goto nomem;
     return OHM_OK;
 nomem:
@@ -975,9 +981,9 @@ double ohm_mg_bytes_estimate(int64_t n)
      * per cell: runs of 6 cells on average, where a solid's rows are one
      * run each and a voxelized surface's a few), the inverse diagonal 4,
      * the aggregate map 4, the outer r and q in double and p in float 20,
-     * the cycle's b x r t 16; the coarse levels together about n/7 cells of
-     * stencil 24 and inverse diagonal 4, map 4 and up to nine vectors of 4 */
-    double fine = 20 + 4 + 4 + 4 + 20 + 16, coarse = (28 + 4 + 36) / 7.0;
+     * the cycle's b x t 12; the coarse levels together about n/7 cells of
+     * stencil 24 and inverse diagonal 4, map 4 and up to seven vectors of 4 */
+    double fine = 20 + 4 + 4 + 4 + 20 + 12, coarse = (28 + 4 + 28) / 7.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }

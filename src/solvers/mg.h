@@ -32,11 +32,11 @@
  *
  * Memory per unknown: the network's stencil (20 B, the driver's, and its
  * runs), the inverse diagonal (4 B), the aggregate map (4 B), the outer
- * residual and A p in double and its direction in single (20 B), four of
- * the cycle's vectors in single (16 B), and
- * the coarse levels (an eighth as many cells each, with their stencil, map
- * and up to nine vectors): about 74 B per unknown in all at 1e7 cells
- * (docs/multigrid.md). */
+ * residual and A p in double and its direction in single (20 B), three of
+ * the cycle's vectors in single (12 B: its right-hand side, its result, and
+ * one temporary, the post-smoothing done in place), and the coarse levels
+ * (an eighth as many cells each, with their stencil, map and up to seven
+ * vectors): about 69 B per unknown in all at 1e7 cells (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
