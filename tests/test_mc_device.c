@@ -147,7 +147,7 @@ static int scene_build(scene *s)
     if (!s->sa || !s->ss || !s->g || !s->eta) return -1;
     for (size_t v = 0; v < n; ++v) {
         int32_t c[3];
-        ohm_voxel_coords(&s->grid, s->net.cell[v], c);
+        ohm_voxel_coords(&s->grid, ohm_network_cell(&s->net, (int64_t)v), c);
         double x = (c[0] - 0.5) * H, y = (c[1] - 0.5) * H, z = (c[2] - 0.5) * H - 4.0;
         int clear = c[2] > NZ - CLEAR, sphere = x * x + y * y + z * z < 2.0 * 2.0;
         s->sa[v] = (ohm_coeff)(clear ? 0.0 : sphere ? 0.2 : 0.05);

@@ -53,7 +53,7 @@ static void check_runs(const ohm_stencil *st, const cholmod_sparse *A, const ohm
     const int64_t *Ap = A->p, *Ai = A->i;
     for (int64_t u = 0; u < n; ++u) /* A's upper triangle: column u's rows w < u are its lower neighbours */
         for (int64_t p = Ap[u]; p < Ap[u + 1]; ++p) {
-            int64_t w = Ai[p], cells = net->cell[u] - net->cell[w];
+            int64_t w = Ai[p], cells = ohm_network_cell(net, u) - ohm_network_cell(net, w);
             int a = cells == sy ? 0 : cells == sz ? 2 : -1; /* -y or -z; -x needs no offset */
             if (w == u || a < 0) continue;
             expect[u][a] = (int32_t)(w - u);

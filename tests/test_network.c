@@ -48,7 +48,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const ohm_co
                 }
                 ++pairs;
                 /* an off-diagonal entry couples face neighbours only */
-                int64_t cv = net.cell[v], cw = net.cell[w], diff = cv - cw;
+                int64_t cv = ohm_network_cell(&net, v), cw = ohm_network_cell(&net, w), diff = cv - cw;
                 int64_t sx = 1, sy = g->dims[0], sz = (int64_t)g->dims[0] * g->dims[1];
                 if (!(diff == sx || diff == sy || diff == sz)) ++bad_pair;
                 if (!(a < 0)) ++bad_sign;
@@ -88,7 +88,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const ohm_co
         /* the number of pairs: every interior face once */
         size_t faces_inside = 0;
         for (int64_t v = 0; v < net.n; ++v) {
-            size_t c = (size_t)net.cell[v];
+            size_t c = (size_t)ohm_network_cell(&net, v);
             int32_t i = (int32_t)(c % (size_t)g->dims[0]), j = (int32_t)((c / (size_t)g->dims[0]) % (size_t)g->dims[1]),
                     k = (int32_t)(c / ((size_t)g->dims[0] * (size_t)g->dims[1]));
             for (int d = 1; d < 6; d += 2) {
@@ -192,6 +192,42 @@ static void channel_sharing(const ohm_voxel_grid *g)
     }
 }
 
+/* The unknowns' cells from the network's index (no table of them,
+ * network.h): the search and the cursor from any unknown give the interior
+ * cells in cell order, and each face's cell is its unknown's. */
+static void unknown_cells(const ohm_voxel_grid *g)
+{
+    ohm_network net;
+    ohm_error err;
+    if (ohm_network_build(&net, g, NULL, &err)) {
+        CHECK_MSG(0, "%s", err.msg);
+        return;
+    }
+    size_t ncells = (size_t)g->dims[0] * (size_t)g->dims[1] * (size_t)g->dims[2];
+    int64_t *expect = malloc(ncells * sizeof *expect), n = 0;
+    for (size_t c = 0; c < ncells; ++c)
+        if (g->inside[c]) expect[n++] = (int64_t)c;
+    CHECK(n == net.n);
+    size_t bad_search = 0, bad_cursor = 0, bad_from = 0, bad_face = 0;
+    ohm_cell_cursor all = ohm_network_cells(&net, 0);
+    for (int64_t v = 0; v < n && n == net.n; ++v) {
+        bad_search += ohm_network_cell(&net, v) != expect[v];
+        bad_cursor += ohm_cell_cursor_next(&all) != expect[v];
+        ohm_cell_cursor from = ohm_network_cells(&net, v); /* from every unknown: its next three */
+        for (int64_t w = v; w < v + 3 && w < n; ++w) bad_from += ohm_cell_cursor_next(&from) != expect[w];
+    }
+    for (int64_t f = 0; f < net.nfaces; ++f) bad_face += net.face_cell[f] != expect[net.face_unknown[f]];
+    CHECK_MSG(bad_search == 0, "%zu unknowns' cells found wrong", bad_search);
+    CHECK_MSG(bad_cursor == 0 && bad_from == 0, "the cursor gave %zu (%zu) cells wrong", bad_cursor, bad_from);
+    CHECK_MSG(bad_face == 0, "%zu faces' cells are not their unknowns'", bad_face);
+    /* the grid has empty words (64 cells with no unknown) to step over */
+    size_t empty_words = 0;
+    for (size_t w = 0; w < (ncells + 63) / 64; ++w) empty_words += net.unknowns.bits[w] == 0;
+    CHECK(empty_words > 0);
+    free(expect);
+    ohm_network_free(&net);
+}
+
 int main(void)
 {
     ohm_mesh m;
@@ -221,6 +257,7 @@ int main(void)
     check_matrix(&g, OHM_BOUNDARY_NEUMANN, sa, ss, 1.0);
     refill(&g, sa, ss);
     channel_sharing(&g);
+    unknown_cells(&g);
     free(sa);
     free(ss);
     ohm_voxel_grid_free(&g);

@@ -185,7 +185,8 @@ static const ohm_solution *cell_array(const ohm_scene *scene, const char *fn, co
 static void scatter(double *out, size_t count, const ohm_solution *sol, const double *per_unknown)
 {
     memset(out, 0, count * sizeof *out);
-    for (int64_t u = 0; u < sol->n; ++u) out[sol->net.cell[u]] = per_unknown[u];
+    ohm_cell_cursor cells = ohm_network_cells(&sol->net, 0);
+    for (int64_t u = 0; u < sol->n; ++u) out[ohm_cell_cursor_next(&cells)] = per_unknown[u];
 }
 
 int ohm_scene_fluence(double *out, size_t count, const ohm_scene *scene, int channel, int frame)

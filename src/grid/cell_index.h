@@ -16,6 +16,7 @@ typedef struct ohm_cell_index {
     uint64_t *bits;  /* (ncells + 63) / 64 words: bit c set when c is a member */
     int64_t *rank;   /* same count: members in the words before this one      */
     int64_t count;   /* members                                               */
+    int64_t nwords;  /* words of bits and rank                                 */
 } ohm_cell_index;
 
 /* An empty set over ncells cells; 0 or -1 (out of memory, ix left empty). */
@@ -48,6 +49,30 @@ static inline int64_t ohm_cell_index_of(const ohm_cell_index *ix, size_t c)
     uint64_t word = ix->bits[c >> 6], bit = (uint64_t)1 << (c & 63);
     if (!(word & bit)) return -1;
     return ix->rank[c >> 6] + ohm_popcount64(word & (bit - 1));
+}
+
+/* The cell of member k (0 <= k < count): the inverse of ohm_cell_index_of,
+ * by a binary search of the running counts, then the word's bits — for a
+ * member now and then; to visit members in order, a cursor (below). */
+int64_t ohm_cell_index_cell(const ohm_cell_index *ix, int64_t k);
+
+/* Members in cell order from member k on: ohm_cell_cursor_next gives the
+ * next one's cell, at a word's bits a step (no more of them than there are
+ * members from k). */
+typedef struct ohm_cell_cursor {
+    const uint64_t *bits;
+    int64_t word;  /* the word being read */
+    uint64_t left; /* its members not yet given */
+} ohm_cell_cursor;
+
+ohm_cell_cursor ohm_cell_index_cursor(const ohm_cell_index *ix, int64_t k);
+
+static inline int64_t ohm_cell_cursor_next(ohm_cell_cursor *cur)
+{
+    while (!cur->left) cur->left = cur->bits[++cur->word];
+    int64_t c = cur->word * 64 + __builtin_ctzll(cur->left); /* an inline bsf, no library call */
+    cur->left &= cur->left - 1;
+    return c;
 }
 
 /* Accepts NULL and an empty set. */

@@ -30,7 +30,7 @@ double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *s
     const double h = g->h;
     for (int64_t f = 0; f < sol->net.nfaces; ++f) {
         int32_t ijk[3];
-        ohm_voxel_coords(g, sol->net.cell[sol->net.face_unknown[f]], ijk);
+        ohm_voxel_coords(g, sol->net.face_cell[f], ijk);
         int d = sol->net.face_dir[f];
         double t[3];
         int i0[3];

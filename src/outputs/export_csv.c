@@ -36,8 +36,9 @@ int ohm_export_csv(const char *path, const ohm_voxel_grid *grid, const ohm_solut
         FILE *f = out.stream;
         write_header(f, channels);
         int64_t nx = grid->dims[0], ny = grid->dims[1];
+        ohm_cell_cursor cells = ohm_network_cells(&sol->net, 0);
         for (size_t u = 0; u < n; ++u) {
-            int64_t cell = sol->net.cell[u];
+            int64_t cell = ohm_cell_cursor_next(&cells);
             int64_t i = cell % nx, j = (cell / nx) % ny, k = cell / (nx * ny);
             fprintf(f, "%lld,%lld,%lld,%.17g,%.17g,%.17g", (long long)i, (long long)j, (long long)k,
                     grid->origin[0] + grid->h * (double)i, grid->origin[1] + grid->h * (double)j,

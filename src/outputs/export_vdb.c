@@ -112,9 +112,11 @@ static int solution_grid(ohm_vdb_writer *w, grid_room *room, const char *name, c
 {
     const ohm_network *net = &sol->net;
     size_t count = 0;
+    ohm_cell_cursor cells = ohm_network_cells(net, 0);
     for (int64_t v = 0; v < net->n; ++v) {
+        int64_t c = ohm_cell_cursor_next(&cells);
         if (where && !where[v]) continue;
-        ohm_voxel_coords(g, net->cell[v], room->ijk + 3 * count);
+        ohm_voxel_coords(g, c, room->ijk + 3 * count);
         room->val[count++] = (float)values[v];
     }
     ohm_vdb_grid *grid = NULL;

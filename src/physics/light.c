@@ -26,7 +26,7 @@ void ohm_surface_normal(const ohm_network *net, int64_t f, double n[3])
     const ohm_voxel_grid *g = net->grid;
     int d = net->face_dir[f];
     int32_t c[3];
-    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
+    ohm_voxel_coords(g, net->face_cell[f], c);
     double grad[3], len2 = 0;
     for (int a = 0; a < 3; ++a) {
         int32_t p[3] = {c[0], c[1], c[2]}, m[3] = {c[0], c[1], c[2]};
@@ -69,7 +69,7 @@ static void column_init(column *col, const ohm_network *net, int64_t f)
     int d = net->face_dir[f];
     col->net = net;
     for (int a = 0; a < 3; ++a) col->step[a] = -ohm_face_offset[d][a];
-    ohm_voxel_coords(net->grid, net->cell[net->face_unknown[f]], col->c);
+    ohm_voxel_coords(net->grid, net->face_cell[f], col->c);
 }
 
 static int64_t column_unknown(const column *col, int64_t q)
@@ -200,7 +200,7 @@ static void face_centre(const ohm_network *net, int64_t f, double p[3])
 {
     const ohm_voxel_grid *g = net->grid;
     int32_t c[3];
-    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], c);
+    ohm_voxel_coords(g, net->face_cell[f], c);
     int d = net->face_dir[f];
     for (int a = 0; a < 3; ++a) p[a] = g->origin[a] + g->h * (c[a] + 0.5 * ohm_face_offset[d][a]);
 }
@@ -364,7 +364,7 @@ static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light
     double p[3];
     face_centre(net, f, p);
     int32_t cell[3];
-    ohm_voxel_coords(g, net->cell[net->face_unknown[f]], cell);
+    ohm_voxel_coords(g, net->face_cell[f], cell);
     double E = 0.0;
     l_mean[0] = l_mean[1] = l_mean[2] = 0.0;
     for (int k = 0; k < em->npts; ++k) {
@@ -432,10 +432,12 @@ static void unit_travel(const double l_mean[3], double travel[3])
  * of FACE_POWERS_BLOCK, each block taken whole by one thread
  * (ohm_parallel_for's counter: a light reaches one side of the object, and
  * faces are numbered by cell, so fixed halves would not balance).  Faces
- * own their entries of enter / enter_mu / arrive, so threads never share a
- * write. */
+ * own their entries of enter / enter_mu, blocks theirs of arrive (a block's
+ * arriving power per channel, added up in block order afterwards), so
+ * threads never share a write and the sums do not depend on the threads. */
 typedef struct face_powers_job {
-    double *const *enter, *const *enter_mu, *const *arrive;
+    double *const *enter, *const *enter_mu;
+    double *arrive; /* [block * channels + c] */
     int channels;
     const ohm_network *net;
     const ohm_light *light;
@@ -447,8 +449,9 @@ typedef struct face_powers_job {
 
 enum { FACE_POWERS_BLOCK = 64 };
 
-/* Face f's arriving and entering power, added for every channel. */
-static void face_power(const face_powers_job *job, int64_t f)
+/* Face f's arriving and entering power, added for every channel (the
+ * arriving into its block's sums, arrive). */
+static void face_power(const face_powers_job *job, int64_t f, double *arrive)
 {
     const ohm_network *net = job->net;
     const ohm_light *light = job->light;
@@ -461,7 +464,7 @@ static void face_power(const face_powers_job *job, int64_t f)
     double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
     for (int c = 0; c < job->channels; ++c) {
         double I = light->intensity[light->channels == 1 ? 0 : c];
-        job->arrive[c][f] += I * E * area;
+        arrive[c] += I * E * area;
         job->enter[c][f] += I * T * E * area;
         if (job->enter_mu) job->enter_mu[c][f] += I * T * E * area * mu;
     }
@@ -472,26 +475,36 @@ static void face_powers_block(void *arg, int64_t block)
     const face_powers_job *job = arg;
     const int64_t nfaces = job->net->nfaces, begin = block * FACE_POWERS_BLOCK;
     const int64_t end = begin + FACE_POWERS_BLOCK < nfaces ? begin + FACE_POWERS_BLOCK : nfaces;
-    for (int64_t f = begin; f < end; ++f) face_power(job, f);
+    for (int64_t f = begin; f < end; ++f) face_power(job, f, job->arrive + block * job->channels);
 }
 
 /* Below this many boundary faces a second thread costs more than it saves. */
 enum { FACE_POWERS_THREAD_MIN = 2048 };
 
-int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *arrive, int channels,
                           const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
                           const ohm_occluder *occ, ohm_error *err)
 {
+    int64_t nblocks = (net->nfaces + FACE_POWERS_BLOCK - 1) / FACE_POWERS_BLOCK;
+    double *block_arrive = calloc((size_t)(nblocks ? nblocks : 1) * (size_t)channels, sizeof *block_arrive);
+    if (!block_arrive) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %lld faces", (long long)net->nfaces);
     emitters em;
     int rc = emitters_init(&em, light, err);
-    if (rc) return rc;
+    if (rc) {
+        free(block_arrive);
+        return rc;
+    }
     /* The shadow rays are most of a live update's source (issue 15): the
      * faces are shared between the machine's cores.  Same sums on any
-     * number of threads: each face is computed whole by one. */
-    face_powers_job job = {enter, enter_mu, arrive, channels, net, light, &em, eta, eta_v, occ};
+     * number of threads: each face is computed whole by one, each block's
+     * sums added in order. */
+    face_powers_job job = {enter, enter_mu, block_arrive, channels, net, light, &em, eta, eta_v, occ};
     int threads = net->nfaces >= FACE_POWERS_THREAD_MIN ? ohm_usable_cores() : 1;
-    ohm_parallel_for((net->nfaces + FACE_POWERS_BLOCK - 1) / FACE_POWERS_BLOCK, threads, face_powers_block, &job);
+    ohm_parallel_for(nblocks, threads, face_powers_block, &job);
+    for (int64_t b = 0; b < nblocks; ++b)
+        for (int c = 0; c < channels; ++c) arrive[c] += block_arrive[b * channels + c];
     emitters_free(&em);
+    free(block_arrive);
     return OHM_OK;
 }
 
@@ -616,11 +629,9 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         return OHM_OK;
     }
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    double *enter = calloc(nf, sizeof *enter), *arrive = calloc(nf, sizeof *arrive);
-    double *enter_mu = calloc(nf, sizeof *enter_mu);
-    if (!enter || !arrive || !enter_mu) {
+    double *enter = calloc(nf, sizeof *enter), *enter_mu = calloc(nf, sizeof *enter_mu), arrive = 0;
+    if (!enter || !enter_mu) {
         free(enter);
-        free(arrive);
         free(enter_mu);
         return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory");
     }
@@ -630,14 +641,11 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
     one.intensity[0] = I;
     int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, med->eta_v, occ, err);
     if (!rc) {
-        for (int64_t f = 0; f < net->nfaces; ++f) {
-            pw->incident += arrive[f];
-            pw->entered += enter[f];
-        }
+        pw->incident += arrive;
+        for (int64_t f = 0; f < net->nfaces; ++f) pw->entered += enter[f];
         pw->deposited += ohm_source_deposit_faces(b, net, enter, enter_mu, med, deposit);
     }
     free(enter_mu);
     free(enter);
-    free(arrive);
     return rc;
 }

@@ -60,13 +60,14 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
 
 /* The channel-independent half of ohm_source_add, for every light but a
  * pencil beam: trace the shadow rays once and ADD, per channel c < channels,
- * the power arriving on each boundary face (arrive[c][f], W, before Fresnel)
- * and the power entering it (enter[c][f], after Fresnel at relative index
+ * the power arriving on the boundary faces (arrive[c], W, before Fresnel:
+ * their sum, which is all the books need of it) and the power entering
+ * each (enter[c][f], after Fresnel at relative index
  * eta, or eta_v of the face's cell) and, when enter_mu is not NULL, that power times the refracted ray's
  * cosine to the inward normal (enter_mu / enter: the mean cosine, for the
  * deposit's depth).  ohm_solve computes this once per frame and reuses it for every
  * channel: visibility does not depend on the colour. */
-int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *const *arrive, int channels,
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *arrive, int channels,
                           const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
                           const ohm_occluder *occ, ohm_error *err);
 

@@ -183,7 +183,7 @@ static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
     const ohm_light_entry *e = &sc->entries[pick_entry(sc, rng_uniform(r))];
     int64_t v = net->face_unknown[e->face];
     int32_t c[3];
-    ohm_voxel_coords(g, net->cell[v], c);
+    ohm_voxel_coords(g, net->face_cell[e->face], c);
     double p[3], u[3] = {e->dir[0], e->dir[1], e->dir[2]};
     start_point(sc, e, c, r, p);
     double w = 1.0, sa, ss;

@@ -152,7 +152,8 @@ static int bind_network(ohm_mc_device *d, const ohm_network *net, ohm_error *err
                                    : ohm_fail(err, OHM_ERR_NOMEM, "monte carlo on a device: out of memory for the layout");
     if (!rc) {
         for (size_t c = 0; c < ncells; ++c) unknown[c] = -1;
-        for (size_t v = 0; v < n; ++v) unknown[net->cell[v]] = (int32_t)v;
+        ohm_cell_cursor cells = ohm_network_cells(net, 0);
+        for (size_t v = 0; v < n; ++v) unknown[ohm_cell_cursor_next(&cells)] = (int32_t)v;
         /* faces are stored in unknown order, a cell's together (network.h) */
         int64_t f = 0;
         for (size_t v = 0; v <= n; ++v) {
@@ -264,7 +265,7 @@ static int send_entries(ohm_mc_device *d, const ohm_network *net, const ohm_ligh
             const ohm_light_entry *en = &entries[e];
             int64_t v = net->face_unknown[en->face];
             int32_t c[3];
-            ohm_voxel_coords(g, net->cell[v], c);
+            ohm_voxel_coords(g, net->face_cell[en->face], c);
             for (int a = 0; a < 3; ++a) {
                 ecell[4 * e + (size_t)a] = c[a];
                 egeo[6 * e + (size_t)a] = (en->point[a] - g->origin[a]) / g->h + 0.5;

@@ -24,9 +24,9 @@ const char *ohm_boundary_name(ohm_boundary b)
 void ohm_network_free(ohm_network *net)
 {
     if (!net) return;
-    free(net->cell);
     ohm_cell_index_free(&net->unknowns);
     free(net->face_unknown);
+    free(net->face_cell);
     free(net->face_dir);
     free(net->piece);
     memset(net, 0, sizeof *net);
@@ -43,7 +43,8 @@ typedef struct walk {
     int32_t dims[3];
     int64_t stride[6]; /* dense-index offset of the neighbour across face d */
     int32_t ijk[3];    /* the current unknown's cell */
-    int64_t cell;
+    int64_t cell, v;   /* its dense index, and the unknown */
+    ohm_cell_cursor next; /* the cells of v + 1, ... */
 } walk;
 
 static void walk_begin(walk *w, const ohm_network *net)
@@ -56,12 +57,17 @@ static void walk_begin(walk *w, const ohm_network *net)
     int64_t s[6] = {-1, 1, -sy, sy, -sz, sz};
     memcpy(w->stride, s, sizeof s);
     w->cell = -1;
+    w->v = -2;
+    w->next = ohm_network_cells(net, 0);
 }
 
-/* Move to unknown v (visited in increasing order). */
+/* Move to unknown v (visited in increasing order; the next one's cell from
+ * the cursor, another's by a search). */
 static inline void walk_to(walk *w, int64_t v)
 {
-    int64_t c = w->net->cell[v], step = c - w->cell;
+    if (v != w->v + 1) w->next = ohm_network_cells(w->net, v);
+    w->v = v;
+    int64_t c = ohm_cell_cursor_next(&w->next), step = c - w->cell;
     if (w->cell >= 0 && w->ijk[0] + step < w->dims[0]) w->ijk[0] += (int32_t)step;
     else ohm_voxel_coords(w->net->grid, c, w->ijk);
     w->cell = c;
@@ -96,6 +102,9 @@ static int reserve_faces(ohm_network *net, int64_t *cap, int64_t need)
     int64_t *fu = realloc(net->face_unknown, (size_t)c * sizeof *fu);
     if (!fu) return -1;
     net->face_unknown = fu;
+    int64_t *fc = realloc(net->face_cell, (size_t)c * sizeof *fc);
+    if (!fc) return -1;
+    net->face_cell = fc;
     uint8_t *fd = realloc(net->face_dir, (size_t)c);
     if (!fd) return -1;
     net->face_dir = fd;
@@ -163,9 +172,8 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
         return ohm_fail(err, OHM_ERR_USAGE, "network: %lld interior cells, more than 2^31; use a larger voxel=",
                         (long long)n);
     int index_failed = ohm_cell_index_alloc(&net->unknowns, ncells);
-    net->cell = malloc((size_t)n * sizeof *net->cell);
     net->piece = malloc((size_t)n * sizeof *net->piece);
-    if (index_failed || !net->cell || !net->piece) goto nomem;
+    if (index_failed || !net->piece) goto nomem;
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
         if ((active ? active[c] : 1) && inside[c]) {
@@ -173,7 +181,7 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
                 ohm_network_free(net);
                 return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
             }
-            net->cell[u++] = (int64_t)c;
+            ++u;
             ohm_cell_index_add(&net->unknowns, c);
         }
     }
@@ -198,6 +206,7 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
             int64_t x = walk_across(&w, d);
             if (x == -1) {
                 net->face_unknown[nfaces] = v;
+                net->face_cell[nfaces] = w.cell;
                 net->face_dir[nfaces] = (uint8_t)d;
                 ++nfaces;
             } else if (x == -3) {
@@ -230,6 +239,8 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     if (keep < cap) {
         int64_t *fu = realloc(net->face_unknown, (size_t)keep * sizeof *fu);
         if (fu) net->face_unknown = fu;
+        int64_t *fc = realloc(net->face_cell, (size_t)keep * sizeof *fc);
+        if (fc) net->face_cell = fc;
         uint8_t *fd = realloc(net->face_dir, (size_t)keep);
         if (fd) net->face_dir = fd;
     }
@@ -533,7 +544,7 @@ static int assembly_end(assembly *as, ohm_error *err)
         int64_t v = 0;
         while (net->piece && net->piece[v] != p) ++v;
         int32_t ijk[3];
-        ohm_voxel_coords(net->grid, net->cell[v], ijk);
+        ohm_voxel_coords(net->grid, ohm_network_cell(net, v), ijk);
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];
         int resistance = as->med->resistance_mode;
         const char *bname = ohm_boundary_name(as->boundary);

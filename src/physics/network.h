@@ -56,10 +56,12 @@ typedef struct ohm_mirrors {
 typedef struct ohm_network {
     const ohm_voxel_grid *grid;   /* not owned; must outlive the network      */
     int64_t n;                    /* unknowns = interior cells                */
-    int64_t *cell;                /* n: dense grid index of unknown u         */
-    ohm_cell_index unknowns;      /* which grid cells are unknowns; their numbers */
+    ohm_cell_index unknowns;      /* which grid cells are unknowns; their numbers,
+                                     and each unknown's cell (no table of them:
+                                     8 B per unknown, ohm_network_cell) */
     int64_t nfaces;               /* boundary faces (mirror faces excluded)   */
     int64_t *face_unknown;        /* nfaces: the interior cell of face f      */
+    int64_t *face_cell;           /* nfaces: its dense grid index             */
     uint8_t *face_dir;            /* nfaces: 0..5, see ohm_face_offset        */
     int64_t npieces;              /* connected pieces (face-adjacent cells)   */
     int32_t *piece;               /* n: piece of unknown u, numbered in the order
@@ -92,6 +94,20 @@ void ohm_network_free(ohm_network *net);
 static inline int64_t ohm_network_unknown(const ohm_network *net, size_t c)
 {
     return ohm_cell_index_of(&net->unknowns, c);
+}
+
+/* The dense grid index of unknown v, found by a search (cell_index.h): for
+ * an unknown now and then.  Loops over unknowns in order read them from a
+ * cursor, ohm_network_cells, at a few instructions each. */
+static inline int64_t ohm_network_cell(const ohm_network *net, int64_t v)
+{
+    return ohm_cell_index_cell(&net->unknowns, v);
+}
+
+/* The cells of unknowns v, v + 1, ... in turn (ohm_cell_cursor_next). */
+static inline ohm_cell_cursor ohm_network_cells(const ohm_network *net, int64_t v)
+{
+    return ohm_cell_index_cursor(&net->unknowns, v);
 }
 
 /* The boundary face of unknown v in direction d (0..5, ohm_face_offset), or

@@ -109,7 +109,7 @@ static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos)
 ohm_grid_layout ohm_grid_layout_of(const ohm_network *net)
 {
     const int32_t *d = net->grid->dims;
-    return (ohm_grid_layout){net->cell, net->n, {d[0], d[1], d[2]}, net->piece, net->npieces};
+    return (ohm_grid_layout){&net->unknowns, net->n, {d[0], d[1], d[2]}, net->piece, net->npieces};
 }
 
 int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
@@ -131,8 +131,9 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
         return ohm_fail(err, OHM_ERR_NOMEM, "ordering=grid: out of memory for %lld unknowns", (long long)n);
     }
     for (int a = 0; a < 3; ++a) w.coord[a] = coords + a * n;
+    ohm_cell_cursor cells = ohm_cell_index_cursor(layout->cells, 0);
     for (int64_t u = 0; u < n; ++u) {
-        int64_t cell = layout->cell[u];
+        int64_t cell = ohm_cell_cursor_next(&cells);
         w.coord[0][u] = (int32_t)(cell % nx);
         w.coord[1][u] = (int32_t)(cell / nx % ny);
         w.coord[2][u] = (int32_t)(cell / nx / ny);

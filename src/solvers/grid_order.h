@@ -26,14 +26,15 @@
 #include "base/ohm_error.h"
 #include "physics/network.h"
 
-/* Where the unknowns sit: unknown u is dense grid cell cell[u] of a grid
- * of dims[0] x dims[1] x dims[2] cells, x fastest; piece[u] its connected
+/* Where the unknowns sit: unknown u is the u-th member of cells (its
+ * cell in a grid of dims[0] x dims[1] x dims[2] cells, x fastest, in cell
+ * order: cell_index.h); piece[u] its connected
  * piece, 0 .. npieces-1 (NULL: one piece).  Pieces share no face, so each
  * is dissected on its own and none needs a separator from another: a scan
  * is often a shell and a core or a cloud of specks, which planes cut
  * needlessly. */
 typedef struct ohm_grid_layout {
-    const int64_t *cell;
+    const ohm_cell_index *cells;
     int64_t n;
     int64_t dims[3];
     const int32_t *piece;

@@ -707,13 +707,13 @@ static void *array(ohm_mg *m, int64_t n, size_t size)
     return malloc((size_t)(n ? n : 1) * size);
 }
 
-/* Level l's cells aggregated into level l + 1's (mg.h): cells (dense index
- * cell[v] in a grid of dims) in cell order; the coarse cells' dense indices
- * into *ccell, their dims into cdims.  Slab by slab: a coarse slab's fine
+/* Level l's cells aggregated into level l + 1's (mg.h): its cells (the
+ * members of cells, in a grid of dims) in cell order; the coarse cells into
+ * ccells, their grid's dims into cdims.  Slab by slab: a coarse slab's fine
  * cells are consecutive, and its cells are numbered in its (J, I) order,
  * which is the coarse grid's cell order. */
-static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3], int64_t **ccell, int64_t cdims[3],
-                     ohm_error *err)
+static int aggregate(ohm_mg *m, int l, const ohm_cell_index *cells, const int64_t dims[3], ohm_cell_index *ccells,
+                     int64_t cdims[3], ohm_error *err)
 {
     mg_level *L = &m->lev[l];
     for (int a = 0; a < 3; ++a) cdims[a] = (dims[a] + 1) / 2;
@@ -723,45 +723,39 @@ static int aggregate(ohm_mg *m, int l, const int64_t *cell, const int64_t dims[3
     L->fine_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->fine_at);
     L->coarse_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->coarse_at);
     int64_t *mark = malloc((size_t)cplane * sizeof *mark);
-    *ccell = malloc((size_t)(n ? n : 1) * sizeof **ccell); /* at most n coarse cells; shrunk below */
+    size_t cbox = (size_t)(cplane * cdims[2]);
+    int ccells_failed = ohm_cell_index_alloc(ccells, cbox);
     m->bytes += (double)n * sizeof *L->agg;
-    if (!L->agg || !L->fine_at || !L->coarse_at || !mark || !*ccell) {
+    if (!L->agg || !L->fine_at || !L->coarse_at || !mark || ccells_failed) {
         free(mark);
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
     }
     for (int64_t q = 0; q < cplane; ++q) mark[q] = -1;
-    int64_t v = 0, nc = 0;
+    ohm_cell_cursor next = ohm_cell_index_cursor(cells, 0);
+    int64_t v = 0, nc = 0, c = n ? ohm_cell_cursor_next(&next) : 0; /* c: v's cell */
     for (int64_t K = 0; K < cdims[2]; ++K) {
         L->fine_at[K] = v;
         L->coarse_at[K] = nc;
         int64_t v0 = v;
-        for (; v < n && cell[v] / plane / 2 == K; ++v) {
-            int64_t c = cell[v], i = c % dims[0], j = c / dims[0] % dims[1];
-            mark[i / 2 + cdims[0] * (j / 2)] = 0;
+        for (; v < n && c / plane / 2 == K; ++v) { /* the slab's cells: their places in the coarse plane */
+            int64_t i = c % dims[0], j = c / dims[0] % dims[1], q = i / 2 + cdims[0] * (j / 2);
+            mark[q] = 0;
+            L->agg[v] = (int32_t)q; /* < cplane, inside a grid below 2^31 cells */
+            if (v + 1 < n) c = ohm_cell_cursor_next(&next);
         }
         for (int64_t q = 0; q < cplane; ++q) /* the slab's coarse cells, numbered in order */
             if (mark[q] == 0) {
-                (*ccell)[nc] = q + cplane * K;
+                ohm_cell_index_add(ccells, (size_t)(q + cplane * K));
                 mark[q] = nc++;
             }
-        for (int64_t u = v0; u < v; ++u) {
-            int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
-            L->agg[u] = (int32_t)mark[i / 2 + cdims[0] * (j / 2)];
-        }
-        for (int64_t u = v0; u < v; ++u) { /* reset the marks this slab set */
-            int64_t c = cell[u], i = c % dims[0], j = c / dims[0] % dims[1];
-            mark[i / 2 + cdims[0] * (j / 2)] = -1;
-        }
+        for (int64_t u = v0; u < v; ++u) L->agg[u] = (int32_t)mark[L->agg[u]];
+        for (int64_t q = 0; q < cplane; ++q) mark[q] = -1;
     }
     L->fine_at[cdims[2]] = v;
     L->coarse_at[cdims[2]] = nc;
-    if (nc > INT32_MAX) {
-        free(mark);
-        return ohm_fail(err, OHM_ERR_USAGE, "mg: %lld coarse cells are more than 2^31", (long long)nc);
-    }
     free(mark);
-    int64_t *shrunk = realloc(*ccell, (size_t)(nc ? nc : 1) * sizeof *shrunk);
-    if (shrunk) *ccell = shrunk;
+    ohm_cell_index_finish(ccells, cbox);
+    if (nc > INT32_MAX) return ohm_fail(err, OHM_ERR_USAGE, "mg: %lld coarse cells are more than 2^31", (long long)nc);
     m->lev[l + 1].n = nc;
     return OHM_OK;
 }
@@ -913,23 +907,24 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
     m->lev[0].n = st->n;
     m->nlevels = 1;
     int rc = fine_stencil(m, err);
-    const int64_t *cell = layout->cell;
+    const ohm_cell_index *cells = layout->cells;
     int64_t dims[3] = {layout->dims[0], layout->dims[1], layout->dims[2]};
-    int64_t *owned = NULL; /* a coarse level's cells, needed until the next is built */
+    ohm_cell_index owned[2] = {{0}}; /* two coarse levels' cells: the last, and the next being made */
     while (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX && m->nlevels < LEVELS_MAX) {
         int l = m->nlevels - 1;
-        int64_t *ccell = NULL, cdims[3];
-        rc = aggregate(m, l, cell, dims, &ccell, cdims, err);
+        int64_t cdims[3];
+        ohm_cell_index *ccells = &owned[l % 2];
+        ohm_cell_index_free(ccells);
+        rc = aggregate(m, l, cells, dims, ccells, cdims, err);
         if (!rc) {
             m->nlevels++;
             rc = galerkin(m, l, err);
         }
-        free(owned);
-        owned = ccell;
-        cell = ccell;
+        cells = ccells;
         memcpy(dims, cdims, sizeof dims);
     }
-    free(owned);
+    ohm_cell_index_free(&owned[0]);
+    ohm_cell_index_free(&owned[1]);
     if (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX)
         rc = ohm_fail(err, OHM_ERR_INTERNAL, "mg: %d levels leave %lld cells", m->nlevels,
                       (long long)m->lev[m->nlevels - 1].n);

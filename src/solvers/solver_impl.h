@@ -99,7 +99,8 @@ struct ohm_solver {
  * traced once into per-face powers for all channels (when they fit in the
  * budget, else *cached = 0 and ohm_fill_sources traces per channel). */
 typedef struct face_powers {
-    double *enter[OHM_MAX_CHANNELS], *arrive[OHM_MAX_CHANNELS];
+    double *enter[OHM_MAX_CHANNELS];   /* [frame * nfaces + f] */
+    double *arrive[OHM_MAX_CHANNELS];  /* [frame]: the faces' sum, all the books need */
     double *enter_mu[OHM_MAX_CHANNELS]; /* entering power x the refracted ray's cosine */
     int cached;
 } face_powers;

@@ -26,12 +26,10 @@ int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_
         return OHM_OK;
     }
     for (size_t j = 0; j < nb && fp_enter; ++j) {
-        const double *en = fp_enter[c] + (f0 + j) * nf, *ar = fp_arrive[c] + (f0 + j) * nf;
+        const double *en = fp_enter[c] + (f0 + j) * nf;
         ohm_source_deposit_faces(B + j * n, net, en, fp_enter_mu[c] + (f0 + j) * nf, med, src->deposit);
-        for (int64_t f = 0; f < net->nfaces; ++f) {
-            t->power_incident += ar[f];
-            t->power_entered += en[f];
-        }
+        t->power_incident += fp_arrive[c][f0 + j];
+        for (int64_t f = 0; f < net->nfaces; ++f) t->power_entered += en[f];
     }
     for (size_t l = 0; l < nlights; ++l) {
         int lf = lights[l].frame;
@@ -98,11 +96,11 @@ int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *light
     int channels = sol->channels, frames = sol->frames;
     memset(fp, 0, sizeof *fp);
     const double face_cache_cap = cap > 256.0 * 1048576.0 ? cap : 256.0 * 1048576.0;
-    if (3.0 * sizeof(double) * (double)nf * (double)frames * (double)channels > face_cache_cap) return OHM_OK;
+    if (2.0 * sizeof(double) * (double)nf * (double)frames * (double)channels > face_cache_cap) return OHM_OK;
     fp->cached = 1;
     for (int c = 0; c < channels && fp->cached; ++c) {
         fp->enter[c] = calloc(nf * (size_t)frames, sizeof(double));
-        fp->arrive[c] = calloc(nf * (size_t)frames, sizeof(double));
+        fp->arrive[c] = calloc((size_t)frames, sizeof(double));
         fp->enter_mu[c] = calloc(nf * (size_t)frames, sizeof(double));
         if (!fp->enter[c] || !fp->arrive[c] || !fp->enter_mu[c]) fp->cached = 0; /* trace per channel */
     }
@@ -111,17 +109,17 @@ int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *light
     const double *eta_v = mat->kind == OHM_MATERIAL_RESISTANCE ? NULL : params->media.eta_v;
     int rc = OHM_OK;
     for (int fr = 0; fr < frames && fp->cached && !rc; ++fr) {
-        double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], *ar[OHM_MAX_CHANNELS];
+        double *en[OHM_MAX_CHANNELS], *emu[OHM_MAX_CHANNELS], ar[OHM_MAX_CHANNELS] = {0};
         for (int c = 0; c < channels; ++c) {
             en[c] = fp->enter[c] + (size_t)fr * nf;
             emu[c] = fp->enter_mu[c] + (size_t)fr * nf;
-            ar[c] = fp->arrive[c] + (size_t)fr * nf;
         }
         for (size_t l = 0; l < nlights && !rc; ++l) {
             if (lights[l].type == OHM_LIGHT_PENCIL) continue;
             if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
             rc = ohm_light_face_powers(en, emu, ar, channels, &sol->net, &lights[l], eta, eta_v, s->occ, err);
         }
+        for (int c = 0; c < channels; ++c) fp->arrive[c][fr] = ar[c];
     }
     sol->t_source += ohm_now() - t0;
     return rc;

@@ -191,9 +191,10 @@ int ohm_validate_infinite(ohm_validation *v, const ohm_log *log, ohm_error *err)
         if (s == 2) {
             /* every cell with 5h <= r <= 3 mm on the finest grid */
             double worst = 0, at = 0;
+            ohm_cell_cursor cells = ohm_network_cells(&sol.net, 0);
             for (int64_t u = 0; u < sol.n; ++u) {
                 int32_t c[3];
-                ohm_voxel_coords(&g, sol.net.cell[u], c);
+                ohm_voxel_coords(&g, ohm_cell_cursor_next(&cells), c);
                 double px = (c[0] - 0.5) * g.h, py = (c[1] - 0.5) * g.h, pz = (c[2] - 0.5) * g.h;
                 double r = sqrt(px * px + py * py + pz * pz);
                 if (r < 5 * g.h || r > 3.0) continue;
@@ -284,7 +285,7 @@ int ohm_validate_halfspace(ohm_validation *v, const ohm_log *log, ohm_error *err
     for (int64_t f = 0; f < sol.net.nfaces; ++f) {
         if (sol.net.face_dir[f] != 4) continue; /* the surface z = 0, outward -z */
         int32_t c[3];
-        ohm_voxel_coords(&g, sol.net.cell[sol.net.face_unknown[f]], c);
+        ohm_voxel_coords(&g, sol.net.face_cell[f], c);
         double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < rmin || r > rmax) continue;
         double J = sol.face_exitance[0][f];
@@ -356,7 +357,7 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
     for (int64_t f = 0; f < sol.net.nfaces; ++f) {
         if (sol.net.face_dir[f] != 4) continue;
         int32_t c[3];
-        ohm_voxel_coords(&g, sol.net.cell[sol.net.face_unknown[f]], c);
+        ohm_voxel_coords(&g, sol.net.face_cell[f], c);
         double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < rmin || r > rmax) continue;
         double J = sol.face_exitance[0][f], Jref = ohm_ref_halfspace_exitance(r, z0, HS_SA, HS_SS, validation_A());
@@ -766,7 +767,7 @@ int ohm_paper_figure1(FILE *csv, ohm_validation *v, const ohm_log *log, ohm_erro
         for (int64_t f = 0; f < sd.net.nfaces; ++f) {
             if (sd.net.face_dir[f] != 4) continue;
             int32_t c3[3];
-            ohm_voxel_coords(&g3, sd.net.cell[sd.net.face_unknown[f]], c3);
+            ohm_voxel_coords(&g3, sd.net.face_cell[f], c3);
             double x = (c3[0] - 0.5) * fs.h, y = (c3[1] - 0.5) * fs.h;
             if (y < mid - 1 || y > mid) continue; /* the middle 1 mm row */
             int bin = (int)floor(x);

@@ -190,7 +190,7 @@ static double compare_rings(const ohm_solution *d, const ohm_solution *mc, const
         if (d->net.face_dir[f] != 4) continue;
         int64_t v = d->net.face_unknown[f];
         int32_t c[3];
-        ohm_voxel_coords(g, d->net.cell[v], c);
+        ohm_voxel_coords(g, d->net.face_cell[f], c);
         double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, r = sqrt(x * x + y * y);
         if (r < 2.0 || r >= rmax) continue;
         int k = (int)floor(r - 2.0);
