@@ -54,8 +54,12 @@ static uint64_t hash_network(const ohm_network *net)
         int64_t u = ohm_network_unknown(net, c);
         h = fnv(h, &u, sizeof u);
     }
-    if (net->piece) {
-        h = fnv(h, net->piece, (size_t)net->n * sizeof *net->piece);
+    if (net->pieces.count) { /* the labels per unknown, as the table they were (same digest) */
+        int64_t run = 0;
+        for (int64_t v = 0; v < net->n; ++v) {
+            int32_t p = ohm_piece_runs_next(&net->pieces, &run, v);
+            h = fnv(h, &p, sizeof p);
+        }
     } else { /* one piece: the labels it no longer keeps were all 0 (same digest) */
         const int64_t zero = 0;
         for (int64_t v = 0; v < net->n; ++v) h = fnv(h, &zero, sizeof zero);
@@ -373,7 +377,7 @@ static int time_one(double cells)
     cholmod_l_finish(&cc);
     /* what the network keeps for the run (network.h's arrays) */
     double net_bytes = (double)((ncells + 63) / 64) * (sizeof *net.unknowns.bits + sizeof *net.unknowns.rank) +
-                       (double)n * (double)(net.piece ? sizeof *net.piece : 0) +
+                       (double)net.pieces.count * (sizeof *net.pieces.start + sizeof *net.pieces.piece) +
                        (double)net.nfaces * (sizeof *net.face_unknown + sizeof *net.face_cell + sizeof *net.face_dir);
     double nn = (double)n;
     printf("| %lld | %d×%d×%d | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f | %.1f |\n",

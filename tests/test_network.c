@@ -7,6 +7,7 @@
 #include "check.h"
 #include "physics/material.h"
 #include "physics/network.h"
+#include "solvers/mg.h"
 #include "solvers/solve.h"
 
 static const ohm_log quiet = {.verbosity = 0};
@@ -228,6 +229,76 @@ static void unknown_cells(const ohm_voxel_grid *g)
     ohm_network_free(&net);
 }
 
+/* Three pieces that alternate along every row (x 1-3, x 6-7, and x 9 in
+ * the row y = 1 only): each unknown's piece from the network's runs, the
+ * runs as few as they can be, the per-piece sums, and the singular piece
+ * named by one of its cells. */
+static void pieces_by_runs(void)
+{
+    ohm_voxel_grid g;
+    memset(&g, 0, sizeof g);
+    g.dims[0] = 11, g.dims[1] = 5, g.dims[2] = 4;
+    g.h = g.band = 1.0;
+    size_t ncells = 11 * 5 * 4;
+    g.inside = calloc(ncells, 1);
+    for (int k = 1; k <= 2; ++k)
+        for (int j = 1; j <= 3; ++j)
+            for (int i = 1; i <= 9; ++i) {
+                int in = i <= 3 || i == 6 || i == 7 || (i == 9 && j == 1);
+                g.inside[ohm_voxel_index(&g, i, j, k)] = (uint8_t)in;
+                g.interior_cells += (size_t)in;
+            }
+    ohm_network net;
+    ohm_error err;
+    if (ohm_network_build(&net, &g, NULL, &err)) {
+        CHECK_MSG(0, "%s", err.msg);
+        free(g.inside);
+        return;
+    }
+    const ohm_piece_runs *pr = &net.pieces;
+    CHECK(net.npieces == 3);
+    CHECK(pr->count == 2 * (3 * 2) + 2); /* A, B in each of 6 rows, C in 2 */
+    size_t bad_piece = 0, bad_find = 0, joinable = 0;
+    int64_t run = 0;
+    for (int64_t v = 0; v < net.n; ++v) {
+        int64_t i = ohm_network_cell(&net, v) % 11;
+        int32_t expect = i <= 3 ? 0 : i <= 7 ? 1 : 2; /* numbered by their smallest unknown */
+        bad_piece += ohm_piece_runs_next(pr, &run, v) != expect;
+        int64_t r = ohm_piece_runs_find(pr, v);
+        bad_find += !(pr->start[r] <= v && v < pr->start[r + 1]);
+    }
+    for (int64_t r = 0; r + 1 < pr->count; ++r) joinable += pr->piece[r] == pr->piece[r + 1];
+    CHECK_MSG(bad_piece == 0, "%zu unknowns in the wrong piece", bad_piece);
+    CHECK_MSG(bad_find == 0, "%zu unknowns' runs found wrong", bad_find);
+    CHECK_MSG(joinable == 0, "%zu neighbouring runs could be one", joinable);
+    CHECK(pr->start[0] == 0 && pr->start[pr->count] == net.n);
+    /* absorption in A and B only: with robin every piece leaks (the sums
+     * per piece are the rows' own), with neumann C is singular */
+    ohm_coeff *sa = malloc((size_t)net.n * sizeof *sa);
+    run = 0;
+    for (int64_t v = 0; v < net.n; ++v) sa[v] = ohm_piece_runs_next(pr, &run, v) == 2 ? 0.0f : 0.01f;
+    ohm_channel_medium med = {0};
+    med.sigma_a = sa, med.sigma_s0 = 1.0, med.eta = 1.3;
+    ohm_stencil st = {0};
+    CHECK(ohm_network_stencil(&st, NULL, NULL, &net, &med, OHM_BOUNDARY_ROBIN, &err) == 0);
+    double sink[3] = {0}, diag[3] = {0}, expect_sink[3] = {0};
+    run = 0;
+    for (int64_t v = 0; v < net.n && st.sink; ++v) expect_sink[ohm_piece_runs_next(pr, &run, v)] += st.sink[v];
+    if (st.sink) ohm_stencil_piece_sums(&st, pr, sink, diag);
+    for (int p = 0; p < 3; ++p) {
+        CHECK_REL(sink[p], expect_sink[p], 1e-14);
+        CHECK(diag[p] > sink[p] && sink[p] > 0);
+    }
+    ohm_stencil_free(&st);
+    ohm_stencil singular = {0};
+    CHECK(ohm_network_stencil(&singular, NULL, NULL, &net, &med, OHM_BOUNDARY_NEUMANN, &err) != 0);
+    CHECK_MSG(strstr(err.msg, "cell (9,1,1)") != NULL, "%s", err.msg);
+    ohm_stencil_free(&singular);
+    free(sa);
+    ohm_network_free(&net);
+    free(g.inside);
+}
+
 int main(void)
 {
     ohm_mesh m;
@@ -258,6 +329,7 @@ int main(void)
     refill(&g, sa, ss);
     channel_sharing(&g);
     unknown_cells(&g);
+    pieces_by_runs();
     free(sa);
     free(ss);
     ohm_voxel_grid_free(&g);

@@ -28,7 +28,8 @@ void ohm_network_free(ohm_network *net)
     free(net->face_unknown);
     free(net->face_cell);
     free(net->face_dir);
-    free(net->piece);
+    free(net->pieces.start);
+    free(net->pieces.piece);
     memset(net, 0, sizeof *net);
 }
 
@@ -45,6 +46,7 @@ typedef struct walk {
     int32_t ijk[3];    /* the current unknown's cell */
     int64_t cell, v;   /* its dense index, and the unknown */
     ohm_cell_cursor next; /* the cells of v + 1, ... */
+    int64_t piece_run; /* v's run of pieces (network.h), or one before it */
 } walk;
 
 static void walk_begin(walk *w, const ohm_network *net)
@@ -59,13 +61,17 @@ static void walk_begin(walk *w, const ohm_network *net)
     w->cell = -1;
     w->v = -2;
     w->next = ohm_network_cells(net, 0);
+    w->piece_run = 0;
 }
 
 /* Move to unknown v (visited in increasing order; the next one's cell from
  * the cursor, another's by a search). */
 static inline void walk_to(walk *w, int64_t v)
 {
-    if (v != w->v + 1) w->next = ohm_network_cells(w->net, v);
+    if (v != w->v + 1) {
+        w->next = ohm_network_cells(w->net, v);
+        w->piece_run = w->net->pieces.count ? ohm_piece_runs_find(&w->net->pieces, v) : 0;
+    }
     w->v = v;
     int64_t c = ohm_cell_cursor_next(&w->next), step = c - w->cell;
     if (w->cell >= 0 && w->ijk[0] + step < w->dims[0]) w->ijk[0] += (int32_t)step;
@@ -124,6 +130,36 @@ static inline int32_t find_root(int32_t *parent, int32_t x)
     return x;
 }
 
+/* label[0 .. n-1] as runs of equal labels (network.h); 0, or -1 out of memory */
+static int piece_runs(ohm_piece_runs *pr, const int32_t *label, int64_t n)
+{
+    int64_t count = 1;
+    for (int64_t v = 1; v < n; ++v) count += label[v] != label[v - 1];
+    pr->start = malloc((size_t)(count + 1) * sizeof *pr->start);
+    pr->piece = malloc((size_t)count * sizeof *pr->piece);
+    if (!pr->start || !pr->piece) return -1;
+    int64_t r = 0;
+    for (int64_t v = 0; v < n; ++v)
+        if (v == 0 || label[v] != label[v - 1]) {
+            pr->start[r] = v;
+            pr->piece[r++] = label[v];
+        }
+    pr->start[count] = n;
+    pr->count = count;
+    return 0;
+}
+
+int64_t ohm_piece_runs_find(const ohm_piece_runs *pr, int64_t v)
+{
+    int64_t lo = 0, hi = pr->count - 1; /* the last run starting at or before v */
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo + 1) / 2;
+        if (pr->start[mid] <= v) lo = mid;
+        else hi = mid - 1;
+    }
+    return lo;
+}
+
 /* The first boundary face of unknown v or of a later one (faces are
  * stored in unknown order): a bisection. */
 static int64_t first_face_from(const ohm_network *net, int64_t v)
@@ -172,21 +208,18 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
         return ohm_fail(err, OHM_ERR_USAGE, "network: %lld interior cells, more than 2^31; use a larger voxel=",
                         (long long)n);
     int index_failed = ohm_cell_index_alloc(&net->unknowns, ncells);
-    net->piece = malloc((size_t)n * sizeof *net->piece);
-    if (index_failed || !net->piece) goto nomem;
+    int32_t *parent = malloc((size_t)n * sizeof *parent); /* the pieces' union-find, then their labels */
+    if (index_failed || !parent) goto nomem;
     int64_t u = 0;
     for (size_t c = 0; c < ncells; ++c) {
         if ((active ? active[c] : 1) && inside[c]) {
-            if (u == n) {
-                ohm_network_free(net);
-                return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
-            }
             ++u;
             ohm_cell_index_add(&net->unknowns, c);
         }
     }
     ohm_cell_index_finish(&net->unknowns, ncells);
     if (u != n) {
+        free(parent);
         ohm_network_free(net);
         return ohm_fail(err, OHM_ERR_INTERNAL, "network: interior count mismatch");
     }
@@ -195,7 +228,6 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     /* One walk: boundary faces in unknown order (then direction), matrix
      * entries, closure faces, and pieces joined across lower neighbours. */
     int64_t nfaces = 0, offdiag = 0, nclosure = 0, cap = 0;
-    int32_t *parent = net->piece;
     walk w;
     walk_begin(&w, net);
     for (int64_t v = 0; v < n; ++v) {
@@ -224,13 +256,12 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     int32_t npieces = 0;
     for (int64_t v = 0; v < n; ++v) {
         int32_t p = parent[v];
-        net->piece[v] = p == v ? npieces++ : net->piece[p];
+        parent[v] = p == v ? npieces++ : parent[p];
     }
     net->npieces = npieces;
-    if (npieces == 1) { /* every label is 0: keep none (4 B per cell less, network.h) */
-        free(net->piece);
-        net->piece = NULL;
-    }
+    if (npieces > 1 && piece_runs(&net->pieces, parent, n)) goto nomem; /* one piece: no runs (network.h) */
+    free(parent);
+    parent = NULL;
     net->nclosure = nclosure;
     net->nfaces = nfaces;
     net->nnz = n + offdiag;
@@ -247,6 +278,7 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
     return OHM_OK;
 
 nomem:
+    free(parent);
     ohm_network_free(net);
     return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for %lld cells", (long long)n);
 }
@@ -531,7 +563,7 @@ static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, 
                           : boundary_conductance(med, h, v, dv, as->boundary, cell_A(co, med, v));
     double sinkv = gav;
     for (int q = 0; q < r->nfaces; ++q) sinkv += r->gb;
-    sink[as->net->piece ? as->net->piece[v] : 0] += sinkv;
+    sink[ohm_piece_runs_next(&as->net->pieces, &w->piece_run, v)] += sinkv;
 }
 
 /* A piece with no ground and no leaking face has a constant null vector:
@@ -541,8 +573,12 @@ static int assembly_end(assembly *as, ohm_error *err)
     const ohm_network *net = as->net;
     for (int64_t p = 0; p < net->npieces; ++p) {
         if (as->sink[p] > 0) continue;
-        int64_t v = 0;
-        while (net->piece && net->piece[v] != p) ++v;
+        int64_t v = 0; /* the piece's first unknown */
+        for (int64_t r = 0; r < net->pieces.count; ++r)
+            if (net->pieces.piece[r] == p) {
+                v = net->pieces.start[r];
+                break;
+            }
         int32_t ijk[3];
         ohm_voxel_coords(net->grid, ohm_network_cell(net, v), ijk);
         int32_t i = ijk[0], j = ijk[1], k = ijk[2];

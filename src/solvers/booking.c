@@ -68,12 +68,13 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         free(sink), free(diag), free(defect);
         return -1;
     }
-    const int32_t *piece = net->piece; /* NULL: one piece, 0 */
+    const ohm_piece_runs *pieces = &net->pieces;
+    int64_t run = 0;
     if (op->stencil) /* its sinks are these, in one vectorised pass */
-        ohm_stencil_piece_sums(op->stencil, piece, sink, diag);
+        ohm_stencil_piece_sums(op->stencil, pieces, sink, diag);
     else
         for (int64_t v = 0; v < n; ++v) {
-            int64_t p = piece ? piece[v] : 0;
+            int64_t p = ohm_piece_runs_next(pieces, &run, v);
             sink[p] += unknown_sink(ga, gb, net, med, v, &f);
             diag[p] += ohm_operator_diag(op, v);
         }
@@ -84,14 +85,19 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
         const double *b = B + col * (size_t)n;
         for (int64_t p = 0; p < np; ++p) defect[p] = 0;
         f = 0;
-        for (int64_t v = 0; v < n; ++v) defect[piece ? piece[v] : 0] += b[v] - unknown_sink(ga, gb, net, med, v, &f) * x[v];
+        run = 0;
+        for (int64_t v = 0; v < n; ++v)
+            defect[ohm_piece_runs_next(pieces, &run, v)] += b[v] - unknown_sink(ga, gb, net, med, v, &f) * x[v];
         double xmax = 0;
         for (int64_t v = 0; v < n; ++v) xmax = fmax(xmax, fabs(x[v]));
         for (int64_t p = 0; p < np; ++p) {
             if (!(sink[p] < NEAR_SINGULAR * diag[p]) || !(sink[p] > 0)) continue;
             double c = defect[p] / sink[p];
-            for (int64_t v = 0; v < n; ++v)
-                if (!piece || piece[v] == p) x[v] += c;
+            if (!pieces->count)
+                for (int64_t v = 0; v < n; ++v) x[v] += c;
+            for (int64_t r = 0; r < pieces->count; ++r)
+                if (pieces->piece[r] == p)
+                    for (int64_t v = pieces->start[r]; v < pieces->start[r + 1]; ++v) x[v] += c;
             t->mode_corrections++;
             if (xmax > 0 && fabs(c) / xmax > t->mode_shift) t->mode_shift = fabs(c) / xmax;
         }

@@ -109,7 +109,7 @@ static void dissect(order_work *w, int64_t *list, int64_t count, int64_t pos)
 ohm_grid_layout ohm_grid_layout_of(const ohm_network *net)
 {
     const int32_t *d = net->grid->dims;
-    return (ohm_grid_layout){&net->unknowns, net->n, {d[0], d[1], d[2]}, net->piece, net->npieces};
+    return (ohm_grid_layout){&net->unknowns, net->n, {d[0], d[1], d[2]}, &net->pieces, net->npieces};
 }
 
 int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
@@ -139,7 +139,8 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
         w.coord[2][u] = (int32_t)(cell / nx / ny);
         list[u] = u;
     }
-    if (layout->piece && layout->npieces > 1) {
+    const ohm_piece_runs *pr = layout->pieces;
+    if (pr && pr->count && layout->npieces > 1) {
         /* the pieces one after another (a counting sort, stable in cell order) */
         int64_t *start = calloc((size_t)layout->npieces + 1, sizeof *start);
         if (!start) {
@@ -147,11 +148,13 @@ int ohm_grid_order(int64_t *perm, const ohm_grid_layout *layout, ohm_error *err)
             return ohm_fail(err, OHM_ERR_NOMEM, "ordering=grid: out of memory for %lld pieces",
                             (long long)layout->npieces);
         }
-        for (int64_t u = 0; u < n; ++u) ++start[layout->piece[u] + 1];
+        for (int64_t r = 0; r < pr->count; ++r) start[pr->piece[r] + 1] += pr->start[r + 1] - pr->start[r];
         for (int64_t p = 0; p < layout->npieces; ++p) start[p + 1] += start[p];
         int64_t *filled = w.scratch; /* per piece, npieces <= n */
         memset(filled, 0, (size_t)layout->npieces * sizeof *filled);
-        for (int64_t u = 0; u < n; ++u) list[start[layout->piece[u]] + filled[layout->piece[u]]++] = u;
+        for (int64_t r = 0; r < pr->count; ++r)
+            for (int64_t u = pr->start[r]; u < pr->start[r + 1]; ++u)
+                list[start[pr->piece[r]] + filled[pr->piece[r]]++] = u;
         for (int64_t p = 0; p < layout->npieces; ++p)
             dissect(&w, list + start[p], start[p + 1] - start[p], start[p]);
         free(start);

@@ -28,8 +28,8 @@
 
 /* Where the unknowns sit: unknown u is the u-th member of cells (its
  * cell in a grid of dims[0] x dims[1] x dims[2] cells, x fastest, in cell
- * order: cell_index.h); piece[u] its connected
- * piece, 0 .. npieces-1 (NULL: one piece).  Pieces share no face, so each
+ * order: cell_index.h); pieces its connected
+ * pieces, 0 .. npieces-1 (network.h's runs; none: one piece).  Pieces share no face, so each
  * is dissected on its own and none needs a separator from another: a scan
  * is often a shell and a core or a cloud of specks, which planes cut
  * needlessly. */
@@ -37,7 +37,7 @@ typedef struct ohm_grid_layout {
     const ohm_cell_index *cells;
     int64_t n;
     int64_t dims[3];
-    const int32_t *piece;
+    const ohm_piece_runs *pieces;
     int64_t npieces;
 } ohm_grid_layout;
 

@@ -336,23 +336,27 @@ void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const do
     }
 }
 
-/* each piece's sums of the sinks and of the diagonal (piece NULL: one) */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const int32_t *piece, double *sink, double *diag)
+/* unknowns lo .. hi-1's sums of the sinks and of the diagonal, added into
+ * *sink and *diag */
+static void rows_sums(const ohm_stencil *st, int64_t lo, int64_t hi, double *sink, double *diag)
 {
-    if (!piece) {
-        double s = 0, d = 0;
-        FOR_ROWS_SUM("omp simd reduction(+ : s, d)", st, 0, st->n, {
-            s += S->sink[v];
-            d += row_diag(S, ROW_ARGS);
-        })
-        sink[0] += s;
-        diag[0] += d;
-        return;
-    }
-    FOR_ROWS(st, 0, st->n, {
-        sink[piece[v]] += S->sink[v];
-        diag[piece[v]] += row_diag(S, ROW_ARGS);
+    double s = 0, d = 0;
+    FOR_ROWS_SUM("omp simd reduction(+ : s, d)", st, lo, hi, {
+        s += S->sink[v];
+        d += row_diag(S, ROW_ARGS);
     })
+    *sink += s;
+    *diag += d;
+}
+
+/* each piece's sums of the sinks and of the diagonal, run by run */
+void ohm_stencil_piece_sums(const ohm_stencil *st, const ohm_piece_runs *pieces, double *sink, double *diag)
+{
+    if (!pieces->count) rows_sums(st, 0, st->n, &sink[0], &diag[0]);
+    for (int64_t r = 0; r < pieces->count; ++r) {
+        int32_t p = pieces->piece[r];
+        rows_sums(st, pieces->start[r], pieces->start[r + 1], &sink[p], &diag[p]);
+    }
 }
 
 /* out = b - A x (b in y); returns ||out||^2, and its sum in k.sum2 */

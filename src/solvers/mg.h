@@ -134,8 +134,8 @@ void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const do
                                 double *nx, double *nb);
 
 /* Add each piece's sum of the sinks and of A's diagonal into sink[p],
- * diag[p] (piece[v]: unknown v's piece; NULL: one piece, 0). */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const int32_t *piece, double *sink, double *diag);
+ * diag[p] (the unknowns' pieces, network.h). */
+void ohm_stencil_piece_sums(const ohm_stencil *st, const ohm_piece_runs *pieces, double *sink, double *diag);
 
 /* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
 double ohm_stencil_norm_inf(const ohm_stencil *st);
