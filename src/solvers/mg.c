@@ -286,7 +286,10 @@ double ohm_stencil_norm_inf(const ohm_stencil *st)
 {
     /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
     double norm = 0;
-    FOR_ROWS(st, 0, st->n, norm = fmax(norm, 2.0 * row_diag(S, ROW_ARGS) - S->sink[v]);)
+    FOR_ROWS(st, 0, st->n, {
+        double row = 2.0 * row_diag(S, ROW_ARGS) - S->sink[v];
+        if (row > norm) norm = row; /* not fmax: a library call per row */
+    })
     return norm;
 }
 
@@ -1035,13 +1038,36 @@ static double precondition(const ohm_mg *m, const double *r, double nr)
     return 1.0 / s;
 }
 
+/* the largest |x| of the rows, into partial[chunk] */
+static void max_abs_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    double worst = 0;
+    for (int64_t i = lo; i < hi; ++i)
+        if (fabs(k->x[i]) > worst) worst = fabs(k->x[i]);
+    k->partial[chunk] = worst;
+}
+
+/* out = a xf, in double */
+static void to_double_k(kernel *k, int64_t lo, int64_t hi, int chunk)
+{
+    (void)chunk;
+    for (int64_t i = lo; i < hi; ++i) k->out[i] = k->a * k->xf[i];
+}
+
+/* On every core, as the solve's own passes are (its step writes the next
+ * right-hand side; z is not converted at all): a measurement of the cycle
+ * should not be one of a serial loop around it. */
 void ohm_mg_precondition(ohm_mg *m, const double *r, double *z)
 {
     const mg_level *L0 = &m->lev[0];
+    kernel km = {.fn = max_abs_k, .x = r};
+    run(&km, L0->n, m->threads);
     double nr = 0;
-    for (int64_t i = 0; i < L0->n; ++i) nr = fmax(nr, fabs(r[i]));
+    for (int i = 0; i < km.chunks; ++i)
+        if (km.partial[i] > nr) nr = km.partial[i];
     double kz = precondition(m, r, nr);
-    for (int64_t i = 0; i < L0->n; ++i) z[i] = kz * L0->x[i];
+    kernel kd = {.fn = to_double_k, .xf = L0->x, .out = z, .a = kz};
+    run(&kd, L0->n, m->threads);
 }
 
 /* Bytes one cycle at level l streams, each array counted once per pass as
