@@ -28,29 +28,9 @@ SOLVERS=${SOLVERS:-"amg cg direct mg"}
 [ "${MODEL_ONLY:-0}" = 1 ] || [ "${APPEND:-0}" = 1 ] || \
 echo "scene,solver,ranks,cells,t_setup,t_solve_per_light,iterations_per_light,peak_rss_mb,t_assemble,t_total,note" >"$csv"
 
-# N: an N^3 u8 volume of 8^3 blocks, each density 10 or 20 at random (p =
-# 1/2, a fixed seed): both phases percolate (site percolation on the cubic
-# lattice needs p > 0.31), so light must find its way through a maze of
-# conductances 1e6 apart.  (A checkerboard of such blocks is no test: its
-# diffusive blocks touch only at edges, isolated pieces that CG solves in 25
-# iterations, docs/scale.md.)  One corner voxel is 0: a scan's background is
-# its lowest value (issue 16), and with 0 there the grid's margin is outside
-# and the object is the N^3 blocks (without it, a 4-cell shell of the
-# diffusive phase: (N+8)^3 cells).
-blocks() {
-  /usr/bin/python3 - "$1" "$tmp/blocks$1.raw" <<'PY'
-import sys
-import numpy as np
-n = int(sys.argv[1])
-rng = np.random.default_rng(12)
-b = rng.random(((n + 7) // 8,) * 3) < 0.5
-i = np.arange(n) // 8
-v = np.where(b[i[:, None, None], i[None, :, None], i[None, None, :]], 20, 10).astype(np.uint8)
-v[0, 0, 0] = 0
-v.tofile(sys.argv[2])
-PY
-}
-printf 'ohm-transfer 1\n10 0.001 1\n20 0.001 1e6\n' >"$tmp/blocks.transfer"
+# N: the block medium of N^3 cells (scripts/block-medium.py: 8^3 blocks,
+# sigma_s' 1 or 1e6 /mm at random) and its transfer function
+blocks() { scripts/block-medium.py "$1" "$tmp/blocks$1.raw" "$tmp/blocks.transfer"; }
 
 # row SCENE SOLVER RANKS -- ohm arguments (without -solve): one CSV row;
 # SOLVE_OPTS (a word, in the environment) adds -solve options
