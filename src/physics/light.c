@@ -487,7 +487,8 @@ int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double 
 {
     int64_t nblocks = (net->nfaces + FACE_POWERS_BLOCK - 1) / FACE_POWERS_BLOCK;
     double *block_arrive = calloc((size_t)(nblocks ? nblocks : 1) * (size_t)channels, sizeof *block_arrive);
-    if (!block_arrive) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %lld faces", (long long)net->nfaces);
+    if (!block_arrive)
+        return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %lld faces", (long long)net->nfaces);
     emitters em;
     int rc = emitters_init(&em, light, err);
     if (rc) {
