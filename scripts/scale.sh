@@ -100,7 +100,7 @@ for v in ${HEAD_VOXELS:-1 0.5}; do
   done
 done
 # the walnut CT (uint16, 0.625 mm) through its RGB transfer function (shell,
-# kernel, air: contrasts of 10^3 in sigma_s'), at 0.2 mm (1e6 cells) and
+# kernel, air: sigma_s' 0.01 to 2 /mm), at 0.2 mm (1e6 cells) and
 # 0.1 mm (7.7e6), one directional light
 for v in ${WALNUT_VOXELS:-0.2 0.1}; do
   scene=(-read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 spacing=0.625 -voxelize voxel="$v"
