@@ -196,13 +196,14 @@ if weak:  # the largest rank is rank 0, which also holds the serial data
         "%d rank(s): %.1f iterations, %.0f MB on the largest rank" % w for w in weak) + ".")
 mg = [r for r in rows if r["solver"] == "mg" and r["scene"].startswith("blocks") and int(r["cells"]) >= 10**6]
 if mg:
+    setup = fit([(int(r["cells"]), float(r["t_setup"])) for r in mg])
+    solve = fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in mg])
+    peak = fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in mg])
     print("- mg (one machine; it does not run under mpirun) setup %.0f ns per cell, solve %.0f ns per cell per light "
-          "per channel, whole-process peak %.0f B per cell: 1e8 cells would take %.0f s per light and %.1f GB."
-          % (fit([(int(r["cells"]), float(r["t_setup"])) for r in mg]) * 1e9,
-             fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in mg]) * 1e9,
-             fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in mg]),
-             fit([(int(r["cells"]), float(r["t_solve_per_light"])) for r in mg]) * 1e8,
-             fit([(int(r["cells"]), float(r["peak_rss_mb"]) * 2**20) for r in mg]) * 1e8 / 2**30))
+          "per channel, whole-process peak %.0f B per cell: 1e8 cells would take %.0f s per light and %.1f GB "
+          "(1e9 B); 1e9 cells %.0f s per light and %.0f GB, on one machine with that much memory, if its iterations "
+          "stay as flat as from 1e5 to 1e8 (16-18). mg does not distribute: beyond one machine, amg's table below."
+          % (setup * 1e9, solve * 1e9, peak, solve * 1e8, peak * 1e8 / 1e9, solve * 1e9, peak * 1e9 / 1e9))
 print("\nPredicted for machines like this one (2 cores, 24 GB; 2 ranks each), if the iteration count stays")
 print("flat as in the weak-scaling rows and the network adds nothing (an optimistic bound for the times):\n")
 print("| cells | machines | rank 0's memory (serial + its share) | memory per other rank | setup | per light per channel |")
