@@ -4,6 +4,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/sorted.h"
+
 int ohm_cell_index_alloc(ohm_cell_index *ix, size_t ncells)
 {
     size_t nwords = (ncells + 63) / 64;
@@ -28,16 +30,7 @@ void ohm_cell_index_finish(ohm_cell_index *ix, size_t ncells)
 }
 
 /* The word holding member k: the last whose running count is <= k. */
-static int64_t word_of(const ohm_cell_index *ix, int64_t k)
-{
-    int64_t lo = 0, hi = (ix->count > 0 ? ix->nwords : 1) - 1;
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo + 1) / 2;
-        if (ix->rank[mid] <= k) lo = mid;
-        else hi = mid - 1;
-    }
-    return lo;
-}
+static int64_t word_of(const ohm_cell_index *ix, int64_t k) { return ohm_sorted_last_at_most(ix->rank, ix->nwords, k); }
 
 /* word with its lowest `skip` set bits cleared */
 static uint64_t drop_lowest(uint64_t word, int64_t skip)

@@ -59,8 +59,8 @@ static void walk_begin(walk *w, const ohm_network *net)
     int64_t s[6] = {-1, 1, -sy, sy, -sz, sz};
     memcpy(w->stride, s, sizeof s);
     w->cell = -1;
-    w->v = -2;
-    w->next = ohm_network_cells(net, 0);
+    w->v = -2; /* the first walk_to places the cursors */
+    w->next = (ohm_cell_cursor){0};
     w->piece_run = 0;
 }
 
@@ -151,13 +151,7 @@ static int piece_runs(ohm_piece_runs *pr, const int32_t *label, int64_t n)
 
 int64_t ohm_piece_runs_find(const ohm_piece_runs *pr, int64_t v)
 {
-    int64_t lo = 0, hi = pr->count - 1; /* the last run starting at or before v */
-    while (lo < hi) {
-        int64_t mid = lo + (hi - lo + 1) / 2;
-        if (pr->start[mid] <= v) lo = mid;
-        else hi = mid - 1;
-    }
-    return lo;
+    return ohm_sorted_last_at_most(pr->start, pr->count, v);
 }
 
 /* The first boundary face of unknown v or of a later one (faces are

@@ -30,6 +30,7 @@
 #include <cholmod.h>
 
 #include "base/curve.h"
+#include "base/sorted.h"
 #include "grid/cell_index.h"
 #include "physics/fresnel.h"
 #include "base/ohm_error.h"
@@ -310,13 +311,7 @@ static inline int64_t ohm_stencil_run(const ohm_stencil *st, int64_t v, int64_t 
 /* The run holding unknown v, by bisection. */
 static inline int64_t ohm_stencil_run_of(const ohm_stencil *st, int64_t v)
 {
-    int64_t lo = 0, hi = st->nruns; /* run_start[lo] <= v < run_start[hi] */
-    while (hi - lo > 1) {
-        int64_t mid = lo + (hi - lo) / 2;
-        if (st->run_start[mid] <= v) lo = mid;
-        else hi = mid;
-    }
-    return lo;
+    return ohm_sorted_last_at_most(st->run_start, st->nruns, v);
 }
 
 /* The bytes st holds. */
