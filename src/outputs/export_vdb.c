@@ -97,31 +97,47 @@ static int set_common_meta(ohm_vdb_grid *grid, const ohm_voxel_grid *g, const oh
     return rc;
 }
 
-/* The solution grids' room: the active cells' indices and values, n of
- * each at most, filled by each grid in turn. */
+/* The solution grids' room: every unknown's voxel and the boundary cells'
+ * (the exitance's), found once for all the grids, and one grid's values. */
 typedef struct grid_room {
-    int32_t *ijk;
-    float *val;
+    int32_t *ijk;          /* n x 3, in unknown order                      */
+    uint8_t *boundary;     /* n: the unknown has a boundary face            */
+    int32_t *boundary_ijk; /* nboundary x 3, the boundary cells in order    */
+    size_t nboundary;
+    float *val; /* n at most: the grid being written                        */
 } grid_room;
 
-/* One solution grid: values per unknown, active where `where` is non-zero
- * (NULL: every unknown), written to w and freed. */
+/* room's voxels for sol's unknowns (its boundary flags already set);
+ * OHM_ERR_NOMEM */
+static int room_fill(grid_room *room, const ohm_voxel_grid *g, const ohm_network *net, ohm_error *err)
+{
+    room->nboundary = 0;
+    for (int64_t v = 0; v < net->n; ++v) room->nboundary += room->boundary[v];
+    room->boundary_ijk = malloc(3 * (room->nboundary ? room->nboundary : 1) * sizeof *room->boundary_ijk);
+    if (!room->boundary_ijk) return ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory");
+    ohm_cell_cursor cells = ohm_network_cells(net, 0);
+    size_t b = 0;
+    for (int64_t v = 0; v < net->n; ++v) {
+        int32_t *at = room->ijk + 3 * v;
+        ohm_voxel_coords(g, ohm_cell_cursor_next(&cells), at);
+        if (room->boundary[v]) memcpy(room->boundary_ijk + 3 * b++, at, 3 * sizeof *at);
+    }
+    return OHM_OK;
+}
+
+/* One solution grid: values per unknown, active in every unknown or (on_boundary)
+ * in the boundary cells only, written to w and freed. */
 static int solution_grid(ohm_vdb_writer *w, grid_room *room, const char *name, const char *quantity,
-                         const ohm_voxel_grid *g, const ohm_solution *sol, const double *values, const int *where,
+                         const ohm_voxel_grid *g, const ohm_solution *sol, const double *values, int on_boundary,
                          const ohm_vdb_provenance *prov, ohm_error *err)
 {
-    const ohm_network *net = &sol->net;
     size_t count = 0;
-    ohm_cell_cursor cells = ohm_network_cells(net, 0);
-    for (int64_t v = 0; v < net->n; ++v) {
-        int64_t c = ohm_cell_cursor_next(&cells);
-        if (where && !where[v]) continue;
-        ohm_voxel_coords(g, c, room->ijk + 3 * count);
-        room->val[count++] = (float)values[v];
-    }
+    for (int64_t v = 0; v < sol->n; ++v)
+        if (!on_boundary || room->boundary[v]) room->val[count++] = (float)values[v];
+    const int32_t *ijk = on_boundary ? room->boundary_ijk : room->ijk;
     ohm_vdb_grid *grid = NULL;
     int rc = ohm_vdb_grid_create(&grid, name, OHM_VDB_CLASS_FOG_VOLUME, 0.0f, g->h, g->origin, err);
-    if (!rc) rc = ohm_vdb_grid_set_values(grid, room->ijk, room->val, count, err);
+    if (!rc) rc = ohm_vdb_grid_set_values(grid, ijk, room->val, count, err);
     if (!rc) rc = set_common_meta(grid, g, prov, err);
     if (!rc) rc = ohm_vdb_grid_set_meta_string(grid, "ohm_quantity", quantity, err);
     if (!rc && prov && prov->material) rc = ohm_vdb_grid_set_meta_string(grid, "ohm_material", prov->material, err);
@@ -177,51 +193,52 @@ static int solution_grids(ohm_vdb_writer *w, const ohm_voxel_grid *g, const ohm_
                           const ohm_vdb_provenance *prov, ohm_error *err)
 {
     size_t n = (size_t)(sol->n ? sol->n : 1);
-    grid_room room = {malloc(3 * n * sizeof *room.ijk), malloc(n * sizeof *room.val)};
-    int *boundary_cell = calloc(n, sizeof *boundary_cell);
+    grid_room room = {.ijk = malloc(3 * n * sizeof *room.ijk), .boundary = calloc(n, 1), .val = malloc(n * sizeof *room.val)};
     double *cell_values = malloc(n * sizeof *cell_values); /* a channel's exitance or medium, in turn */
-    int rc = !room.ijk || !room.val || !boundary_cell || !cell_values ? ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory")
-                                                                        : OHM_OK;
-    for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) boundary_cell[sol->net.face_unknown[f]] = 1;
+    int rc = !room.ijk || !room.boundary || !room.val || !cell_values ? ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory")
+                                                                       : OHM_OK;
+    for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) room.boundary[sol->net.face_unknown[f]] = 1;
+    if (!rc) rc = room_fill(&room, g, &sol->net, err);
     static const char *suffix[3] = {"_r", "_g", "_b"};
     size_t off = (size_t)frame * (size_t)sol->n;
     for (int c = 0; c < sol->channels && !rc; ++c) {
         char name[32];
         const char *sfx = sol->channels == 1 ? "" : suffix[c];
         snprintf(name, sizeof name, "fluence%s", sfx);
-        rc = solution_grid(w, &room, name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off, NULL, prov, err);
+        rc = solution_grid(w, &room, name, "fluence rate phi, W/mm^2", g, sol, sol->fluence[c] + off, 0, prov, err);
         if (rc) break;
         snprintf(name, sizeof name, "exitance%s", sfx);
         ohm_solution_exitance_frame(cell_values, sol, c, frame);
         rc = solution_grid(w, &room, name,
                            "exitance: power leaving through the cell's boundary faces per unit area, W/mm^2", g, sol,
-                           cell_values, boundary_cell, prov, err);
+                           cell_values, 1, prov, err);
         /* solver=mc: the standard errors beside the values */
         if (!rc && sol->fluence_se[c]) {
             snprintf(name, sizeof name, "fluence_se%s", sfx);
             rc = solution_grid(w, &room, name, "Monte Carlo standard error of the fluence, W/mm^2", g, sol,
-                               sol->fluence_se[c] + off, NULL, prov, err);
+                               sol->fluence_se[c] + off, 0, prov, err);
         }
         if (!rc && sol->exitance_se[c]) {
             snprintf(name, sizeof name, "exitance_se%s", sfx);
             rc = solution_grid(w, &room, name, "Monte Carlo standard error of the exitance, W/mm^2", g, sol,
-                               sol->exitance_se[c] + off, boundary_cell, prov, err);
+                               sol->exitance_se[c] + off, 1, prov, err);
         }
         /* the material, when it varies cell by cell (scans) */
         if (!rc && ohm_solution_medium(cell_values, sol, c, 0)) {
             snprintf(name, sizeof name, "sigma_a%s", sfx);
-            rc = solution_grid(w, &room, name, "absorption coefficient sigma_a, 1/mm", g, sol, cell_values, NULL, prov,
+            rc = solution_grid(w, &room, name, "absorption coefficient sigma_a, 1/mm", g, sol, cell_values, 0, prov,
                                err);
         }
         if (!rc && ohm_solution_medium(cell_values, sol, c, 1)) {
             snprintf(name, sizeof name, "sigma_s%s", sfx);
             rc = solution_grid(w, &room, name, "reduced scattering coefficient sigma_s', 1/mm", g, sol, cell_values,
-                               NULL, prov, err);
+                               0, prov, err);
         }
     }
     free(room.ijk);
+    free(room.boundary);
+    free(room.boundary_ijk);
     free(room.val);
-    free(boundary_cell);
     free(cell_values);
     return rc;
 }
