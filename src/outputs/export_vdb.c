@@ -193,10 +193,12 @@ static int solution_grids(ohm_vdb_writer *w, const ohm_voxel_grid *g, const ohm_
                           const ohm_vdb_provenance *prov, ohm_error *err)
 {
     size_t n = (size_t)(sol->n ? sol->n : 1);
-    grid_room room = {.ijk = malloc(3 * n * sizeof *room.ijk), .boundary = calloc(n, 1), .val = malloc(n * sizeof *room.val)};
+    grid_room room = {
+        .ijk = malloc(3 * n * sizeof *room.ijk), .boundary = calloc(n, 1), .val = malloc(n * sizeof *room.val)};
     double *cell_values = malloc(n * sizeof *cell_values); /* a channel's exitance or medium, in turn */
-    int rc = !room.ijk || !room.boundary || !room.val || !cell_values ? ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory")
-                                                                       : OHM_OK;
+    int rc = !room.ijk || !room.boundary || !room.val || !cell_values
+                 ? ohm_fail(err, OHM_ERR_NOMEM, "write: out of memory")
+                 : OHM_OK;
     for (int64_t f = 0; !rc && f < sol->net.nfaces; ++f) room.boundary[sol->net.face_unknown[f]] = 1;
     if (!rc) rc = room_fill(&room, g, &sol->net, err);
     static const char *suffix[3] = {"_r", "_g", "_b"};
