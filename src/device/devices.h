@@ -1,5 +1,5 @@
 /* devices.h — the OpenCL devices this machine has, and the one a run asks
- * for: device=gpu|cpu|opencl:N|auto (issue 37).
+ * for: device=gpu|cpu|opencl:N|auto (docs/devices.md).
  *
  * Devices are numbered across platforms in the order the runtime lists
  * them (opencl:0, opencl:1, ...), as `ohm devices` prints them.  A device

@@ -1,5 +1,5 @@
 /* scan.h — density volumes in (CT, MRI, any scalar field): stage "scans" of
- * DESIGN.md §1.  One in-memory form for every reader: a dense float array,
+ * docs/design.md §2.  One in-memory form for every reader: a dense float array,
  * x fastest, and the affine map from voxel index (voxel centres) to world mm.
  *
  * Readers: .vdb (a float grid, grid= picks it; default "density"), NIfTI-1/2

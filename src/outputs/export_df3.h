@@ -1,5 +1,5 @@
 /* export_df3.h — the solved volume as POV-Ray density files plus a scene that
- * renders them (issue 5, -export df3=).
+ * renders them (-export df3=, docs/outputs.md).
  *
  * BASE_r.df3, BASE_g.df3, BASE_b.df3 (BASE.df3 for grey): a header of three
  * big-endian uint16 sizes, then big-endian uint16 samples, x fastest.  The

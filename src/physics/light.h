@@ -1,4 +1,4 @@
-/* light.h — lights and the source vector b (DESIGN.md §2, "Sources").
+/* light.h — lights and the source vector b (docs/design.md §3, "Sources").
  *
  * A light puts irradiance E = I max(0, n.l) on every boundary face it sees
  * (n the face's outward normal; point lights also fall off as 1/d^2).  Using
@@ -9,8 +9,8 @@
  * profile alpha' (e^{-sigma_t' z0} - e^{-sigma_t' z1}) per cell it crosses,
  * each share acting at its centroid (deposit=exponential: light.c), all at depth 1/sigma_t' (deposit=point, the dipole's
  * assumption) or all in the first cell (deposit=surface, the paper's).
- * No shadow rays yet: every face facing the light is lit (issue 4 adds
- * visibility through ohm_source_build's face loop). */
+ * No shadow rays yet: every face facing the light is lit here; shadow.h adds
+ * visibility through ohm_source_build's face loop. */
 #ifndef OHM_LIGHT_H
 #define OHM_LIGHT_H
 

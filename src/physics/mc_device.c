@@ -26,7 +26,7 @@ static const char ADVICE[] = "use a coarser grid or device=host";
 /* device=auto traces fewer photons than this on the host: here they take
  * the host's two cores about 0.7 s (190 photons/ms, docs/gpu.md), the
  * order of opening a device and building its kernels the first time
- * (0.2-1 s on PoCL).  To be re-measured on a GPU (issue 37). */
+ * (0.2-1 s on PoCL).  To be re-measured on a GPU (docs/gpu.md). */
 enum { AUTO_MIN_PHOTONS = 1 << 17 };
 
 enum { K_TRACE, K_FOLD, K_ZERO, K_COUNT };

@@ -1,5 +1,5 @@
 /* mc_device.cl — the Monte Carlo tracer on an OpenCL device (mc_device.c;
- * issue 37): one photon per work-item, with the physics of mc.c's
+ * docs/devices.md): one photon per work-item, with the physics of mc.c's
  * trace_photon step for step — free paths of sigma_s, continuous
  * absorption (track-length fluence), Henyey-Greenstein scattering with the
  * cell's g, Fresnel reflection or escape at boundary faces, reflection or

@@ -279,10 +279,10 @@ nomem:
 
 /* One channel's coefficients, with what does not vary hoisted.  Every value
  * is computed by the same expression, in the same order, as the per-cell
- * formulas of DESIGN.md §2 (network.h), so a homogeneous medium's constants
+ * formulas of docs/design.md §3 (network.h), so a homogeneous medium's constants
  * are bit for bit what each cell would compute for itself. */
 typedef struct coeffs {
-    double A;    /* the boundary constant of DESIGN.md §2 (optical media) */
+    double A;    /* the boundary constant A, fresnel.h (optical media) */
     ohm_fresnel fresnel;
     const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
     int uniform; /* no per-cell array: every conductance is one constant  */
@@ -441,7 +441,7 @@ typedef struct assembly {
     walk w;
 } assembly;
 
-/* Row v of the network's matrix (DESIGN.md §2): the neighbour across each
+/* Row v of the network's matrix (docs/design.md §3): the neighbour across each
  * face (walk_across's codes) and the link's conductance, the ground
  * conductance (the depth band's closure faces added), the boundary
  * conductance of each of its nfaces boundary faces, and the scale of the

@@ -1,4 +1,4 @@
-/* network.h — the resistor network of DESIGN.md §2 (cell-centred finite
+/* network.h — the resistor network of docs/design.md §3 (cell-centred finite
  * volumes).  Unknown phi_c is the fluence at the centre of every interior cell;
  * KCL at cell c:  sum_d G_cd (phi_c - phi_d) + G_a,c phi_c + sum_f G_b,f phi_c = S_c.
  *

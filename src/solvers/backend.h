@@ -1,6 +1,6 @@
 /* solvers/backend.h — the seam between the light-transport driver (solve.c,
  * with sources.c, batch.c and booking.c: solver_impl.h) and the linear
- * solvers behind it (DESIGN.md §2 "Solving", §8 "Size").
+ * solvers behind it (docs/design.md §4).
  *
  * A backend solves A X = B for the network's matrix A (symmetric positive
  * definite) in the spirit of PETSc's KSP/PC: an object chosen at run time by

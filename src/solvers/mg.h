@@ -1,5 +1,5 @@
 /* solvers/mg.h — geometric multigrid on the voxel grid, matrix-free
- * (issue 35): the hierarchy of solver=mg (backend.h).
+ * (docs/multigrid.md): the hierarchy of solver=mg (backend.h).
  *
  * The unknowns are cells of a regular grid, so the grid is the hierarchy:
  * a coarse cell is a 2x2x2 block of the finer grid's cells (those of the
@@ -11,7 +11,7 @@
  * the blocks' shared face, a coarse cell's sink the sum of its cells'
  * sinks; each coarse level is again a 7-point stencil (ohm_stencil) and
  * conserves power as the fine one does.  Piecewise-constant (unsmoothed)
- * aggregation alone loses its grip as grids grow (issue 35: 17 iterations
+ * aggregation alone loses its grip as grids grow (17 iterations
  * at 8.8e5 cells, 79 at 1e8 in a prototype); the K-cycle of Notay and
  * Vassilevski ("Recursive Krylov-based multigrid cycles", Numer. Linear
  * Algebra Appl. 15, 2008) restores it: each coarse correction is up to two

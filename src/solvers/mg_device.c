@@ -21,7 +21,7 @@ enum { MAX_GROUPS = 1024, WG_MAX = 256 };
  * whole solve of 40^3 block-medium cells takes 0.02 s (docs/gpu.md), the
  * order of what a device solve spends on its ~800 kernel launches and ~40
  * synchronous read-backs of partial sums alone (14 iterations), before the
- * set-up.  To be re-measured on a GPU (issue 37). */
+ * set-up.  To be re-measured on a GPU (docs/gpu.md). */
 enum { AUTO_MIN_CELLS = 1 << 16 };
 
 enum kernel_id {

@@ -1,4 +1,4 @@
-/* mg_device.h — solver=mg on an OpenCL device (issue 37): the hierarchy
+/* mg_device.h — solver=mg on an OpenCL device (docs/devices.md): the hierarchy
  * built on the host (mg.h) is copied to the device once, and the whole
  * solve runs there — the outer flexible CG in double on the network's
  * stencil, the K-cycle in single precision, the coarsest level's dense

@@ -389,7 +389,7 @@ static int media_together(const diffusion_run *run)
 /* Every medium set up first (one after another: the factorizations use the
  * BLAS's own threads), then the media's channels solved on the cores at
  * once, one medium per thread at a time: the paper's relight, three colours
- * for the wall time of about two (issue 15, item 3).  Only while each solve
+ * for the wall time of about two (docs/bench-notes.md).  Only while each solve
  * runs on one core (the backend's concurrent_max_bytes: direct's
  * substitution over a small factor, direct.h); a larger
  * factor's solve already runs on every core through the BLAS and is bound

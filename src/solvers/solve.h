@@ -7,7 +7,7 @@
  * multi-column right-hand sides (in batches when memory asks for it) — the
  * paper's point: a change of light never refactors.  Power is booked per solve:
  * in (deposited) = absorbed (sum G_a phi) + out (sum G_b phi), exact in this
- * discretisation up to round-off (DESIGN.md §2). */
+ * discretisation up to round-off (docs/design.md §3). */
 #ifndef OHM_SOLVE_H
 #define OHM_SOLVE_H
 
@@ -22,7 +22,7 @@
  * within 2.5% beyond 2 mm, where diffusion alone is 15-22% off). */
 enum { OHM_HYBRID_PENCIL = 10 };
 
-/* The parameters of a solve, one struct per thing they configure (issue 34),
+/* The parameters of a solve, one struct per thing they configure,
  * gathered in ohm_solve_params below; zero-initialised means every default. */
 
 /* What the network's matrix is. */
@@ -141,7 +141,7 @@ typedef struct ohm_solution {
     float *medium_density;
     ohm_curve medium_sa_curve[OHM_MAX_CHANNELS], medium_ss_curve[OHM_MAX_CHANNELS];
     double *curve_store;
-    /* statistics (DESIGN.md §7) */
+    /* statistics (the -stats JSON, docs/cli.md) */
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */
     int64_t solves;                     /* columns solved, summed over channels       */

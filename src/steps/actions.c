@@ -319,7 +319,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         const ohm_field field = scan_object_field(&s->scan, threshold);
         rc = ohm_voxelize_field(&g, &field, lo, hi, threshold, &p, &s->log, err);
     }
-    /* name the file the object came from (DESIGN.md §6) */
+    /* name the file the object came from (docs/design.md §11) */
     if (rc) return ohm_error_name(err, rc, s->have_mesh ? s->mesh_path : s->scan_path);
     double t = ohm_now() - t0;
 
