@@ -348,7 +348,7 @@ static void mesh_arrays(void)
     double volume = (double)gd.interior_cells * gd.voxel * gd.voxel * gd.voxel, box = 8.0 * (double)above;
     CHECK_MSG(fabs(volume - box) <= 0.5 * gd.voxel * 832.0, "object %.1f mm^3, box %.1f mm^3", volume, box);
     /* a uniform array is its box, the 11^3 steps of 2 mm between its
-     * outermost voxel centres, never the grid's margin (issue 33) */
+     * outermost voxel centres, never the grid's margin (docs/scans.md) */
     for (size_t v = 0; v < (size_t)N * N * N; ++v) vol[v] = 100.0f;
     const char *thr1[] = {"threshold=50", "voxel=1", NULL};
     CHECK(ohm_scene_set_density(d, vol, dims, m, "uniform volume") == OHM_OK);

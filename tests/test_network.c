@@ -1,5 +1,5 @@
 /* test_network.c — the assembled matrix, checked entry by entry against the
- * formulas of DESIGN.md §2 computed here, on a real voxelized mesh. */
+ * formulas of docs/design.md §3 computed here, on a real voxelized mesh. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>

@@ -1,4 +1,4 @@
-/* test_scan_extent.c — a scan's object ends where the scan ends (issue 33;
+/* test_scan_extent.c — a scan's object ends where the scan ends (docs/scans.md;
  * the rule is in src/input/scan.h).  Every scene runs through the action
  * chain, as `ohm -read ... -voxelize threshold=...` runs it:
  *

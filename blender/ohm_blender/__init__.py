@@ -4,7 +4,7 @@ attribute, relit live from one factor, baked over an animation.
 
 Operators (bpy.ops.ohm.*): solve (in the background when invoked from the
 panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake.  The
-panel is Properties > Object > ohm.  See README.md, "For Blender users".
+panel is Properties > Object > ohm.  See docs/blender-addon.md.
 """
 bl_info = {
     "name": "ohm subsurface scattering",
