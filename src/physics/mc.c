@@ -170,7 +170,6 @@ typedef struct mc_to {
     mc_tally *t;
 } mc_to;
 #define MC_UNIFORM(r) rng_uniform(r)
-#define MC_REFLECTANCE_INSIDE(m, mu) ohm_fresnel_reflectance_inside(m, mu)
 #define MC_UNKNOWN_AT(to, n) unknown_at((to)->sc->net, n)
 #define MC_HANDOFF_ADD(to, u, w) ((to)->t->sums.handoff[u] += (w))
 #include "physics/mc_step.h"

@@ -149,25 +149,11 @@ double cell_eta(const scene *sc, int v)
 
 /* ---- the physics (mc.c) ------------------------------------------------------------------- */
 
-/* fresnel.c's ohm_fresnel_reflectance_inside */
-double reflectance_inside(double eta, double mu)
-{
-    if (mu > 1.0) mu = 1.0;
-    if (mu <= 0.0) return 1.0;
-    double sin_t2 = eta * eta * (1.0 - mu * mu);
-    if (sin_t2 >= 1.0) return 1.0;
-    double cos_t = sqrt(1.0 - sin_t2);
-    double rs = (eta * mu - cos_t) / (eta * mu + cos_t);
-    double rp = (mu - eta * cos_t) / (mu + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
 /* the steps the host takes alike: one source, mc_step.h (the build puts
  * its text here) — the hybrid's handoff into the grid's handoff tally */
 typedef rng mc_rng;
 typedef int mc_index;
 #define MC_UNIFORM(r) uniform(r)
-#define MC_REFLECTANCE_INSIDE(m, mu) reflectance_inside(m, mu)
 #ifdef MC_HANDOFF
 typedef struct mc_to {
     const scene *sc;
@@ -281,7 +267,7 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                     v = nv;
                     coefficients(&sc, v, &sa, &ss);
                 } else { /* a boundary face: reflected with the Fresnel probability, else out */
-                    double R = reflectance_inside(cell_eta(&sc, v), fabs(u[ax]));
+                    double R = ohm_fresnel_inside(cell_eta(&sc, v), fabs(u[ax]));
                     if (R < 1.0 && uniform(&r) >= R) {
                         int f = face_of(&sc, v, 2 * ax + (step > 0));
                         if (f >= 0) add_double(&face[f], w);

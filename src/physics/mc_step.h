@@ -4,7 +4,6 @@
  * includes it).  The includer defines:
  *   mc_rng                     its random-number state's type
  *   MC_UNIFORM(r)              a double uniform on [0, 1) from r
- *   MC_REFLECTANCE_INSIDE(m, mu)  fresnel.h's ohm_fresnel_reflectance_inside
  * and for the hybrid's handoff (mc_hand_off, compiled where they are):
  *   mc_to, mc_index            where the shares go; an unknown's number
  *   MC_UNKNOWN_AT(to, n)       the unknown of grid cell n[3], or -1
@@ -12,6 +11,8 @@
  * Lengths in voxels (cell i spans [i, i+1)), directions unit vectors. */
 #ifndef OHM_PHYSICS_MC_STEP_H
 #define OHM_PHYSICS_MC_STEP_H
+
+#include "physics/fresnel_inside.h"
 
 /* 1 - e^-x, the fraction of a segment's weight absorbed over optical depth
  * x: by its series where x is small (the common case: one exp per segment
@@ -88,7 +89,7 @@ static inline void mc_scatter(double u[3], double g, mc_rng *r)
 static inline int mc_cross_interface(double u[3], int ax, double ev, double ew, mc_rng *r)
 {
     double m = ev / ew, mu = fabs(u[ax]);
-    double R = MC_REFLECTANCE_INSIDE(m, mu);
+    double R = ohm_fresnel_inside(m, mu);
     if (R >= 1.0 || MC_UNIFORM(r) < R) {
         u[ax] = -u[ax];
         return 0;
