@@ -146,29 +146,25 @@ void mc_coefficients(const scene *sc, int v, double *sa, double *ss)
 #endif
 }
 
+/* the build options as flags (-D MC_CELL_G defines it 1) */
+#ifndef MC_CELL_G
+#define MC_CELL_G 0
+#endif
+#ifndef MC_CELL_ETA
+#define MC_CELL_ETA 0
+#endif
+
 double mc_cell_g(const scene *sc, int v)
 {
-#ifdef MC_CELL_G
-    return sc->g[v];
-#else
-    return sc->g0;
-#endif
+    return MC_CELL_G ? sc->g[v] : sc->g0;
 }
 
 double mc_cell_eta(const scene *sc, int v)
 {
-#ifdef MC_CELL_ETA
-    return sc->eta[v];
-#else
-    return sc->eta0;
-#endif
+    return MC_CELL_ETA ? sc->eta[v] : sc->eta0;
 }
 
-#ifdef MC_CELL_ETA
-#define MC_ETA_VARIES(sc) 1
-#else
-#define MC_ETA_VARIES(sc) 0
-#endif
+#define MC_ETA_VARIES(sc) MC_CELL_ETA
 
 /* network.h's ohm_network_face: the boundary face of v in direction d, or -1 */
 int face_of(const scene *sc, int v, int d)
