@@ -464,8 +464,8 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
 static int relight_from_last(const ohm_solver *s, int channels, int frames)
 {
     const ohm_solve_params *p = &s->params;
-    return s->keep && s->solved && s->backend && (s->backend->caps & OHM_BACKEND_WARM_START) && channels == s->sol.channels &&
-           frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
+    return s->keep && s->solved && s->backend && (s->backend->caps & OHM_BACKEND_WARM_START) &&
+           channels == s->sol.channels && frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
 }
 
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
