@@ -75,8 +75,9 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc.print = 0;
     s->cc.error_handler = NULL;
     const char *name = s->params.num.solver;
-    s->backend = ohm_backend_find(name);
-    if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
+    s->transport = ohm_transport_find(name); /* a transport, or a backend */
+    s->backend = s->transport ? NULL : ohm_backend_find(name);
+    if (!s->backend && !s->transport) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
     return OHM_OK;
 }
@@ -238,7 +239,7 @@ static int setup_media(const diffusion_run *run, const ohm_backend_config *bcfg,
 
 int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
-    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return OHM_OK; /* nothing to set up */
+    if (s->transport) return OHM_OK; /* nothing to set up */
     int channels, frames;
     lights_shape(s, lights, nlights, &channels, &frames);
     diffusion_run run;
@@ -463,8 +464,8 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
 static int relight_from_last(const ohm_solver *s, int channels, int frames)
 {
     const ohm_solve_params *p = &s->params;
-    return s->keep && s->solved && (s->backend->caps & OHM_BACKEND_WARM_START) && channels == s->sol.channels &&
-           frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
+    return s->keep && s->solved && s->backend && (s->backend->caps & OHM_BACKEND_WARM_START) &&
+           channels == s->sol.channels && frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
 }
 
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
@@ -481,7 +482,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
     sol->frames = frames;
     int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
-    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return s->backend->transport(s, lights, nlights, err);
+    if (s->transport) return s->transport->solve(s, lights, nlights, err);
     rc = solve_diffusion(s, lights, nlights, from_last, err);
     if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
         for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
