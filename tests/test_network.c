@@ -7,7 +7,7 @@
 #include "check.h"
 #include "physics/material.h"
 #include "physics/network.h"
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 #include "solvers/solve.h"
 
 static const ohm_log quiet = {.verbosity = 0};

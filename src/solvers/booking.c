@@ -3,7 +3,7 @@
  * per face; the constant-mode correction of nearly singular pieces, which
  * makes that law hold exactly; and each channel's tally, added to the
  * solution in channel order. */
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 #include "solvers/solver_impl.h"
 
 #include <math.h>
