@@ -118,7 +118,7 @@ static double run(kernel *k, int64_t n, int threads)
     return sum;
 }
 
-/* ---- the stencils' rows ---------------------------------------------------------------- */
+/* ---- the cycle's rows (single; the loop and the double rows: stencil_rows.h) ----------- */
 
 /* The cycle's row v, in single precision: its links' sum, sum_w g_vw x_w
  * (so (A x)_v is diag x_v - that sum, and the Jacobi step (b_v + that sum)
