@@ -1,10 +1,96 @@
-/* physics/stencil.c — the stencil's own operations (stencil.h), on its
- * rows' loop (stencil_rows.h). */
+/* physics/stencil.c — the stencil's form, its runs and its operations
+ * (stencil.h), on its rows' loop (stencil_rows.h). */
 #include "physics/stencil.h"
 
 #include <math.h>
+#include <stdlib.h>
+#include <string.h>
 
 #include "physics/stencil_rows.h"
+
+void ohm_stencil_free(ohm_stencil *st)
+{
+    if (!st) return;
+    free(st->run_start);
+    free(st->run_off);
+    free(st->gx);
+    free(st->gy);
+    free(st->gz);
+    free(st->sink);
+    memset(st, 0, sizeof *st);
+}
+
+void ohm_stencil_runs_push(ohm_stencil_runs *rl, int64_t v, const int32_t off[4])
+{
+    if (rl->n && memcmp(rl->off[rl->n - 1], off, sizeof rl->off[0]) == 0) return;
+    if (rl->n == rl->cap) {
+        int64_t cap = rl->cap ? 2 * rl->cap : 256;
+        int64_t *start = realloc(rl->start, (size_t)cap * sizeof *start);
+        if (start) rl->start = start;
+        int32_t(*o)[4] = start ? realloc(rl->off, (size_t)cap * sizeof *o) : NULL;
+        if (!o) {
+            rl->failed = 1;
+            return;
+        }
+        rl->off = o;
+        rl->cap = cap;
+    }
+    rl->start[rl->n] = v;
+    memcpy(rl->off[rl->n], off, sizeof rl->off[0]);
+    rl->n++;
+}
+
+void ohm_stencil_runs_free(ohm_stencil_runs *rl)
+{
+    free(rl->start);
+    free(rl->off);
+    memset(rl, 0, sizeof *rl);
+}
+
+int ohm_stencil_adopt_runs(ohm_stencil *st, const ohm_stencil_runs *lists, int count, ohm_error *err)
+{
+    free(st->run_start);
+    free(st->run_off);
+    st->run_start = NULL;
+    st->run_off = NULL;
+    st->nruns = 0;
+    int64_t total = 0;
+    for (int i = 0; i < count; ++i) {
+        if (lists[i].failed)
+            return ohm_fail(err, OHM_ERR_NOMEM, "stencil: out of memory for its runs");
+        total += lists[i].n;
+    }
+    st->run_start = malloc((size_t)(total + 1) * sizeof *st->run_start);
+    st->run_off = malloc((size_t)(total ? total : 1) * sizeof *st->run_off);
+    if (!st->run_start || !st->run_off)
+        return ohm_fail(err, OHM_ERR_NOMEM, "stencil: out of memory for its %lld runs", (long long)total);
+    int64_t r = 0;
+    for (int i = 0; i < count; ++i)
+        for (int64_t k = 0; k < lists[i].n; ++k) {
+            if (r && memcmp(st->run_off[r - 1], lists[i].off[k], sizeof st->run_off[0]) == 0) continue;
+            st->run_start[r] = lists[i].start[k];
+            memcpy(st->run_off[r], lists[i].off[k], sizeof st->run_off[0]);
+            ++r;
+        }
+    st->run_start[r] = st->n;
+    st->nruns = r;
+    return OHM_OK;
+}
+
+double ohm_stencil_bytes(const ohm_stencil *st)
+{
+    return (double)st->n * (3 * sizeof(float) + sizeof(double)) +
+           (double)st->nruns * (sizeof *st->run_start + sizeof *st->run_off) + sizeof *st->run_start;
+}
+
+int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err)
+{
+    ohm_stencil_runs rl = {0};
+    for (int64_t v = 0; v < st->n; ++v) ohm_stencil_runs_push(&rl, v, off[v]);
+    int rc = ohm_stencil_adopt_runs(st, &rl, 1, err);
+    ohm_stencil_runs_free(&rl);
+    return rc;
+}
 
 double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
 {
@@ -90,11 +176,9 @@ static void rows_sums(const ohm_stencil *st, int64_t lo, int64_t hi, double *sin
 }
 
 /* each piece's sums of the sinks and of the diagonal, run by run */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const ohm_piece_runs *pieces, double *sink, double *diag)
+void ohm_stencil_piece_sums(const ohm_stencil *st, const int64_t *start, const int32_t *piece, int64_t count,
+                            double *sink, double *diag)
 {
-    if (!pieces->count) rows_sums(st, 0, st->n, &sink[0], &diag[0]);
-    for (int64_t r = 0; r < pieces->count; ++r) {
-        int32_t p = pieces->piece[r];
-        rows_sums(st, pieces->start[r], pieces->start[r + 1], &sink[p], &diag[p]);
-    }
+    if (!count) rows_sums(st, 0, st->n, &sink[0], &diag[0]);
+    for (int64_t r = 0; r < count; ++r) rows_sums(st, start[r], start[r + 1], &sink[piece[r]], &diag[piece[r]]);
 }
