@@ -45,7 +45,8 @@ typedef struct ohm_mg_ops {
 
     /* ---- the outer iteration's (double, on the network's stencil) ---- */
     /* the solve's b and warm start x (the caller's, on the host) to the
-     * machine; at the end, x back */
+     * machine; at the end, x back (NULL: the machine works on the caller's
+     * arrays, the host's) */
     int (*begin)(void *self, double *x, const double *b, ohm_error *err);
     int (*end)(void *self, double *x, ohm_error *err);
     /* r = b - A x: ||r||_2 and sum r */
