@@ -208,4 +208,7 @@ double ohm_backward_error(cholmod_sparse *A, const double *B, const double *X, s
 /* ||A||_inf of the upper-stored symmetric A (= ||A||_1). */
 double ohm_sym_upper_norm_inf(const cholmod_sparse *A);
 
+/* y = A x for the upper-stored symmetric A. */
+void ohm_sym_upper_mult(const cholmod_sparse *A, const double *x, double *y);
+
 #endif

@@ -3,7 +3,7 @@
  * per face; the constant-mode correction of nearly singular pieces, which
  * makes that law hold exactly; and each channel's tally, added to the
  * solution in channel order. */
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 #include "solvers/solver_impl.h"
 
 #include <math.h>
@@ -71,7 +71,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     const ohm_piece_runs *pieces = &net->pieces;
     int64_t run = 0;
     if (op->stencil) /* its sinks are these, in one vectorised pass */
-        ohm_stencil_piece_sums(op->stencil, pieces, sink, diag);
+        ohm_stencil_piece_sums(op->stencil, pieces->start, pieces->piece, pieces->count, sink, diag);
     else
         for (int64_t v = 0; v < n; ++v) {
             int64_t p = ohm_piece_runs_next(pieces, &run, v);
