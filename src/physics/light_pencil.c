@@ -1,0 +1,26 @@
+/* light_pencil.c — a pencil beam: power `intensity` (W) along dir from pos,
+ * entering the object at the one surface point where the beam meets it.  It
+ * lights no faces (no rays: light.c places it through its entry face), and
+ * the preview leaves it out (light_kind.h). */
+#include "physics/light_kind.h"
+
+static void rays(const ohm_light_setup *su, const double p[3], const double n[3], ohm_light_ray_fn emit, void *acc)
+{
+    (void)su, (void)p, (void)n, (void)emit, (void)acc;
+}
+
+static void pov(FILE *f, const ohm_light *l)
+{
+    double at[3];
+    for (int a = 0; a < 3; ++a) at[a] = l->pos[a] + l->dir[a];
+    fputs("light_source { ", f);
+    ohm_light_pov_vec(f, l->pos);
+    fputs(" color ", f);
+    ohm_light_pov_colour(f, l, 1.0);
+    fputs(" spotlight radius 0.1 falloff 0.2 point_at ", f);
+    ohm_light_pov_vec(f, at);
+    fputs(" } // pencil beam, W\n", f);
+}
+
+const ohm_light_kind ohm_light_pencil = {OHM_LIGHT_PENCIL, "pencil", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 1,
+                                         NULL, NULL, rays, ohm_light_toward_position, pov, NULL};
