@@ -127,7 +127,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     /* exponential: optical depth accumulated cell by cell; each cell's share
      * alpha' P (e^-tau0 - e^-tau1) is split between it and the cell above so
      * that its centroid, not its cell's centre, is where it acts: the depth
-     * distribution's first moment is then exact on any grid (issue 13: lumped
+     * distribution's first moment is then exact on any grid (lumped
      * at centres, the source sat 8% too deep at h = 1/sigma_t').  The first
      * cell has no cell above: its shallower part is extrapolated, a negative
      * share in the second cell (moment exact again), clamped so that no
@@ -144,7 +144,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
             /* 1 - e^-x, and the centroid of e^-sigma z over the cell from its
              * top, in cells: 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0).  A
              * uniform column repeats x, so this runs once per face there: the
-             * live update paid three transcendental calls per cell (issue 15). */
+             * live update paid three transcendental calls per cell. */
             absorbed_last = -expm1(-x);
             centroid_last = x > 1e-6 ? 1.0 / x - (1.0 - absorbed_last) / absorbed_last : 0.5 - x / 12.0;
             x_last = x;
