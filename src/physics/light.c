@@ -279,19 +279,50 @@ static double face_visibility(const void *ctx, const double l[3], double dist)
     return ohm_face_visibility(fv->occ, fv->cell, fv->d, l, dist);
 }
 
-/* The irradiance per channel the light puts on boundary face f (shadow rays
- * included), from the face's centre along its own outward normal (the voxel
- * faces' normals make the captured power exactly the irradiance times the
- * projected area), and l_mean, the irradiance-weighted direction towards the
- * light (not normalised).  Returns the channels' mean: 0 when unlit. */
+/* 1 - Fresnel reflectance for light travelling along unit direction
+ * `travel` onto a surface of smooth outward normal ns, into index eta; *mu:
+ * the refracted ray's cosine to the inward normal, the rate at which it
+ * gains depth (Snell: sin_t = sin_i / eta). */
+static double fresnel_transmittance(const double ns[3], const double travel[3], double eta, double *mu)
+{
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
+    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+}
+
+/* ohm_light_transmittance at a face: its smooth normal (Fresnel at a voxel
+ * face's own normal would make a sphere's shading a staircase) and index. */
+typedef struct face_surface {
+    double ns[3], eta;
+} face_surface;
+
+static double face_ray_transmittance(const void *ctx, const double l[3], double *mu)
+{
+    const face_surface *fs = ctx;
+    double travel[3] = {-l[0], -l[1], -l[2]};
+    return fresnel_transmittance(fs->ns, travel, fs->eta, mu);
+}
+
+/* What the light puts on boundary face f (shadow rays included), from the
+ * face's centre along its own outward normal (the voxel faces' normals make
+ * the captured power exactly the irradiance times the projected area), per
+ * channel: E arriving, T_E entering (Fresnel ray by ray, into index eta) and
+ * T_E_mu that times the refracted cosine; l_mean the irradiance-weighted
+ * direction towards the light (not normalised).  Returns the channels' mean
+ * of E: 0 when unlit. */
 static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light_setup *su, const ohm_occluder *occ,
-                              double E[3], double l_mean[3])
+                              double eta, double E[3], double T_E[3], double T_E_mu[3], double l_mean[3])
 {
     face_view fv = {occ, {0, 0, 0}, net->face_dir[f]};
     ohm_voxel_coords(net->grid, net->face_cell[f], fv.cell);
     double p[3], n[3] = {ohm_face_offset[fv.d][0], ohm_face_offset[fv.d][1], ohm_face_offset[fv.d][2]};
     face_centre(net, f, p);
-    return ohm_light_irradiance(su, p, n, occ ? face_visibility : NULL, &fv, E, l_mean);
+    face_surface fs;
+    ohm_surface_normal(net, f, fs.ns);
+    fs.eta = eta;
+    return ohm_light_irradiance_entering(su, p, n, occ ? face_visibility : NULL, &fv, face_ray_transmittance, &fs, E,
+                                         T_E, T_E_mu, l_mean);
 }
 
 /* The index light enters through face f. */
@@ -307,12 +338,7 @@ static double face_transmittance(const ohm_network *net, int64_t f, const double
 {
     double ns[3];
     ohm_surface_normal(net, f, ns);
-    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
-    if (cos_i < 0) cos_i = 0;
-    /* Snell: the refracted ray's cosine to the inward normal, the rate at
-     * which it gains depth (sin_t = sin_i / eta) */
-    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
-    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+    return fresnel_transmittance(ns, travel, eta, mu);
 }
 
 static void unit_travel(const double l_mean[3], double travel[3])
@@ -347,16 +373,14 @@ static void face_power(const face_powers_job *job, int64_t f, double *arrive)
 {
     const ohm_network *net = job->net;
     const double area = net->grid->h * net->grid->h;
-    double l_mean[3], travel[3], E[3];
-    if (!(face_irradiance(net, f, job->su, job->occ, E, l_mean) > 0)) return;
-    /* Fresnel for the irradiance-weighted direction */
-    unit_travel(l_mean, travel);
-    double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
+    double l_mean[3], E[3], T_E[3], T_E_mu[3];
+    double eta = face_eta(net, f, job->eta, job->eta_v);
+    if (!(face_irradiance(net, f, job->su, job->occ, eta, E, T_E, T_E_mu, l_mean) > 0)) return;
     for (int c = 0; c < job->channels; ++c) {
-        double P = E[job->first + c] * area;
-        arrive[c] += P;
-        job->enter[c][f] += T * P;
-        if (job->enter_mu) job->enter_mu[c][f] += T * P * mu;
+        int k = job->first + c;
+        arrive[c] += E[k] * area;
+        job->enter[c][f] += T_E[k] * area;
+        if (job->enter_mu) job->enter_mu[c][f] += T_E_mu[k] * area;
     }
 }
 
@@ -478,15 +502,17 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
     ohm_light_setup su;
     int rc = ohm_light_setup_init(&su, light, 0, err);
     for (int64_t f = 0; f < net->nfaces && !rc; ++f) {
-        double l_mean[3], travel[3], E[3];
-        if (!(face_irradiance(net, f, &su, occ, E, l_mean) > 0)) continue;
+        double l_mean[3], travel[3], E[3], T_E[3], T_E_mu[3], ef = face_eta(net, f, eta, eta_v);
+        if (!(face_irradiance(net, f, &su, occ, ef, E, T_E, T_E_mu, l_mean) > 0)) continue;
+        /* one direction inside per face: the irradiance-weighted one's, and
+         * its cosine; the power entering is Fresnel's ray by ray */
         unit_travel(l_mean, travel);
-        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, travel, ef, &e.mu);
-        e.face = f;
         refract_in(net, f, travel, ef, e.dir);
+        face_transmittance(net, f, travel, ef, &e.mu);
+        e.face = f;
         for (int c = 0; c < channels; ++c) {
             e.incident[c] = E[c] * area;
-            e.power[c] = T * e.incident[c];
+            e.power[c] = T_E[c] * area;
         }
         rc = push_entry(list, &e, err);
     }

@@ -80,25 +80,16 @@ static void rays(const ohm_light_setup *su, const double p[3], const double n[3]
 
 static void pov(FILE *f, const ohm_light *l)
 {
-    double u[3], v[3], at[3];
+    double u[3], v[3];
     ohm_light_plane_basis(l->dir, u, v);
-    for (int a = 0; a < 3; ++a) {
-        u[a] *= l->width;
-        v[a] *= l->height;
-        at[a] = l->pos[a] + l->dir[a];
-    }
-    fputs("light_source { ", f);
-    ohm_light_pov_vec(f, l->pos);
-    fputs(" color ", f);
-    ohm_light_pov_colour(f, l, 1.0 / M_PI);
-    fputs(" area_light ", f);
-    ohm_light_pov_vec(f, u);
-    fputs(", ", f);
-    ohm_light_pov_vec(f, v);
-    fprintf(f, ", 8, 8 adaptive 1 jitter%s spotlight radius 90 falloff 90 tightness 1 point_at ",
-            l->disk ? " circular orient" : "");
-    ohm_light_pov_vec(f, at);
-    fputs(" } // area, W/sr on its axis (its power / pi)\n", f);
+    char shape[320];
+    /* POV-Ray is left-handed: z mirrored, as ohm_light_pov_vec does */
+    snprintf(shape, sizeof shape,
+             "area_light <%.9g, %.9g, %.9g>, <%.9g, %.9g, %.9g>, 8, 8 adaptive 1 jitter%s "
+             "spotlight radius 90 falloff 90 tightness 1",
+             l->width * u[0], l->width * u[1], -l->width * u[2], l->height * v[0], l->height * v[1],
+             -l->height * v[2], l->disk ? " circular orient" : "");
+    ohm_light_pov_aimed(f, l, 1.0 / M_PI, shape, "area, W/sr on its axis (its power / pi)");
 }
 
 const ohm_light_kind ohm_light_area = {OHM_LIGHT_AREA, "area", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, read,

@@ -102,7 +102,9 @@ typedef struct irradiance_sum {
     const double *n;
     ohm_light_visibility vis;
     const void *ctx;
-    double E[3], l_mean[3];
+    ohm_light_transmittance tr; /* NULL: no entering sums */
+    const void *tctx;
+    double E[3], entering[3], entering_mu[3], l_mean[3];
 } irradiance_sum;
 
 static void add_ray(void *acc, const ohm_light_ray *ray)
@@ -113,27 +115,40 @@ static void add_ray(void *acc, const ohm_light_ray *ray)
     if (!(ray->weight[0] > 0 || ray->weight[1] > 0 || ray->weight[2] > 0)) return;
     double v = s->vis ? s->vis(s->ctx, ray->l, ray->dist) : 1.0;
     if (v <= 0) return;
-    double e = cos_n * v, mean = 0;
+    double e = cos_n * v, mean = 0, mu = 1, T = s->tr ? s->tr(s->tctx, ray->l, &mu) : 1;
     for (int c = 0; c < 3; ++c) {
         s->E[c] += ray->weight[c] * e;
+        s->entering[c] += ray->weight[c] * e * T;
+        s->entering_mu[c] += ray->weight[c] * e * T * mu;
         mean += ray->weight[c] * e;
     }
     for (int a = 0; a < 3; ++a) s->l_mean[a] += mean * ray->l[a];
 }
 
-double ohm_light_irradiance(const ohm_light_setup *su, const double p[3], const double n[3],
-                            ohm_light_visibility vis, const void *ctx, double E[3], double l_mean[3])
+double ohm_light_irradiance_entering(const ohm_light_setup *su, const double p[3], const double n[3],
+                                     ohm_light_visibility vis, const void *vctx, ohm_light_transmittance tr,
+                                     const void *tctx, double E[3], double entering[3], double entering_mu[3],
+                                     double l_mean[3])
 {
-    irradiance_sum s = {n, vis, ctx, {0, 0, 0}, {0, 0, 0}};
+    irradiance_sum s = {n, vis, vctx, tr, tctx, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}, {0, 0, 0}};
     su->kind->rays(su, p, n, add_ray, &s);
     const ohm_light *l = su->light;
     double mean = 0;
     for (int c = 0; c < 3; ++c) {
-        E[c] = l->intensity[l->channels == 1 ? 0 : c] * s.E[c];
+        double I = l->intensity[l->channels == 1 ? 0 : c];
+        E[c] = I * s.E[c];
+        if (entering) entering[c] = I * s.entering[c];
+        if (entering_mu) entering_mu[c] = I * s.entering_mu[c];
         mean += E[c] / 3.0;
     }
     memcpy(l_mean, s.l_mean, sizeof s.l_mean);
     return mean;
+}
+
+double ohm_light_irradiance(const ohm_light_setup *su, const double p[3], const double n[3],
+                            ohm_light_visibility vis, const void *ctx, double E[3], double l_mean[3])
+{
+    return ohm_light_irradiance_entering(su, p, n, vis, ctx, NULL, NULL, E, NULL, NULL, l_mean);
 }
 
 int ohm_light_toward(const ohm_light *l, const double centre[3], double out[3])
@@ -182,4 +197,17 @@ void ohm_light_pov_colour(FILE *f, const ohm_light *l, double scale)
     double c[3];
     for (int k = 0; k < 3; ++k) c[k] = scale * l->intensity[l->channels == 1 ? 0 : k];
     fprintf(f, "rgb <%.9g, %.9g, %.9g>", c[0], c[1], c[2]);
+}
+
+void ohm_light_pov_aimed(FILE *f, const ohm_light *l, double scale, const char *shape, const char *note)
+{
+    double at[3];
+    for (int a = 0; a < 3; ++a) at[a] = l->pos[a] + l->dir[a];
+    fputs("light_source { ", f);
+    ohm_light_pov_vec(f, l->pos);
+    fputs(" color ", f);
+    ohm_light_pov_colour(f, l, scale);
+    fprintf(f, " %s point_at ", shape);
+    ohm_light_pov_vec(f, at);
+    fprintf(f, " } // %s\n", note);
 }

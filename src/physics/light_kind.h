@@ -87,6 +87,11 @@ void ohm_light_setup_free(ohm_light_setup *su);
  * NULL: everything is seen. */
 typedef double (*ohm_light_visibility)(const void *ctx, const double l[3], double dist);
 
+/* What enters the surface of light arriving from unit direction l (towards
+ * the light): the transmittance 1 - Fresnel, and in *mu the refracted ray's
+ * cosine to the inward normal (the solver's faces: light.c). */
+typedef double (*ohm_light_transmittance)(const void *ctx, const double l[3], double *mu);
+
 /* Irradiance (W/mm^2) per channel (3; a grey light repeats its value) at
  * surface point p with unit outward normal n: sum over the light's rays of
  * intensity x weight x max(0, n.l) x visibility.  l_mean: the
@@ -94,6 +99,15 @@ typedef double (*ohm_light_visibility)(const void *ctx, const double l[3], doubl
  * Returns the channels' mean. */
 double ohm_light_irradiance(const ohm_light_setup *su, const double p[3], const double n[3],
                             ohm_light_visibility vis, const void *ctx, double E[3], double l_mean[3]);
+
+/* The same, and what enters, ray by ray (Fresnel at each ray's own
+ * direction: a sky's grazing rays enter less than its overhead ones):
+ * entering[c] the irradiance times the transmittance, entering_mu[c] that
+ * times mu. */
+double ohm_light_irradiance_entering(const ohm_light_setup *su, const double p[3], const double n[3],
+                                     ohm_light_visibility vis, const void *vctx, ohm_light_transmittance tr,
+                                     const void *tctx, double E[3], double entering[3], double entering_mu[3],
+                                     double l_mean[3]);
 
 /* ohm_light_kind's toward and pov, for any light. */
 int ohm_light_toward(const ohm_light *l, const double centre[3], double out[3]);
@@ -107,6 +121,9 @@ void ohm_lights_free(ohm_light *lights, size_t n);
 void ohm_light_plane_basis(const double n[3], double u[3], double v[3]);
 void ohm_light_pov_vec(FILE *f, const double v[3]);
 void ohm_light_pov_colour(FILE *f, const ohm_light *l, double scale);
+/* A light_source at l->pos, colour intensity x scale, `shape` (POV-Ray's
+ * words: "spotlight radius ..."), pointed along l->dir; `note` a comment. */
+void ohm_light_pov_aimed(FILE *f, const ohm_light *l, double scale, const char *shape, const char *note);
 /* The ray from p to a light at pos (weight 1/d^2); 0 when p is there
  * (light_point.c). */
 int ohm_light_point_ray(const double pos[3], const double p[3], ohm_light_ray *ray);

@@ -11,15 +11,7 @@ static void rays(const ohm_light_setup *su, const double p[3], const double n[3]
 
 static void pov(FILE *f, const ohm_light *l)
 {
-    double at[3];
-    for (int a = 0; a < 3; ++a) at[a] = l->pos[a] + l->dir[a];
-    fputs("light_source { ", f);
-    ohm_light_pov_vec(f, l->pos);
-    fputs(" color ", f);
-    ohm_light_pov_colour(f, l, 1.0);
-    fputs(" spotlight radius 0.1 falloff 0.2 point_at ", f);
-    ohm_light_pov_vec(f, at);
-    fputs(" } // pencil beam, W\n", f);
+    ohm_light_pov_aimed(f, l, 1.0, "spotlight radius 0.1 falloff 0.2", "pencil beam, W");
 }
 
 const ohm_light_kind ohm_light_pencil = {OHM_LIGHT_PENCIL, "pencil", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 1,

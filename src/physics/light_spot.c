@@ -44,15 +44,9 @@ static void rays(const ohm_light_setup *su, const double p[3], const double n[3]
 
 static void pov(FILE *f, const ohm_light *l)
 {
-    double at[3];
-    for (int a = 0; a < 3; ++a) at[a] = l->pos[a] + l->dir[a];
-    fputs("light_source { ", f);
-    ohm_light_pov_vec(f, l->pos);
-    fputs(" color ", f);
-    ohm_light_pov_colour(f, l, 1.0);
-    fprintf(f, " spotlight radius %.9g falloff %.9g point_at ", l->angle - l->falloff, l->angle);
-    ohm_light_pov_vec(f, at);
-    fputs(" } // spot, W/sr on its axis\n", f);
+    char shape[96];
+    snprintf(shape, sizeof shape, "spotlight radius %.9g falloff %.9g", l->angle - l->falloff, l->angle);
+    ohm_light_pov_aimed(f, l, 1.0, shape, "spot, W/sr on its axis");
 }
 
 const ohm_light_kind ohm_light_spot = {OHM_LIGHT_SPOT, "spot", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, read,
