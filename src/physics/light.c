@@ -304,13 +304,21 @@ static double face_ray_transmittance(const void *ctx, const double l[3], double 
     return fresnel_transmittance(fs->ns, travel, fs->eta, mu);
 }
 
+/* The unit direction light travels, against l_mean (towards the light). */
+static void unit_travel(const double l_mean[3], double travel[3])
+{
+    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
+    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
+}
+
 /* What the light puts on boundary face f (shadow rays included), from the
  * face's centre along its own outward normal (the voxel faces' normals make
  * the captured power exactly the irradiance times the projected area), per
- * channel: E arriving, T_E entering (Fresnel ray by ray, into index eta) and
- * T_E_mu that times the refracted cosine; l_mean the irradiance-weighted
- * direction towards the light (not normalised).  Returns the channels' mean
- * of E: 0 when unlit. */
+ * channel: E arriving, T_E entering (Fresnel into index eta, at the smooth
+ * normal: ray by ray, or at the irradiance-weighted direction, as the kind
+ * says) and T_E_mu that times the refracted cosine; l_mean the
+ * irradiance-weighted direction towards the light (not normalised).
+ * Returns the channels' mean of E: 0 when unlit. */
 static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light_setup *su, const ohm_occluder *occ,
                               double eta, double E[3], double T_E[3], double T_E_mu[3], double l_mean[3])
 {
@@ -321,8 +329,19 @@ static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light
     face_surface fs;
     ohm_surface_normal(net, f, fs.ns);
     fs.eta = eta;
-    return ohm_light_irradiance_entering(su, p, n, occ ? face_visibility : NULL, &fv, face_ray_transmittance, &fs, E,
-                                         T_E, T_E_mu, l_mean);
+    if (su->kind->fresnel_per_ray)
+        return ohm_light_irradiance_entering(su, p, n, occ ? face_visibility : NULL, &fv, face_ray_transmittance,
+                                             &fs, E, T_E, T_E_mu, l_mean);
+    double mean = ohm_light_irradiance(su, p, n, occ ? face_visibility : NULL, &fv, E, l_mean);
+    if (!(mean > 0)) return mean;
+    double travel[3], mu;
+    unit_travel(l_mean, travel);
+    double T = fresnel_transmittance(fs.ns, travel, eta, &mu);
+    for (int c = 0; c < 3; ++c) {
+        T_E[c] = T * E[c];
+        T_E_mu[c] = T * E[c] * mu;
+    }
+    return mean;
 }
 
 /* The index light enters through face f. */
@@ -341,11 +360,6 @@ static double face_transmittance(const ohm_network *net, int64_t f, const double
     return fresnel_transmittance(ns, travel, eta, mu);
 }
 
-static void unit_travel(const double l_mean[3], double travel[3])
-{
-    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
-    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
-}
 
 /* What ohm_light_face_powers shares between threads: the faces in blocks
  * of FACE_POWERS_BLOCK, each block taken whole by one thread

@@ -92,5 +92,5 @@ static void pov(FILE *f, const ohm_light *l)
     ohm_light_pov_aimed(f, l, 1.0 / M_PI, shape, "area, W/sr on its axis (its power / pi)");
 }
 
-const ohm_light_kind ohm_light_area = {OHM_LIGHT_AREA, "area", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, read,
+const ohm_light_kind ohm_light_area = {OHM_LIGHT_AREA, "area", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, 0, read,
                                        setup, rays, ohm_light_toward_position, pov, NULL};

@@ -31,5 +31,5 @@ static void pov(FILE *f, const ohm_light *l)
     fputs(" parallel point_at <0, 0, 0> } // directional, irradiance in W/mm^2\n", f);
 }
 
-const ohm_light_kind ohm_light_directional = {OHM_LIGHT_DIRECTIONAL, "directional", OHM_LIGHT_NEEDS_DIR, 0, NULL,
+const ohm_light_kind ohm_light_directional = {OHM_LIGHT_DIRECTIONAL, "directional", OHM_LIGHT_NEEDS_DIR, 0, 0, NULL,
                                               NULL, rays, toward, pov, NULL};

@@ -150,5 +150,5 @@ static void pov(FILE *f, const ohm_light *l)
     fputs(l->sky ? ")\n" : "\n", f);
 }
 
-const ohm_light_kind ohm_light_environment = {OHM_LIGHT_ENVIRONMENT, "environment", 0, 0, read, setup, rays, toward,
+const ohm_light_kind ohm_light_environment = {OHM_LIGHT_ENVIRONMENT, "environment", 0, 0, 1, read, setup, rays, toward,
                                               pov, release};

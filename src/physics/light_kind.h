@@ -58,6 +58,9 @@ typedef struct ohm_light_kind {
     const char *name;  /* its type= value */
     unsigned needs;    /* OHM_LIGHT_NEEDS_*: options it cannot do without */
     int at_a_point;    /* 1: enters at one surface point (a pencil beam), not through the faces it lights */
+    /* 1: Fresnel ray by ray (light from all around: a sky); 0: once per face,
+     * at the irradiance-weighted direction (rays close together: a lamp) */
+    int fresnel_per_ray;
     /* its own options, after the shared ones (type, pos, dir, intensity) */
     int (*read)(ohm_light *l, const ohm_opt_reader *r, ohm_error *err);
     /* NULL: one ray, no setup.  max_rays caps the rays per point (0: the light's own count) */

@@ -14,5 +14,5 @@ static void pov(FILE *f, const ohm_light *l)
     ohm_light_pov_aimed(f, l, 1.0, "spotlight radius 0.1 falloff 0.2", "pencil beam, W");
 }
 
-const ohm_light_kind ohm_light_pencil = {OHM_LIGHT_PENCIL, "pencil", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 1,
+const ohm_light_kind ohm_light_pencil = {OHM_LIGHT_PENCIL, "pencil", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 1, 0,
                                          NULL, NULL, rays, ohm_light_toward_position, pov, NULL};

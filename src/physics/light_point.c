@@ -45,5 +45,5 @@ static void pov(FILE *f, const ohm_light *l)
     fputs(" } // point, W/sr\n", f);
 }
 
-const ohm_light_kind ohm_light_point = {OHM_LIGHT_POINT, "point", OHM_LIGHT_NEEDS_POS, 0, NULL, NULL, rays,
+const ohm_light_kind ohm_light_point = {OHM_LIGHT_POINT, "point", OHM_LIGHT_NEEDS_POS, 0, 0, NULL, NULL, rays,
                                         ohm_light_toward_position, pov, NULL};

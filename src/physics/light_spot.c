@@ -49,5 +49,5 @@ static void pov(FILE *f, const ohm_light *l)
     ohm_light_pov_aimed(f, l, 1.0, shape, "spot, W/sr on its axis");
 }
 
-const ohm_light_kind ohm_light_spot = {OHM_LIGHT_SPOT, "spot", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, read,
+const ohm_light_kind ohm_light_spot = {OHM_LIGHT_SPOT, "spot", OHM_LIGHT_NEEDS_POS | OHM_LIGHT_NEEDS_DIR, 0, 0, read,
                                        NULL, rays, ohm_light_toward_position, pov, NULL};
