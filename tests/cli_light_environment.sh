@@ -12,6 +12,11 @@ set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 BUILD="$(dirname "$(realpath "$OHM")")"
 export PYTHONPATH="$BUILD/python" OHM_CLI="$OHM"
+# Debian's python loads a sanitized libohm only with the sanitizers' runtimes first
+PYENV=()
+if [ "$SANITIZED" = 1 ]; then
+  PYENV=(env LD_PRELOAD="$(cc -print-file-name=libasan.so):$(cc -print-file-name=libubsan.so)" ASAN_OPTIONS=detect_leaks=0)
+fi
 names=""
 BLENDER=${OHM_BLENDER:-blender}
 if [ "$SANITIZED" = 0 ] && command -v "$BLENDER" >/dev/null 2>&1; then
@@ -34,7 +39,7 @@ print(" ".join("%s=%s" % (k, ",".join(repr(float(x)) for x in v) if isinstance(v
   expect_exit 0 "$name: the command line solves it" -- "$OHM" -read file="$T/mesh.obj" -material preset=marble \
     -light "${words[@]}" -voxelize dim=24 -solve solver=direct shadows=mesh -export csv="$T/$name.csv"
 done
-expect_exit 0 "the command line, Python and the add-on agree" -- $PY tests/light_environment_fronts.py "$T" $names
+expect_exit 0 "the command line, Python and the add-on agree" -- "${PYENV[@]}" $PY tests/light_environment_fronts.py "$T" $names
 cat "$T/stdout"
 
 # the preview and the POV-Ray scene
