@@ -363,11 +363,48 @@ static void mesh_arrays(void)
     ohm_context_free(ctx);
 }
 
+/* The environment light through the API: a light like any other (options
+ * to ohm_scene_add_light, nothing new in the ABI): power conserved, and a
+ * relit sky of twice the radiance gives twice the fluence; a sky= that
+ * cannot be read is refused with a message naming it. */
+static void environment_light(void)
+{
+    ohm_context *ctx = NULL;
+    CHECK(ohm_context_new(&ctx) == OHM_OK);
+    ohm_scene *scene = cube_scene(ctx, "dim=16");
+    if (!scene) return;
+    const char *sky[] = {"type=environment", "intensity=0.001", NULL}, *brighter[] = {"type=environment",
+                                                                                     "intensity=0.002", NULL};
+    const char *missing[] = {"type=environment", "sky=no-such-sky.exr", NULL};
+    CHECK(ohm_scene_add_light(scene, missing) != OHM_OK);
+    CHECK_MSG(strstr(ohm_error_last(), "sky=") && strstr(ohm_error_last(), "no-such-sky.exr"), "%s",
+              ohm_error_last());
+    CHECK(ohm_scene_add_light(scene, sky) == OHM_OK);
+    CHECK_MSG(ohm_scene_solve(scene, NULL) == OHM_OK, "%s", ohm_error_last());
+    ohm_result_info r = OHM_RESULT_INFO_INIT;
+    CHECK(ohm_scene_result(&r, scene) == OHM_OK);
+    CHECK(r.power_incident > 0 && fabs(r.power_absorbed + r.power_out - r.power_in) <= 1e-10 * r.power_in);
+    size_t n1 = 0, n2 = 0;
+    double *once = fluence_of(scene, &n1);
+    CHECK(ohm_scene_clear_lights(scene) == OHM_OK && ohm_scene_add_light(scene, brighter) == OHM_OK);
+    CHECK_MSG(ohm_scene_relight(scene) == OHM_OK, "%s", ohm_error_last());
+    double *twice = fluence_of(scene, &n2);
+    if (once && twice && n1 == n2) {
+        for (size_t i = 0; i < n1; ++i) once[i] *= 2;
+        CHECK_MSG(max_rel_diff(twice, once, n1) < 1e-9, "relit: %g", max_rel_diff(twice, once, n1));
+    }
+    free(once);
+    free(twice);
+    ohm_scene_free(scene);
+    ohm_context_free(ctx);
+}
+
 int main(void)
 {
     errors();
     solve_and_relight();
     polled_progress();
     mesh_arrays();
+    environment_light();
     return check_summary();
 }

@@ -25,6 +25,8 @@ typedef struct ohm_df3_params {
     int frame;                 /* 0-based                                        */
     int exitance;              /* 0: fluence, 1: exitance                         */
     double toward_light[3];    /* from the object towards the light (for the camera); 0: +y */
+    const ohm_light *lights;   /* the lights, written into the scene by their kinds     */
+    size_t nlights;            /* (physics/light_kind.h); those of other frames skipped */
 } ohm_df3_params;
 
 typedef struct ohm_df3_report {

@@ -508,7 +508,7 @@ int ohm_solver_settle_auto_hybrid(ohm_solver *s, const ohm_light *lights, size_t
 {
     int reaching = 0;
     for (size_t l = 0; l < nlights && !reaching; ++l) {
-        if (lights[l].type != OHM_LIGHT_PENCIL) continue;
+        if (!ohm_light_at_a_point(&lights[l])) continue;
         int rc = ohm_solver_light_reaches(s, &lights[l], &reaching, err);
         if (rc) return rc;
     }

@@ -18,26 +18,8 @@
 #include <stddef.h>
 
 #include "base/ohm_error.h"
+#include "base/opt_spec.h"
 #include "steps/state.h"
-
-typedef enum ohm_opt_type {
-    OHM_OPT_INT,    /* integer in [min, max]                                */
-    OHM_OPT_REAL,   /* finite real in [min, max]                            */
-    OHM_OPT_STRING, /* any text (file names)                                */
-    OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
-    OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
-    OHM_OPT_REAL13  /* one finite real (grey) or three (r,g,b), each in [min, max] */
-} ohm_opt_type;
-
-typedef struct ohm_opt_spec {
-    const char *name;
-    ohm_opt_type type;
-    const char *def;      /* default as text, NULL = none                   */
-    const char *doc;
-    const char *choices;  /* ENUM: "mm|cm|m|in"                             */
-    double min, max;      /* INT, REAL: inclusive range (min == max: none)  */
-    int required;
-} ohm_opt_spec;
 
 enum { OHM_MAX_OPTS = 24 };
 
@@ -85,6 +67,9 @@ void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3]);
 /* REAL13: returns how many values (1 or 3) and fills out[0..2] (one value is
  * copied to all three). */
 int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3]);
+/* The same values through base/opt_spec.h's reader, for a stage below the
+ * steps that owns options (the light kinds). */
+ohm_opt_reader ohm_opt_reader_of(const ohm_invocation *inv);
 
 typedef struct ohm_chain {
     ohm_invocation *items;
