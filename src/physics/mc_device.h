@@ -9,7 +9,14 @@
 #ifndef OHM_PHYSICS_MC_DEVICE_H
 #define OHM_PHYSICS_MC_DEVICE_H
 
-#include "physics/mc.h"
+#include <stddef.h>
+#include <stdint.h>
+
+#include "base/log.h"
+#include "base/ohm_error.h"
+#include "physics/light.h"
+#include "physics/mc_params.h"
+#include "physics/network.h"
 
 typedef struct ohm_mc_device ohm_mc_device;
 
