@@ -1,5 +1,7 @@
 /* mc.h — a Monte Carlo photon-transport reference on the voxel object
- * (docs/design.md §5; docs/transport.md).
+ * (docs/design.md §5; docs/transport.md), traced on the host's threads; its
+ * entry point, which picks the host or an OpenCL device (mc_device.h), is
+ * ohm_mc_trace (mc_trace.h).
  *
  * Diffusion is a model of light transport; this traces the transport itself
  * through the same cells, media and light entries, so a user can measure the
@@ -42,9 +44,16 @@
 #include "physics/network.h"
 #include "base/ohm_error.h"
 
-/* Trace the entries' power of channel `channel` through medium med. */
-int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
-                 const ohm_light_entry *entries, size_t nentries, int channel, const ohm_mc_params *params,
-                 ohm_error *err);
+/* The host's threads a trace uses: params->threads, else every core the
+ * process may use, at most one per batch. */
+int ohm_mc_host_threads(const ohm_mc_params *params);
+
+/* Trace on the host's threads into res (its arrays zeroed by the caller),
+ * P the entries' power in `channel`, per_batch photons in each of the
+ * OHM_MC_BATCHES batches: ohm_mc_trace's work when no device traces it
+ * (mc_trace.h).  Tallies beyond the memory limit: an error that says so. */
+int ohm_mc_host_run(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
+                    const ohm_light_entry *entries, size_t nentries, int channel, double P, int64_t per_batch,
+                    const ohm_mc_params *params, ohm_error *err);
 
 #endif
