@@ -32,7 +32,7 @@
 #include "opencl_test.h"
 #include "physics/mc_device_cl.h"
 #include "physics/light.h"
-#include "physics/mc.h"
+#include "physics/mc_trace.h"
 #include "solvers/solve.h"
 #include "studies/scene.h"
 #include "studies/validate.h"

@@ -12,6 +12,10 @@
 #define M_PI 3.14159265358979323846
 #endif
 
+const char *ohm_light_name(const ohm_light *l) { return ohm_light_kind_of(l)->name; }
+
+int ohm_light_at_a_point(const ohm_light *l) { return ohm_light_kind_of(l)->at_a_point; }
+
 /* Signed distance at a cell (negative inside); NaN when unknown. */
 static double signed_dist(const ohm_voxel_grid *g, int32_t i, int32_t j, int32_t k)
 {

@@ -19,40 +19,13 @@
 #include "physics/material.h"
 #include "physics/network.h"
 #include "base/ohm_error.h"
+#include "physics/light_spec.h"
 #include "physics/shadow.h"
 
-typedef enum ohm_light_type {
-    OHM_LIGHT_DIRECTIONAL = 0, /* intensity: irradiance (W/mm^2) on a face square to the light */
-    OHM_LIGHT_POINT = 1,       /* intensity: W/sr                                              */
-    OHM_LIGHT_PENCIL = 2,      /* intensity: beam power (W), entering at one surface point     */
-    OHM_LIGHT_SPOT = 3,        /* intensity: W/sr on the axis dir, inside the cone              */
-    OHM_LIGHT_AREA = 4,        /* intensity: total power (W) of a one-sided Lambertian emitter  */
-    OHM_LIGHT_ENVIRONMENT = 5  /* intensity: sky radiance (W/mm^2/sr), times the sky image's pixels */
-} ohm_light_type;
-
-/* An environment light's equirectangular image (light_environment.c). */
-typedef struct ohm_sky_image ohm_sky_image;
-
-typedef struct ohm_light {
-    ohm_light_type type;
-    double pos[3];                  /* point, pencil: position (mm)                         */
-    double dir[3];                  /* directional, pencil: direction light travels (unit)  */
-    double intensity[OHM_MAX_CHANNELS];
-    int channels;                   /* 1 (grey) or 3                                        */
-    int frame;                      /* 0: lights every frame; k >= 1: only frame k (orbits) */
-    double angle, falloff;          /* spot: cone half-angle and soft edge inside it (deg)  */
-    int disk;                       /* area: a disk of radius width/2, else a rectangle     */
-    double width, height;           /* area: size (mm), centred on pos, facing dir          */
-    int samples;                    /* area: sample points (stratified); 0 means 64;
-                                       environment: sky directions per face; 0 means 256    */
-    ohm_sky_image *sky;             /* environment: the sky image, NULL for a uniform sky;
-                                       owned by the light array (ohm_lights_free)           */
-    char where[256];                /* how the user gave it ("argument 12"), for messages   */
-} ohm_light;
-
-/* The light's kind's name ("directional", ...; type= of -light), and
- * whether it enters at one surface point (a pencil beam) rather than through
- * the faces it lights: the table of kinds answers (light_kind.h). */
+/* A light (ohm_light: light_spec.h)'s kind's name ("directional", ...;
+ * type= of -light), and whether it enters at one surface point (a pencil
+ * beam) rather than through the faces it lights: the table of kinds answers
+ * (light_kind.h). */
 const char *ohm_light_name(const ohm_light *l);
 int ohm_light_at_a_point(const ohm_light *l);
 

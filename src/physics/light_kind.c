@@ -55,10 +55,6 @@ const ohm_light_kind *ohm_light_kind_named(const char *name)
     return NULL;
 }
 
-const char *ohm_light_name(const ohm_light *l) { return ohm_light_kind_of(l)->name; }
-
-int ohm_light_at_a_point(const ohm_light *l) { return ohm_light_kind_of(l)->at_a_point; }
-
 int ohm_light_read(ohm_light *l, const ohm_opt_reader *r, ohm_error *err)
 {
     memset(l, 0, sizeof *l);

@@ -24,7 +24,7 @@
 
 #include "base/ohm_error.h"
 #include "base/opt_spec.h"
-#include "physics/light.h"
+#include "physics/light_spec.h"
 
 /* -light's options, every kind's, terminated by {0} (light_kind.c). */
 extern const ohm_opt_spec ohm_light_opts[];

@@ -1,6 +1,5 @@
 #include "physics/mc.h"
 
-#include "physics/mc_device.h"
 #include "physics/mc_tally.h"
 #include "base/log.h"
 #include "base/memory.h"
@@ -244,15 +243,16 @@ static int tally_alloc(mc_tally *t, const ohm_network *net, int handoff)
     return t->phi && t->face && !ohm_mc_sums_alloc(&t->sums, net, handoff) ? 0 : -1;
 }
 
-int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
-                 const ohm_light_entry *entries, size_t nentries, int channel, const ohm_mc_params *params,
-                 ohm_error *err)
+int ohm_mc_host_threads(const ohm_mc_params *params)
 {
-    double t0 = ohm_now();
-    if (med->resistance_mode)
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: solver=mc needs optical coefficients, not resistances");
-    if (!(med->g > -1.0 && med->g < 1.0))
-        return ohm_fail(err, OHM_ERR_USAGE, "solve: g=%g: the anisotropy must lie in (-1, 1)", med->g);
+    int nthreads = params->threads > 0 ? params->threads : ohm_usable_cores();
+    return nthreads < OHM_MC_BATCHES ? nthreads : OHM_MC_BATCHES;
+}
+
+int ohm_mc_host_run(ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
+                    const ohm_light_entry *entries, size_t nentries, int channel, double P, int64_t per_batch,
+                    const ohm_mc_params *params, ohm_error *err)
+{
     mc_scene sc = {.net = net,
                    .med = med,
                    .entries = entries,
@@ -260,6 +260,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
                    .g = med->g,
                    .ss_scale = 1.0 / (1.0 - med->g),
                    .eta = med->eta,
+                   .per_batch = per_batch,
                    .seed = params->seed,
                    .total_fluence = params->total_fluence,
                    .handoff = params->handoff > 0 ? params->handoff : 0,
@@ -269,39 +270,11 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
         sc.mirror_low[a] = net->mirror.low[a];
         sc.mirror_high[a] = net->mirror.high[a];
     }
-    int64_t photons = params->photons > 0 ? params->photons : 1000000;
-    sc.per_batch = (photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES;
     snprintf(sc.what, sizeof sc.what, "monte carlo, channel %d, %lld photons", channel,
              (long long)(sc.per_batch * OHM_MC_BATCHES));
-    int nthreads = params->threads > 0 ? params->threads : ohm_usable_cores();
-    if (nthreads > OHM_MC_BATCHES) nthreads = OHM_MC_BATCHES;
+    int nthreads = ohm_mc_host_threads(params);
     sc.nthreads = nthreads;
-    res->threads = nthreads;
-    double P = 0;
-    for (size_t e = 0; e < nentries; ++e) P += entries[e].power[channel];
     size_t n = (size_t)net->n, nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    memset(res->fluence, 0, n * sizeof *res->fluence);
-    memset(res->fluence_se, 0, n * sizeof *res->fluence_se);
-    memset(res->exitance_se, 0, n * sizeof *res->exitance_se);
-    memset(res->face_exitance, 0, nf * sizeof *res->face_exitance);
-    res->power_in = res->power_absorbed = res->power_out = res->power_gated = res->power_handoff = 0;
-    if (params->handoff > 0) memset(res->handoff, 0, n * sizeof *res->handoff);
-    res->photons = res->truncated = res->events = 0;
-    if (!(P > 0)) { /* unlit in this channel: nothing to trace */
-        res->seconds = ohm_now() - t0;
-        return OHM_OK;
-    }
-    res->device[0] = '\0';
-    ohm_mc_device *dev = params->kept;
-    int rc = dev ? OHM_OK : ohm_mc_device_open(&dev, params->device, sc.per_batch * OHM_MC_BATCHES, params->log, err);
-    int on_device = dev != NULL;
-    if (!rc && on_device)
-        rc = ohm_mc_device_run(dev, res, net, med, entries, nentries, channel, P, sc.per_batch, params, err);
-    if (dev != params->kept) ohm_mc_device_free(dev);
-    if (rc || on_device) {
-        res->seconds = ohm_now() - t0;
-        return rc;
-    }
     /* per thread: this batch's fluence and faces, the sums, the squares */
     double need = (double)nthreads * ((4.0 + (sc.handoff > 0)) * (double)n + 2.0 * (double)nf) * sizeof(double);
     double limit = ohm_memory_limit(params->max_memory);
@@ -315,7 +288,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     }
     sc.cdf = malloc(nentries * sizeof *sc.cdf);
     mc_tally *tally = calloc((size_t)nthreads, sizeof *tally);
-    rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
+    int rc = sc.cdf && tally ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for Monte Carlo");
     if (!rc) ohm_mc_entry_cdf(sc.cdf, entries, nentries, channel, P);
     for (int k = 0; k < nthreads && !rc; ++k) {
         tally[k].sc = &sc;
@@ -344,6 +317,5 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     free(tally);
     free(tid);
     free(sc.cdf);
-    res->seconds = ohm_now() - t0;
     return rc;
 }

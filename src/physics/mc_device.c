@@ -94,7 +94,7 @@ int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, c
 {
     *out = NULL;
     if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
-    if (photons <= 0) photons = 1000000; /* mc.h's default */
+    if (photons <= 0) photons = 1000000; /* mc_params.h's default */
     if (strcmp(spec, "auto") == 0 && photons < AUTO_MIN_PHOTONS) {
         ohm_log_info(log, "monte carlo: device=auto: %lld photons, fewer than %d: they run on the host",
                      (long long)photons, AUTO_MIN_PHOTONS);

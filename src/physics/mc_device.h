@@ -9,12 +9,19 @@
 #ifndef OHM_PHYSICS_MC_DEVICE_H
 #define OHM_PHYSICS_MC_DEVICE_H
 
-#include "physics/mc.h"
+#include <stddef.h>
+#include <stdint.h>
+
+#include "base/log.h"
+#include "base/ohm_error.h"
+#include "physics/light.h"
+#include "physics/mc_params.h"
+#include "physics/network.h"
 
 typedef struct ohm_mc_device ohm_mc_device;
 
 /* The device `spec` names (gpu, cpu, opencl:N, auto; devices.h), open for
- * tracing `photons` per trace (0: mc.h's default, 10^6): *out NULL and
+ * tracing `photons` per trace (0: mc_params.h's default, 10^6): *out NULL and
  * OHM_OK when that is the host
  * (host; auto without a GPU, or for fewer photons than pay for opening
  * one).  No runtime, no such device, a device without double
@@ -27,7 +34,7 @@ int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, c
 
 /* Trace on d into res (its arrays zeroed by the caller), P the entries'
  * power in `channel`, per_batch photons in each of the OHM_MC_BATCHES
- * batches (ohm_mc_trace's work, mc.h).  Too little device memory, a kernel
+ * batches (ohm_mc_trace's work, mc_trace.h).  Too little device memory, a kernel
  * that does not build: an error that says which. */
 int ohm_mc_device_run(ohm_mc_device *d, ohm_mc_result *res, const ohm_network *net, const ohm_channel_medium *med,
                       const ohm_light_entry *entries, size_t nentries, int channel, double P, int64_t per_batch,

@@ -6,7 +6,12 @@
 #ifndef OHM_PHYSICS_MC_TALLY_H
 #define OHM_PHYSICS_MC_TALLY_H
 
-#include "physics/mc.h"
+#include <stddef.h>
+#include <stdint.h>
+
+#include "physics/light.h"
+#include "physics/mc_params.h"
+#include "physics/network.h"
 
 /* In voxel units of weight x length (fluence) and weight (faces, totals):
  * over the batches, sums and sums of squares of batch values. */

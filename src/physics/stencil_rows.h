@@ -1,5 +1,5 @@
-/* physics/stencil_rows.h — the loop over a stencil's rows (stencil.h's
- * ohm_stencil), stretch by stretch, and the rows' arithmetic in double:
+/* physics/stencil_rows.h — the loop over a stencil's rows (ohm_stencil,
+ * stencil_form.h), stretch by stretch, and the rows' arithmetic in double:
  * what the stencil's own operations (stencil.c) and the multigrid's host
  * kernels (solvers/mg.c) are written with.  Static inline, so that each
  * loop is compiled, and vectorised, where it is used (with -fopenmp-simd:
@@ -10,7 +10,7 @@
 #include <stdint.h>
 
 #include "base/parallel.h"
-#include "physics/stencil.h"
+#include "physics/stencil_form.h"
 
 /* Below this many rows a loop runs on one core: a thread's start (~20-50
  * us) would cost more than it shares.  Above, it is cut into

@@ -1,4 +1,4 @@
-/* solvers/transport.c — Monte Carlo transport in a solve (transport.h, mc.h): solver=mc,
+/* solvers/transport.c — Monte Carlo transport in a solve (transport.h, mc_trace.h): solver=mc,
  * every frame's light entries traced per channel instead of diffusion; and
  * the hybrid's transport part (mc.handoff), the photons traced to their
  * handoff, whose weight becomes diffusion's source.  The hybrid's arrays
@@ -6,6 +6,7 @@
 #include "solvers/solver_impl.h"
 
 #include "physics/mc_device.h"
+#include "physics/mc_trace.h"
 
 #include <stdio.h>
 #include <stdlib.h>

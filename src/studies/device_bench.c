@@ -6,7 +6,7 @@
 #include <string.h>
 
 #include "base/log.h"
-#include "physics/mc.h"
+#include "physics/mc_trace.h"
 #include "solvers/grid_order.h"
 #include "solvers/mg.h"
 #include "solvers/mg_device.h"

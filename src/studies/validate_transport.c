@@ -12,7 +12,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "physics/mc.h"
+#include "physics/mc_trace.h"
 #include "physics/network.h"
 #include "studies/scene.h"
 #include "solvers/solve.h"
