@@ -125,7 +125,7 @@ PY
 # errors
 expect_exit 2 "volume without threshold" -- "$OHM" -read file=samples/ch2_2mm.nii.gz -voxelize dim=16
 expect_error_line "volume without threshold" "needs threshold="
-expect_exit 1 "transfer without a volume" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
+expect_exit 2 "transfer without a volume" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
   -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve
 expect_error_line "transfer without a volume" "maps a volume's density"
 expect_exit 2 "raw without dims" -- "$OHM" -read file=samples/walnut_64x48x57_uint16.raw.gz
@@ -135,7 +135,7 @@ expect_error_line "raw with wrong dims" "walnut_64x48x57_uint16.raw.gz.*bytes"
 printf 'ohm-transfer 1\n0 0.1 1\n0 0.2 1\n' >"$T/bad.transfer"
 expect_exit 1 "bad transfer" -- "$OHM" -material transfer="$T/bad.transfer"
 expect_error_line "bad transfer" "bad.transfer:3:"
-expect_exit 1 "place without a volume" -- "$OHM" -read file=samples/cow.obj -place
+expect_exit 2 "place without a volume" -- "$OHM" -read file=samples/cow.obj -place
 expect_error_line "place without a volume" "no volume to place"
 
 finish

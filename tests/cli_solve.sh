@@ -81,7 +81,7 @@ expect_exit 0 "ketchup" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize d
 check "ketchup warns: albedo < 0.8" grep -q "albedo 0.0.* < 0.8: the diffusion approximation is poor" <<<"$LAST_ERR"
 expect_exit 0 "pencil" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=skin1 \
   -light type=pencil pos=0,100,0 dir=0,-1,0 -solve
-expect_exit 1 "solve without light" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -material preset=marble -solve
+expect_exit 2 "solve without light" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -material preset=marble -solve
 expect_error_line "solve without light" "no lights"
 expect_exit 2 "light without pos" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -light type=point
 expect_error_line "light without pos" "type=point needs pos="

@@ -5,6 +5,7 @@
 #include <ctype.h>
 #include <errno.h>
 #include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -489,39 +490,166 @@ static int run_step(const ohm_invocation *inv, ohm_state *s, ohm_error *err)
     return rc;
 }
 
-/* The chain's steps in order, except that a step that waits for the scene
- * runs once the scene steps right after it have: the natural order "read,
- * voxelize error=, material, light, solve" works as the user wrote it. */
-static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
+/* Whether step i waits for the scene: it runs once the scene steps right
+ * after it have, so that the natural order "read, voxelize error=,
+ * material, light, solve" works as the user wrote it. */
+static int step_waits(const ohm_chain *c, size_t i)
 {
-    const ohm_invocation *waiting = NULL;
+    const ohm_invocation *inv = &c->items[i];
+    return inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
+           (c->items[i + 1].action->flags & OHM_ACTION_SETS_SCENE);
+}
+
+/* The order the steps run in, c->n indices into order[]: as written,
+ * except that a step that waits moves after the scene steps that follow it
+ * (ohm_chain_check follows the same order). */
+static void run_order(const ohm_chain *c, size_t *order)
+{
+    size_t k = 0, waiting = SIZE_MAX;
     for (size_t i = 0; i < c->n; ++i) {
-        const ohm_invocation *inv = &c->items[i];
-        int rc;
-        if (waiting && !(inv->action->flags & OHM_ACTION_SETS_SCENE)) {
-            rc = run_step(waiting, s, err);
-            if (rc) return rc;
-            waiting = NULL;
+        if (waiting != SIZE_MAX && !(c->items[i].action->flags & OHM_ACTION_SETS_SCENE)) {
+            order[k++] = waiting;
+            waiting = SIZE_MAX;
         }
-        if (!waiting && inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
-            (c->items[i + 1].action->flags & OHM_ACTION_SETS_SCENE)) {
+        if (waiting == SIZE_MAX && step_waits(c, i)) waiting = i;
+        else order[k++] = i;
+    }
+    if (waiting != SIZE_MAX) order[k++] = waiting;
+}
+
+static int run_steps(const ohm_chain *c, const size_t *order, ohm_state *s, ohm_error *err)
+{
+    for (size_t k = 0; k < c->n; ++k) {
+        const ohm_invocation *inv = &c->items[order[k]];
+        if (step_waits(c, order[k]))
             ohm_log_info(&s->log, "%s: -%s runs after the -material and -light steps that follow it", inv->where,
                          inv->action->name);
-            waiting = inv;
-            continue;
-        }
-        rc = run_step(inv, s, err);
+        int rc = run_step(inv, s, err);
         if (rc) return rc;
     }
-    return waiting ? run_step(waiting, s, err) : OHM_OK;
+    return OHM_OK;
+}
+
+/* ---- what each step needs from the ones before it ----------------------------- */
+
+static const char *const resource_names[OHM_RES_COUNT] = {"a mesh",     "a volume", "a voxel object", "a material",
+                                                          "a transfer", "lights",   "a solution"};
+
+/* Who made each resource, as the check walks the chain: the step's index,
+ * HELD (the state the chain starts on) or NONE; and who removed it. */
+enum { NONE = -1, HELD = -2 };
+
+typedef struct chain_walk {
+    const ohm_chain *c;
+    int made_by[OHM_RES_COUNT];
+    int dropped_by[OHM_RES_COUNT], dropped_from[OHM_RES_COUNT];
+} chain_walk;
+
+static unsigned held_resources(const ohm_state *s)
+{
+    return (s->have_mesh ? OHM_RES_MESH : 0u) | (s->have_scan ? OHM_RES_VOLUME : 0u) |
+           (s->have_grid ? OHM_RES_GRID : 0u) | (s->have_material ? OHM_RES_MATERIAL : 0u) |
+           (s->have_transfer ? OHM_RES_TRANSFER : 0u) | (s->nlights ? OHM_RES_LIGHTS : 0u) |
+           (ohm_state_solution(s) ? OHM_RES_SOLUTION : 0u);
+}
+
+static int present(const chain_walk *w, unsigned mask)
+{
+    for (int r = 0; r < OHM_RES_COUNT; ++r)
+        if ((mask >> r & 1u) && w->made_by[r] != NONE) return 1;
+    return 0;
+}
+
+static int all_present(const chain_walk *w, unsigned mask)
+{
+    for (int r = 0; r < OHM_RES_COUNT; ++r)
+        if ((mask >> r & 1u) && w->made_by[r] == NONE) return 0;
+    return 1;
+}
+
+/* "-solve at argument 7", or "the scene" for what the state held */
+static void step_name(char *buf, size_t size, const chain_walk *w, int step)
+{
+    if (step < 0) snprintf(buf, size, "the scene it starts on");
+    else snprintf(buf, size, "-%s at %s", w->c->items[step].action->name, w->c->items[step].where);
+}
+
+/* The need's failure: the step's own message, and the earlier step that
+ * removed what it needs, or that gave something else instead. */
+static int unmet(const chain_walk *w, const ohm_invocation *inv, const ohm_need *need, ohm_error *err)
+{
+    char other[800] = "", by[320], from[320]; /* a step's name holds its `where` (256) */
+    for (int r = 0; r < OHM_RES_COUNT && !other[0]; ++r) {
+        if (!(need->any >> r & 1u) || w->dropped_by[r] == NONE) continue;
+        step_name(by, sizeof by, w, w->dropped_by[r]);
+        step_name(from, sizeof from, w, w->dropped_from[r]);
+        snprintf(other, sizeof other, " (%s comes after %s and replaces or invalidates %s it made)", by, from,
+                 resource_names[r]);
+    }
+    /* a mesh wanted where the chain has a volume, or the other way round */
+    unsigned instead = (need->any & OHM_RES_MESH ? OHM_RES_VOLUME : 0u) | (need->any & OHM_RES_VOLUME ? OHM_RES_MESH : 0u);
+    for (int r = 0; r < OHM_RES_COUNT && !other[0]; ++r) {
+        if (!(instead >> r & 1u) || w->made_by[r] == NONE) continue;
+        step_name(by, sizeof by, w, w->made_by[r]);
+        snprintf(other, sizeof other, " (%s gave %s instead)", by, resource_names[r]);
+    }
+    return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: %s%s; nothing was run", inv->where, inv->action->name, need->missing,
+                    other);
+}
+
+int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
+{
+    size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
+    if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    run_order(c, order);
+    chain_walk w = {.c = c};
+    unsigned held = held_resources(s);
+    for (int r = 0; r < OHM_RES_COUNT; ++r) {
+        w.made_by[r] = held >> r & 1u ? HELD : NONE;
+        w.dropped_by[r] = w.dropped_from[r] = NONE;
+    }
+    int rc = OHM_OK;
+    for (size_t k = 0; k < c->n && !rc; ++k) {
+        const ohm_invocation *inv = &c->items[order[k]];
+        if (!inv->action->io) continue;
+        ohm_step_io io;
+        memset(&io, 0, sizeof io);
+        inv->action->io(inv, &io);
+        for (int i = 0; i < OHM_MAX_NEEDS && io.needs[i].any && !rc; ++i)
+            if (all_present(&w, io.needs[i].when) && !present(&w, io.needs[i].any))
+                rc = unmet(&w, inv, &io.needs[i], err);
+        for (int r = 0; r < OHM_RES_COUNT; ++r) {
+            if ((io.drops >> r & 1u) && w.made_by[r] != NONE) {
+                w.dropped_by[r] = (int)order[k];
+                w.dropped_from[r] = w.made_by[r];
+                w.made_by[r] = NONE;
+            }
+            if (io.provides >> r & 1u) {
+                w.made_by[r] = (int)order[k];
+                w.dropped_by[r] = w.dropped_from[r] = NONE;
+            }
+        }
+    }
+    free(order);
+    return rc;
 }
 
 int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
 {
-    if (s->outputs) return run_steps(c, s, err); /* inside a run: part of it */
+    int rc = ohm_chain_check(c, s, err);
+    if (rc) return rc;
+    size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
+    if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    run_order(c, order);
+    if (s->outputs) { /* inside a run: part of it */
+        rc = run_steps(c, order, s, err);
+        free(order);
+        return rc;
+    }
     ohm_output_batch batch = {0};
     s->outputs = &batch;
-    int rc = run_steps(c, s, err);
+    rc = run_steps(c, order, s, err);
+    free(order);
     s->outputs = NULL;
     if (rc) {
         ohm_output_batch_abort(&batch);
