@@ -68,7 +68,7 @@ expect_exit 2 "transfer without a volume" -- "$OHM" -read file=samples/cow.obj -
 expect_error_line "transfer without a volume" "-solve: transfer= maps a volume's density.*-read at argument 1 gave a mesh"
 expect_exit 2 "voxelize error= without a light" -- "$OHM" -read file=samples/cow.obj -voxelize error=0.05 \
   -material preset=marble -solve
-expect_error_line "voxelize error= without a light" "-voxelize: error= probes the scene: it needs -light"
+expect_error_line "voxelize error= without a light" "-voxelize: error= probes the scene: it needs -material .* and -light"
 # the steps a -voxelize error= waits for, written after it, count
 expect_exit 0 "voxelize error= before its scene" -- "$OHM" --quiet -read file=samples/cow.obj size=40 \
   -voxelize error=0.3 max_dim=40 -material preset=marble -light type=directional dir=0,-1,0

@@ -46,9 +46,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     /* per-cell media compacted to the band's unknowns (when there is one) */
     ohm_coeff *compact[2 * OHM_MAX_CHANNELS] = {NULL};
     rc = ohm_setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
-    snprintf(s->solver_name, sizeof s->solver_name, "%s", params->num.solver ? params->num.solver : "direct");
     snprintf(s->ordering, sizeof s->ordering, "%s", params->num.ordering ? params->num.ordering : "metis");
-    s->params.num.solver = s->solver_name;
     s->params.num.ordering = s->ordering;
     if (params->num.petsc_options &&
         !(s->params.num.petsc_options = s->petsc_options = strdup(params->num.petsc_options)))
@@ -74,7 +72,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    const char *name = s->params.num.solver;
+    const char *name = ohm_solver_kind_name(s->params.num.solver);
     s->backend = ohm_backend_find(name);
     if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");

@@ -16,11 +16,35 @@
 #include "physics/material.h"
 #include "physics/mc.h"
 #include "physics/network.h"
+#include "device/request.h"
 
 /* The reduced scatterings `-solve hybrid=auto` traces as transport when a
  * frame has a pencil beam (docs/transport.md: reflectance against radius
  * within 2.5% beyond 2 mm, where diffusion alone is 15-22% off). */
 enum { OHM_HYBRID_PENCIL = 10 };
+
+/* Which solver: -solve solver=, read once from its name where the text
+ * comes in (ohm_solver_kind_parse) and passed on typed.  Zero is direct. */
+typedef enum ohm_solver_kind {
+    OHM_SOLVER_DIRECT = 0, /* CHOLMOD's factor (solvers/direct.c)                */
+    OHM_SOLVER_CG,         /* MIC(0) conjugate gradients (cg.c)                   */
+    OHM_SOLVER_AMG,        /* PETSc CG with hypre BoomerAMG (amg.c)               */
+    OHM_SOLVER_MG,         /* geometric multigrid (mg.c)                          */
+    OHM_SOLVER_AUTO,       /* mg first, then the quickest that fits (auto.c)      */
+    OHM_SOLVER_MC          /* Monte Carlo transport instead of diffusion          */
+} ohm_solver_kind;
+
+/* What a kind of solver does, asked instead of its name: OHM_SOLVES_TRANSPORT
+ * traces photons instead of solving diffusion (mc); OHM_SOLVES_ON_DEVICE its
+ * work can run on device= (mg's cycle, mc's photons, and auto, whose first
+ * solve is mg's). */
+enum { OHM_SOLVES_TRANSPORT = 1u << 0, OHM_SOLVES_ON_DEVICE = 1u << 1 };
+
+/* The kind of that name (direct | cg | amg | mg | auto | mc), or
+ * OHM_ERR_USAGE naming them; its name; its capabilities. */
+int ohm_solver_kind_parse(ohm_solver_kind *out, const char *name, ohm_error *err);
+const char *ohm_solver_kind_name(ohm_solver_kind kind);
+unsigned ohm_solver_kind_caps(ohm_solver_kind kind);
 
 /* The parameters of a solve, one struct per thing they configure (issue 34),
  * gathered in ohm_solve_params below; zero-initialised means every default. */
@@ -83,14 +107,12 @@ typedef struct ohm_source_params {
 
 /* How the system is solved: the backend, its ordering, tolerance and memory. */
 typedef struct ohm_numeric_params {
-    const char *solver;        /* backend (solvers/backend.h): direct | cg | amg | auto;
-                                  or mc, Monte Carlo transport instead of
-                                  diffusion (mc.h); NULL: direct             */
+    ohm_solver_kind solver;    /* backend (solvers/backend.h), or mc (mc.h) */
     double cg_tol;             /* relative residual iterative backends stop at; 0: 1e-10 */
     const char *petsc_options; /* amg: options for PETSc's database, or NULL  */
     const char *ordering;      /* auto | metis | amd | nesdis | grid | best; NULL: metis */
     int from_scan;             /* ordering=auto: the object is a density volume's */
-    const char *device;        /* solver=mg: host (NULL) | gpu | cpu | opencl:N | auto */
+    ohm_device_request device; /* where mg's solve runs (zero: the host)     */
     double max_rhs_bytes;      /* cap on B and X per batch; 0: 1 GiB     */
     double max_memory;         /* bytes the factor may take; 0: what the machine has */
 } ohm_numeric_params;

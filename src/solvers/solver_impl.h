@@ -78,7 +78,7 @@ struct ohm_solver {
     ohm_solution sol;            /* topology, media, statistics; then results */
     ohm_solve_params params;     /* the caller's, with the band's arrays and
                                     the solver's own copies of its strings    */
-    char solver_name[16], ordering[16];
+    char ordering[16];
     char *petsc_options;
     ohm_material mat;
     const ohm_voxel_grid *grid;

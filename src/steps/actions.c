@@ -679,15 +679,17 @@ static const ohm_opt_spec solve_opts[] = {
      "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
      "there is one",
      "auto|mesh|grid|none", 0, 0, 0},
-    {"solver", OHM_OPT_ENUM, "direct",
-     "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
+    {"solver", OHM_OPT_ENUM, "auto",
+     "auto (the default: mg solves the first light, then the rest go to whichever of mg, direct and amg fits the "
+     "memory and is predicted quickest; the statistics' solver_reason says why) | direct (Cholesky factor, reused by "
+     "every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
      "the grid, distributed under mpirun) | mg (geometric multigrid on the voxel grid, matrix-free: memory and time "
-     "O(cells), iterations independent of the grid and of contrasts, warm-started) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
+     "O(cells), iterations independent of the grid and of contrasts, warm-started) | mc (Monte "
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
-    {"device", OHM_OPT_STRING, "host",
+    {"device", OHM_OPT_DEVICE, "host",
      "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
      "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, for a grid of 2^16 cells or "
@@ -825,13 +827,13 @@ static int material_from_scan(ohm_state *s, ohm_media_params *p, float **density
  * hybrid=auto is settled, it would do nothing, and says so. */
 static int device_has_work(const ohm_solve_params *p, const ohm_invocation *inv, ohm_error *err)
 {
-    const char *dev = p->num.device;
-    if (!dev || strcmp(dev, "host") == 0 || strcmp(dev, "auto") == 0) return OHM_OK;
-    if (strcmp(p->num.solver, "mg") == 0 || strcmp(p->num.solver, "mc") == 0 || p->mc.handoff > 0) return OHM_OK;
+    ohm_device_kind dev = p->num.device.kind;
+    if (dev == OHM_DEVICE_HOST || dev == OHM_DEVICE_AUTO) return OHM_OK;
+    if ((ohm_solver_kind_caps(p->num.solver) & OHM_SOLVES_ON_DEVICE) || p->mc.handoff > 0) return OHM_OK;
     return ohm_fail(err, OHM_ERR_USAGE,
                     "%s: -solve: device=%s runs solver=mg's solve and traced photons (solver=mc, hybrid=); "
                     "solver=%s traces none here and runs on the host",
-                    inv->where, dev, p->num.solver);
+                    inv->where, ohm_opt_str(inv, "device"), ohm_solver_kind_name(p->num.solver));
 }
 
 /* -solve hybrid=auto|N (solve.h), after p's boundary, solver and band are
@@ -845,7 +847,8 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
         *handoff = 0;
         for (size_t l = 0; l < s->nlights; ++l)
             if (s->lights[l].type == OHM_LIGHT_PENCIL) *handoff = OHM_HYBRID_PENCIL;
-        if (strcmp(p->num.solver, "mc") == 0 || p->op.boundary != OHM_BOUNDARY_ROBIN || p->op.band_k > 0 ||
+        if ((ohm_solver_kind_caps(p->num.solver) & OHM_SOLVES_TRANSPORT) || p->op.boundary != OHM_BOUNDARY_ROBIN ||
+            p->op.band_k > 0 ||
             s->material.kind == OHM_MATERIAL_RESISTANCE)
             *handoff = 0; /* all transport already, or a scene the tracer does not model */
         return OHM_OK;
@@ -876,8 +879,10 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->num.ordering = ohm_opt_str(inv, "ordering");
     p->num.from_scan = s->have_scan && !s->have_mesh;
     p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
-    p->num.solver = ohm_opt_str(inv, "solver");
-    p->num.device = ohm_opt_str(inv, "device");
+    /* the texts read once: the layers below get the typed choices */
+    int rc_choice = ohm_solver_kind_parse(&p->num.solver, ohm_opt_str(inv, "solver"), err);
+    if (!rc_choice) rc_choice = ohm_device_request_parse(&p->num.device, ohm_opt_str(inv, "device"), err);
+    if (rc_choice) return rc_choice;
     if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
     p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
     p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
@@ -962,7 +967,8 @@ static void report_solve(ohm_state *s, double t0, int relit)
                  "%.2g, power in %.6g W = absorbed %.6g + out %.6g (conservation error %.2g)",
                  (long long)sol->n, sol->channels, sol->factors, s->nlights, ohm_now() - t0, sol->residual,
                  sol->power_in, sol->power_absorbed, sol->power_out, cons);
-    if (strcmp(sol->solver, "mc") == 0)
+    const int transport = (ohm_solver_kind_caps(p.num.solver) & OHM_SOLVES_TRANSPORT) != 0;
+    if (transport)
         ohm_log_info(&s->log,
                      "monte carlo: %lld photons (g=%g, seed=%llu, %d threads) at %.4g photons/ms, %.4g path "
                      "segments each%s",
@@ -1060,7 +1066,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
     ohm_stats_set(st, "power_out", sol->power_out);
     ohm_stats_set(st, "conservation_error", cons);
-    if (strcmp(sol->solver, "mc") == 0) {
+    if (transport) {
         ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
         ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
         ohm_stats_set(st, "mc_g", s->material.g);
@@ -1313,14 +1319,17 @@ const ohm_action ohm_actions[] = {
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
      "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
      light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io},
-    {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
+    {"solve", "build the resistor network and solve every light (the solver chosen by size, or as asked)",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
-     "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
-     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
-     "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
-     "solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells) memory, iterations that do not grow with the\n"
-     "grid; under `mpirun -np N ohm ...` every rank solves a slab: README, docs/scale.md); solver=auto picks\n"
-     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.\n"
+     "term), solves all lights as one multi-column right-hand side, checks the backward error and books the\n"
+     "power: in = absorbed + out.  By default (solver=auto) geometric multigrid solves the first light and the\n"
+     "rest go to the solver that fits the memory and is predicted quickest for them; the log and the\n"
+     "statistics (solver, solver_reason) say which and why.  solver=direct factors the matrix with CHOLMOD\n"
+     "(one analysis shared by every channel, the factor reused by every light); solver=cg solves by conjugate\n"
+     "gradients (no factor: O(cells) memory); solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells)\n"
+     "memory, iterations that do not grow with the grid; under `mpirun -np N ohm ...` every rank solves a\n"
+     "slab: docs/scale.md); solver=mg by geometric multigrid alone.  depth_band= / depth_band_error= solve\n"
+     "only the cells light reaches.\n"
      "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
      "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
      "validate transport`, docs/transport.md).",

@@ -1,10 +1,9 @@
 /* pipeline.c — parse, validate, document and run chains of actions. */
 #include "steps/pipeline.h"
 #include "base/suggest.h"
+#include "device/request.h"
 
-#include <ctype.h>
 #include <errno.h>
-#include <math.h>
 #include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -25,12 +24,7 @@ const ohm_action *ohm_action_find(const char *name)
     return NULL;
 }
 
-static int spec_index(const ohm_action *a, const char *name)
-{
-    for (int i = 0; a->opts[i].name; ++i)
-        if (strcmp(a->opts[i].name, name) == 0) return i;
-    return -1;
-}
+static int spec_index(const ohm_action *a, const char *name) { return ohm_opt_index(a->opts, name); }
 
 static const char *suggest_action(const char *word)
 {
@@ -50,126 +44,16 @@ static const char *suggest_option(const ohm_action *a, const char *word)
 
 /* ---- value validation ------------------------------------------------------ */
 
-static int parse_real(const char *s, double *out)
-{
-    if (!*s || isspace((unsigned char)*s)) return -1;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (*end || errno == ERANGE || !isfinite(v)) return -1;
-    *out = v;
-    return 0;
-}
-
-static int parse_int(const char *s, long long *out)
-{
-    if (!*s || isspace((unsigned char)*s)) return -1;
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (*end || errno == ERANGE) return -1;
-    *out = v;
-    return 0;
-}
-
-static int parse_vec3(const char *s, double out[3])
-{
-    char buf[256];
-    if (strlen(s) >= sizeof buf) return -1;
-    strcpy(buf, s);
-    char *p = buf;
-    for (int i = 0; i < 3; ++i) {
-        char *comma = strchr(p, ',');
-        if (i < 2 && !comma) return -1;
-        if (i == 2 && comma) return -1;
-        if (comma) *comma = '\0';
-        if (parse_real(p, &out[i])) return -1;
-        p = comma ? comma + 1 : p;
-    }
-    return 0;
-}
-
-/* "x" or "r,g,b" */
-static int parse_real13(const char *s, double out[3])
-{
-    if (!strchr(s, ',')) {
-        if (parse_real(s, &out[0])) return 0;
-        out[1] = out[2] = out[0];
-        return 1;
-    }
-    return parse_vec3(s, out) ? 0 : 3;
-}
-
-static int enum_has(const char *choices, const char *v)
-{
-    size_t lv = strlen(v);
-    for (const char *p = choices; *p;) {
-        const char *bar = strchr(p, '|');
-        size_t l = bar ? (size_t)(bar - p) : strlen(p);
-        if (l == lv && strncmp(p, v, l) == 0) return 1;
-        if (!bar) break;
-        p = bar + 1;
-    }
-    return 0;
-}
-
+/* base/options.h's check, and a device's words, which that stage cannot know */
 static int validate_value(const ohm_action *a, const ohm_opt_spec *o, const char *v, const char *where,
                           ohm_error *err)
 {
-    int has_range = o->min != o->max;
-    switch (o->type) {
-    case OHM_OPT_INT: {
-        long long x;
-        if (parse_int(v, &x) || (has_range && (x < o->min || x > o->max))) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number from %.0f to %.0f", where,
-                                a->name, o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number", where, a->name, o->name, v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_REAL: {
-        double x;
-        if (parse_real(v, &x) || (has_range && (x < o->min || x > o->max))) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a number from %g to %g", where, a->name,
-                                o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a finite number", where, a->name, o->name,
-                            v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_VEC3: {
-        double x[3];
-        if (parse_vec3(v, x))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected three numbers x,y,z", where, a->name, o->name,
-                            v);
-        return OHM_OK;
-    }
-    case OHM_OPT_REAL13: {
-        double x[3];
-        int k = parse_real13(v, x);
-        int bad = k == 0;
-        for (int i = 0; i < k && !bad; ++i) bad = has_range && (x[i] < o->min || x[i] > o->max);
-        if (bad) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b), each "
-                                "from %g to %g", where, a->name, o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b)", where,
-                            a->name, o->name, v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_ENUM:
-        if (!enum_has(o->choices, v))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one of %s", where, a->name, o->name, v,
-                            o->choices);
-        return OHM_OK;
-    case OHM_OPT_STRING:
-        if (!*v) return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=: the value is empty", where, a->name, o->name);
-        return OHM_OK;
-    }
-    return OHM_OK;
+    char prefix[320];
+    snprintf(prefix, sizeof prefix, "%s: -%s", where, a->name);
+    int rc = ohm_opt_check(o, v, prefix, err);
+    const char *expected = !rc && o->type == OHM_OPT_DEVICE ? ohm_device_request_expected(v) : NULL;
+    if (expected) rc = ohm_fail(err, OHM_ERR_USAGE, "%s %s=%s: %s", prefix, o->name, v, expected);
+    return rc;
 }
 
 /* ---- building chains ------------------------------------------------------- */
@@ -290,6 +174,30 @@ int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_er
     if (!rc && c->n == 0) rc = ohm_fail(err, OHM_ERR_USAGE, "no actions given (see 'ohm help')");
     if (rc) ohm_chain_free(c);
     return rc;
+}
+
+int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, const char *const *argv, ohm_error *err)
+{
+    memset(inv, 0, sizeof *inv);
+    inv->action = a;
+    snprintf(inv->where, sizeof inv->where, "%s", a->name);
+    ohm_chain one = {inv, 1, 1};
+    int rc = OHM_OK;
+    for (int i = 0; i < argc && !rc; ++i) {
+        snprintf(inv->where, sizeof inv->where, "argument %d", i + 1);
+        rc = add_option(&one, argv[i], inv->where, err);
+    }
+    if (!rc) rc = finish_action(&one, err);
+    if (rc) ohm_invocation_free(inv);
+    return rc;
+}
+
+void ohm_invocation_free(ohm_invocation *inv)
+{
+    for (int j = 0; j < OHM_MAX_OPTS; ++j) {
+        free(inv->values[j]);
+        inv->values[j] = NULL;
+    }
 }
 
 /* Split one line into tokens: whitespace-separated, "double quotes" group
@@ -432,7 +340,7 @@ long long ohm_opt_int(const ohm_invocation *inv, const char *name)
 {
     const char *v = value_or_default(inv, name);
     long long x = 0;
-    if (v) parse_int(v, &x);
+    if (v) ohm_opt_parse_int(v, &x);
     return x;
 }
 
@@ -440,7 +348,7 @@ double ohm_opt_real(const ohm_invocation *inv, const char *name)
 {
     const char *v = value_or_default(inv, name);
     double x = 0;
-    if (v) parse_real(v, &x);
+    if (v) ohm_opt_parse_real(v, &x);
     return x;
 }
 
@@ -448,14 +356,14 @@ void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3])
 {
     const char *v = value_or_default(inv, name);
     out[0] = out[1] = out[2] = 0;
-    if (v) parse_vec3(v, out);
+    if (v) ohm_opt_parse_vec3(v, out);
 }
 
 int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
 {
     const char *v = value_or_default(inv, name);
     out[0] = out[1] = out[2] = 0;
-    return v ? parse_real13(v, out) : 0;
+    return v ? ohm_opt_parse_real13(v, out) : 0;
 }
 
 /* ---- running ------------------------------------------------------------------- */
@@ -669,6 +577,7 @@ static const char *type_name(const ohm_opt_spec *o)
     case OHM_OPT_ENUM: return o->choices;
     case OHM_OPT_VEC3: return "x,y,z";
     case OHM_OPT_REAL13: return "v|r,g,b";
+    case OHM_OPT_DEVICE: return "host|auto|gpu|cpu|opencl:N";
     }
     return "";
 }

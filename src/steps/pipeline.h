@@ -20,28 +20,8 @@
 #include <stddef.h>
 
 #include "base/ohm_error.h"
+#include "base/options.h"
 #include "steps/state.h"
-
-typedef enum ohm_opt_type {
-    OHM_OPT_INT,    /* integer in [min, max]                                */
-    OHM_OPT_REAL,   /* finite real in [min, max]                            */
-    OHM_OPT_STRING, /* any text (file names)                                */
-    OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
-    OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
-    OHM_OPT_REAL13  /* one finite real (grey) or three (r,g,b), each in [min, max] */
-} ohm_opt_type;
-
-typedef struct ohm_opt_spec {
-    const char *name;
-    ohm_opt_type type;
-    const char *def;      /* default as text, NULL = none                   */
-    const char *doc;
-    const char *choices;  /* ENUM: "mm|cm|m|in"                             */
-    double min, max;      /* INT, REAL: inclusive range (min == max: none)  */
-    int required;
-} ohm_opt_spec;
-
-enum { OHM_MAX_OPTS = 24 };
 
 typedef struct ohm_action ohm_action;
 
@@ -136,6 +116,14 @@ void ohm_chain_free(ohm_chain *c);
  * message naming the token and suggesting the nearest valid name (a first
  * word without '-': the nearest of `ohm`'s commands, or the action). */
 int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_error *err);
+
+/* key=value words against the options of an action outside the table (a
+ * call that takes options as an action does: the library's
+ * ohm_scene_estimate), checked as the chain's parser checks them, into
+ * *inv (where: "argument N" as on the command line); free it with
+ * ohm_invocation_free.  The ohm_opt_* calls read it. */
+int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, const char *const *argv, ohm_error *err);
+void ohm_invocation_free(ohm_invocation *inv);
 
 /* Parse a pipeline file (or a buffer, for tests and fuzzing). */
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
