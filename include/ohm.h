@@ -67,9 +67,13 @@
  *     ohm_scene_free(scene);
  *     ohm_context_free(ctx);
  *
- * Relighting: ohm_scene_solve keeps the factor; ohm_scene_clear_lights,
- * ohm_scene_add_light and ohm_scene_relight then solve new lights with two
- * triangular solves each, never factoring again.
+ * Relighting: ohm_scene_solve keeps its solver's setup; ohm_scene_clear_lights,
+ * ohm_scene_add_light and ohm_scene_relight then solve new lights without
+ * setting up again: with solver=direct, two triangular solves each, never
+ * factoring again.  The default, solver=auto, solves the first light by
+ * multigrid and chooses for the relights once it has timed one (the
+ * statistics' solver and solver_reason say what it took and why);
+ * ohm_scene_estimate predicts that choice and the memory before any solve.
  *
  * Linking: pkg-config --cflags --libs ohm, or CMake's find_package(ohm)
  * and target ohm::ohm. */
@@ -83,7 +87,7 @@
 
 /* The version of this header; ohm_version() gives the library's. */
 #define OHM_VERSION_MAJOR 1
-#define OHM_VERSION_MINOR 1
+#define OHM_VERSION_MINOR 2
 #define OHM_VERSION_PATCH 0
 
 #if defined(__GNUC__) || defined(__clang__)
@@ -220,9 +224,9 @@ OHM_API int ohm_scene_add_light(ohm_scene *scene, const char *const *options);
 /* Remove every light (the setup of the last solve stays, for relighting). */
 OHM_API int ohm_scene_clear_lights(ohm_scene *scene);
 
-/* Solve the scene's lights: options as for the "solve" action; unless
- * options say keep=0, the factor (or preconditioner) of every channel
- * material is kept for ohm_scene_relight. */
+/* Solve the scene's lights: options as for the "solve" action (solver=auto
+ * unless told); unless options say keep=0, the factor (or preconditioner,
+ * or hierarchy) of every channel material is kept for ohm_scene_relight. */
 OHM_API int ohm_scene_solve(ohm_scene *scene, const char *const *options);
 
 /* Solve the scene's current lights again with the setup of the last
