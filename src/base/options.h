@@ -1,6 +1,6 @@
-/* options.h — key=value options described as data: a table of ohm_opt_spec
- * (name, type, default, range, help) checks every value where the words
- * come in, for the pipeline's actions (steps/pipeline.h, which adds the
+/* options.h — key=value options checked against their declarations
+ * (base/opt_spec.h: name, type, default, range, help) where the words come
+ * in, for the pipeline's actions (steps/pipeline.h, which adds the
  * chain around them) and for the commands with options of their own
  * (`ohm bench`, `ohm accuracy`: studies/), so that one parser reads them
  * all and the help and the checks cannot drift apart. */
@@ -10,27 +10,7 @@
 #include <stddef.h>
 
 #include "base/ohm_error.h"
-
-typedef enum ohm_opt_type {
-    OHM_OPT_INT,    /* integer in [min, max]                                */
-    OHM_OPT_REAL,   /* finite real in [min, max]                            */
-    OHM_OPT_STRING, /* any text (file names)                                */
-    OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
-    OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
-    OHM_OPT_REAL13, /* one finite real (grey) or three (r,g,b), each in [min, max] */
-    OHM_OPT_DEVICE  /* host, auto, gpu, cpu or opencl:N: checked by its users
-                       against device/request.h (a later stage than base) */
-} ohm_opt_type;
-
-typedef struct ohm_opt_spec {
-    const char *name;
-    ohm_opt_type type;
-    const char *def;      /* default as text, NULL = none                   */
-    const char *doc;
-    const char *choices;  /* ENUM: "mm|cm|m|in"                             */
-    double min, max;      /* INT, REAL: inclusive range (min == max: none)  */
-    int required;
-} ohm_opt_spec;
+#include "base/opt_spec.h"
 
 enum { OHM_MAX_OPTS = 24 };
 
