@@ -217,8 +217,10 @@ OHM_API int ohm_scene_set_density(ohm_scene *scene, const float *values, const i
                                   const double index_to_world[12], const char *name);
 
 /* Add one light: options as for the "light" action (type=directional |
- * point | spot | area | pencil, and its position, direction, power, colour,
- * orbit=). */
+ * point | spot | area | pencil | environment, and its position, direction,
+ * power, colour, orbit=; an environment's sky=FILE, an equirectangular
+ * .hdr or .exr; docs/lights.md).  A new kind of light is a new type= word
+ * here, not a new function: the ABI stays as it is. */
 OHM_API int ohm_scene_add_light(ohm_scene *scene, const char *const *options);
 
 /* Remove every light (the setup of the last solve stays, for relighting). */

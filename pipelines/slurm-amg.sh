@@ -15,6 +15,6 @@ pipeline=${1:?usage: sbatch pipelines/slurm-amg.sh PIPELINE.ohm}
 # one OpenBLAS thread per rank: the ranks are the parallelism
 export OPENBLAS_NUM_THREADS=1 OMP_NUM_THREADS=1
 # Where fresh 4 KiB pages are slow to fault (virtual nodes), 2 MiB pages for the
-# whole process can halve a large run; measure once (README, "Page faults"):
+# whole process can halve a large run; measure once (docs/solvers.md, "Page faults"):
 # export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
 srun --mpi=pmix ohm run "$pipeline"

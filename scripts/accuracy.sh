@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The speed/accuracy study (issue 7): `ohm accuracy` on spot at 50 mm for
+# The speed/accuracy study (docs/accuracy.md): `ohm accuracy` on spot at 50 mm for
 # marble, skin1 and ketchup (dims 16..128, both solvers, reference 192 with CG,
 # depth bands at 128, the half-space against its exact solution), then a
 # log-log plot of error against time with gnuplot.

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# addon-window.sh — the Blender add-on in a real window under Xvfb (issue 36):
+# addon-window.sh — the Blender add-on in a real window under Xvfb (docs/blender.md):
 # a Solve's main-thread gaps, Blender's own redraw time, a cancel inside the
 # factorization, and Live relight's rate with and without a 3D view.  Prints
 # the figures docs/blender.md quotes ("The add-on in a real window").  Needs

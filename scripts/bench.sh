@@ -92,7 +92,7 @@ print("| target | " + " | ".join(n for _, n in meshes) + " |")
 print("|---|" + "---:|" * len(meshes))
 line = lambda label, fn: print(f"| {label} | " + " | ".join(fn(at(k, "64x64x32")) for k, _ in meshes) + " |")
 ok = lambda good: "" if good else " (missed)"
-# issue 15's targets; the paper's Al rows with times above its 1 ms resolution
+# the targets of docs/performance.md; the paper's Al rows with times above its 1 ms resolution
 paper = {"32x32x16": (1.593, 0.046), "64x64x32": (25.438, 0.453)}
 line("64x64x32: analyse + factorize <= 0.25 s, one channel",
      lambda r: f"{f(r, 't_factor_one_channel_s'):.3f} s" + ok(f(r, "t_factor_one_channel_s") <= 0.25))

@@ -6,7 +6,7 @@ p > 0.31), so light must find its way through a maze of conductances 1e6
 apart (with blocks.transfer: sigma_s' 1 or 1e6 /mm).  (A checkerboard of
 such blocks is no test: its diffusive blocks touch only at edges, isolated
 pieces that CG solves in 25 iterations, docs/scale.md.)  One corner voxel is
-0: a scan's background is its lowest value (issue 16), and with 0 there the
+0: a scan's background is its lowest value (docs/scans.md), and with 0 there the
 grid's margin is outside and the object is the N^3 blocks (without it, a
 4-cell shell of the diffusive phase: (N+8)^3 cells).
 

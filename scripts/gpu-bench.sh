@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# gpu-bench.sh — ohm on this machine's OpenCL devices (issue 37): `ohm
+# gpu-bench.sh — ohm on this machine's OpenCL devices (docs/devices.md): `ohm
 # devices` (each device's memory, precision and checked triad), then
 # solver=mg on the chosen device against the host's cores on the scale
 # study's block medium (tests/bench_device.c: one light to 1e-10, the
@@ -57,7 +57,7 @@ mc_rows=$("$BUILD/tests/bench_device" "$DEVICE" mc "$photons" "${HOST_PHOTONS:-1
     echo
     echo "This machine has no GPU: the device here is the CPU through PoCL, which runs the same kernels and"
     echo "shows they agree with the host, not how fast a GPU is. The GPU figures wait for a machine with one"
-    echo "(issue 37); none are estimated here."
+    echo "to be measured; none are estimated here."
   fi
   echo
   cat <<'DESIGN'

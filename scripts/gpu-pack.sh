@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# gpu-pack.sh — the benchmark that travels (issue 37, DESIGN.md §8): a folder
+# gpu-pack.sh — the benchmark that travels (docs/devices.md): a folder
 # to copy to a GPU machine that has the vendor's OpenCL library but none of
 # ohm's packages, and perhaps no ICD loader or vendors folder.  It holds
 #   ohm-gpu-bench   tests/bench_device.c built on libc and libm alone

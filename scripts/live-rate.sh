@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# live-rate.sh — the Blender add-on's live relight rate (issue 14): Spot
+# live-rate.sh — the Blender add-on's live relight rate (docs/live.md): Spot
 # (50 mm) in marble with a shadowed point light, at grid sizes around 3·10⁴
 # and 3·10⁵ cells, each update timed whole (shadow rays and sources, solve,
 # per-vertex exitance, attribute write) in a headless Blender through the
@@ -48,7 +48,7 @@ depsgraph evaluated before and after it, as the add-on does).  Times in ms per"
   echo "|---|---|---|---|---|---|---|---|---|---|"
   printf "%s" "$rows"
   echo
-  echo "Targets (issue 14): ≥ 30 updates/s at 3·10⁴ cells, ≥ 5 at 3·10⁵.  The factorizations column"
+  echo "Targets: ≥ 30 updates/s at 3·10⁴ cells, ≥ 5 at 3·10⁵.  The factorizations column"
   echo "is the count after every move: the first solve's, never more."
   echo
   echo "![the add-on's colour attribute in Blender's viewport shading](blender-live.png)"

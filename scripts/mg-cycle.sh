@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The multigrid cycle against this machine's memory bandwidth (issue 35,
-# item 3): tests/bench_mg.c times one application of solver=mg's
+# The multigrid cycle against this machine's memory bandwidth
+# (docs/multigrid.md): tests/bench_mg.c times one application of solver=mg's
 # preconditioner on the scale study's block medium, counts the bytes it
 # streams kernel by kernel, and measures STREAM's triad in the same process
 # just before and after.  Prints a Markdown table (docs/multigrid.md holds a

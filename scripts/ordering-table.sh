@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # The fill-reducing orderings compared on every sample mesh and on the two
-# scans (issue 15, item 1): for each object and ordering, nnz(L), the
+# scans (docs/ordering.md): for each object and ordering, nnz(L), the
 # factorization's flops, the analysis time (ordering + CHOLMOD's symbolic
 # analysis) and one channel's numeric factorization time.  Writes
 # docs/ordering.md (a Markdown table and the machine it ran on).
@@ -31,7 +31,7 @@ objects=(
   echo "factorization, what a run with one light pays before its solves.  Times vary by ±20% on this VM."
   echo
   echo "How to read it: \"of METIS's\" is the fill and the flops against METIS's for the same matrix; the"
-  echo "target of issue 15 is grid within 1.10 of METIS's fill with analyse / factor at most 0.20.  -solve's"
+  echo "target is grid within 1.10 of METIS's fill with analyse / factor at most 0.20.  -solve's"
   echo "ordering=auto (the default; its row names what it chose) analyses with grid, then with METIS too only when"
   echo "the cost model in src/solvers/direct.c predicts that METIS's smaller factor saves twice its analysis time"
   echo "over the factorizations and solves to come; else it keeps grid."

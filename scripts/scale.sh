@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The scale study of issue 12 (docs/scale.md): time per light, setup time,
+# The scale study (docs/scale.md): time per light, setup time,
 # iterations and peak memory of solver=direct, cg, amg and mg from 1e5 to 1e7
 # cells, on a synthetic block medium with 1e6 contrasts in D (8^3-cell blocks,
 # sigma_s' = 1 or 1e6 /mm at random, sigma_a = 0.001 /mm: the hard case for

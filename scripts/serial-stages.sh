@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# The serial stages' cost per interior cell (issue 12, item 4): ns per cell
+# The serial stages' cost per interior cell (docs/serial-stages.md): ns per cell
 # and bytes per cell for everything ohm times outside the solver, printed as
 # Markdown tables (docs/serial-stages.md holds measured ones).  It reports; it
 # asserts nothing.

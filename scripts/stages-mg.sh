@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# ohm's serial stages beside solver=mg (issue 35, item 6): on the block
+# ohm's serial stages beside solver=mg (docs/serial-stages.md): on the block
 # medium of N^3 cells (scripts/block-medium.py; default N = 464, 1.0e8
 # cells), the chain is run as its prefixes — read; + voxelize; + material;
 # + light and solve; + write .vdb — and each prints the whole-process peak

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# The transport study (issue 13): ohm at default settings against its
-# Monte Carlo transport on the issue's scenes (`ohm validate transport`:
+# The transport study (docs/transport.md): ohm at default settings against its
+# Monte Carlo transport on the study's scenes (`ohm validate transport`:
 # slabs at eta 1.0 and 1.4, a 60 mm cube at 1.37, the cube with a sphere;
 # the MCX benchmark's medium), at h = 1 and 0.5 mm (the pencil beam's default:
 # the hybrid, its first 10 reduced scatterings traced), then at h = 1 mm

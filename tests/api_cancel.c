@@ -1,5 +1,5 @@
 /* api_cancel.c — progress and cancellation through the public API
- * (include/ohm.h, libohm.so only; issue 34):
+ * (include/ohm.h, libohm.so only; docs/c-api.md):
  *  - a factorization of 96 x 96 x 12 = 110 592 cells is stopped by ohm_context_cancel
  *    called from the progress callback, and again from a second thread: each
  *    call returns OHM_ERR_CANCELLED before the factorization could have
@@ -12,7 +12,7 @@
  * Built twice: api_cancel_host_lapack links LAPACK ahead of libohm, as
  * Blender does, so that the factorization is watched there only through
  * libohm's rebinding of CHOLMOD's calls (src/solvers/rebind.h).
- * The time from each request to the call's return is printed (the README
+ * The time from each request to the call's return is printed (docs/c-api.md
  * quotes it); the test asserts only that the call stopped early, with a
  * safety bound far above any machine's latency. */
 #include <pthread.h>

@@ -293,7 +293,7 @@ def main():
                 volume = a.grid["interior_cells"] * 0.5 ** 3
                 check(abs(volume - 12 * 16 * 8) <= 0.25 * 832, "object %.1f mm^3 against the 1536 mm^3 box" % volume)
             # a uniform array is its box (22 mm a side between its outermost
-            # voxel centres), never the grid's margin (issue 33)
+            # voxel centres), never the grid's margin (docs/scans.md)
             with ohm.Scene(ctx) as u:
                 u.set_density(np.full((n, n, n), 100.0, dtype=np.float32), [[2, 0, 0, 0], [0, 2, 0, 0], [0, 0, 2, 0]])
                 u.run("voxelize", threshold=50, voxel=1)

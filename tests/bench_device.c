@@ -1,5 +1,5 @@
 /* bench_device.c — ohm on an OpenCL device against the host's cores
- * (issue 37, item 5): the tables of studies/device_bench.h — solver=mg on
+ * (docs/gpu.md): the tables of studies/device_bench.h — solver=mg on
  * the scale study's block medium at each N^3, and with `mc` the Monte
  * Carlo tracer on MCX's cube60 (PHOTONS on the device, HOST_PHOTONS on the
  * host's cores).  Asserts nothing (the suite's tests check the answers:

@@ -1,5 +1,5 @@
 /* bench_mg.c — the multigrid cycle against the machine's memory bandwidth
- * (issue 35, item 3): one application of mg's preconditioner (the K-cycle,
+ * (docs/multigrid.md): one application of mg's preconditioner (the K-cycle,
  * ohm_mg_precondition) timed on the scale study's block medium, the bytes
  * it streams (ohm_mg_cycle_bytes, counted kernel by kernel), and STREAM's
  * triad measured in the same process just before and just after, so that

@@ -1,4 +1,4 @@
-/* bench_serial.c — the network's serial stages alone (issue 12, item 4):
+/* bench_serial.c — the network's serial stages alone (docs/serial-stages.md):
  * ohm_network_build_band and ohm_network_assemble timed in ns per interior
  * cell, and the bytes per cell the network and the assembled matrix hold.
  *

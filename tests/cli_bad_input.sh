@@ -50,7 +50,7 @@ printf 'OFF\n4 4 0\n0 0 0\n1 0 0\nnan 1 0\n0 0 1\n3 0 1 2\n3 0 1 3\n3 0 2 3\n3 1
 run_bad "NaN coordinate" "nan.off:5: .*nan" "$T/nan.off"
 
 mkdir "$T/dir.obj"
-# a folder is read as a stack of slices, whatever its name: one without
+# a folder is read as a stack of slices (docs/scans.md), whatever its name: one without
 # images says so (the chain is a volume's, with threshold=, so that the
 # chain's check lets the read run)
 expect_exit 1 "directory instead of a file" -- "$OHM" -read file="$T/dir.obj" -voxelize dim=8 threshold=1
@@ -73,7 +73,7 @@ if [ "$(id -u)" != 0 ]; then
   expect_error_line "read-only dir" "cannot write"
 fi
 
-# numbers at the edge of double (issue 17): a direction whose length
+# numbers at the edge of double (docs/bad-input.md): a direction whose length
 # overflows is still a direction (the light must not vanish), and a zero one
 # is refused naming the argument
 expect_exit 0 "dir 1e308,1e308,1e308" -- "$OHM" -read file=samples/cow.obj -voxelize dim=12 -material preset=marble \
@@ -125,7 +125,7 @@ check "threshold above the scan: the warning names the scan's range" \
   grep -q "walnut_64x48x57_uint16.raw.gz: no cell reaches threshold=1e+09 (the scan's values are 0 .. 16875)" "$T/stderr"
 check "threshold above the scan: no word about meshes" bash -c "! grep -q 'inside the mesh' '$T/stderr'"
 
-# all or nothing (issue 17): a chain that writes and then fails leaves every
+# all or nothing (docs/cli.md): a chain that writes and then fails leaves every
 # file it wrote as it was, and creates none
 expect_exit 1 "write, then a failing step" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
   -write file="$T/keep.vdb" -stats file="$T/fresh.json" -read file="$T/no-such.obj"

@@ -119,7 +119,7 @@ vdb.write(sys.argv[2], grids=[])
 PY
 run_case "vec3 .vdb" vdb "$T/vec3.vdb" 1 "vec3\.vdb"
 # a grid whose transform has a zero or NaN voxel size (the 0.37 mm scale's
-# doubles overwritten): OpenVDB's exception, named with the file (issue 17)
+# doubles overwritten): OpenVDB's exception, named with the file (docs/bad-input.md)
 $PY - "$T/zero-voxel.vdb" "$T/nan-voxel.vdb" <<'PY'
 import struct, sys, numpy, pyopenvdb as vdb
 g = vdb.FloatGrid(); g.name = "density"
@@ -137,7 +137,7 @@ run_case "NaN voxel size .vdb" vdb "$T/nan-voxel.vdb" 1 "nan-voxel\.vdb: OpenVDB
 # a data error (exit 1), refused by the .vdb checker before OpenVDB reads it
 run_case ".vdb with no grids" vdb "$T/nogrids.vdb" 1 "nogrids\.vdb: the file holds no grids"
 
-# bombs that are not gzip streams (issue 17): a .vdb with two voxels
+# bombs that are not gzip streams (docs/bad-input.md): a .vdb with two voxels
 # 1000 apart (its dense box, 10^9 voxels) and a PNG slice of 8192 x 8192
 # zeros; both refused by the readers' budget before anything is allocated
 mkdir -p "$T/stack-bomb"
@@ -154,7 +154,7 @@ BOMB_MB=$((SANITIZED ? 1200 : 400)) run_case ".vdb bomb: two voxels far apart" v
 BOMB_MB=$((SANITIZED ? 1200 : 400)) run_case "slice-folder bomb: one 8192^2 PNG of zeros" scan "$T/stack-bomb" 1 \
   "stack-bomb: .*decompression bomb"
 
-# slice folders (issue 17): an empty one, one whose slices differ in size, and
+# slice folders (docs/scans.md): an empty one, one whose slices differ in size, and
 # one with a slice that is not an image
 mkdir -p "$T/stack-empty" "$T/stack-sizes" "$T/stack-junk"
 $PY -c "

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# cli_devices.sh — `ohm devices` (issue 37): the machine's OpenCL devices
+# cli_devices.sh — `ohm devices` (docs/devices.md): the machine's OpenCL devices
 # listed, each with its kernel test passed (PoCL's CPU device in CI); no
 # runtime, and a runtime without a driver, each one error line and exit 1;
 # a stray argument exit 2.  Then -solve solver=mg device=: refusals (no

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Numerical stability at the extremes (issue 7, item 4): every row of the
+# Numerical stability at the extremes (docs/extremes.md): every row of the
 # table in docs/extremes.md is a scene driven through the real `ohm`, and this
 # script asserts what ohm does with it: it either solves (scaled backward
 # error < 1e-12, power in = absorbed + out to 1e-10, 0 <= out <= in, every

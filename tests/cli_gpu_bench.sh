@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# cli_gpu_bench.sh — ohm-gpu-bench, the benchmark that travels (issue 37):
+# cli_gpu_bench.sh — ohm-gpu-bench, the benchmark that travels (docs/devices.md):
 # it needs nothing at run time but libc and libm (libOpenCL.so.1 is loaded
 # when asked for), and scripts/gpu-pack.sh's folder runs it with its own
 # ICD loader and a vendors folder of its own (PoCL's .icd here), solving on

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# solver=direct | cg | auto: same physics, different cost (issue 7).
+# solver=direct | cg | auto: same physics, different cost (docs/solvers.md).
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
 

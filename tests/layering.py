@@ -26,7 +26,14 @@ ohm's own headers are included in quotes everywhere but examples/: an
 angle-bracket include that names one (<base/log.h>, <ohm_vdb.h>, <ohm.h>) is
 an offence in src/, wrappers/ and tests/.
 
-Prints each offending include as FILE:LINE and exits 1."""
+No circles between files, either: a file and its header are one node (a .c
+and the .h of its name), and an include is an edge from the including
+file's node to the header's; a node that reaches itself through others (A
+includes B.h, and B.c or B.h includes A.h; or a longer ring) is a cycle in
+the design, whatever the stages allow.  Each cycle is printed as its nodes
+in order.
+
+Prints each offending include as FILE:LINE and each cycle, and exits 1."""
 import os
 import re
 import sys
@@ -207,6 +214,94 @@ def example_rule(rel):
 
 for rel in files_under(root, "examples"):
     check(rel, example_rule(rel))
+
+# ---- src/: no cycles between files ---------------------------------------------------
+def node(rel):
+    """A file's node: its path in src/ without the extension (x.c and x.h are one)."""
+    return os.path.splitext(rel)[0]
+
+
+def include_graph():
+    """node -> the nodes its files include (quoted includes of src/ headers)."""
+    graph = {}
+    for stage in folders:
+        if stage not in STAGES:
+            continue
+        for name in sorted(os.listdir(os.path.join(src, stage))):
+            if not name.endswith((".c", ".h")):
+                continue
+            rel = "%s/%s" % (stage, name)
+            edges = graph.setdefault(node(rel), set())
+            for _, header, is_angled in includes(os.path.join("src", rel)):
+                if not is_angled and in_src(header) and node(header) != node(rel):
+                    edges.add(node(header))
+    return graph
+
+
+def cycles(graph):
+    """Each strongly connected component of more than one node (Tarjan), as
+    one ring through all of it found by walking its edges."""
+    index, low, stack, on, comps = {}, {}, [], set(), []
+
+    def visit(v):
+        index[v] = low[v] = len(index)
+        stack.append(v)
+        on.add(v)
+        for w in sorted(graph.get(v, ())):
+            if w not in index:
+                visit(w)
+                low[v] = min(low[v], low[w])
+            elif w in on:
+                low[v] = min(low[v], index[w])
+        if low[v] == index[v]:
+            comp = []
+            while True:
+                w = stack.pop()
+                on.discard(w)
+                comp.append(w)
+                if w == v:
+                    break
+            if len(comp) > 1:
+                comps.append(sorted(comp))
+
+    for v in sorted(graph):
+        if v not in index:
+            visit(v)
+    rings = []
+    for comp in comps:
+        members = set(comp)
+        start = comp[0]
+        # the shortest way back to start inside the component (breadth first)
+        prev, frontier, found = {start: None}, [start], None
+        while frontier and found is None:
+            nxt = []
+            for v in frontier:
+                for w in sorted(graph.get(v, ())):
+                    if w not in members:
+                        continue
+                    if w == start:
+                        found = v
+                        break
+                    if w not in prev:
+                        prev[w] = v
+                        nxt.append(w)
+                if found is not None:
+                    break
+            frontier = nxt
+        ring, v = [], found
+        while v is not None:
+            ring.append(v)
+            v = prev[v]
+        ring.reverse()
+        rings.append((ring, comp))
+    return rings
+
+
+sys.setrecursionlimit(10000)
+for ring, comp in cycles(include_graph()):
+    text = " -> ".join(ring + [ring[0]])
+    rest = sorted(set(comp) - set(ring))
+    bad.append("src/: a cycle of includes: %s%s" % (text, " (and through %s)" % ", ".join(rest) if rest else ""))
 
 for b in bad:
     print(b)

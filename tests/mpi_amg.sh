@@ -4,7 +4,7 @@
 # CT through its transfer function): every cell's fluence agrees to 1e-6
 # relative and power is conserved to the solver's tolerance; a rank that
 # fails or is killed ends the run with an error and leaves earlier outputs
-# as they were (issue 12).  MPI as root, oversubscribed, 2 ranks.
+# as they were (docs/solvers.md, "Large grids").  MPI as root, oversubscribed, 2 ranks.
 #   bash tests/mpi_amg.sh build/ohm        (or: ctest -R mpi_amg)
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"

@@ -1,4 +1,4 @@
-/* test_device.c — the OpenCL device layer (src/device/, issue 37) on the
+/* test_device.c — the OpenCL device layer (src/device/, docs/design.md §6) on the
  * machine's own devices: PoCL's CPU device in CI (pocl-opencl-icd, which
  * scripts/install-deps.sh installs), a GPU where there is one.
  *  - the runtime loads, lists at least one device, and a device with double

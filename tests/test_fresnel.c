@@ -37,7 +37,7 @@ static void test_no_interface(void)
     CHECK(fabs(ohm_boundary_A(1.0 - 1e-9, OHM_FRESNEL_EXACT) - 1.0) < 1e-6);
 }
 
-/* A = 2.76 at eta 1.37 and 2.34 at 1.3 (issue 13; Haskell et al. 1994,
+/* A = 2.76 at eta 1.37 and 2.34 at 1.3 (Haskell et al. 1994,
  * d'Eon 2012 tabulate the same moments), against 3.05 and 2.60 by the fit. */
 static void test_published(void)
 {

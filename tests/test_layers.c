@@ -1,4 +1,4 @@
-/* test_layers.c — physics acceptance test for inhomogeneous media (issue 6):
+/* test_layers.c — physics acceptance test for inhomogeneous media (docs/materials.md):
  * a two-layer slab whose materials come from a transfer function, solved by
  * ohm_solve, against an independent analytic 1-D two-layer diffusion solution.
  *

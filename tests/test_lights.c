@@ -8,7 +8,7 @@
  *    solve, and to a kept solver's relight (no factorization after its first);
  *  - the deposit below a face: its total is alpha' (1 - e^-tau), its mean depth
  *    mu / sigma_t' exactly on grids of 1/4 to 3/2 transport mean free paths and
- *    for oblique rays (issue 13: lumped at cell centres it was 8% too deep at
+ *    for oblique rays (lumped at cell centres it was 8% too deep at
  *    one), and mu is Snell's refracted cosine. */
 #include <math.h>
 #include <stdlib.h>

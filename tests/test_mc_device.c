@@ -1,5 +1,5 @@
 /* test_mc_device.c — the Monte Carlo tracer on an OpenCL device
- * (mc_device.h, issue 37), on PoCL's CPU device in CI, or the first device
+ * (mc_device.h, docs/devices.md), on PoCL's CPU device in CI, or the first device
  * with double precision:
  *  - its random numbers: Philox4x32-10 on the device gives Random123's
  *    known answers;

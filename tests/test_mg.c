@@ -19,6 +19,8 @@
 #include "blocks.h"
 #include "check.h"
 #include "physics/network.h"
+#include "physics/stencil.h"
+#include "solvers/backend.h"
 #include "solvers/cg.h"
 #include "solvers/direct.h"
 #include "solvers/grid_order.h"

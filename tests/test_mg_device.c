@@ -1,4 +1,4 @@
-/* test_mg_device.c — solver=mg on an OpenCL device (mg_device.h, issue 37)
+/* test_mg_device.c — solver=mg on an OpenCL device (mg_device.h, docs/devices.md)
  * against the same hierarchy on the host (mg.h), on PoCL's CPU device in
  * CI, or the first device with double precision:
  *  - the block medium (10^6 contrasts in blocks of 5^3, a 40^3 box, several

@@ -1,5 +1,5 @@
 /* test_mg_scenes.c — solver=mg through the whole -solve step, against
- * solver=direct on the same scenes (issue 35's acceptance): every cell's
+ * solver=direct on the same scenes (docs/multigrid.md): every cell's
  * fluence and every boundary face's exitance to 1e-6 of the largest, in
  * every channel and frame, and power conserved to 1e-10.  The scenes cover
  * what ohm solves: a mesh under each boundary mode, a CT scan through an RGB
@@ -7,8 +7,8 @@
  * index (interface resistances), a depth band, the paper's resistance mode,
  * an orbit of frames relit with keep=1 (warm-started: a relight with the
  * same light takes no iteration), and the hybrid's handed-off sources.
- * Then again with mg's solve on an OpenCL device (device=opencl:N, issue
- * 37): PoCL's CPU device in CI, or the first device with double precision;
+ * Then again with mg's solve on an OpenCL device (device=opencl:N,
+ * docs/devices.md): PoCL's CPU device in CI, or the first device with double precision;
  * without one that pass prints SKIP, unless CI=true or OHM_REQUIRE_OPENCL. */
 #include <math.h>
 #include <stdio.h>

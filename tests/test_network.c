@@ -1,5 +1,5 @@
 /* test_network.c — the assembled matrix, checked entry by entry against the
- * formulas of DESIGN.md §2 computed here, on a real voxelized mesh. */
+ * formulas of docs/design.md §3 computed here, on a real voxelized mesh. */
 #include <math.h>
 #include <stdlib.h>
 #include <string.h>
@@ -7,7 +7,7 @@
 #include "check.h"
 #include "physics/material.h"
 #include "physics/network.h"
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 #include "solvers/solve.h"
 
 static const ohm_log quiet = {.verbosity = 0};
@@ -284,7 +284,7 @@ static void pieces_by_runs(void)
     double sink[3] = {0}, diag[3] = {0}, expect_sink[3] = {0};
     run = 0;
     for (int64_t v = 0; v < net.n && st.sink; ++v) expect_sink[ohm_piece_runs_next(pr, &run, v)] += st.sink[v];
-    if (st.sink) ohm_stencil_piece_sums(&st, pr, sink, diag);
+    if (st.sink) ohm_stencil_piece_sums(&st, pr->start, pr->piece, pr->count, sink, diag);
     for (int p = 0; p < 3; ++p) {
         CHECK_REL(sink[p], expect_sink[p], 1e-14);
         CHECK(diag[p] > sink[p] && sink[p] > 0);

@@ -1,4 +1,4 @@
-/* test_scan_extent.c — a scan's object ends where the scan ends (issue 33;
+/* test_scan_extent.c — a scan's object ends where the scan ends (docs/scans.md;
  * the rule is in src/input/scan.h).  Every scene runs through the action
  * chain, as `ohm -read ... -voxelize threshold=...` runs it:
  *
@@ -12,7 +12,7 @@
  *    and outside the box the scan reads as the grid's background.
  *  - A scan cropped inside an object (no background anywhere) is its box,
  *    and a light from outside lights its whole top.
- *  - The two-layer slab of the issue: a .vdb of 120 x 120 x 48 voxels of
+ *  - The two-layer slab: a .vdb of 120 x 120 x 48 voxels of
  *    0.25 mm, density 1 in the top 3 mm and 2 below, background 0, through a
  *    transfer function, voxel=0.5, lit from above: the object has the data's
  *    volume within a voxel layer, and the exitance at the top's centre is

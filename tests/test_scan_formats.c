@@ -471,7 +471,7 @@ static const char *write_slices(const char *name, const char *ext)
     return dir;
 }
 
-/* A scan's object ends where the scan ends (issue 33, scan.h): a uniform
+/* A scan's object ends where the scan ends (docs/scans.md, scan.h): a uniform
  * volume in every format, axis-aligned at 0.5 mm, is exactly the cells of
  * 0.5 mm between its outermost voxel centres, (NX-1)(NY-1)(NZ-1), at any
  * threshold up to its value (the grid's margin used to fill with it too). */

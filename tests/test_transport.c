@@ -1,5 +1,5 @@
 /* test_transport.c — ohm at default settings against its Monte Carlo
- * transport (validate.h, ohm_validate_transport), on issue 13's scenes at a
+ * transport (validate.h, ohm_validate_transport), on the transport study's scenes at a
  * third of their size (a 24 mm cube, 2e5 photons: seconds; the full table is
  * scripts/transport.sh, docs/transport.md).  Every row must pass at h = 1 mm,
  * the reflectance against radius beyond 2 mm of the beam included: there

@@ -4,7 +4,7 @@ attribute, relit live from one factor, baked over an animation.
 
 Operators (bpy.ops.ohm.*): solve (in the background when invoked from the
 panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake.  The
-panel is Properties > Object > ohm.  See README.md, "For Blender users".
+panel is Properties > Object > ohm.  See docs/blender-addon.md.
 """
 bl_info = {
     "name": "ohm subsurface scattering",
@@ -48,6 +48,7 @@ def register():
     for cls in classes:
         bpy.utils.register_class(cls)
     bpy.types.Object.ohm = bpy.props.PointerProperty(type=settings.OhmSettings)
+    bpy.types.World.ohm_light = settings.world_light_property()
     bpy.app.handlers.load_pre.append(_on_load)
     bpy.app.handlers.depsgraph_update_post.append(_on_depsgraph)
 
@@ -58,5 +59,6 @@ def unregister():
             handlers.remove(fn)
     session.close_all()
     del bpy.types.Object.ohm
+    del bpy.types.World.ohm_light
     for cls in reversed(classes):
         bpy.utils.unregister_class(cls)

@@ -116,14 +116,59 @@ def light_options(obj, mm):
     return None
 
 
+def _world_background(world):
+    """The World's Background node feeding its output (None without nodes)."""
+    if not world.use_nodes or world.node_tree is None:
+        return None
+    for node in world.node_tree.nodes:
+        if node.type == "OUTPUT_WORLD" and node.is_active_output and node.inputs["Surface"].is_linked:
+            bg = node.inputs["Surface"].links[0].from_node
+            return bg if bg.type == "BACKGROUND" else None
+    return None
+
+
+def world_light(scene):
+    """The World as ohm's environment light, or None (World.ohm_light off,
+    or a black sky).  Its radiance is colour x strength in W/m^2/sr, as a
+    sun's strength is W/m^2 (1e-6 W/mm^2/sr); an Environment Texture's image
+    (Blender's equirectangular mapping, z up, which ohm's sky= shares)
+    becomes sky=, its pixels times the strength."""
+    world = scene.world
+    if world is None or not getattr(world, "ohm_light", False):
+        return None
+    bg = _world_background(world)
+    if bg is None:
+        colour, strength, image = np.array(world.color[:3], dtype=np.float64), 1.0, None
+    else:
+        colour_in = bg.inputs["Color"]
+        strength = float(bg.inputs["Strength"].default_value)
+        colour, image = np.array(colour_in.default_value[:3], dtype=np.float64), None
+        if colour_in.is_linked:
+            src = colour_in.links[0].from_node
+            if src.type == "TEX_ENVIRONMENT" and src.image is not None:
+                import bpy
+                image, colour = bpy.path.abspath(src.image.filepath_raw or src.image.filepath), np.ones(3)
+    radiance = colour * strength * 1e-6
+    if image is None and not radiance.any():
+        return None
+    opts = {"type": "environment", "intensity": _vec(radiance)}
+    if image:
+        opts["sky"] = image
+    return opts
+
+
 def scene_lights(scene, mm):
-    """Every visible light of the scene, as ohm options."""
+    """Every visible light of the scene, and the World when it lights the
+    object (world_light), as ohm options."""
     out = []
     for obj in scene.objects:
         if obj.type == "LIGHT" and not obj.hide_render:
             opts = light_options(obj, mm)
             if opts:
                 out.append(opts)
+    sky = world_light(scene)
+    if sky:
+        out.append(sky)
     return out
 
 
@@ -136,6 +181,9 @@ def lights_signature(scene):
             sig.append((obj.name, tuple(tuple(r) for r in obj.matrix_world), tuple(light.color), light.energy,
                         light.type, getattr(light, "spot_size", 0), getattr(light, "spot_blend", 0),
                         getattr(light, "size", 0), getattr(light, "size_y", 0)))
+    sky = world_light(scene)
+    if sky:
+        sig.append(("World", tuple(sorted((k, str(v)) for k, v in sky.items()))))
     return tuple(sig)
 
 

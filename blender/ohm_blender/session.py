@@ -157,7 +157,7 @@ class Session:
         mm = bridge.mm_per_unit(bscene)
         lights = bridge.scene_lights(bscene, mm)
         if not lights:
-            raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light")
+            raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light, and its World does not light it")
         local, tris = bridge.evaluated_mesh(obj, depsgraph)
         verts = bridge.world_mm(obj, local, mm)
         budget_mb, available_mb = bridge.memory_budget_mb(st.max_memory_fraction)
@@ -256,7 +256,7 @@ class Session:
         """A relight's inputs from Blender (main thread): the lights as they are now."""
         lights = bridge.scene_lights(bscene, bridge.mm_per_unit(bscene))
         if not lights:
-            raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light")
+            raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light, and its World does not light it")
         return {"lights": lights, "lights_signature": bridge.lights_signature(bscene)}
 
     def relight_compute(self, job):

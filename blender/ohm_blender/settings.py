@@ -78,3 +78,14 @@ class OhmSettings(bpy.types.PropertyGroup):
     make_volume: bpy.props.BoolProperty(name="Volume object", default=False,
                                         description="also write a .vdb and add it as an emitting volume")
     directory: bpy.props.StringProperty(name="Output", subtype="DIR_PATH", default="//ohm/")
+
+
+def world_light_property():
+    """World.ohm_light: whether the World lights the object as ohm's
+    environment light (its colour, or its Environment Texture's image; see
+    bridge.world_light).  Off by default: Blender's default World is a dim
+    grey that would add light to every scene made before."""
+    return bpy.props.BoolProperty(
+        name="World lights it", default=False,
+        description="the World's colour (or its Environment Texture image, .hdr or .exr) becomes ohm's environment "
+                    "light: each face lit by the sky it sees past the object itself")

@@ -46,6 +46,8 @@ class OHM_PT_object(bpy.types.Panel):
         if st.solver in ("mg", "auto"):
             col.prop(st, "device")
         col.prop(st, "shadows")
+        if context.scene.world is not None:
+            col.prop(context.scene.world, "ohm_light")
         col.prop(st, "max_memory_fraction")
         col.separator()
         col.prop(st, "exposure")

@@ -297,7 +297,9 @@ class Scene(_Handle):
         self._context._settle(rc)
 
     def add_light(self, **options):
-        """Add a light: add_light(type="point", pos=(0, 80, 0), intensity=1000)."""
+        """Add a light: add_light(type="point", pos=(0, 80, 0), intensity=1000), or the sky all
+        around: add_light(type="environment", intensity=1e-3) (radiance, W/mm^2/sr), with
+        sky="studio.hdr" an equirectangular image (docs/lights.md)."""
         array, _keep = _words(options)
         self._context._settle(_lib.ohm_scene_add_light(self._live(), array))
 

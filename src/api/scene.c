@@ -7,6 +7,7 @@
 #include <string.h>
 
 #include "steps/pipeline.h"
+#include "physics/light_kind.h"
 
 void ohm_api_sync_log(ohm_scene *scene)
 {
@@ -194,7 +195,7 @@ int ohm_scene_add_light(ohm_scene *scene, const char *const *options)
 int ohm_scene_clear_lights(ohm_scene *scene)
 {
     if (!scene) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_clear_lights: scene is NULL");
-    free(scene->state.lights);
+    ohm_lights_free(scene->state.lights, scene->state.nlights);
     scene->state.lights = NULL;
     scene->state.nlights = 0;
     scene->state.have_solution = 0;

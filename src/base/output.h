@@ -1,7 +1,7 @@
 /* output.h — every file ohm writes goes through here: it is written to a
  * temporary file in the same directory, flushed to disk, and renamed over the
  * target only when complete.  A failure (or a kill) at any moment leaves any
- * earlier file at that path intact (DESIGN.md §6). */
+ * earlier file at that path intact (docs/design.md §11). */
 #ifndef OHM_OUTPUT_H
 #define OHM_OUTPUT_H
 

@@ -1,5 +1,6 @@
 /* devices.h — the OpenCL devices this machine has, and the one a run asks
- * for: device=gpu|cpu|opencl:N|auto, read once into an ohm_device_request.
+ * for: device=gpu|cpu|opencl:N|auto (docs/devices.md), read once into an
+ * ohm_device_request.
  *
  * Devices are numbered across platforms in the order the runtime lists
  * them (opencl:0, opencl:1, ...), as `ohm devices` prints them.  A device

@@ -1,4 +1,4 @@
-/* opencl.h — the OpenCL runtime, loaded at run time (DESIGN.md §8): ohm
+/* opencl.h — the OpenCL runtime, loaded at run time (docs/design.md §6): ohm
  * builds without linking it and runs without it, and says clearly when a
  * device was asked for and there is none.
  *

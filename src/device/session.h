@@ -1,4 +1,4 @@
-/* session.h — one run's use of an OpenCL device (issue 37): the runtime
+/* session.h — one run's use of an OpenCL device (docs/design.md §6): the runtime
  * loaded, the device that device= names opened with a queue, and the
  * buffers and kernel launches of whoever runs there (mg_device.c,
  * mc_device.c), with their failures said once, in the run's terms.

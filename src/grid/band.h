@@ -1,7 +1,7 @@
 /* band.h — stage: model only the depth light reaches.
  *
  * Diffuse light entering a surface decays like e^(-sigma_tr z) with depth z
- * (DESIGN.md §2, §4), so cells deeper than k / sigma_tr below every surface
+ * (docs/design.md §3), so cells deeper than k / sigma_tr below every surface
  * carry ~e^-k of the fluence there and nothing that leaves the object.  The
  * depth band keeps only the interior cells within that depth as unknowns; the
  * faces between the band and the dropped core get a closure (network.c): the

@@ -1,8 +1,8 @@
 /* mesh.h — triangle meshes in, and what ohm needs to know about them.
  *
- * Stage 1 of the pipeline (DESIGN.md §1): read OBJ / PLY / STL / OFF into one
+ * Stage 1 of the pipeline (docs/design.md §2): read OBJ / PLY / STL / OFF into one
  * indexed triangle soup, polygons fan-triangulated.  The readers are small,
- * careful and our own (see README "Why our own mesh readers"): every error names
+ * careful and our own (docs/mesh-readers.md says why): every error names
  * the file and the line (text formats) or the element / byte offset (binary
  * formats), and no declared count is trusted before the bytes are there.
  *

@@ -1,5 +1,5 @@
 /* scan.h — density volumes in (CT, MRI, any scalar field): stage "scans" of
- * DESIGN.md §1.  One in-memory form for every reader: a dense float array,
+ * docs/design.md §2.  One in-memory form for every reader: a dense float array,
  * x fastest, and the affine map from voxel index (voxel centres) to world mm.
  *
  * Readers: .vdb (a float grid, grid= picks it; default "density"), NIfTI-1/2
@@ -30,38 +30,7 @@
 
 #include "base/log.h"
 #include "base/ohm_error.h"
-
-typedef struct ohm_scan {
-    int32_t dims[3];              /* voxels per axis                                   */
-    float *values;                /* dims[0]*dims[1]*dims[2], x fastest, scaled values */
-    double index_to_world[3][4];  /* world mm = M (i, j, k, 1)^T, at voxel centres     */
-    double min, max;              /* range of values                                   */
-    double background;            /* the value outside the box: a .vdb's background
-                                     value, else the lowest value (see below)          */
-    char detail[192];             /* what the reader chose, for the log ("" if nothing) */
-} ohm_scan;
-
-typedef struct ohm_scan_params {
-    const char *grid;             /* .vdb: grid name (NULL: "density")                 */
-    int32_t dims[3];              /* raw: required                                      */
-    const char *type;             /* raw: u8 | u16 | i16 | f32                          */
-    const char *endian;           /* raw: little | big (NULL: little)                   */
-    double spacing[3];            /* raw, stacks: voxel size mm (0: 1 mm)               */
-    const char *series;           /* DICOM: SeriesInstanceUID (NULL: the only one)      */
-    double max_expansion;         /* voxels per byte of file a large scan may have
-                                     (0: OHM_SCAN_MAX_EXPANSION; see scan_io.h)         */
-    const ohm_log *log;           /* slice stacks: progress per slice, and the run's
-                                     cancellation (NULL: neither)                       */
-} ohm_scan_params;
-
-/* A scan needing more than OHM_SCAN_BOMB_FLOOR bytes to read may hold at
- * most this many voxels per byte of its files.  Scans hold 0.5-2 (the
- * walnut's raw.gz, Colin27's nii.gz, the skull's inr.gz); label masks more:
- * a 512^3 sphere's 165, a 1024^3 one's 377, the bundled liver's 254;
- * deflate's ceiling, and so a gzip bomb's, is 1032. */
-#define OHM_SCAN_MAX_EXPANSION 500
-#define OHM_SCAN_MAX_EXPANSION_TEXT "500" /* the same, for option defaults */
-#define OHM_SCAN_BOMB_FLOOR (256.0 * 1048576.0)
+#include "input/scan_volume.h"
 
 int ohm_scan_read(ohm_scan *out, const char *path, const ohm_scan_params *p, ohm_error *err);
 

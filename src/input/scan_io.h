@@ -15,7 +15,7 @@
 #include <stdint.h>
 
 #include "base/ohm_error.h"
-#include "input/scan.h"
+#include "input/scan_volume.h"
 
 /* Largest volume ohm allocates (voxels). */
 #define OHM_SCAN_MAX_VOXELS ((uint64_t)1 << 31)

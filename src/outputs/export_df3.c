@@ -9,6 +9,7 @@
 #include <strings.h>
 
 #include "base/vec3.h"
+#include "physics/light_kind.h"
 
 static const char *const channel_suffix[3] = {"_r", "_g", "_b"};
 
@@ -124,6 +125,10 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     }
     fprintf(f, "  }\n  scale <%.9g, %.9g, %.9g>\n  translate <%.9g, %.9g, %.9g>\n  scale <1, 1, -1>\n}\n",
             size[0], size[1], size[2], lo[0], lo[1], lo[2]);
+    fputs("\n// The lights of the frame, as each kind writes itself (the media above only emit: these\n"
+          "// light what you add to the scene).  Colours are in ohm's units, as each line says.\n", f);
+    for (size_t i = 0; i < p->nlights; ++i)
+        if (p->lights[i].frame == 0 || p->lights[i].frame == p->frame + 1) ohm_light_pov(f, &p->lights[i]);
     if (ferror(f)) {
         ohm_output_abort(&out);
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s'", path);

@@ -1,5 +1,5 @@
 /* export_df3.h — the solved volume as POV-Ray density files plus a scene that
- * renders them (issue 5, -export df3=).
+ * renders them (-export df3=, docs/outputs.md).
  *
  * BASE_r.df3, BASE_g.df3, BASE_b.df3 (BASE.df3 for grey): a header of three
  * big-endian uint16 sizes, then big-endian uint16 samples, x fastest.  The
@@ -25,6 +25,8 @@ typedef struct ohm_df3_params {
     int frame;                 /* 0-based                                        */
     int exitance;              /* 0: fluence, 1: exitance                         */
     double toward_light[3];    /* from the object towards the light (for the camera); 0: +y */
+    const ohm_light *lights;   /* the lights, written into the scene by their kinds     */
+    size_t nlights;            /* (physics/light_kind.h); those of other frames skipped */
 } ohm_df3_params;
 
 typedef struct ohm_df3_report {

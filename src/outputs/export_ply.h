@@ -1,5 +1,5 @@
 /* export_ply.h — the input mesh with the solved exitance at each vertex, as a
- * binary little-endian PLY (issue 5, -export ply=).
+ * binary little-endian PLY (-export ply=, docs/outputs.md).
  *
  * Each vertex gets the inverse-distance-weighted mean of the exitance of the
  * boundary cells (cells with at least one boundary face) whose centres lie

@@ -1,4 +1,4 @@
-/* export_vdb.h — write the voxel object as OpenVDB grids (DESIGN.md §5, §7).
+/* export_vdb.h — write the voxel object as OpenVDB grids (docs/outputs.md).
  *
  *   surface  level set: narrow-band signed distance (mm), negative inside
  *   density  fog volume: 1 in every interior cell (Blender's Principled Volume

@@ -1,6 +1,8 @@
 /* fresnel.c — Fresnel reflectance and the boundary constant A (fresnel.h). */
 #include "physics/fresnel.h"
 
+#include "physics/fresnel_inside.h"
+
 #include <math.h>
 
 double ohm_fresnel_reflectance(double eta, double cos_i)
@@ -15,21 +17,9 @@ double ohm_fresnel_reflectance(double eta, double cos_i)
     return 0.5 * (rs * rs + rp * rp);
 }
 
-/* The same from inside, with the transmitted cosine given (cos_t > 0). */
-static double inside_given_cos_t(double eta, double mu, double cos_t)
-{
-    double rs = (eta * mu - cos_t) / (eta * mu + cos_t);
-    double rp = (mu - eta * cos_t) / (mu + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
-}
-
 double ohm_fresnel_reflectance_inside(double eta, double mu)
 {
-    if (mu > 1.0) mu = 1.0;
-    if (mu <= 0.0) return 1.0;
-    double sin_t2 = eta * eta * (1.0 - mu * mu); /* Snell: sin_t = eta sin_i */
-    if (sin_t2 >= 1.0) return 1.0;               /* total internal reflection */
-    return inside_given_cos_t(eta, mu, sqrt(1.0 - sin_t2));
+    return ohm_fresnel_inside(eta, mu);
 }
 
 /* 8-point Gauss-Legendre on [-1, 1] (Abramowitz & Stegun, Table 25.4). */
@@ -53,11 +43,11 @@ static void integrate(double eta, int tir, double *c1, double *c2)
                 double t = s;
                 mu = sqrt(1.0 - (1.0 - t * t) / (eta * eta));
                 weight = t / (eta * eta * mu); /* dmu/dt */
-                R = t > 0.0 ? inside_given_cos_t(eta, mu, t) : 1.0;
+                R = t > 0.0 ? ohm_fresnel_inside_given_cos_t(eta, mu, t) : 1.0;
             } else {
                 mu = s;
                 weight = 1.0;
-                R = ohm_fresnel_reflectance_inside(eta, mu);
+                R = ohm_fresnel_inside(eta, mu);
             }
             s1 += w * weight * R * mu;
             s2 += w * weight * R * mu * mu;

@@ -2,7 +2,7 @@
  * eta (inside) and index 1 (outside): Fresnel reflectance, its angular
  * moments, and the diffusion boundary constant A built from them.
  *
- * The Robin condition phi = 2 A D dphi/dn (DESIGN.md §2) needs A.  Transport
+ * The Robin condition phi = 2 A D dphi/dn (docs/design.md §3) needs A.  Transport
  * gives it from the Fresnel moments C_n = int_0^{pi/2} R(theta) sin(theta)
  * cos^n(theta) dtheta of the reflectance R for light inside the medium:
  *     A = (1 + 3 C_2) / (1 - 2 C_1)
@@ -10,7 +10,7 @@
  * older A = (1 + F_dr)/(1 - F_dr) with F_dr from the polynomial fit of Egan &
  * Hilgeman (1979; Jensen et al. 2001, Eq. 16) is kept as an option: at
  * eta = 1.37 it gives 3.05 where the moments give 2.76, ~5% of the fluence
- * against Monte Carlo transport (issue 13). */
+ * against Monte Carlo transport (docs/transport.md). */
 #ifndef OHM_FRESNEL_H
 #define OHM_FRESNEL_H
 
@@ -42,7 +42,7 @@ static inline double ohm_boundary_A_of_moments(double c1, double c2) { return (1
 /* The boundary constant A for eta by the chosen formula (above). */
 double ohm_boundary_A(double eta, ohm_fresnel how);
 
-/* An interface between two media inside the object (issue 13, item 4): the
+/* An interface between two media inside the object (docs/transport.md): the
  * moments C_1, C_2 of light in a medium of index eta_here meeting one of
  * index eta_there depend on m = eta_here / eta_there only, and a per-cell
  * index gives every face its own m.  The quadrature above costs ~5 us, so a

@@ -1,5 +1,7 @@
 #include "physics/light.h"
 
+#include "physics/light_kind.h"
+
 #include "base/parallel.h"
 
 #include <math.h>
@@ -125,7 +127,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
     /* exponential: optical depth accumulated cell by cell; each cell's share
      * alpha' P (e^-tau0 - e^-tau1) is split between it and the cell above so
      * that its centroid, not its cell's centre, is where it acts: the depth
-     * distribution's first moment is then exact on any grid (issue 13: lumped
+     * distribution's first moment is then exact on any grid (lumped
      * at centres, the source sat 8% too deep at h = 1/sigma_t').  The first
      * cell has no cell above: its shallower part is extrapolated, a negative
      * share in the second cell (moment exact again), clamped so that no
@@ -142,7 +144,7 @@ double ohm_source_deposit_face(double *b, const ohm_network *net, int64_t f, dou
             /* 1 - e^-x, and the centroid of e^-sigma z over the cell from its
              * top, in cells: 1/x - e^-x / (1 - e^-x) (1/2 as x -> 0).  A
              * uniform column repeats x, so this runs once per face there: the
-             * live update paid three transcendental calls per cell (issue 15). */
+             * live update paid three transcendental calls per cell. */
             absorbed_last = -expm1(-x);
             centroid_last = x > 1e-6 ? 1.0 / x - (1.0 - absorbed_last) / absorbed_last : 0.5 - x / 12.0;
             x_last = x;
@@ -264,141 +266,82 @@ static int pencil_entry_face(const ohm_network *net, const double pos[3], const 
     }
 }
 
-/* An orthonormal basis (u, v) of the plane perpendicular to unit vector n. */
-static void plane_basis(const double n[3], double u[3], double v[3])
-{
-    double up[3] = {0, 1, 0};
-    if (fabs(n[1]) > 0.9) up[0] = 1, up[1] = 0;
-    u[0] = up[1] * n[2] - up[2] * n[1];
-    u[1] = up[2] * n[0] - up[0] * n[2];
-    u[2] = up[0] * n[1] - up[1] * n[0];
-    double len = sqrt(u[0] * u[0] + u[1] * u[1] + u[2] * u[2]);
-    for (int a = 0; a < 3; ++a) u[a] /= len;
-    v[0] = n[1] * u[2] - n[2] * u[1];
-    v[1] = n[2] * u[0] - n[0] * u[2];
-    v[2] = n[0] * u[1] - n[1] * u[0];
-}
-
-/* Sample points of an area light: a stratified k x k grid over the
- * rectangle (or over the disk's square, mapped concentrically so every
- * sample covers equal area: Shirley & Chiu 1997). */
-static int area_samples(const ohm_light *light, double (*pts)[3], int max)
-{
-    int k = (int)floor(sqrt((double)(light->samples > 0 ? light->samples : 64)));
-    if (k < 1) k = 1;
-    if (k * k > max) k = (int)floor(sqrt((double)max));
-    double u[3], v[3];
-    plane_basis(light->dir, u, v);
-    int n = 0;
-    for (int j = 0; j < k; ++j)
-        for (int i = 0; i < k; ++i) {
-            double a = 2.0 * (i + 0.5) / k - 1.0, b = 2.0 * (j + 0.5) / k - 1.0, x, y;
-            if (light->disk) {
-                double r, phi, R = 0.5 * light->width;
-                if (fabs(a) > fabs(b)) r = a, phi = (M_PI / 4) * (b / a);
-                else r = b, phi = (M_PI / 2) - (M_PI / 4) * (a / b);
-                x = R * r * cos(phi);
-                y = R * r * sin(phi);
-            } else {
-                x = 0.5 * light->width * a;
-                y = 0.5 * light->height * b;
-            }
-            for (int c = 0; c < 3; ++c) pts[n][c] = light->pos[c] + x * u[c] + y * v[c];
-            ++n;
-        }
-    return n;
-}
-
-/* Spot cone: 1 inside angle - falloff, 0 outside angle, smoothstep between. */
-static double spot_factor(const ohm_light *light, const double to_face[3])
-{
-    double c = to_face[0] * light->dir[0] + to_face[1] * light->dir[1] + to_face[2] * light->dir[2];
-    double outer = cos(light->angle * M_PI / 180.0), inner = cos((light->angle - light->falloff) * M_PI / 180.0);
-    if (c >= inner) return 1.0;
-    if (c <= outer) return 0.0;
-    double t = (c - outer) / (inner - outer);
-    return t * t * (3.0 - 2.0 * t);
-}
-
-enum { AREA_MAX_SAMPLES = 4096 };
-
-/* A light's emitters: one point for directional / point / spot / pencil,
- * stratified samples for an area light (each carrying scale_each of it). */
-typedef struct emitters {
-    double one_point[1][3];
-    double (*pts)[3];
-    int npts;
-    double scale_each;
-} emitters;
-
-static int emitters_init(emitters *em, const ohm_light *light, ohm_error *err)
-{
-    em->pts = em->one_point;
-    em->npts = 1;
-    em->scale_each = 1.0;
-    if (light->type == OHM_LIGHT_AREA) {
-        em->pts = malloc(AREA_MAX_SAMPLES * sizeof *em->pts);
-        if (!em->pts) return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for area samples");
-        em->npts = area_samples(light, em->pts, AREA_MAX_SAMPLES);
-        /* Lambertian, total power I: radiant intensity (I / pi) cos(theta) */
-        em->scale_each = 1.0 / (M_PI * em->npts);
-    } else {
-        memcpy(em->pts[0], light->pos, sizeof em->pts[0]);
-    }
-    return OHM_OK;
-}
-
-static void emitters_free(emitters *em)
-{
-    if (em->pts != em->one_point) free(em->pts);
-}
-
-/* The irradiance per unit intensity the light puts on boundary face f
- * (shadow rays included), and l_mean, the irradiance-weighted direction
- * towards the light (not normalised); 0 when the face is unlit. */
-static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light *light, const emitters *em,
-                              const ohm_occluder *occ, double l_mean[3])
-{
-    const ohm_voxel_grid *g = net->grid;
-    int d = net->face_dir[f];
-    double p[3];
-    face_centre(net, f, p);
+/* What a shadow ray from boundary face f needs (ohm_light_visibility's ctx). */
+typedef struct face_view {
+    const ohm_occluder *occ;
     int32_t cell[3];
-    ohm_voxel_coords(g, net->face_cell[f], cell);
-    double E = 0.0;
-    l_mean[0] = l_mean[1] = l_mean[2] = 0.0;
-    for (int k = 0; k < em->npts; ++k) {
-        double l[3], scale = 1.0, dist = INFINITY;
-        if (light->type == OHM_LIGHT_DIRECTIONAL) {
-            for (int a = 0; a < 3; ++a) l[a] = -light->dir[a];
-        } else {
-            double dist2 = 0;
-            for (int a = 0; a < 3; ++a) {
-                l[a] = em->pts[k][a] - p[a];
-                dist2 += l[a] * l[a];
-            }
-            if (!(dist2 > 0)) continue;
-            dist = sqrt(dist2);
-            for (int a = 0; a < 3; ++a) l[a] /= dist;
-            scale = 1.0 / dist2;
-        }
-        double cos_face = l[0] * ohm_face_offset[d][0] + l[1] * ohm_face_offset[d][1] + l[2] * ohm_face_offset[d][2];
-        if (cos_face <= 0) continue; /* faces turned away: skipped, no ray */
-        double emit = 1.0;
-        if (light->type == OHM_LIGHT_SPOT) {
-            double to_face[3] = {-l[0], -l[1], -l[2]};
-            emit = spot_factor(light, to_face);
-        } else if (light->type == OHM_LIGHT_AREA) {
-            emit = -(l[0] * light->dir[0] + l[1] * light->dir[1] + l[2] * light->dir[2]) * em->scale_each;
-        }
-        if (emit <= 0) continue;
-        double vis = ohm_face_visibility(occ, cell, d, l, dist);
-        if (vis <= 0) continue;
-        double e = emit * cos_face * scale * vis;
-        E += e;
-        for (int a = 0; a < 3; ++a) l_mean[a] += e * l[a];
+    int d;
+} face_view;
+
+static double face_visibility(const void *ctx, const double l[3], double dist)
+{
+    const face_view *fv = ctx;
+    return ohm_face_visibility(fv->occ, fv->cell, fv->d, l, dist);
+}
+
+/* 1 - Fresnel reflectance for light travelling along unit direction
+ * `travel` onto a surface of smooth outward normal ns, into index eta; *mu:
+ * the refracted ray's cosine to the inward normal, the rate at which it
+ * gains depth (Snell: sin_t = sin_i / eta). */
+static double fresnel_transmittance(const double ns[3], const double travel[3], double eta, double *mu)
+{
+    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
+    if (cos_i < 0) cos_i = 0;
+    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
+    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+}
+
+/* ohm_light_transmittance at a face: its smooth normal (Fresnel at a voxel
+ * face's own normal would make a sphere's shading a staircase) and index. */
+typedef struct face_surface {
+    double ns[3], eta;
+} face_surface;
+
+static double face_ray_transmittance(const void *ctx, const double l[3], double *mu)
+{
+    const face_surface *fs = ctx;
+    double travel[3] = {-l[0], -l[1], -l[2]};
+    return fresnel_transmittance(fs->ns, travel, fs->eta, mu);
+}
+
+/* The unit direction light travels, against l_mean (towards the light). */
+static void unit_travel(const double l_mean[3], double travel[3])
+{
+    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
+    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
+}
+
+/* What the light puts on boundary face f (shadow rays included), from the
+ * face's centre along its own outward normal (the voxel faces' normals make
+ * the captured power exactly the irradiance times the projected area), per
+ * channel: E arriving, T_E entering (Fresnel into index eta, at the smooth
+ * normal: ray by ray, or at the irradiance-weighted direction, as the kind
+ * says) and T_E_mu that times the refracted cosine; l_mean the
+ * irradiance-weighted direction towards the light (not normalised).
+ * Returns the channels' mean of E: 0 when unlit. */
+static double face_irradiance(const ohm_network *net, int64_t f, const ohm_light_setup *su, const ohm_occluder *occ,
+                              double eta, double E[3], double T_E[3], double T_E_mu[3], double l_mean[3])
+{
+    face_view fv = {occ, {0, 0, 0}, net->face_dir[f]};
+    ohm_voxel_coords(net->grid, net->face_cell[f], fv.cell);
+    double p[3], n[3] = {ohm_face_offset[fv.d][0], ohm_face_offset[fv.d][1], ohm_face_offset[fv.d][2]};
+    face_centre(net, f, p);
+    face_surface fs;
+    ohm_surface_normal(net, f, fs.ns);
+    fs.eta = eta;
+    if (su->kind->fresnel_per_ray)
+        return ohm_light_irradiance_entering(su, p, n, occ ? face_visibility : NULL, &fv, face_ray_transmittance,
+                                             &fs, E, T_E, T_E_mu, l_mean);
+    double mean = ohm_light_irradiance(su, p, n, occ ? face_visibility : NULL, &fv, E, l_mean);
+    if (!(mean > 0)) return mean;
+    double travel[3], mu;
+    unit_travel(l_mean, travel);
+    double T = fresnel_transmittance(fs.ns, travel, eta, &mu);
+    for (int c = 0; c < 3; ++c) {
+        T_E[c] = T * E[c];
+        T_E_mu[c] = T * E[c] * mu;
     }
-    return E;
+    return mean;
 }
 
 /* The index light enters through face f. */
@@ -414,19 +357,9 @@ static double face_transmittance(const ohm_network *net, int64_t f, const double
 {
     double ns[3];
     ohm_surface_normal(net, f, ns);
-    double cos_i = -(ns[0] * travel[0] + ns[1] * travel[1] + ns[2] * travel[2]);
-    if (cos_i < 0) cos_i = 0;
-    /* Snell: the refracted ray's cosine to the inward normal, the rate at
-     * which it gains depth (sin_t = sin_i / eta) */
-    *mu = sqrt(fmax(0.0, 1.0 - (1.0 - cos_i * cos_i) / (eta * eta)));
-    return 1.0 - ohm_fresnel_reflectance(eta, cos_i);
+    return fresnel_transmittance(ns, travel, eta, mu);
 }
 
-static void unit_travel(const double l_mean[3], double travel[3])
-{
-    double len = sqrt(l_mean[0] * l_mean[0] + l_mean[1] * l_mean[1] + l_mean[2] * l_mean[2]);
-    for (int a = 0; a < 3; ++a) travel[a] = -l_mean[a] / len;
-}
 
 /* What ohm_light_face_powers shares between threads: the faces in blocks
  * of FACE_POWERS_BLOCK, each block taken whole by one thread
@@ -438,10 +371,9 @@ static void unit_travel(const double l_mean[3], double travel[3])
 typedef struct face_powers_job {
     double *const *enter, *const *enter_mu;
     double *arrive; /* [block * channels + c] */
-    int channels;
+    int channels, first; /* channels first .. first + channels - 1 of the light's irradiance */
     const ohm_network *net;
-    const ohm_light *light;
-    const emitters *em;
+    const ohm_light_setup *su;
     double eta;
     const double *eta_v;
     const ohm_occluder *occ;
@@ -454,19 +386,15 @@ enum { FACE_POWERS_BLOCK = 64 };
 static void face_power(const face_powers_job *job, int64_t f, double *arrive)
 {
     const ohm_network *net = job->net;
-    const ohm_light *light = job->light;
     const double area = net->grid->h * net->grid->h;
-    double l_mean[3], travel[3];
-    double E = face_irradiance(net, f, light, job->em, job->occ, l_mean);
-    if (!(E > 0)) return;
-    /* Fresnel for the irradiance-weighted direction */
-    unit_travel(l_mean, travel);
-    double mu, T = face_transmittance(net, f, travel, face_eta(net, f, job->eta, job->eta_v), &mu);
+    double l_mean[3], E[3], T_E[3], T_E_mu[3];
+    double eta = face_eta(net, f, job->eta, job->eta_v);
+    if (!(face_irradiance(net, f, job->su, job->occ, eta, E, T_E, T_E_mu, l_mean) > 0)) return;
     for (int c = 0; c < job->channels; ++c) {
-        double I = light->intensity[light->channels == 1 ? 0 : c];
-        arrive[c] += I * E * area;
-        job->enter[c][f] += I * T * E * area;
-        if (job->enter_mu) job->enter_mu[c][f] += I * T * E * area * mu;
+        int k = job->first + c;
+        arrive[c] += E[k] * area;
+        job->enter[c][f] += T_E[k] * area;
+        if (job->enter_mu) job->enter_mu[c][f] += T_E_mu[k] * area;
     }
 }
 
@@ -481,32 +409,40 @@ static void face_powers_block(void *arg, int64_t block)
 /* Below this many boundary faces a second thread costs more than it saves. */
 enum { FACE_POWERS_THREAD_MIN = 2048 };
 
-int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *arrive, int channels,
-                          const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
-                          const ohm_occluder *occ, ohm_error *err)
+/* ohm_light_face_powers for channels first .. first + channels - 1. */
+static int face_powers(double *const *enter, double *const *enter_mu, double *arrive, int channels, int first,
+                       const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
+                       const ohm_occluder *occ, ohm_error *err)
 {
     int64_t nblocks = (net->nfaces + FACE_POWERS_BLOCK - 1) / FACE_POWERS_BLOCK;
     double *block_arrive = calloc((size_t)(nblocks ? nblocks : 1) * (size_t)channels, sizeof *block_arrive);
     if (!block_arrive)
         return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory for %lld faces", (long long)net->nfaces);
-    emitters em;
-    int rc = emitters_init(&em, light, err);
+    ohm_light_setup su;
+    int rc = ohm_light_setup_init(&su, light, 0, err);
     if (rc) {
         free(block_arrive);
         return rc;
     }
-    /* The shadow rays are most of a live update's source (issue 15): the
+    /* The shadow rays are most of a live update's source (docs/live.md): the
      * faces are shared between the machine's cores.  Same sums on any
      * number of threads: each face is computed whole by one, each block's
      * sums added in order. */
-    face_powers_job job = {enter, enter_mu, block_arrive, channels, net, light, &em, eta, eta_v, occ};
+    face_powers_job job = {enter, enter_mu, block_arrive, channels, first, net, &su, eta, eta_v, occ};
     int threads = net->nfaces >= FACE_POWERS_THREAD_MIN ? ohm_usable_cores() : 1;
     ohm_parallel_for(nblocks, threads, face_powers_block, &job);
     for (int64_t b = 0; b < nblocks; ++b)
         for (int c = 0; c < channels; ++c) arrive[c] += block_arrive[b * channels + c];
-    emitters_free(&em);
+    ohm_light_setup_free(&su);
     free(block_arrive);
     return OHM_OK;
+}
+
+int ohm_light_face_powers(double *const *enter, double *const *enter_mu, double *arrive, int channels,
+                          const ohm_network *net, const ohm_light *light, double eta, const double *eta_v,
+                          const ohm_occluder *occ, ohm_error *err)
+{
+    return face_powers(enter, enter_mu, arrive, channels, 0, net, light, eta, eta_v, occ, err);
 }
 
 /* Snell's law at the smooth normal of face f: the direction inside of light
@@ -562,7 +498,7 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
     const double area = net->grid->h * net->grid->h;
     ohm_light_entry e;
     memset(&e, 0, sizeof e);
-    if (light->type == OHM_LIGHT_PENCIL) {
+    if (ohm_light_at_a_point(light)) {
         int64_t f;
         int rc = pencil_entry_face(net, light->pos, light->dir, &f, err);
         if (rc || f < 0) return rc;
@@ -577,23 +513,24 @@ int ohm_light_entries_add(ohm_light_entries *list, const ohm_network *net, const
         }
         return push_entry(list, &e, err);
     }
-    emitters em;
-    int rc = emitters_init(&em, light, err);
+    ohm_light_setup su;
+    int rc = ohm_light_setup_init(&su, light, 0, err);
     for (int64_t f = 0; f < net->nfaces && !rc; ++f) {
-        double l_mean[3], travel[3];
-        double E = face_irradiance(net, f, light, &em, occ, l_mean);
-        if (!(E > 0)) continue;
+        double l_mean[3], travel[3], E[3], T_E[3], T_E_mu[3], ef = face_eta(net, f, eta, eta_v);
+        if (!(face_irradiance(net, f, &su, occ, ef, E, T_E, T_E_mu, l_mean) > 0)) continue;
+        /* one direction inside per face: the irradiance-weighted one's, and
+         * its cosine; the power entering is Fresnel's ray by ray */
         unit_travel(l_mean, travel);
-        double ef = face_eta(net, f, eta, eta_v), T = face_transmittance(net, f, travel, ef, &e.mu);
-        e.face = f;
         refract_in(net, f, travel, ef, e.dir);
+        face_transmittance(net, f, travel, ef, &e.mu);
+        e.face = f;
         for (int c = 0; c < channels; ++c) {
-            e.incident[c] = light->intensity[light->channels == 1 ? 0 : c] * E * area;
-            e.power[c] = T * e.incident[c];
+            e.incident[c] = E[c] * area;
+            e.power[c] = T_E[c] * area;
         }
         rc = push_entry(list, &e, err);
     }
-    emitters_free(&em);
+    ohm_light_setup_free(&su);
     return rc;
 }
 
@@ -619,7 +556,7 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
 {
     double I = light->intensity[light->channels == 1 ? 0 : c];
     double eta = med->resistance_mode ? 1.0 : med->eta;
-    if (light->type == OHM_LIGHT_PENCIL) {
+    if (ohm_light_at_a_point(light)) {
         int64_t f;
         int rc = pencil_entry_face(net, light->pos, light->dir, &f, err);
         if (rc || f < 0) return rc;
@@ -636,11 +573,8 @@ int ohm_source_add(double *b, ohm_source_power *pw, const ohm_network *net, cons
         free(enter_mu);
         return ohm_fail(err, OHM_ERR_NOMEM, "light: out of memory");
     }
-    /* one channel: pass the light's intensity for c through a copy */
-    ohm_light one = *light;
-    one.channels = 1;
-    one.intensity[0] = I;
-    int rc = ohm_light_face_powers(&enter, &enter_mu, &arrive, 1, net, &one, eta, med->eta_v, occ, err);
+    /* one channel: c of the light's irradiance */
+    int rc = face_powers(&enter, &enter_mu, &arrive, 1, c < 3 ? c : 2, net, light, eta, med->eta_v, occ, err);
     if (!rc) {
         pw->incident += arrive;
         for (int64_t f = 0; f < net->nfaces; ++f) pw->entered += enter[f];

@@ -1,4 +1,4 @@
-/* light.h — lights and the source vector b (DESIGN.md §2, "Sources").
+/* light.h — lights and the source vector b (docs/lights.md).
  *
  * A light puts irradiance E = I max(0, n.l) on every boundary face it sees
  * (n the face's outward normal; point lights also fall off as 1/d^2).  Using
@@ -9,8 +9,10 @@
  * profile alpha' (e^{-sigma_t' z0} - e^{-sigma_t' z1}) per cell it crosses,
  * each share acting at its centroid (deposit=exponential: light.c), all at depth 1/sigma_t' (deposit=point, the dipole's
  * assumption) or all in the first cell (deposit=surface, the paper's).
- * No shadow rays yet: every face facing the light is lit (issue 4 adds
- * visibility through ohm_source_build's face loop). */
+ * Shadow rays (shadow.h) decide which faces see the light.  What each kind
+ * of light is — its options, the directions it arrives from at a surface
+ * point, its preview and its POV-Ray text — is one entry of the table in
+ * light_kind.h. */
 #ifndef OHM_LIGHT_H
 #define OHM_LIGHT_H
 
@@ -24,8 +26,12 @@ typedef enum ohm_light_type {
     OHM_LIGHT_POINT = 1,       /* intensity: W/sr                                              */
     OHM_LIGHT_PENCIL = 2,      /* intensity: beam power (W), entering at one surface point     */
     OHM_LIGHT_SPOT = 3,        /* intensity: W/sr on the axis dir, inside the cone              */
-    OHM_LIGHT_AREA = 4         /* intensity: total power (W) of a one-sided Lambertian emitter  */
+    OHM_LIGHT_AREA = 4,        /* intensity: total power (W) of a one-sided Lambertian emitter  */
+    OHM_LIGHT_ENVIRONMENT = 5  /* intensity: sky radiance (W/mm^2/sr), times the sky image's pixels */
 } ohm_light_type;
+
+/* An environment light's equirectangular image (light_environment.c). */
+typedef struct ohm_sky_image ohm_sky_image;
 
 typedef struct ohm_light {
     ohm_light_type type;
@@ -37,9 +43,18 @@ typedef struct ohm_light {
     double angle, falloff;          /* spot: cone half-angle and soft edge inside it (deg)  */
     int disk;                       /* area: a disk of radius width/2, else a rectangle     */
     double width, height;           /* area: size (mm), centred on pos, facing dir          */
-    int samples;                    /* area: sample points (stratified); 0 means 64         */
+    int samples;                    /* area: sample points (stratified); 0 means 64;
+                                       environment: sky directions per face; 0 means 256    */
+    ohm_sky_image *sky;             /* environment: the sky image, NULL for a uniform sky;
+                                       owned by the light array (ohm_lights_free)           */
     char where[256];                /* how the user gave it ("argument 12"), for messages   */
 } ohm_light;
+
+/* The light's kind's name ("directional", ...; type= of -light), and
+ * whether it enters at one surface point (a pencil beam) rather than through
+ * the faces it lights: the table of kinds answers (light_kind.h). */
+const char *ohm_light_name(const ohm_light *l);
+int ohm_light_at_a_point(const ohm_light *l);
 
 typedef enum ohm_deposit {
     OHM_DEPOSIT_EXPONENTIAL = 0,

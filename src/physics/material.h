@@ -1,4 +1,4 @@
-/* material.h — optical coefficients per colour channel (DESIGN.md §2, §3).
+/* material.h — optical coefficients per colour channel (docs/design.md §3).
  *
  * A material is either optical — absorption sigma_a and reduced scattering
  * sigma_s' (1/mm) per channel, relative index of refraction eta — or, in the
@@ -48,7 +48,7 @@ int ohm_material_preset(ohm_material *out, const char *name, ohm_error *err);
 /* Validate: finite, sigma_a >= 0, sigma_s > 0, 1 <= eta <= 3, -1 < g < 1, resistances > 0. */
 int ohm_material_check(const ohm_material *m, ohm_error *err);
 
-/* Derived quantities (DESIGN.md §2). */
+/* Derived quantities (docs/design.md §3). */
 /* The boundary's Fresnel optics and A: fresnel.h. */
 
 /* For channel c: sigma_t' = sigma_a + sigma_s', D = 1/(3 sigma_t'),

@@ -1,6 +1,5 @@
 #include "physics/mc.h"
 
-#include "physics/fresnel.h"
 #include "physics/mc_device.h"
 #include "physics/mc_tally.h"
 #include "base/log.h"
@@ -16,13 +15,6 @@
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
 #endif
-
-/* Below this weight (of a photon's 1 at entry) a photon ends, depositing the
- * rest where it is (mc.h). */
-static const double W_MIN = 1e-6;
-/* A photon still alive after this many path segments (a medium that neither
- * absorbs nor lets light out, in practice) ends the same way, and is counted. */
-static const int64_t MAX_EVENTS = 100000000;
 
 /* ---- random numbers: xoshiro256+ (Blackman & Vigna 2018), seeded by splitmix64 */
 
@@ -64,12 +56,6 @@ static void rng_seed(rng *r, uint64_t seed, uint64_t batch)
     for (int i = 0; i < 4; ++i) r->s[i] = splitmix64(&x);
 }
 
-/* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
-static inline double rng_depth(rng *r)
-{
-    return -log(1.0 - rng_uniform(r));
-}
-
 /* ---- the scene, read by every thread ----------------------------------------- */
 
 typedef struct mc_scene {
@@ -77,9 +63,10 @@ typedef struct mc_scene {
     const ohm_channel_medium *med;
     const ohm_light_entry *entries;
     double *cdf;           /* nentries: cumulative entering power, last = 1 */
-    size_t nentries;
+    int64_t nentries;
+    int mirror_low[3], mirror_high[3]; /* the network's symmetry planes     */
     double g, ss_scale;    /* sigma_s = sigma_s' * ss_scale = sigma_s' / (1 - g); per cell
-                              with med->g_v (cell_g)                           */
+                              with med->g_v (mc_cell_g)                        */
     double eta;
     int64_t per_batch;     /* photons per batch                              */
     uint64_t seed;
@@ -92,17 +79,6 @@ typedef struct mc_scene {
     char what[64];         /* for the progress line                          */
 } mc_scene;
 
-/* Coefficients of unknown v in 1/voxel (lengths below are in voxels). */
-static inline void cell_coefficients(const mc_scene *sc, int64_t v, double *sa, double *ss)
-{
-    const ohm_channel_medium *m = sc->med;
-    double h = sc->net->grid->h;
-    ohm_medium_coefficients(m, v, sa, ss);
-    double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
-    *sa *= h;
-    *ss *= scale * h;
-}
-
 /* ---- one thread's tallies ------------------------------------------------------ */
 
 typedef struct mc_tally {
@@ -113,153 +89,94 @@ typedef struct mc_tally {
     int cancelled;      /* it stopped early: the run was cancelled */
 } mc_tally;
 
-/* Where photon starts: entry e's point, or uniformly over its face; in voxel
- * coordinates where cell i spans [i, i+1). */
-static void start_point(const mc_scene *sc, const ohm_light_entry *e, const int32_t c[3], rng *r, double p[3])
-{
-    const ohm_voxel_grid *g = sc->net->grid;
-    int d = sc->net->face_dir[e->face], axis = d / 2;
-    for (int a = 0; a < 3; ++a) {
-        double x = e->at_point ? (e->point[a] - g->origin[a]) / g->h + 0.5 : c[a] + rng_uniform(r);
-        /* on the face, and inside the cell's square on the other axes */
-        if (x < c[a]) x = c[a];
-        if (x > c[a] + 1.0) x = c[a] + 1.0;
-        p[a] = x;
-    }
-    p[axis] = c[axis] + (ohm_face_offset[d][axis] > 0 ? 1.0 : 0.0);
-}
+/* ---- one photon: the loop the device runs too (mc_loop.h) ------------------------ */
 
-static size_t pick_entry(const mc_scene *sc, double xi)
+/* What mc_loop.h asks of its includer: the scene read through the network
+ * and the medium, the tallies added into this thread's batch arrays and
+ * sums. */
+typedef rng mc_rng;
+typedef int64_t mc_index;
+typedef int64_t mc_long;
+#define MC_GLOBAL
+#define MC_UNIFORM(r) rng_uniform(r)
+#define MC_HANDOFF 1
+#define MC_ETA_VARIES(sc) ((sc)->med->eta_v != NULL)
+#define MC_TOTAL(to, name) ((to)->sums.name)
+typedef mc_tally mc_to;
+
+/* Entry e's unknown, cell, face direction, point in voxel coordinates and
+ * direction. */
+static inline void mc_entry(const mc_scene *sc, mc_long e, mc_index *v, int c[3], int *d, int *at_point,
+                            double at[3], double u[3])
 {
-    size_t lo = 0, hi = sc->nentries - 1;
-    while (lo < hi) {
-        size_t mid = lo + (hi - lo) / 2;
-        if (sc->cdf[mid] <= xi) lo = mid + 1;
-        else hi = mid;
+    const ohm_network *net = sc->net;
+    const ohm_voxel_grid *g = net->grid;
+    const ohm_light_entry *en = &sc->entries[e];
+    *v = net->face_unknown[en->face];
+    ohm_voxel_coords(g, net->face_cell[en->face], c);
+    *d = net->face_dir[en->face];
+    *at_point = en->at_point != 0;
+    for (int a = 0; a < 3; ++a) {
+        if (en->at_point) at[a] = (en->point[a] - g->origin[a]) / g->h + 0.5;
+        u[a] = en->dir[a];
     }
-    return lo;
 }
 
 /* The unknown of grid cell n, or -1 outside the grid or the object. */
-static inline int64_t unknown_at(const ohm_network *net, const int32_t n[3])
+static inline mc_index mc_unknown_at(const mc_scene *sc, const int n[3])
 {
-    const ohm_voxel_grid *g = net->grid;
+    const ohm_voxel_grid *g = sc->net->grid;
     for (int a = 0; a < 3; ++a)
         if (n[a] < 0 || n[a] >= g->dims[a]) return -1;
-    return ohm_network_unknown(net, ohm_voxel_index(g, n[0], n[1], n[2]));
+    return ohm_network_unknown(sc->net, ohm_voxel_index(g, n[0], n[1], n[2]));
+}
+
+/* Coefficients of unknown v in 1/voxel (lengths below are in voxels). */
+static inline void mc_coefficients(const mc_scene *sc, mc_index v, double *sa, double *ss)
+{
+    const ohm_channel_medium *m = sc->med;
+    double h = sc->net->grid->h;
+    ohm_medium_coefficients(m, v, sa, ss);
+    double scale = m->g_v ? 1.0 / (1.0 - m->g_v[v]) : sc->ss_scale;
+    *sa *= h;
+    *ss *= scale * h;
 }
 
 /* The anisotropy of unknown v. */
-static inline double cell_g(const mc_scene *sc, int64_t v)
+static inline double mc_cell_g(const mc_scene *sc, mc_index v)
 {
     return sc->med->g_v ? sc->med->g_v[v] : sc->g;
 }
 
 /* The index of unknown v. */
-static inline double cell_eta(const mc_scene *sc, int64_t v)
+static inline double mc_cell_eta(const mc_scene *sc, mc_index v)
 {
     return sc->med->eta_v ? sc->med->eta_v[v] : sc->eta;
 }
 
-/* the steps the device takes alike (mc_step.h): absorption, scattering,
- * an index change, the hybrid's handoff into this thread's sums */
-typedef rng mc_rng;
-typedef int64_t mc_index;
-typedef struct mc_to {
-    const mc_scene *sc;
-    mc_tally *t;
-} mc_to;
-#define MC_UNIFORM(r) rng_uniform(r)
-#define MC_REFLECTANCE_INSIDE(m, mu) ohm_fresnel_reflectance_inside(m, mu)
-#define MC_UNKNOWN_AT(to, n) unknown_at((to)->sc->net, n)
-#define MC_HANDOFF_ADD(to, u, w) ((to)->t->sums.handoff[u] += (w))
-#include "physics/mc_step.h"
-
-/* One photon of weight 1, from entry to its end (mc.h). */
-static void trace_photon(const mc_scene *sc, mc_tally *t, rng *r)
+static inline void mc_tally_fluence(mc_to *t, mc_index v, double x)
 {
-    const ohm_network *net = sc->net;
-    const ohm_voxel_grid *g = net->grid;
-    const ohm_light_entry *e = &sc->entries[pick_entry(sc, rng_uniform(r))];
-    int64_t v = net->face_unknown[e->face];
-    int32_t c[3];
-    ohm_voxel_coords(g, net->face_cell[e->face], c);
-    double p[3], u[3] = {e->dir[0], e->dir[1], e->dir[2]};
-    start_point(sc, e, c, r, p);
-    double w = 1.0, sa, ss;
-    cell_coefficients(sc, v, &sa, &ss);
-    double tau = rng_depth(r), path_left = sc->max_path;
-    int scattered = 0;   /* the unscattered beam is not diffuse fluence (mc.h) */
-    double reduced = 0;  /* reduced scatterings so far: sum of 1 - g (the hybrid's clock) */
-    int64_t ev = 0;
-    for (;; ++ev) {
-        if (ev >= MAX_EVENTS) {
-            t->sums.truncated++;
-            break;
-        }
-        int ax, scatters, gated;
-        double s = mc_segment(c, p, u, ss, tau, path_left, &ax, &scatters, &gated);
-        path_left -= s;
-        /* absorption along the segment, exactly: w e^(-sa s); its track
-         * length integral w (1 - e^(-sa s)) / sa is the fluence tally */
-        double x = sa * s, lost = mc_absorbed_fraction(x);
-        if (scattered || sc->total_fluence) t->phi[v] += x > 1e-9 ? w * lost / sa : w * s;
-        double w1 = w - w * lost;
-        t->sums.absorbed += w - w1;
-        w = w1;
-        if (gated) {
-            t->sums.gated += w;
-            w = 0;
-            break;
-        }
-        for (int a = 0; a < 3; ++a) p[a] += s * u[a];
-        if (scatters) {
-            double gv = cell_g(sc, v);
-            scattered = 1;
-            /* the hybrid's: diffusion from here (the margin: ten steps of 1 - 0.9 sum to 0.99..9) */
-            if (sc->handoff > 0 && (reduced += 1.0 - gv) >= sc->handoff - 1e-9) {
-                mc_hand_off(&(mc_to){sc, t}, v, c, p, w);
-                t->sums.handed += w;
-                w = 0;
-                break;
-            }
-            mc_scatter(u, gv, r);
-            tau = rng_depth(r);
-        } else {
-            tau -= ss * s;
-            int step = u[ax] > 0 ? 1 : -1;
-            p[ax] = (double)(step > 0 ? c[ax] + 1 : c[ax]);
-            if (c[ax] == (step < 0 ? net->mirror.low[ax] : net->mirror.high[ax])) { /* symmetry plane */
-                u[ax] = -u[ax];
-                continue;
-            }
-            int32_t n[3] = {c[0], c[1], c[2]};
-            n[ax] += step;
-            int64_t nv = unknown_at(net, n);
-            if (nv >= 0 && sc->med->eta_v && sc->med->eta_v[nv] != sc->med->eta_v[v] &&
-                !mc_cross_interface(u, ax, sc->med->eta_v[v], sc->med->eta_v[nv], r)) {
-                /* reflected at an internal change of index: stays in v */
-            } else if (nv >= 0) {
-                c[ax] = n[ax];
-                v = nv;
-                cell_coefficients(sc, v, &sa, &ss);
-            } else { /* a boundary face: reflected with the Fresnel probability, else out */
-                double R = ohm_fresnel_reflectance_inside(cell_eta(sc, v), fabs(u[ax]));
-                if (R < 1.0 && rng_uniform(r) >= R) {
-                    int64_t f = ohm_network_face(net, v, 2 * ax + (step > 0));
-                    if (f >= 0) t->face[f] += w;
-                    t->sums.out += w;
-                    w = 0;
-                    break;
-                }
-                u[ax] = -u[ax];
-            }
-        }
-        if (w < W_MIN) break;
-    }
-    t->sums.absorbed += w; /* what is left ends here (mc.h) */
-    t->sums.events += ev;
+    t->phi[v] += x;
 }
+
+/* the host adds every segment where it is: nothing gathered per cell */
+static inline void mc_tally_left(mc_to *t, mc_index v)
+{
+    (void)t, (void)v;
+}
+
+static inline void mc_tally_exit(const mc_scene *sc, mc_to *t, mc_index v, int d, double w)
+{
+    int64_t f = ohm_network_face(sc->net, v, d);
+    if (f >= 0) t->face[f] += w;
+}
+
+static inline void mc_tally_handoff(mc_to *t, mc_index v, double w)
+{
+    t->sums.handoff[v] += w;
+}
+
+#include "physics/mc_loop.h"
 
 /* Fold one batch into the thread's sums, then clear it. */
 static void fold_batch(mc_tally *t)
@@ -294,7 +211,7 @@ static void *thread_main(void *arg)
         rng r;
         rng_seed(&r, sc->seed, (uint64_t)b);
         for (int64_t k = 0; k < sc->per_batch; ++k) {
-            trace_photon(sc, t, &r);
+            mc_trace_photon(sc, t, &r);
             if ((k + 1) % MC_CHUNK) continue;
             if (ohm_log_cancelled(sc->log)) {
                 t->cancelled = 1;
@@ -339,7 +256,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     mc_scene sc = {.net = net,
                    .med = med,
                    .entries = entries,
-                   .nentries = nentries,
+                   .nentries = (int64_t)nentries,
                    .g = med->g,
                    .ss_scale = 1.0 / (1.0 - med->g),
                    .eta = med->eta,
@@ -348,6 +265,10 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
                    .handoff = params->handoff > 0 ? params->handoff : 0,
                    .max_path = params->max_path > 0 ? params->max_path / net->grid->h : INFINITY,
                    .log = params->log};
+    for (int a = 0; a < 3; ++a) {
+        sc.mirror_low[a] = net->mirror.low[a];
+        sc.mirror_high[a] = net->mirror.high[a];
+    }
     int64_t photons = params->photons > 0 ? params->photons : 1000000;
     sc.per_batch = (photons + OHM_MC_BATCHES - 1) / OHM_MC_BATCHES;
     snprintf(sc.what, sizeof sc.what, "monte carlo, channel %d, %lld photons", channel,

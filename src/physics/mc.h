@@ -1,5 +1,5 @@
 /* mc.h — a Monte Carlo photon-transport reference on the voxel object
- * (DESIGN.md §3, "Transport, not only diffusion"; issue 13).
+ * (docs/design.md §5; docs/transport.md).
  *
  * Diffusion is a model of light transport; this traces the transport itself
  * through the same cells, media and light entries, so a user can measure the

@@ -26,7 +26,7 @@ static const char ADVICE[] = "use a coarser grid or device=host";
 /* device=auto traces fewer photons than this on the host: here they take
  * the host's two cores about 0.7 s (190 photons/ms, docs/gpu.md), the
  * order of opening a device and building its kernels the first time
- * (0.2-1 s on PoCL).  To be re-measured on a GPU (issue 37). */
+ * (0.2-1 s on PoCL).  To be re-measured on a GPU (docs/gpu.md). */
 enum { AUTO_MIN_PHOTONS = 1 << 17 };
 
 enum { K_TRACE, K_FOLD, K_ZERO, K_COUNT };
@@ -224,7 +224,7 @@ static int fill(ohm_mc_device *d, cl_mem *mem, size_t bytes, const void *host, o
 }
 
 /* This trace's medium: per-cell coefficients in 1/voxel (mc.c's
- * cell_coefficients), anisotropy and index, where they vary. */
+ * mc_coefficients), anisotropy and index, where they vary. */
 static int send_medium(ohm_mc_device *d, const ohm_network *net, const ohm_channel_medium *med, int varies,
                        ohm_error *err)
 {
@@ -326,7 +326,7 @@ static void set_scene(ohm_mc_device *d, const ohm_network *net, const ohm_channe
     ARG_MEM(K_TRACE, 11, d->unknown);
     ARG_MEM(K_TRACE, 12, d->face_start);
     ARG_MEM(K_TRACE, 13, d->face_dir);
-    /* the uniform medium in 1/voxel (mc.c's cell_coefficients), its g and index */
+    /* the uniform medium in 1/voxel (mc.c's mc_coefficients), its g and index */
     cl_double4 medium = {{med->sigma_a0 * h, med->sigma_s0 * h / (1.0 - med->g), med->g, med->eta}};
     ARG_VAL(K_TRACE, 14, cl_double4, medium);
     ARG_MEM(K_TRACE, 15, d->coef);

@@ -1,15 +1,10 @@
-/* mc_device.cl — the Monte Carlo tracer on an OpenCL device (mc_device.c;
- * issue 37): one photon per work-item, with the physics of mc.c's
- * trace_photon step for step — free paths of sigma_s, continuous
- * absorption (track-length fluence), Henyey-Greenstein scattering with the
- * cell's g, Fresnel reflection or escape at boundary faces, reflection or
- * Snell refraction at changes of index, symmetry planes, the time gate,
- * the weight floor and the hybrid's handoff after `handoff_at` reduced
- * scatterings.  Lengths are in voxels, cell i spanning [i, i+1).
- *
- * mc_step.h's steps (a segment, absorption, scattering, crossing an
- * interface, the hybrid's handoff) are the host's own source, put in here
- * by the build.
+/* mc_device.cl — the Monte Carlo tracer on an OpenCL device (mc_device.c):
+ * one photon per work-item.  The photon's loop and every step of its
+ * physics are the host's own source (mc_loop.h, with mc_step.h and
+ * fresnel_inside.h), put in here by the build; this file supplies what
+ * mc_loop.h asks of its includer — the random numbers, the scene in the
+ * device's layout, the tallies — and the kernels.  Lengths are in voxels,
+ * cell i spanning [i, i+1).
  *
  * What differs from the host, and why:
  * - random numbers: Philox4x32-10 (Salmon et al., SC'11, "Parallel random
@@ -29,9 +24,8 @@
 #pragma OPENCL EXTENSION cl_khr_fp64 : enable
 #pragma OPENCL EXTENSION cl_khr_int64_base_atomics : enable
 
-#define W_MIN 1e-6
-#define MAX_EVENTS 100000000L
-#define NTOTALS 6 /* absorbed, out, gated, handed, events, truncated */
+/* the totals each work-item keeps, reduced per work-group (mc_device.c reads them in this order) */
+enum { T_absorbed, T_out, T_gated, T_handed, T_events, T_truncated, NTOTALS };
 
 /* ---- Philox4x32-10 -------------------------------------------------------------------- */
 
@@ -93,7 +87,7 @@ void add_double(volatile __global double *p, double v)
 
 typedef struct scene {
     int dims[3];
-    int mlow[3], mhigh[3];        /* symmetry planes (network.h), -1: none */
+    int mirror_low[3], mirror_high[3]; /* symmetry planes (network.h), -1: none */
     __global const int *unknown;  /* per grid cell: its unknown, or -1     */
     __global const int *face_start; /* n + 1: unknown v's faces are face_start[v] .. [v+1] - 1 */
     __global const uchar *face_dir;
@@ -101,24 +95,47 @@ typedef struct scene {
     __global const double *coef;  /* MC_VARIES: 2 per unknown              */
     __global const double *g;     /* MC_CELL_G                             */
     __global const double *eta;   /* MC_CELL_ETA                           */
+    /* the entries: cdf (cumulative power, last 1); ecell 4 per entry (the
+     * cell's i, j, k; its face direction d + 8 at_point); ev its unknown;
+     * egeo 6 per entry (the point in voxel coordinates, the direction inside) */
+    __global const double *cdf;
+    long nentries;
+    __global const int *ecell, *ev;
+    __global const double *egeo;
+    double max_path;              /* voxels; INFINITY: no gate             */
+    int total_fluence;
+    double handoff;               /* the hybrid's reduced scatterings; 0: none */
 } scene;
 
-int unknown_at(const scene *sc, const int n[3])
+/* what mc_loop.h asks of its includer (its header lists it) */
+typedef rng mc_rng;
+typedef int mc_index;
+typedef long mc_long;
+#define MC_GLOBAL __global
+#define MC_UNIFORM(r) uniform(r)
+typedef scene mc_scene;
+
+void mc_entry(const scene *sc, long e, int *v, int c[3], int *d, int *at_point, double at[3], double u[3])
+{
+    int4 ec = vload4(e, sc->ecell);
+    *d = ec.w & 7;
+    *at_point = ec.w >> 3;
+    *v = sc->ev[e];
+    c[0] = ec.x, c[1] = ec.y, c[2] = ec.z;
+    for (int a = 0; a < 3; ++a) {
+        at[a] = sc->egeo[6 * e + a];
+        u[a] = sc->egeo[6 * e + 3 + a];
+    }
+}
+
+int mc_unknown_at(const scene *sc, const int n[3])
 {
     for (int a = 0; a < 3; ++a)
         if (n[a] < 0 || n[a] >= sc->dims[a]) return -1;
     return sc->unknown[(long)n[0] + (long)sc->dims[0] * ((long)n[1] + (long)sc->dims[1] * (long)n[2])];
 }
 
-/* network.h's ohm_network_face: the boundary face of v in direction d, or -1 */
-int face_of(const scene *sc, int v, int d)
-{
-    for (int f = sc->face_start[v]; f < sc->face_start[v + 1]; ++f)
-        if (sc->face_dir[f] == d) return f;
-    return -1;
-}
-
-void coefficients(const scene *sc, int v, double *sa, double *ss)
+void mc_coefficients(const scene *sc, int v, double *sa, double *ss)
 {
 #ifdef MC_VARIES
     *sa = sc->coef[2 * (long)v];
@@ -129,60 +146,70 @@ void coefficients(const scene *sc, int v, double *sa, double *ss)
 #endif
 }
 
-double cell_g(const scene *sc, int v)
-{
-#ifdef MC_CELL_G
-    return sc->g[v];
-#else
-    return sc->g0;
+/* the build options as flags (-D MC_CELL_G defines it 1) */
+#ifndef MC_CELL_G
+#define MC_CELL_G 0
 #endif
-}
-
-double cell_eta(const scene *sc, int v)
-{
-#ifdef MC_CELL_ETA
-    return sc->eta[v];
-#else
-    return sc->eta0;
+#ifndef MC_CELL_ETA
+#define MC_CELL_ETA 0
 #endif
-}
 
-/* ---- the physics (mc.c) ------------------------------------------------------------------- */
-
-/* fresnel.c's ohm_fresnel_reflectance_inside */
-double reflectance_inside(double eta, double mu)
+double mc_cell_g(const scene *sc, int v)
 {
-    if (mu > 1.0) mu = 1.0;
-    if (mu <= 0.0) return 1.0;
-    double sin_t2 = eta * eta * (1.0 - mu * mu);
-    if (sin_t2 >= 1.0) return 1.0;
-    double cos_t = sqrt(1.0 - sin_t2);
-    double rs = (eta * mu - cos_t) / (eta * mu + cos_t);
-    double rp = (mu - eta * cos_t) / (mu + eta * cos_t);
-    return 0.5 * (rs * rs + rp * rp);
+    return MC_CELL_G ? sc->g[v] : sc->g0;
 }
 
-/* the steps the host takes alike: one source, mc_step.h (the build puts
- * its text here) — the hybrid's handoff into the grid's handoff tally */
-typedef rng mc_rng;
-typedef int mc_index;
-#define MC_UNIFORM(r) uniform(r)
-#define MC_REFLECTANCE_INSIDE(m, mu) reflectance_inside(m, mu)
-#ifdef MC_HANDOFF
+double mc_cell_eta(const scene *sc, int v)
+{
+    return MC_CELL_ETA ? sc->eta[v] : sc->eta0;
+}
+
+#define MC_ETA_VARIES(sc) MC_CELL_ETA
+
+/* network.h's ohm_network_face: the boundary face of v in direction d, or -1 */
+int face_of(const scene *sc, int v, int d)
+{
+    for (int f = sc->face_start[v]; f < sc->face_start[v + 1]; ++f)
+        if (sc->face_dir[f] == d) return f;
+    return -1;
+}
+
+/* the tallies: the grid's, and this work-item's totals */
 typedef struct mc_to {
-    const scene *sc;
-    __global double *handoff;
+    __global double *phi, *face, *handoff;
+    double pending; /* the current cell's fluence, not yet added */
+    double tot[NTOTALS];
 } mc_to;
-#define MC_UNKNOWN_AT(to, n) unknown_at((to)->sc, n)
-#define MC_HANDOFF_ADD(to, u, w) add_double(&(to)->handoff[u], w)
-#endif
-#include "physics/mc_step.h"
+
+#define MC_TOTAL(to, name) ((to)->tot[T_##name])
+
+void mc_tally_fluence(mc_to *to, int v, double x)
+{
+    to->pending += x;
+}
+
+void mc_tally_left(mc_to *to, int v)
+{
+    if (to->pending != 0) add_double(&to->phi[v], to->pending);
+    to->pending = 0;
+}
+
+void mc_tally_exit(const scene *sc, mc_to *to, int v, int d, double w)
+{
+    int f = face_of(sc, v, d);
+    if (f >= 0) add_double(&to->face[f], w);
+}
+
+void mc_tally_handoff(mc_to *to, int v, double w)
+{
+    add_double(&to->handoff[v], w);
+}
+
+#include "physics/mc_loop.h"
 
 /* ---- one photon per work-item ------------------------------------------------------------- */
 
-/* Entries: cdf (cumulative power, last 1); ecell 4 per entry (the cell's
- * i, j, k; its face direction d + 8 at_point); ev its unknown; egeo 6 per
- * entry (the point in voxel coordinates, the direction inside). */
+/* The entries and the scene: as in struct scene above. */
 __kernel void trace(long first, long count, uint2 key, __global const double *cdf, long nentries,
                     __global const int *ecell, __global const int *ev, __global const double *egeo,
                     int4 dims, int4 mlow, int4 mhigh, __global const int *unknown, __global const int *face_start,
@@ -192,116 +219,19 @@ __kernel void trace(long first, long count, uint2 key, __global const double *cd
                     __global double *partial)
 {
     scene sc = {{dims.x, dims.y, dims.z}, {mlow.x, mlow.y, mlow.z}, {mhigh.x, mhigh.y, mhigh.z}, unknown,
-                face_start, face_dir, medium.x, medium.y, medium.z, medium.w, coef, gv, etav};
-    double tot[NTOTALS] = {0, 0, 0, 0, 0, 0};
+                face_start, face_dir, medium.x, medium.y, medium.z, medium.w, coef, gv, etav,
+                cdf, nentries, ecell, ev, egeo, max_path, total_fluence, handoff_at};
+    mc_to to = {phi, face, handoff, 0.0, {0, 0, 0, 0, 0, 0}};
     long k = (long)get_global_id(0);
     if (k < count) {
         long photon = first + k;
         rng r = {(uint4)(0u, 0u, (uint)photon, (uint)(photon >> 32)), key, 0.0, 0};
-        /* the entry, by its share of the power (mc.c's pick_entry) */
-        double xi = uniform(&r);
-        long lo = 0, hi = nentries - 1;
-        while (lo < hi) {
-            long mid = lo + (hi - lo) / 2;
-            if (cdf[mid] <= xi) lo = mid + 1;
-            else hi = mid;
-        }
-        int4 ec = vload4(lo, ecell);
-        int d = ec.w & 7, at_point = ec.w >> 3, axis = d / 2;
-        int v = ev[lo];
-        int c[3] = {ec.x, ec.y, ec.z};
-        double p[3], u[3];
-        for (int a = 0; a < 3; ++a) {
-            double x = at_point ? egeo[6 * lo + a] : c[a] + uniform(&r);
-            p[a] = clamp(x, (double)c[a], c[a] + 1.0);
-            u[a] = egeo[6 * lo + 3 + a];
-        }
-        p[axis] = c[axis] + ((d & 1) ? 1.0 : 0.0);
-        double w = 1.0, sa, ss;
-        coefficients(&sc, v, &sa, &ss);
-        double tau = -log(1.0 - uniform(&r)), path_left = max_path;
-        int scattered = 0;
-        double reduced = 0, pending = 0; /* pending: cell v's fluence not yet added */
-        long events = 0;
-        for (;; ++events) {
-            if (events >= MAX_EVENTS) {
-                tot[5] += 1;
-                break;
-            }
-            int ax, scatters, gated;
-            double s = mc_segment(c, p, u, ss, tau, path_left, &ax, &scatters, &gated);
-            path_left -= s;
-            double x = sa * s, lost = mc_absorbed_fraction(x);
-            if (scattered || total_fluence) pending += x > 1e-9 ? w * lost / sa : w * s;
-            double w1 = w - w * lost;
-            tot[0] += w - w1;
-            w = w1;
-            if (gated) {
-                tot[2] += w;
-                w = 0;
-                break;
-            }
-            for (int a = 0; a < 3; ++a) p[a] += s * u[a];
-            if (scatters) {
-                double g = cell_g(&sc, v);
-                scattered = 1;
-#ifdef MC_HANDOFF
-                if (handoff_at > 0 && (reduced += 1.0 - g) >= handoff_at - 1e-9) {
-                    mc_to to = {&sc, handoff};
-                    mc_hand_off(&to, v, c, p, w);
-                    tot[3] += w;
-                    w = 0;
-                    break;
-                }
-#endif
-                mc_scatter(u, g, &r);
-                tau = -log(1.0 - uniform(&r));
-            } else {
-                tau -= ss * s;
-                int step = u[ax] > 0 ? 1 : -1;
-                p[ax] = (double)(step > 0 ? c[ax] + 1 : c[ax]);
-                if (c[ax] == (step < 0 ? sc.mlow[ax] : sc.mhigh[ax])) { /* symmetry plane */
-                    u[ax] = -u[ax];
-                    continue;
-                }
-                int n[3] = {c[0], c[1], c[2]};
-                n[ax] += step;
-                int nv = unknown_at(&sc, n);
-#ifdef MC_CELL_ETA
-                int stays = nv >= 0 && etav[nv] != etav[v] && !mc_cross_interface(u, ax, etav[v], etav[nv], &r);
-#else
-                int stays = 0;
-#endif
-                if (stays) {
-                    /* reflected at an internal change of index: stays in v */
-                } else if (nv >= 0) {
-                    if (pending != 0) add_double(&phi[v], pending);
-                    pending = 0;
-                    c[ax] = n[ax];
-                    v = nv;
-                    coefficients(&sc, v, &sa, &ss);
-                } else { /* a boundary face: reflected with the Fresnel probability, else out */
-                    double R = reflectance_inside(cell_eta(&sc, v), fabs(u[ax]));
-                    if (R < 1.0 && uniform(&r) >= R) {
-                        int f = face_of(&sc, v, 2 * ax + (step > 0));
-                        if (f >= 0) add_double(&face[f], w);
-                        tot[1] += w;
-                        w = 0;
-                        break;
-                    }
-                    u[ax] = -u[ax];
-                }
-            }
-            if (w < W_MIN) break;
-        }
-        if (pending != 0) add_double(&phi[v], pending);
-        tot[0] += w; /* what is left ends here */
-        tot[4] = (double)events;
+        mc_trace_photon(&sc, &to, &r);
     }
     /* the work-group's totals, in a fixed order */
     __local double red[NTOTALS * WG];
     int lid = (int)get_local_id(0);
-    for (int i = 0; i < NTOTALS; ++i) red[i * WG + lid] = tot[i];
+    for (int i = 0; i < NTOTALS; ++i) red[i * WG + lid] = to.tot[i];
     for (int stride = WG / 2; stride > 0; stride /= 2) {
         barrier(CLK_LOCAL_MEM_FENCE);
         if (lid < stride)

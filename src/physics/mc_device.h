@@ -1,5 +1,5 @@
-/* mc_device.h — the Monte Carlo tracer (mc.h) on an OpenCL device (issue
- * 37): solver=mc, `ohm validate transport|mc` and the hybrid's traced
+/* mc_device.h — the Monte Carlo tracer (mc.h) on an OpenCL device
+ * (docs/devices.md): solver=mc, `ohm validate transport|mc` and the hybrid's traced
  * photons with device=gpu|cpu|opencl:N|auto.  The same physics as the
  * host's tracer (kernels: mc_device.cl), the same batches, estimators and
  * standard errors (mc_tally.h); photon k's random numbers come from a

@@ -1,17 +1,47 @@
-/* mc_step.h — the Monte Carlo tracer's steps that the host (mc.c) and the
- * device (mc_device.cl) take alike: one source for both, written in what C11
- * and OpenCL C share (the build puts this text before mc_device.cl's; mc.c
- * includes it).  The includer defines:
- *   mc_rng                     its random-number state's type
- *   MC_UNIFORM(r)              a double uniform on [0, 1) from r
- *   MC_REFLECTANCE_INSIDE(m, mu)  fresnel.h's ohm_fresnel_reflectance_inside
- * and for the hybrid's handoff (mc_hand_off, compiled where they are):
- *   mc_to, mc_index            where the shares go; an unknown's number
- *   MC_UNKNOWN_AT(to, n)       the unknown of grid cell n[3], or -1
- *   MC_HANDOFF_ADD(to, u, w)   w added to unknown u's handed-off weight
+/* mc_step.h — the Monte Carlo tracer's steps, which its photon loop
+ * (mc_loop.h) takes on the host (mc.c) and on the device (mc_device.cl)
+ * alike: one source for both, written in what C11 and OpenCL C share.
+ * What the includer defines (the random numbers, the index types, the
+ * scene and the tallies of the hybrid's handoff) is listed in mc_loop.h.
  * Lengths in voxels (cell i spans [i, i+1)), directions unit vectors. */
 #ifndef OHM_PHYSICS_MC_STEP_H
 #define OHM_PHYSICS_MC_STEP_H
+
+#include "physics/fresnel_inside.h"
+
+/* An optical depth to the next scattering: -ln(xi), xi in (0, 1]. */
+static inline double mc_depth(mc_rng *r)
+{
+    return -log(1.0 - MC_UNIFORM(r));
+}
+
+/* The entry whose share of the power holds xi in [0, 1): the first with
+ * cumulative power cdf[e] > xi (nentries of them, the last 1). */
+static inline mc_long mc_pick_entry(MC_GLOBAL const double *cdf, mc_long nentries, double xi)
+{
+    mc_long lo = 0, hi = nentries - 1;
+    while (lo < hi) {
+        mc_long mid = lo + (hi - lo) / 2;
+        if (cdf[mid] <= xi) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
+}
+
+/* Where a photon starts in cell c, entering through its face in direction
+ * d (0..5, network.h): at the point `at` (at_point) or uniformly over the
+ * face; on the face, and inside the cell's square on the other axes. */
+static inline void mc_start_point(const int c[3], int d, int at_point, const double at[3], mc_rng *r, double p[3])
+{
+    int axis = d / 2;
+    for (int a = 0; a < 3; ++a) {
+        double x = at_point ? at[a] : c[a] + MC_UNIFORM(r);
+        if (x < c[a]) x = c[a];
+        if (x > c[a] + 1.0) x = c[a] + 1.0;
+        p[a] = x;
+    }
+    p[axis] = c[axis] + ((d & 1) ? 1.0 : 0.0);
+}
 
 /* 1 - e^-x, the fraction of a segment's weight absorbed over optical depth
  * x: by its series where x is small (the common case: one exp per segment
@@ -88,7 +118,7 @@ static inline void mc_scatter(double u[3], double g, mc_rng *r)
 static inline int mc_cross_interface(double u[3], int ax, double ev, double ew, mc_rng *r)
 {
     double m = ev / ew, mu = fabs(u[ax]);
-    double R = MC_REFLECTANCE_INSIDE(m, mu);
+    double R = ohm_fresnel_inside(m, mu);
     if (R >= 1.0 || MC_UNIFORM(r) < R) {
         u[ax] = -u[ax];
         return 0;
@@ -103,12 +133,13 @@ static inline int mc_cross_interface(double u[3], int ax, double ev, double ew, 
     return 1;
 }
 
-#ifdef MC_HANDOFF_ADD
+#ifdef MC_HANDOFF
 /* The hybrid's handoff (mc.h): weight w at p in unknown v, cell c, shared
  * between the 8 cell centres around p by trilinear weights, which keeps its
  * centroid at p (a diffusion source acts at a cell centre); a share whose
  * cell is not an unknown stays in v. */
-static inline void mc_hand_off(const mc_to *to, mc_index v, const int c[3], const double p[3], double w)
+static inline void mc_hand_off(const mc_scene *sc, mc_to *to, mc_index v, const int c[3], const double p[3],
+                               double w)
 {
     int side[3];
     double f[3];
@@ -121,7 +152,7 @@ static inline void mc_hand_off(const mc_to *to, mc_index v, const int c[3], cons
          * share there), which keeps the centroid too */
         int n[3] = {c[0], c[1], c[2]};
         n[a] += side[a];
-        if (MC_UNKNOWN_AT(to, n) < 0) {
+        if (mc_unknown_at(sc, n) < 0) {
             side[a] = -side[a];
             f[a] = -f[a];
         }
@@ -135,8 +166,8 @@ static inline void mc_hand_off(const mc_to *to, mc_index v, const int c[3], cons
             n[a] = c[a] + (far ? side[a] : 0);
         }
         if (wq == 0) continue;
-        mc_index u = q ? MC_UNKNOWN_AT(to, n) : v;
-        MC_HANDOFF_ADD(to, u >= 0 ? u : v, wq);
+        mc_index u = q ? mc_unknown_at(sc, n) : v;
+        mc_tally_handoff(to, u >= 0 ? u : v, wq);
     }
 }
 #endif

@@ -279,10 +279,10 @@ nomem:
 
 /* One channel's coefficients, with what does not vary hoisted.  Every value
  * is computed by the same expression, in the same order, as the per-cell
- * formulas of DESIGN.md §2 (network.h), so a homogeneous medium's constants
+ * formulas of docs/design.md §3 (network.h), so a homogeneous medium's constants
  * are bit for bit what each cell would compute for itself. */
 typedef struct coeffs {
-    double A;    /* the boundary constant of DESIGN.md §2 (optical media) */
+    double A;    /* the boundary constant A, fresnel.h (optical media) */
     ohm_fresnel fresnel;
     const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
     int uniform; /* no per-cell array: every conductance is one constant  */
@@ -441,7 +441,7 @@ typedef struct assembly {
     walk w;
 } assembly;
 
-/* Row v of the network's matrix (DESIGN.md §2): the neighbour across each
+/* Row v of the network's matrix (docs/design.md §3): the neighbour across each
  * face (walk_across's codes) and the link's conductance, the ground
  * conductance (the depth band's closure faces added), the boundary
  * conductance of each of its nfaces boundary faces, and the scale of the
@@ -642,102 +642,6 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
     return assembly_end(&as, err);
 }
 
-void ohm_stencil_free(ohm_stencil *st)
-{
-    if (!st) return;
-    free(st->run_start);
-    free(st->run_off);
-    free(st->gx);
-    free(st->gy);
-    free(st->gz);
-    free(st->sink);
-    memset(st, 0, sizeof *st);
-}
-
-/* A stencil's runs as they are found (network.h), in increasing unknowns:
- * a new run where the offsets change. */
-typedef struct run_list {
-    int64_t n, cap;
-    int64_t *start;
-    int32_t (*off)[4];
-    int failed; /* out of memory */
-} run_list;
-
-static void run_push(run_list *rl, int64_t v, const int32_t off[4])
-{
-    if (rl->n && memcmp(rl->off[rl->n - 1], off, sizeof rl->off[0]) == 0) return;
-    if (rl->n == rl->cap) {
-        int64_t cap = rl->cap ? 2 * rl->cap : 256;
-        int64_t *start = realloc(rl->start, (size_t)cap * sizeof *start);
-        if (start) rl->start = start;
-        int32_t(*o)[4] = start ? realloc(rl->off, (size_t)cap * sizeof *o) : NULL;
-        if (!o) {
-            rl->failed = 1;
-            return;
-        }
-        rl->off = o;
-        rl->cap = cap;
-    }
-    rl->start[rl->n] = v;
-    memcpy(rl->off[rl->n], off, sizeof rl->off[0]);
-    rl->n++;
-}
-
-static void run_list_free(run_list *rl)
-{
-    free(rl->start);
-    free(rl->off);
-    memset(rl, 0, sizeof *rl);
-}
-
-/* st's runs: the lists of consecutive stretches of its unknowns, in order,
- * joined (a run cut only by where one list ends and the next begins is
- * one run).  OHM_ERR_NOMEM. */
-static int runs_adopt(ohm_stencil *st, const run_list *lists, int count, ohm_error *err)
-{
-    free(st->run_start);
-    free(st->run_off);
-    st->run_start = NULL;
-    st->run_off = NULL;
-    st->nruns = 0;
-    int64_t total = 0;
-    for (int i = 0; i < count; ++i) {
-        if (lists[i].failed)
-            return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil's runs");
-        total += lists[i].n;
-    }
-    st->run_start = malloc((size_t)(total + 1) * sizeof *st->run_start);
-    st->run_off = malloc((size_t)(total ? total : 1) * sizeof *st->run_off);
-    if (!st->run_start || !st->run_off)
-        return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory for the stencil's %lld runs", (long long)total);
-    int64_t r = 0;
-    for (int i = 0; i < count; ++i)
-        for (int64_t k = 0; k < lists[i].n; ++k) {
-            if (r && memcmp(st->run_off[r - 1], lists[i].off[k], sizeof st->run_off[0]) == 0) continue;
-            st->run_start[r] = lists[i].start[k];
-            memcpy(st->run_off[r], lists[i].off[k], sizeof st->run_off[0]);
-            ++r;
-        }
-    st->run_start[r] = st->n;
-    st->nruns = r;
-    return OHM_OK;
-}
-
-double ohm_stencil_bytes(const ohm_stencil *st)
-{
-    return (double)st->n * (3 * sizeof(float) + sizeof(double)) +
-           (double)st->nruns * (sizeof *st->run_start + sizeof *st->run_off) + sizeof *st->run_start;
-}
-
-int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err)
-{
-    run_list rl = {0};
-    for (int64_t v = 0; v < st->n; ++v) run_push(&rl, v, off[v]);
-    int rc = runs_adopt(st, &rl, 1, err);
-    run_list_free(&rl);
-    return rc;
-}
-
 /* One thread's share of the stencil: unknowns v0 .. v1-1, its own walk
  * and piece sums (added up afterwards), from its first boundary face. */
 typedef struct stencil_share {
@@ -746,7 +650,7 @@ typedef struct stencil_share {
     double *ga, *gb;
     int64_t v0, v1;
     double *sink;
-    run_list runs; /* the share's, joined afterwards (not on a refill) */
+    ohm_stencil_runs runs; /* the share's, joined afterwards (not on a refill) */
     int find_runs;
     int overflow; /* an offset beyond 32 bits */
     int broken;   /* a link the stencil cannot hold: no conductance, or a
@@ -771,7 +675,7 @@ static void stencil_rows(void *user, int64_t i)
             if (delta < INT32_MIN || delta > INT32_MAX) sh->overflow = 1;
             off[d - 2] = (int32_t)delta;
         }
-        if (sh->find_runs) run_push(&sh->runs, v, off);
+        if (sh->find_runs) ohm_stencil_runs_push(&sh->runs, v, off);
         /* the stencil's rule (network.h): a +x link is v + 1's, every link's
          * conductance > 0 */
         for (int d = 0; d < 6; ++d)
@@ -820,7 +724,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
     }
     if (!rc) ohm_parallel_for(shares, shares, stencil_rows, sh);
     int overflow = 0, broken = 0;
-    run_list lists[16];
+    ohm_stencil_runs lists[16];
     for (int i = 0; i < shares; ++i) {
         overflow |= sh[i].overflow;
         broken |= sh[i].broken;
@@ -828,8 +732,8 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
         if (i > 0) free(sh[i].sink);
         lists[i] = sh[i].runs;
     }
-    if (!rc && !overflow && !broken && !st->run_start) rc = runs_adopt(st, lists, shares, err) ? OHM_ERR_NOMEM : OHM_OK;
-    for (int i = 0; i < shares; ++i) run_list_free(&lists[i]);
+    if (!rc && !overflow && !broken && !st->run_start) rc = ohm_stencil_adopt_runs(st, lists, shares, err) ? OHM_ERR_NOMEM : OHM_OK;
+    for (int i = 0; i < shares; ++i) ohm_stencil_runs_free(&lists[i]);
     if (rc || overflow || broken) {
         assembly_free(&as);
         if (rc) return ohm_fail(err, OHM_ERR_NOMEM, "network: out of memory assembling %lld unknowns", (long long)n);

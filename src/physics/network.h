@@ -1,4 +1,4 @@
-/* network.h — the resistor network of DESIGN.md §2 (cell-centred finite
+/* network.h — the resistor network of docs/design.md §3 (cell-centred finite
  * volumes).  Unknown phi_c is the fluence at the centre of every interior cell;
  * KCL at cell c:  sum_d G_cd (phi_c - phi_d) + G_a,c phi_c + sum_f G_b,f phi_c = S_c.
  *
@@ -33,6 +33,7 @@
 #include "base/sorted.h"
 #include "grid/cell_index.h"
 #include "physics/fresnel.h"
+#include "physics/stencil.h"
 #include "base/ohm_error.h"
 #include "grid/voxelize.h"
 
@@ -271,61 +272,9 @@ double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int
 
 const char *ohm_boundary_name(ohm_boundary b);
 
-/* The network's matrix as a 7-point stencil over its unknowns, what a
- * matrix-free solver reads instead of the assembled A (28 B per unknown and
- * a few per run, against CHOLMOD's 24 per entry, four entries per
- * unknown): row v is
- *   sink[v] x_v + sum_w g_vw (x_v - x_w)
- * over v's face neighbours w.  Each link's conductance is stored once, by
- * its lower unknown, in gx, gy or gz by its axis, and is > 0 exactly where
- * the link is (0 where there is none).  Unknowns are numbered in cell
- * order, so a +x neighbour is always v + 1 and needs no index; the y and
- * z neighbours' offsets (w - v) are the same along most of a row of cells,
- * so they are stored per run: a run is a longest stretch of consecutive
- * unknowns whose four offsets are equal (the rows of a box's plane between
- * its first and last are one run; an object's ragged edge cuts a row into a
- * few).  A solver's rows then read
- * their neighbours at fixed distances, as a box's would, and vectorise.
- * The values are ohm_network_assemble's, by the same code: A = the
- * stencil's matrix, up to the order its diagonal is summed in. */
-typedef struct ohm_stencil {
-    int64_t n;
-    int64_t nruns;
-    int64_t *run_start;    /* nruns + 1: run r is unknowns run_start[r] ..
-                              run_start[r + 1] - 1                         */
-    int32_t (*run_off)[4]; /* run r's -y, +y, -z, +z neighbour minus v; 0: none */
-    float *gx, *gy, *gz;   /* conductance of v's +x, +y, +z link; 0: none  */
-    double *sink;          /* ground + boundary (+ closure) conductance, scaled
-                              as the diagonal (network.h: s_v with eta_v)   */
-} ohm_stencil;
-
-/* The run holding unknown v, from *cursor (a run at or before v's; 0 to
- * start): O(1) for unknowns visited in increasing order. */
-static inline int64_t ohm_stencil_run(const ohm_stencil *st, int64_t v, int64_t *cursor)
-{
-    int64_t r = *cursor;
-    while (st->run_start[r + 1] <= v) ++r;
-    return *cursor = r;
-}
-
-/* The run holding unknown v, by bisection. */
-static inline int64_t ohm_stencil_run_of(const ohm_stencil *st, int64_t v)
-{
-    return ohm_sorted_last_at_most(st->run_start, st->nruns, v);
-}
-
-/* The bytes st holds. */
-double ohm_stencil_bytes(const ohm_stencil *st);
-
-/* st's runs from per-unknown offsets off[v] (-y, +y, -z, +z; st->n of
- * them), replacing any it has: for a stencil built cell by cell (a coarse
- * level's).  OHM_ERR_NOMEM. */
-int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err);
-
 /* Fill *st (zeroed, or this network's stencil to refill with another
  * medium) and ga, gb as ohm_network_assemble does; the same checks. */
 int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_network *net,
                         const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
-void ohm_stencil_free(ohm_stencil *st); /* NULL or zeroed is fine */
 
 #endif

@@ -1,4 +1,4 @@
-/* shadow.h — is a boundary face visible from a light?  (DESIGN.md §2, issue 4)
+/* shadow.h — is a boundary face visible from a light?  (docs/relighting.md)
  *
  * The lit surface is the voxel object's: its staircase shades itself (a
  * voxelized sphere lit at an angle captures 55% too much light without shadow

@@ -7,13 +7,12 @@
 #include <string.h>
 
 #include "base/memory.h"
-#include "solvers/cg.h"
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 
 const ohm_backend_ops *ohm_backend_find(const char *name)
 {
     static const ohm_backend_ops *const all[] = {&ohm_backend_direct, &ohm_backend_cg, &ohm_backend_amg,
-                                                 &ohm_backend_mg,     &ohm_backend_auto, &ohm_backend_mc};
+                                                 &ohm_backend_mg, &ohm_backend_auto};
     for (size_t i = 0; name && i < sizeof all / sizeof all[0]; ++i)
         if (strcmp(all[i]->name, name) == 0) return all[i];
     return NULL;
@@ -36,6 +35,28 @@ double ohm_sym_upper_norm_inf(const cholmod_sparse *A)
     for (int64_t j = 0; j < n; ++j) norm = fmax(norm, sum[j]);
     free(sum);
     return norm;
+}
+
+void ohm_sym_upper_mult(const cholmod_sparse *A, const double *x, double *y)
+{
+    const int64_t *Ap = A->p, *Ai = A->i;
+    const double *Ax = A->x;
+    int64_t n = (int64_t)A->ncol;
+    memset(y, 0, (size_t)n * sizeof *y);
+    for (int64_t j = 0; j < n; ++j) {
+        double xj = x[j], yj = 0.0;
+        for (int64_t q = Ap[j]; q < Ap[j + 1]; ++q) {
+            int64_t i = Ai[q];
+            double a = Ax[q];
+            if (i == j) {
+                yj += a * xj;
+            } else {
+                yj += a * x[i];
+                y[i] += a * xj;
+            }
+        }
+        y[j] += yj;
+    }
 }
 
 void ohm_operator_apply(const ohm_operator *op, const double *x, double *y)

@@ -1,6 +1,6 @@
 /* solvers/backend.h — the seam between the light-transport driver (solve.c,
  * with sources.c, batch.c and booking.c: solver_impl.h) and the linear
- * solvers behind it (DESIGN.md §2 "Solving", §8 "Size").
+ * solvers behind it (docs/design.md §4).
  *
  * A backend solves A X = B for the network's matrix A (symmetric positive
  * definite) in the spirit of PETSc's KSP/PC: an object chosen at run time by
@@ -22,9 +22,9 @@
  *           time (solvers/auto.c).
  *   mg      geometric multigrid on the voxel grid (solvers/mg.c), matrix-free
  *           on the stencil: O(n) memory and time, warm-started.
- *   mc      Monte Carlo transport instead of diffusion (solvers/transport.c):
- *           no matrix and nothing set up; its `transport` solves the lights
- *           in place of setup and solve (OHM_BACKEND_TRANSPORT).
+ *
+ * Monte Carlo transport (solver=mc) is not a backend: it solves no matrix,
+ * and the driver calls it through its own interface (solvers/transport.h).
  *
  * Every backend's solve leaves in *berr the largest scaled backward error
  * ||b - A x||_inf / (||A||_inf ||x||_inf + ||b||_inf) of its columns,
@@ -105,9 +105,6 @@ typedef struct ohm_backend_config {
     const ohm_log *log;
 } ohm_backend_config;
 
-struct ohm_solver; /* solver_impl.h: what a transport backend reads */
-struct ohm_light;
-
 typedef struct ohm_backend_ops {
     const char *name;
     int (*create)(void **state, const ohm_backend_config *cfg, ohm_error *err);
@@ -127,9 +124,6 @@ typedef struct ohm_backend_ops {
      * set-up and the new assembly are not held at once.  NULL: setup
      * replaces it itself. */
     void (*release)(void *state);
-    /* OHM_BACKEND_TRANSPORT only (create, setup, solve NULL): every frame
-     * and channel of these lights solved into the solver's solution. */
-    int (*transport)(struct ohm_solver *s, const struct ohm_light *lights, size_t nlights, ohm_error *err);
     unsigned caps;                /* OHM_BACKEND_* below: what the driver may do */
     /* With OHM_BACKEND_CONCURRENT_SOLVES: only while the backend holds at
      * most this many bytes (its report's bytes, every set-up together) */
@@ -156,18 +150,13 @@ enum { OHM_BACKEND_CONCURRENT_SOLVES = 1u << 0 };
  * written.  cg and amg; auto passes it on to what it chose. */
 enum { OHM_BACKEND_WARM_START = 1u << 1 };
 
-/* OHM_BACKEND_TRANSPORT: not a linear solver: `transport` replaces create,
- * setup and solve (mc). */
-enum { OHM_BACKEND_TRANSPORT = 1u << 2 };
-
 /* OHM_BACKEND_STENCIL: matrix-free: the operator it is given holds the
  * network's stencil, not an assembled A (mg). */
 enum { OHM_BACKEND_STENCIL = 1u << 3 };
 
-extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_mg, ohm_backend_auto,
-    ohm_backend_mc;
+extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_mg, ohm_backend_auto;
 
-/* The backend of that name (direct | cg | amg | mg | auto | mc), or NULL. */
+/* The backend of that name (direct | cg | amg | mg | auto), or NULL. */
 const ohm_backend_ops *ohm_backend_find(const char *name);
 
 /* Whether this build has the amg backend (PETSc); when not, its create fails
@@ -218,5 +207,8 @@ double ohm_backward_error(cholmod_sparse *A, const double *B, const double *X, s
 
 /* ||A||_inf of the upper-stored symmetric A (= ||A||_1). */
 double ohm_sym_upper_norm_inf(const cholmod_sparse *A);
+
+/* y = A x for the upper-stored symmetric A. */
+void ohm_sym_upper_mult(const cholmod_sparse *A, const double *x, double *y);
 
 #endif

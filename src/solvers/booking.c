@@ -1,9 +1,9 @@
-/* solvers/booking.c — power booked per solve (DESIGN.md §2): in
+/* solvers/booking.c — power booked per solve (docs/design.md §3): in
  * (deposited) = absorbed (sum G_a phi) + out (sum G_b phi) and the exitance
  * per face; the constant-mode correction of nearly singular pieces, which
  * makes that law hold exactly; and each channel's tally, added to the
  * solution in channel order. */
-#include "solvers/mg.h"
+#include "physics/stencil.h"
 #include "solvers/solver_impl.h"
 
 #include <math.h>
@@ -71,7 +71,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
     const ohm_piece_runs *pieces = &net->pieces;
     int64_t run = 0;
     if (op->stencil) /* its sinks are these, in one vectorised pass */
-        ohm_stencil_piece_sums(op->stencil, pieces, sink, diag);
+        ohm_stencil_piece_sums(op->stencil, pieces->start, pieces->piece, pieces->count, sink, diag);
     else
         for (int64_t v = 0; v < n; ++v) {
             int64_t p = ohm_piece_runs_next(pieces, &run, v);
@@ -108,7 +108,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
 
 /* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
- * (sum G_b phi), DESIGN.md §2; and store the exitance per face (a cell's is
+ * (sum G_b phi), docs/design.md §3; and store the exitance per face (a cell's is
  * derived from its faces' when read: ohm_solution_exitance_frame). */
 void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
                     const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c)

@@ -19,28 +19,6 @@ static const double MIC_OMEGA = 0.97;
 
 double ohm_cg_bytes(int64_t n) { return 5.0 * sizeof(double) * (double)n; }
 
-void ohm_sym_upper_mult(const cholmod_sparse *A, const double *x, double *y)
-{
-    const int64_t *Ap = A->p, *Ai = A->i;
-    const double *Ax = A->x;
-    int64_t n = (int64_t)A->ncol;
-    memset(y, 0, (size_t)n * sizeof *y);
-    for (int64_t j = 0; j < n; ++j) {
-        double xj = x[j], yj = 0.0;
-        for (int64_t q = Ap[j]; q < Ap[j + 1]; ++q) {
-            int64_t i = Ai[q];
-            double a = Ax[q];
-            if (i == j) {
-                yj += a * xj;
-            } else {
-                yj += a * x[i];
-                y[i] += a * xj;
-            }
-        }
-        y[j] += yj;
-    }
-}
-
 void ohm_cg_free(ohm_cg *cg)
 {
     if (!cg) return;

@@ -52,9 +52,6 @@ void ohm_cg_free(ohm_cg *cg);
 int ohm_cg_solve(ohm_cg *cg, double *x, const double *b, double tol, int64_t max_iter, int64_t *iters,
                  double *relres, ohm_error *err);
 
-/* y = A x for the upper-stored symmetric A. */
-void ohm_sym_upper_mult(const cholmod_sparse *A, const double *x, double *y);
-
 /* Bytes CG holds beside A for n unknowns (for the memory estimate). */
 double ohm_cg_bytes(int64_t n);
 

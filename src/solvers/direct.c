@@ -13,7 +13,7 @@
 #include "solvers/cg.h"
 #include "solvers/substitute.h"
 
-/* Thresholds on the scaled backward error (issue 3 / DESIGN.md §3). */
+/* Thresholds on the scaled backward error (docs/design.md §3, "Numerical traps"). */
 static const double BERR_REFINE = 1e-12;
 static const double BERR_FAIL = 1e-10;
 
@@ -109,7 +109,7 @@ static double factor_bytes(const ohm_cholesky *s, size_t batch)
     return 8.0 * values + 2.0 * 8.0 * index + 2.0 * sizeof(double) * (double)F->n * (double)batch;
 }
 
-/* ordering=auto's cost model (issue 15), in units of the grid ordering's
+/* ordering=auto's cost model, in units of the grid ordering's
  * own analysis time (this VM's speed varies 2x from day to day, the ratios
  * much less), from docs/ordering.md (every sample mesh and scan, 1.2e4-9.2e4
  * cells, on two days) and docs/bench.md:

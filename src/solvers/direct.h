@@ -6,7 +6,7 @@
  * ||Ax - b|| / (||A|| ||x|| + ||b||) (infinity norms), refines once when it is
  * above 1e-12, and fails when refinement leaves it above 1e-10 — because
  * CHOLMOD itself may return TRUE on an indefinite or singular matrix
- * (DESIGN.md §3, numerical traps).  The solver owns its cholmod_common: no
+ * (docs/design.md §3, "Numerical traps").  The solver owns its cholmod_common: no
  * global state. */
 #ifndef OHM_SOLVERS_DIRECT_H
 #define OHM_SOLVERS_DIRECT_H

@@ -1,6 +1,6 @@
 /* solvers/grid_order.h — a fill-reducing ordering made for voxel grids:
  * geometric nested dissection (George, "Nested dissection of a regular
- * finite element mesh", SIAM J. Numer. Anal. 10, 1973), issue 15 item 1.
+ * finite element mesh", SIAM J. Numer. Anal. 10, 1973); docs/ordering.md.
  *
  * The network's unknowns are cells of a regular grid coupled only through
  * shared faces (the 7-point pattern), so the cells of one plane

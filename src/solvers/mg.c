@@ -1,6 +1,7 @@
 /* solvers/mg.c — geometric multigrid on the voxel grid (mg.h): the
- * hierarchy, the K-cycle, the outer flexible CG, and the stencil's own
- * operations (apply, diagonal, norm). */
+ * hierarchy, and the host's implementation of the multigrid's operations
+ * (mg_ops.h: its kernels on the host's cores), which the cycle and the
+ * outer iteration (mg_cycle.c) run. */
 #include "solvers/mg.h"
 
 #include <float.h>
@@ -10,19 +11,14 @@
 #include <string.h>
 
 #include "base/parallel.h"
+#include "physics/stencil.h"
+#include "physics/stencil_rows.h"
 #include "solvers/backend.h"
-#include "solvers/mg_device.h"
+#include "solvers/mg_cycle.h"
 
 /* Levels stop coarsening at this many cells, solved by a dense Cholesky
  * factor: (n^3 / 3 flops, n^2 doubles: 0.04 GFlop and 2 MB at 500). */
-enum { COARSEST_MAX = 500, LEVELS_MAX = 40 }; /* LEVELS_MAX: mg.h's ohm_mg_view too */
-
-/* Below this many cells a kernel runs on one core: a thread's start
- * (~20-50 us) would cost more than it shares.  Above, its loop is cut into
- * CHUNKS pieces whatever the number of cores, and reductions add the pieces'
- * sums in order, so that a solve gives the same bits on any number of
- * cores. */
-enum { PARALLEL_MIN = 1 << 16, CHUNKS = 64 };
+enum { COARSEST_MAX = 500, LEVELS_MAX = OHM_MG_LEVELS_MAX };
 
 /* The K-cycle's two inner steps run at the levels 1 .. KCYCLE_LEVELS and
  * always both; below, one cycle.  Measured on the block medium at 1e7 cells
@@ -37,20 +33,6 @@ enum { KCYCLE_LEVELS = 2 };
  * cycles cost twice one, which only a coarsening by 4 or more keeps a
  * bounded share of the whole (a thin sheet or line coarsens by 4 or 2). */
 static const double KCYCLE_MAX_RATIO = 0.25;
-
-/* The smoother: two Chebyshev steps on D^-1 A before and after each coarse
- * correction (Adams, Brezina, Hu and Tuminaro, "Parallel multigrid
- * smoothing: polynomial versus Gauss-Seidel", J. Comput. Phys. 188, 2003),
- * aimed at the eigenvalues in [LMAX / CHEB_RATIO, LMAX]; those below are the
- * coarse levels' to remove.  LMAX = 2 bounds D^-1 A's spectrum for any
- * diagonally dominant stencil (Gershgorin), so nothing is estimated.  By
- * measurement (docs/multigrid.md): on the block medium at 1e7 cells 17
- * iterations and 4.8-5.0 s against damped Jacobi's 19 and 5.4 s (omega
- * 0.9, two sweeps, the best of 0.67-1.0 and one to three sweeps) and
- * red-black Gauss-Seidel's 23 and 6.0 s (one symmetric sweep) or 15 and
- * 6.2 s (two); fewer iterations or as many on every test scene; ratio 5-8
- * as good as 6. */
-static const double CHEB_LMAX = 2.0, CHEB_RATIO = 6.0;
 
 /* A level: its operator, network.h's ohm_stencil (level 0: the network's
  * own, shared with the outer iteration, whose links are single precision
@@ -88,9 +70,13 @@ struct ohm_mg {
     double *dense_x;               /* its solution, in double (the sweeps' work)         */
     int64_t ndense;
     double *r, *q; /* the outer flexible CG's residual and A p, in double */
-    float *p;      /* its direction, in floats, times a scale (ohm_mg_solve) */
+    float *p;      /* its direction, in floats, times pscale (host_direction) */
+    double pscale;
+    double *x;       /* the solve's iterate and right-hand side (the caller's) */
+    const double *b;
     double norm_A;
     double bytes;
+    ohm_mg_machine machine; /* the hierarchy on the host, for mg_cycle.c */
 };
 
 /* ---- parallel loops ------------------------------------------------------------------ */
@@ -107,26 +93,22 @@ struct kernel {
     double a, a2, a3;
     int64_t n;
     int chunks;
-    double partial[CHUNKS], partial2[CHUNKS], partial3[CHUNKS]; /* a reduction's (three at most) */
+    double partial[OHM_ROWS_CHUNKS], partial2[OHM_ROWS_CHUNKS]; /* a reduction's (two at most) */
     double sum2;                              /* the second reduction's total */
 };
 
-static void kernel_job(void *user, int64_t i)
+static void kernel_piece(void *user, int64_t lo, int64_t hi, int chunk)
 {
     kernel *k = user;
-    int64_t lo = k->n * i / k->chunks, hi = k->n * (i + 1) / k->chunks;
-    k->fn(k, lo, hi, (int)i);
+    k->fn(k, lo, hi, chunk);
 }
 
-/* k->fn over 0 .. n-1 in k->chunks pieces; a reduction's sum of the
+/* k->fn over 0 .. n-1 in pieces (stencil_rows.h); a reduction's sum of the
  * pieces' partial sums, in order. */
 static double run(kernel *k, int64_t n, int threads)
 {
     k->n = n;
-    k->chunks = n >= PARALLEL_MIN ? CHUNKS : 1;
-    if (k->chunks == 1 || threads <= 1)
-        for (int i = 0; i < k->chunks; ++i) kernel_job(k, i);
-    else ohm_parallel_for(k->chunks, threads, kernel_job, k);
+    k->chunks = ohm_rows_run(kernel_piece, k, n, threads);
     double sum = 0;
     k->sum2 = 0;
     for (int i = 0; i < k->chunks; ++i) {
@@ -136,118 +118,7 @@ static double run(kernel *k, int64_t n, int threads)
     return sum;
 }
 
-/* ---- the stencils' rows ---------------------------------------------------------------- */
-
-/* Rows lo .. hi-1 of a stencil cut where its runs end (network.h): in
- * each stretch a .. e-1 the neighbours lie at the fixed distances ym, yp,
- * zm, zp (0: none), so a row loop over it reads every array at a fixed
- * offset and vectorises.  The first and last unknowns come alone, as
- * edge stretches: their -x (+x) neighbour's index would fall outside the
- * vectors. */
-typedef struct stretch {
-    const ohm_stencil *st;
-    int64_t v, hi, run; /* the next row, the end, its run */
-    int64_t a, e, ym, yp, zm, zp;
-    int edge;
-} stretch;
-
-static inline stretch stretches(const ohm_stencil *st, int64_t lo, int64_t hi)
-{
-    return (stretch){.st = st, .v = lo, .hi = hi, .run = lo < hi ? ohm_stencil_run_of(st, lo) : 0};
-}
-
-static inline int next_stretch(stretch *it)
-{
-    const ohm_stencil *st = it->st;
-    int64_t v = it->v;
-    if (v >= it->hi) return 0;
-    int64_t r = ohm_stencil_run(st, v, &it->run), end = st->run_start[r + 1];
-    const int32_t *o = st->run_off[r];
-    it->ym = o[0], it->yp = o[1], it->zm = o[2], it->zp = o[3];
-    it->a = v;
-    it->edge = v == 0 || v == st->n - 1;
-    if (it->edge) it->e = v + 1;
-    else { /* to the run's end, the range's or the last unknown, whichever is first */
-        int64_t e = end < it->hi ? end : it->hi;
-        it->e = e < st->n - 1 ? e : st->n - 1;
-    }
-    it->v = it->e;
-    return 1;
-}
-
-/* The statements ... for every row v in lo .. hi-1 of ST, stretch by
- * stretch, with v's neighbours' distances ym, yp, zm, zp, my = (ym != 0),
- * mz = (zm != 0) and edge (1 for the first and last unknowns) in scope,
- * constant in each stretch's loop, and S, a local copy of ST (the loop's
- * stores cannot move its arrays).  FOR_ROWS_EACH is for statements that
- * write row v's own output only, in an array no other row reads, and
- * FOR_ROWS_SUM("omp simd reduction(+ : s, t)", ...) for those that also
- * add into the variables named there:
- * the compiler is told so (OpenMP's simd, with -fopenmp-simd), since it
- * cannot prove it (every array is float, and a dozen run-time overlap
- * tests are more than it will make; a sum's order is fixed by the stretch,
- * not by the cores), and vectorises the loop. */
-#define FOR_ROWS_(PRAGMA, ST, LO, HI, ...)                                                                      \
-    for (stretch it_ = stretches(ST, LO, HI); next_stretch(&it_);) {                                            \
-        const ohm_stencil S_ = *it_.st, *S = &S_;                                                               \
-        (void)S;                                                                                                \
-        const int64_t ym = it_.ym, yp = it_.yp, zm = it_.zm, zp = it_.zp, a_ = it_.a, e_ = it_.e;               \
-        const float my = ym != 0, mz = zm != 0;                                                                 \
-        (void)ym, (void)yp, (void)zm, (void)zp, (void)my, (void)mz;                                             \
-        if (it_.edge)                                                                                           \
-            for (int64_t v = a_; v < e_; ++v) {                                                                 \
-                const int edge = 1;                                                                             \
-                (void)edge;                                                                                     \
-                __VA_ARGS__                                                                                     \
-            }                                                                                                   \
-        else {                                                                                                  \
-            PRAGMA                                                                                              \
-            for (int64_t v = a_; v < e_; ++v) {                                                                 \
-                const int edge = 0;                                                                             \
-                (void)edge;                                                                                     \
-                __VA_ARGS__                                                                                     \
-            }                                                                                                   \
-        }                                                                                                       \
-    }
-#define FOR_ROWS(ST, LO, HI, ...) FOR_ROWS_(, ST, LO, HI, __VA_ARGS__)
-#define FOR_ROWS_EACH(ST, LO, HI, ...) FOR_ROWS_(_Pragma("omp simd"), ST, LO, HI, __VA_ARGS__)
-#define FOR_ROWS_SUM(SIMD, ST, LO, HI, ...) FOR_ROWS_(_Pragma(SIMD), ST, LO, HI, __VA_ARGS__)
-
-/* The arguments of a row function: a row, its neighbours' distances. */
-#define ROW_ARGS v, ym, yp, zm, zp, my, mz, edge
-#define ROW_PARAMS int64_t v, int64_t ym, int64_t yp, int64_t zm, int64_t zp, float my, float mz, int edge
-
-/* (A x)_v for the network's stencil, in double, in flux form:
- *   sink_v x_v + sum_w g_vw (x_v - x_w)
- * (network.h's KCL), not diag_v x_v - sum_w g_vw x_w.  Each link's term is
- * the exact negative of its term in w's row, so the rows' sum is
- * sum_v sink_v x_v up to the rounding of those terms, not of diag_v x_v,
- * where the links may dwarf the sinks (sigma_s' 1e6 beside sigma_a 1e-3).  A missing link's conductance is 0 (and a missing lower
- * neighbour's is masked by my, mz), its distance 0, so its term is 0
- * without a branch. */
-#define DEFINE_NET_APPLY(NAME, XTYPE)                                                                           \
-    static inline double NAME(const ohm_stencil *st, const XTYPE *x, ROW_PARAMS)                                \
-    {                                                                                                           \
-        const float *gx = st->gx, *gy = st->gy, *gz = st->gz;                                                   \
-        double xv = x[v];                                                                                       \
-        double s = st->sink[v] * xv + gy[v] * (xv - x[v + yp]) + (double)(my * gy[v + ym]) * (xv - x[v + ym]) + \
-                   gz[v] * (xv - x[v + zp]) + (double)(mz * gz[v + zm]) * (xv - x[v + zm]);                     \
-        if (!edge || v < st->n - 1) s += gx[v] * (xv - x[v + 1]);                                               \
-        if (!edge || v > 0) s += gx[v - 1] * (xv - x[v - 1]);                                                   \
-        return s;                                                                                               \
-    }
-DEFINE_NET_APPLY(net_apply, double)       /* the residual's, of the double iterate */
-DEFINE_NET_APPLY(net_apply_single, float) /* the outer direction's, kept in floats */
-
-/* Row v's diagonal, sink + its links, in double. */
-static inline double row_diag(const ohm_stencil *st, ROW_PARAMS)
-{
-    (void)yp, (void)zp;
-    const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
-    double d = st->sink[v] + gx[v] + gy[v] + gz[v] + my * gy[v + ym] + mz * gz[v + zm];
-    if (!edge || v > 0) d += gx[v - 1]; /* 0 unless v - 1's +x link is v */
-    return d;
-}
+/* ---- the cycle's rows (single; the loop and the double rows: stencil_rows.h) ----------- */
 
 /* The cycle's row v, in single precision: its links' sum, sum_w g_vw x_w
  * (so (A x)_v is diag x_v - that sum, and the Jacobi step (b_v + that sum)
@@ -274,92 +145,6 @@ static inline float cyc_apply(const ohm_stencil *st, const float *x, ROW_PARAMS)
 static inline float cyc_jacobi(const ohm_stencil *st, const float *invd, const float *x, const float *b, ROW_PARAMS)
 {
     return (b[v] + cyc_sum(st, x, ROW_ARGS)) * invd[v] - x[v];
-}
-
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
-{
-    const int32_t *o = st->run_off[ohm_stencil_run_of(st, v)];
-    return row_diag(st, v, o[0], o[1], o[2], o[3], o[0] != 0, o[2] != 0, 1);
-}
-
-double ohm_stencil_norm_inf(const ohm_stencil *st)
-{
-    /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
-    double norm = 0;
-    FOR_ROWS(st, 0, st->n, {
-        double row = 2.0 * row_diag(S, ROW_ARGS) - S->sink[v];
-        if (row > norm) norm = row; /* not fmax: a library call per row */
-    })
-    return norm;
-}
-
-/* ---- the outer iteration's kernels (double) ------------------------------------------- */
-
-static void apply_k(kernel *k, int64_t lo, int64_t hi, int chunk)
-{
-    (void)chunk;
-    const double *x = k->x;
-    double *out = k->out;
-    FOR_ROWS_EACH(k->st, lo, hi, out[v] = net_apply(S, x, ROW_ARGS);)
-}
-
-void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads)
-{
-    kernel k = {.fn = apply_k, .st = st, .x = x, .out = y};
-    run(&k, st->n, threads);
-}
-
-/* the largest |b - A x| (b in y), |x| and |b| of the rows, into
- * partial[chunk], partial2[chunk] and partial3[chunk] */
-static void residual_inf_k(kernel *k, int64_t lo, int64_t hi, int chunk)
-{
-    double worst = 0, nx = 0, nb = 0;
-    const double *x = k->x, *b = k->y;
-    FOR_ROWS(k->st, lo, hi, {
-        double r = fabs(b[v] - net_apply(S, x, ROW_ARGS));
-        if (!(r <= worst)) worst = r; /* NaN propagates */
-        if (fabs(x[v]) > nx) nx = fabs(x[v]);
-        if (fabs(b[v]) > nb) nb = fabs(b[v]);
-    })
-    k->partial[chunk] = worst;
-    k->partial2[chunk] = nx;
-    k->partial3[chunk] = nb;
-}
-
-void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const double *x, int threads, double *nr,
-                                double *nx, double *nb)
-{
-    kernel k = {.fn = residual_inf_k, .st = st, .x = x, .y = b};
-    run(&k, st->n, threads > 0 ? threads : ohm_usable_cores());
-    *nr = *nx = *nb = 0;
-    for (int i = 0; i < k.chunks; ++i) {
-        if (!(k.partial[i] <= *nr)) *nr = k.partial[i];
-        if (k.partial2[i] > *nx) *nx = k.partial2[i];
-        if (k.partial3[i] > *nb) *nb = k.partial3[i];
-    }
-}
-
-/* unknowns lo .. hi-1's sums of the sinks and of the diagonal, added into
- * *sink and *diag */
-static void rows_sums(const ohm_stencil *st, int64_t lo, int64_t hi, double *sink, double *diag)
-{
-    double s = 0, d = 0;
-    FOR_ROWS_SUM("omp simd reduction(+ : s, d)", st, lo, hi, {
-        s += S->sink[v];
-        d += row_diag(S, ROW_ARGS);
-    })
-    *sink += s;
-    *diag += d;
-}
-
-/* each piece's sums of the sinks and of the diagonal, run by run */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const ohm_piece_runs *pieces, double *sink, double *diag)
-{
-    if (!pieces->count) rows_sums(st, 0, st->n, &sink[0], &diag[0]);
-    for (int64_t r = 0; r < pieces->count; ++r) {
-        int32_t p = pieces->piece[r];
-        rows_sums(st, pieces->start[r], pieces->start[r + 1], &sink[p], &diag[p]);
-    }
 }
 
 /* out = b - A x (b in y); returns ||out||^2, and its sum in k.sum2 */
@@ -527,21 +312,6 @@ static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     else FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + a * (x[v] - y[v]) + a2 * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
 }
 
-/* Two Chebyshev steps for A out = b from y (NULL: zero), the first into
- * tmp: x1 = y + D^-1 (b - A y) / theta, then out = x1 + rho1 rho0 (x1 - y) +
- * (2 rho1 / delta) D^-1 (b - A x1) (the three-term recurrence of Saad,
- * "Iterative Methods for Sparse Linear Systems", 2nd ed., Algorithm 12.1,
- * with d0 = x1 - y). */
-void ohm_mg_smoother(double *w0, double *a, double *a2)
-{
-    const double lmin = CHEB_LMAX / CHEB_RATIO;
-    const double theta = 0.5 * (CHEB_LMAX + lmin), delta = 0.5 * (CHEB_LMAX - lmin), sigma = theta / delta;
-    const double rho0 = 1.0 / sigma, rho1 = 1.0 / (2.0 * sigma - rho0);
-    *w0 = 1.0 / theta;
-    *a = rho1 * rho0;
-    *a2 = 2.0 * rho1 / delta;
-}
-
 /* out may be y: the second step reads y in its own row only (an update in
  * place, which saves the cycle a vector per level); tmp is neither. */
 static void smooth(const mg_level *L, const float *y, const float *b, float *tmp, float *out, int threads)
@@ -589,7 +359,7 @@ static void restrict_job(void *user, int64_t K)
 static void restrict_residual(const mg_level *L, const float *x, const float *b, float *r, float *rc, int threads)
 {
     kernel k = {.L = L, .xf = x, .bf = b, .outf = rc, .out_tmp = r};
-    if (L->n < PARALLEL_MIN || threads <= 1)
+    if (L->n < OHM_ROWS_PARALLEL_MIN || threads <= 1)
         for (int64_t K = 0; K < L->nslabs; ++K) restrict_job(&k, K);
     else ohm_parallel_for(L->nslabs, threads, restrict_job, &k);
 }
@@ -629,57 +399,7 @@ static void dense_solve(const ohm_mg *m, const float *b, float *x)
     for (int64_t i = 0; i < n; ++i) x[i] = (float)y[i];
 }
 
-static void cycle(const ohm_mg *m, int l, const float *b, float *x);
-
-/* ec ~ A_l^-1 rc for coarse level l: exactly at the coarsest; else one
- * cycle, or the K-cycle's two steps of flexible CG preconditioned by it
- * (Notay and Vassilevski 2008, Algorithm 2.1). */
-static void coarse_solve(const ohm_mg *m, int l, const float *rc, float *ec)
-{
-    const mg_level *L = &m->lev[l];
-    int th = m->threads;
-    int64_t n = L->n;
-    if (l == m->nlevels - 1) {
-        dense_solve(m, rc, ec);
-        return;
-    }
-    if (!L->kcycle) {
-        cycle(m, l, rc, ec);
-        return;
-    }
-    cycle(m, l, rc, L->c1);
-    double rho1 = level_apply_dot(L, L->c1, L->v1, NULL, th), alpha1 = dot(L->c1, rc, n, th);
-    if (!(rho1 > 0)) {
-        memset(ec, 0, (size_t)n * sizeof *ec);
-        return;
-    }
-    double a1 = alpha1 / rho1;
-    combine(L->rt, 1.0, rc, -a1, L->v1, n, th);
-    cycle(m, l, L->rt, L->c2);
-    double beta = level_apply_dot(L, L->c2, NULL, NULL, th); /* c2.A c2: A c2 itself is not needed */
-    double gamma = dot(L->c2, L->v1, n, th), alpha2 = dot(L->c2, L->rt, n, th);
-    double rho2 = beta - gamma * gamma / rho1;
-    if (!(rho2 > 0)) {
-        combine(ec, a1, L->c1, 0, NULL, n, th);
-        return;
-    }
-    double w1 = a1 - gamma * alpha2 / (rho1 * rho2), w2 = alpha2 / rho2;
-    combine(ec, w1, L->c1, w2, L->c2, n, th);
-}
-
-/* x = M_l b: smooth from zero, correct on the next level, smooth again.
- * b and x are not level l's temporaries. */
-static void cycle(const ohm_mg *m, int l, const float *b, float *x)
-{
-    const mg_level *L = &m->lev[l];
-    const mg_level *C = &m->lev[l + 1];
-    int th = m->threads;
-    smooth(L, NULL, b, L->t, x, th);            /* pre-smoothed: x (t: its first step) */
-    restrict_residual(L, x, b, L->t, C->b, th); /* t: the slabs' residuals */
-    coarse_solve(m, l + 1, C->b, C->x);
-    prolong_add(L, x, C->x, x, th); /* corrected, in place */
-    smooth(L, x, b, L->t, x, th);   /* post-smoothed, in place (smooth) */
-}
+static void host_machine(ohm_mg *m);
 
 /* ---- set-up ---------------------------------------------------------------------------- */
 
@@ -945,6 +665,7 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
         ohm_mg_free(m);
         return rc;
     }
+    host_machine(m);
     *out = m;
     return OHM_OK;
 }
@@ -990,53 +711,188 @@ double ohm_mg_bytes_estimate(int64_t n)
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
 
-/* ---- the outer iteration --------------------------------------------------------------- */
-
-void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs, int *nonnegative)
+/* x's negative values set to 0; returns how many there were */
+static int64_t clamp_negative(double *x, int64_t n)
 {
-    double s2 = 0, s1 = 0;
-    int nonneg = 1;
-    for (int64_t i = 0; i < n; ++i) {
-        s2 += b[i] * b[i];
-        s1 += fabs(b[i]);
-        nonneg &= b[i] >= 0;
-    }
-    *norm2 = sqrt(s2);
-    *sum_abs = s1;
-    *nonnegative = nonneg;
+    int64_t count = 0;
+    for (int64_t i = 0; i < n; ++i)
+        if (x[i] < 0) {
+            x[i] = 0;
+            ++count;
+        }
+    return count;
 }
 
-/* The cycle on r, in single precision: level 0's x = M (s r), M near
- * A^-1, with s = ||A||_inf / ||r||_inf.  Scaled so, the cycle's
- * right-hand sides are at most ||A||_inf and its corrections at most
- * about cond(A) = ||A|| ||A^-1||, free of h and of the coefficients' units
- * (as with a stencil scaled to ||A|| = 1), inside a float's range at any
- * contrast the stencil holds.  A^-1 r is then about x / s: returns 1 / s. */
-double ohm_mg_rhs_scale(double norm_A, double nr) { return nr > 0 ? (norm_A > 0 ? norm_A : 1.0) / nr : 1.0; }
 
-/* level 0's x = M b, b = s r already in level 0's b */
-static void precondition_rhs(const ohm_mg *m)
+/* ---- the host's operations (mg_ops.h) ---------------------------------------------------- */
+
+static void host_smooth(void *self, int l, ohm_mg_vec y, ohm_mg_vec b, ohm_mg_vec tmp, ohm_mg_vec out)
 {
-    const mg_level *L0 = &m->lev[0];
-    if (m->nlevels == 1) dense_solve(m, L0->b, L0->x);
-    else cycle(m, 0, L0->b, L0->x);
+    const ohm_mg *m = self;
+    smooth(&m->lev[l], y, b, tmp, out, m->threads);
 }
 
-/* level 0's b = s r, s = ohm_mg_rhs_scale(norm_A, nr); returns s */
-static double rhs_of(const ohm_mg *m, const double *r, double nr)
+static void host_restrict(void *self, int l, ohm_mg_vec x, ohm_mg_vec b, ohm_mg_vec scratch, ohm_mg_vec rc)
 {
-    double s = ohm_mg_rhs_scale(m->norm_A, nr);
-    kernel k = {.fn = to_single_k, .x = r, .outf = m->lev[0].b, .a = s};
+    const ohm_mg *m = self;
+    restrict_residual(&m->lev[l], x, b, scratch, rc, m->threads);
+}
+
+static void host_prolong(void *self, int l, ohm_mg_vec x, ohm_mg_vec e, ohm_mg_vec out)
+{
+    const ohm_mg *m = self;
+    prolong_add(&m->lev[l], x, e, out, m->threads);
+}
+
+static double host_apply_dot(void *self, int l, ohm_mg_vec x, ohm_mg_vec y, ohm_mg_vec q)
+{
+    const ohm_mg *m = self;
+    return level_apply_dot(&m->lev[l], x, y, q, m->threads);
+}
+
+static double host_dot(void *self, int l, ohm_mg_vec x, ohm_mg_vec y)
+{
+    const ohm_mg *m = self;
+    return dot(x, y, m->lev[l].n, m->threads);
+}
+
+static void host_combine(void *self, int l, ohm_mg_vec out, double a, ohm_mg_vec x, double a2, ohm_mg_vec y)
+{
+    const ohm_mg *m = self;
+    combine(out, a, x, a2, y, m->lev[l].n, m->threads);
+}
+
+static void host_zero(void *self, int l, ohm_mg_vec x)
+{
+    const ohm_mg *m = self;
+    memset(x, 0, (size_t)m->lev[l].n * sizeof(float));
+}
+
+static void host_coarsest(void *self, ohm_mg_vec b, ohm_mg_vec x) { dense_solve(self, b, x); }
+
+static int host_begin(void *self, double *x, const double *b, ohm_error *err)
+{
+    (void)err;
+    ohm_mg *m = self;
+    m->x = x;
+    m->b = b;
+    return OHM_OK;
+}
+
+static void host_residual(void *self, double *nr, double *sr)
+{
+    ohm_mg *m = self;
+    kernel kr = {.fn = residual_k, .st = m->fine, .x = m->x, .y = m->b, .out = m->r};
+    *nr = sqrt(run(&kr, m->fine->n, m->threads));
+    *sr = kr.sum2;
+}
+
+static int host_start_cold(void *self, double *x, const double *b, ohm_error *err)
+{
+    (void)x, (void)err; /* x is the iterate, zeroed already */
+    ohm_mg *m = self;
+    memcpy(m->r, b, (size_t)m->fine->n * sizeof *m->r);
+    return OHM_OK;
+}
+
+static int64_t host_clamp(void *self)
+{
+    ohm_mg *m = self;
+    return clamp_negative(m->x, m->fine->n);
+}
+
+static int host_backward_error(void *self, double *x, const double *b, double *berr, ohm_error *err)
+{
+    (void)err;
+    const ohm_mg *m = self;
+    *berr = ohm_scaled_backward_error(b, x, m->r, (size_t)m->fine->n, m->norm_A);
+    return OHM_OK;
+}
+
+/* level 0's b = s r */
+static void host_rhs(void *self, double s)
+{
+    ohm_mg *m = self;
+    kernel k = {.fn = to_single_k, .x = m->r, .outf = m->lev[0].b, .a = s};
     run(&k, m->lev[0].n, m->threads);
+}
+
+static double host_mixed_dot(void *self)
+{
+    ohm_mg *m = self;
+    kernel kb = {.fn = mixed_dot_k, .xf = m->lev[0].x, .y = m->q};
+    return run(&kb, m->fine->n, m->threads);
+}
+
+/* p = kz z - beta p kept as pscale pt, pt in floats: any direction will do,
+ * so long as q is A times the one taken (computed in double from pt's own
+ * values), and x and r move along it together.  pt is of z's size whatever
+ * the residual's, far inside a float's range; 4 B a cell fewer than a
+ * double p, and 4 fewer streamed by three of the iteration's passes.  p =
+ * kz (z - (beta pscale / kz) pt). */
+static void host_direction(void *self, double kz, double beta)
+{
+    ohm_mg *m = self;
+    kernel kd = {.fn = direction_k, .xf = m->lev[0].x, .outf = m->p, .a = beta == 0 ? 0.0 : beta * m->pscale / kz};
+    run(&kd, m->fine->n, m->threads);
+    m->pscale = kz;
+}
+
+static void host_apply_dots(void *self, double *pq, double *pr)
+{
+    ohm_mg *m = self;
+    kernel kq = {.fn = apply_dots_k, .st = m->fine, .xf = m->p, .z = m->r, .out = m->q, .a = m->pscale};
+    *pq = m->pscale * run(&kq, m->fine->n, m->threads);
+    *pr = m->pscale * kq.sum2;
+}
+
+/* the next cycle's right-hand side written by the step's own pass, scaled
+ * by the norm before the step: the new residual is smaller, so s r stays
+ * below ||A||_inf (ohm_mg_rhs_scale) */
+static double host_step(void *self, double alpha, double nr, double *nr_after, double *sr_after)
+{
+    ohm_mg *m = self;
+    double s = ohm_mg_rhs_scale(m->norm_A, nr);
+    kernel ks = {.fn = step_k,
+                 .xf = m->p,
+                 .y = m->q,
+                 .out = m->x,
+                 .out2 = m->r,
+                 .outf = m->lev[0].b,
+                 .a = alpha,
+                 .a2 = alpha * m->pscale,
+                 .a3 = s};
+    *nr_after = sqrt(run(&ks, m->fine->n, m->threads));
+    *sr_after = ks.sum2;
     return s;
 }
 
-static double precondition(const ohm_mg *m, const double *r, double nr)
+static const ohm_mg_ops host_ops = {
+    .smooth = host_smooth, .restrict_residual = host_restrict, .prolong_add = host_prolong,
+    .apply_dot = host_apply_dot, .dot = host_dot, .combine = host_combine, .zero = host_zero,
+    .coarsest_solve = host_coarsest, .begin = host_begin, .residual = host_residual, .start_cold = host_start_cold,
+    .clamp = host_clamp, .backward_error = host_backward_error, .rhs = host_rhs, .mixed_dot = host_mixed_dot,
+    .direction = host_direction, .apply_dots = host_apply_dots, .step = host_step};
+
+/* the hierarchy's levels for mg_cycle.c */
+static void host_machine(ohm_mg *m)
 {
-    double s = rhs_of(m, r, nr);
-    precondition_rhs(m);
-    return 1.0 / s;
+    ohm_mg_machine_init(&m->machine, &host_ops, m, m->fine->n, m->norm_A, m->nlevels);
+    for (int l = 0; l < m->nlevels; ++l) {
+        const mg_level *L = &m->lev[l];
+        ohm_mg_machine_level(&m->machine, l, L->n, L->kcycle, (ohm_mg_vec[]){L->b, L->x, L->t, L->c1, L->v1, L->c2, L->rt});
+    }
 }
+
+int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
+                 int64_t *iters, double *relres, ohm_error *err)
+{
+    return ohm_mg_fcg(&m->machine, x, b, tol, max_iter, log, iters, relres, err);
+}
+
+double ohm_mg_norm_inf(const ohm_mg *mg) { return mg->norm_A; }
+
+/* ---- the outer iteration --------------------------------------------------------------- */
 
 /* the largest |x| of the rows, into partial[chunk] */
 static void max_abs_k(kernel *k, int64_t lo, int64_t hi, int chunk)
@@ -1065,7 +921,10 @@ void ohm_mg_precondition(ohm_mg *m, const double *r, double *z)
     double nr = 0;
     for (int i = 0; i < km.chunks; ++i)
         if (km.partial[i] > nr) nr = km.partial[i];
-    double kz = precondition(m, r, nr);
+    double s = ohm_mg_rhs_scale(m->norm_A, nr);
+    host_rhs(m, s);
+    ohm_mg_cycle_level0(&m->machine);
+    double kz = 1.0 / s;
     kernel kd = {.fn = to_double_k, .xf = L0->x, .out = z, .a = kz};
     run(&kd, L0->n, m->threads);
 }
@@ -1107,228 +966,3 @@ double ohm_mg_cycle_bytes(const ohm_mg *m)
     return 24.0 * n + (m->nlevels == 1 ? coarse_solve_bytes(m, 0) : cycle_bytes(m, 0));
 }
 
-/* x's negative values set to 0; returns how many there were */
-static int64_t clamp_negative(double *x, int64_t n)
-{
-    int64_t count = 0;
-    for (int64_t i = 0; i < n; ++i)
-        if (x[i] < 0) {
-            x[i] = 0;
-            ++count;
-        }
-    return count;
-}
-
-int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
-                 int64_t *iters, double *relres, ohm_error *err)
-{
-    const ohm_stencil *A = m->fine;
-    const float *z = m->lev[0].x; /* the preconditioned residual, z = kz * this */
-    int64_t n = A->n;
-    int th = m->threads;
-    double *r = m->r, *q = m->q;
-    float *p = m->p;
-    double nb, sb;
-    int b_nonnegative;
-    ohm_mg_rhs_sizes(b, n, &nb, &sb, &b_nonnegative);
-    /* Converged when the residual is tol of b's and so is its sum: the sum
-     * of b - A x is the power in less what the solution absorbs and lets
-     * out (A's column sums are the sinks), and ||r||_2 <= tol ||b||_2 alone
-     * bounds it only by sqrt(n) tol. */
-#define CONVERGED(nr, sr) ((nr) <= tol * nb && fabs(sr) <= tol * sb)
-    *iters = 0;
-    *relres = 0.0;
-    if (!(nb > 0)) {
-        memset(x, 0, (size_t)n * sizeof *x);
-        return OHM_OK;
-    }
-    int64_t it = 0;
-    int restarts = 0, clamps = 0;
-    ohm_progress prog;
-    ohm_progress_begin(&prog, log, "solve: mg");
-    double t_reported = prog.t_begin;
-    for (;;) {
-        /* the true residual at every (re)start and at the end */
-        kernel kr = {.fn = residual_k, .st = A, .x = x, .y = b, .out = r};
-        double nr = sqrt(run(&kr, n, th)), sr = kr.sum2;
-        if (it == 0 && !(nr <= nb)) { /* a warm start worse than zero (or not finite): start cold */
-            memset(x, 0, (size_t)n * sizeof *x);
-            memcpy(r, b, (size_t)n * sizeof *r);
-            nr = nb;
-            sr = 0;
-            for (int64_t i = 0; i < n; ++i) sr += b[i];
-        }
-        *relres = nr / nb;
-        /* A is an M-matrix, so A^-1 >= 0 and a source b >= 0 has x >= 0.
-         * Where the fluence has decayed to ~1e-40 of its peak (a 100 mm
-         * voxel, a 1e12 contrast) the iteration's error, tol of the peak,
-         * leaves values of either sign: taken to the 0 they are within that
-         * error of, and the true residual judged again, since the power
-         * they held can be tol of the whole (a point source in the block
-         * medium: 1.4e-10); a round from the clamped x removes it.  Twice
-         * at most: then the clamped x stands (below). */
-        if (CONVERGED(nr, sr) && b_nonnegative && clamps < 2 && clamp_negative(x, n) > 0) {
-            ++clamps;
-            nr = sqrt(run(&kr, n, th));
-            sr = kr.sum2;
-            *relres = nr / nb;
-        }
-        if (CONVERGED(nr, sr)) break;
-        /* stagnated at the floor */
-        if (restarts > 0 && ohm_scaled_backward_error(b, x, r, (size_t)n, m->norm_A) <= 0.01 * tol) break;
-        if (it >= max_iter || restarts > 5) {
-            *iters = it;
-            ohm_progress_end(&prog);
-            return ohm_fail(err, OHM_ERR_NUMERIC,
-                            "mg: did not converge: relative residual %.3g after %lld iterations (cg_tol=%.1g); use "
-                            "solver=direct, or a looser cg_tol=",
-                            nr / nb, (long long)it, tol);
-        }
-        ++restarts;
-        /* flexible CG (Notay, "Flexible conjugate gradients", SIAM J. Sci.
-         * Comput. 22, 2000), one direction kept: p = kz z - beta p with
-         * beta = kz z.q / p.q making p A-orthogonal to the last (q = A p).
-         * p is kept as pscale pt, pt in floats: any direction will do, so
-         * long as q is A times the one taken (computed in double from pt's
-         * own values), and x and r move along it together.  pt is of z's
-         * size whatever the residual's, far inside a float's range; 4 B a
-         * cell fewer than a double p, and 4 fewer streamed by three of the
-         * iteration's passes. */
-        double beta = 0, pq = 0, pr = 0, pscale = 0;
-        double s = rhs_of(m, r, nr); /* the cycle's right-hand side s r; then each step's */
-        for (int first = 1; !CONVERGED(nr, sr) && it < max_iter; first = 0) {
-            precondition_rhs(m);
-            double kz = 1.0 / s;
-            if (!first) {
-                kernel kb = {.fn = mixed_dot_k, .xf = z, .y = q};
-                beta = kz * run(&kb, n, th) / pq;
-            }
-            /* p = kz z - beta pscale pt = kz (z - (beta pscale / kz) pt) */
-            kernel kd = {.fn = direction_k, .xf = z, .outf = p, .a = first ? 0.0 : beta * pscale / kz};
-            run(&kd, n, th);
-            pscale = kz;
-            kernel kq = {.fn = apply_dots_k, .st = A, .xf = p, .z = r, .out = q, .a = pscale};
-            pq = pscale * run(&kq, n, th);
-            pr = pscale * kq.sum2;
-            if (!(pq > 0)) break; /* converged to round-off (or A not positive definite) */
-            /* scaled by the norm before the step: the new residual is
-             * smaller, so s r stays below ||A||_inf (ohm_mg_rhs_scale) */
-            s = ohm_mg_rhs_scale(m->norm_A, nr);
-            kernel ks = {.fn = step_k,
-                         .xf = p,
-                         .y = q,
-                         .out = x,
-                         .out2 = r,
-                         .outf = m->lev[0].b,
-                         .a = pr / pq,
-                         .a2 = pr / pq * pscale,
-                         .a3 = s};
-            nr = sqrt(run(&ks, n, th));
-            sr = ks.sum2;
-            ++it;
-            if (ohm_log_cancelled(log)) {
-                *iters = it;
-                ohm_progress_end(&prog);
-                return ohm_fail_cancelled(err, "mg");
-            }
-            if (log && ohm_now() - t_reported >= 0.05) {
-                t_reported = ohm_now();
-                ohm_progress_update(&prog, fmin(1.0, fmax(0.0, log10(nr / nb) / log10(tol))));
-            }
-        }
-    }
-#undef CONVERGED
-    if (b_nonnegative) clamp_negative(x, n);
-    *iters = it;
-    ohm_progress_end(&prog);
-    return OHM_OK;
-}
-
-/* ---- the mg backend (backend.h) ------------------------------------------------------- */
-
-typedef struct mg_state {
-    ohm_mg *mg;
-    ohm_mg_device *device; /* the hierarchy on an OpenCL device (device=), or NULL: the host */
-    ohm_backend_config cfg;
-} mg_state;
-
-static void mg_release(void *state)
-{
-    mg_state *s = state;
-    ohm_mg_device_free(s->device);
-    s->device = NULL;
-    ohm_mg_free(s->mg);
-    s->mg = NULL;
-}
-
-static void mg_destroy(void *state)
-{
-    if (!state) return;
-    mg_release(state);
-    free(state);
-}
-
-static int mg_create(void **state, const ohm_backend_config *cfg, ohm_error *err)
-{
-    mg_state *s = calloc(1, sizeof *s);
-    if (!s) return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory");
-    s->cfg = *cfg;
-    ohm_backend_iterative_defaults(&s->cfg, 1000);
-    *state = s;
-    return OHM_OK;
-}
-
-static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep, ohm_error *err)
-{
-    mg_state *s = state;
-    if ((!op->stencil && !op->make_stencil) || !s->cfg.layout || s->cfg.layout->n != op->n)
-        return ohm_fail(err, OHM_ERR_INTERNAL, "solve: solver=mg needs the network's stencil and its cells");
-    int64_t n = op->n;
-    double columns = (double)(s->cfg.batch ? s->cfg.batch : 1);
-    double need = ohm_mg_bytes_estimate(n) + 2.0 * sizeof(double) * (double)n * columns;
-    if (op->A) need += 24.0 * (double)op->A->nzmax; /* A is held beside the stencil made for mg */
-    char what[64];
-    snprintf(what, sizeof what, "multigrid on %lld cells", (long long)n);
-    int rc =
-        ohm_backend_check_memory(need, s->cfg.max_memory, what, NULL, "use a smaller dim= or a larger voxel=", err);
-    if (rc) return rc;
-    mg_release(s);
-    double t0 = ohm_now();
-    const ohm_stencil *st = op->stencil;
-    if (!st) rc = op->make_stencil(op->maker, &st, err);
-    if (!rc) rc = ohm_mg_setup(&s->mg, st, s->cfg.layout, 0, err);
-    if (!rc) rc = ohm_mg_device_open(&s->device, s->mg, &s->cfg.device, s->cfg.log, err);
-    if (rc) return rc;
-    if (s->device) snprintf(rep->device, sizeof rep->device, "%s", ohm_mg_device_name(s->device));
-    rep->t_precond += ohm_now() - t0;
-    rep->precond_setups++;
-    rep->levels = ohm_mg_levels(s->mg, NULL);
-    snprintf(rep->solver, sizeof rep->solver, "mg");
-    double held = ohm_mg_bytes(s->mg) + ohm_stencil_bytes(st); /* and the stencil it reads */
-    if (held > rep->bytes) rep->bytes = held;
-    return OHM_OK;
-}
-
-static int mg_column(void *solver, double *x, const double *b, int64_t *iters, double *relres, ohm_error *err)
-{
-    mg_state *s = solver;
-    if (s->device) return ohm_mg_device_solve(s->device, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
-    return ohm_mg_solve(s->mg, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
-}
-
-static int mg_solve(void *state, const ohm_operator *op, const double *B, double *X, size_t ncols, double *berr,
-                    ohm_backend_report *rep, ohm_error *err)
-{
-    mg_state *s = state;
-    int rc = ohm_backend_solve_columns(mg_column, s, (size_t)op->n, B, X, ncols, rep, err);
-    if (!rc) *berr = ohm_operator_backward_error(op, B, X, ncols, s->mg->norm_A);
-    return rc;
-}
-
-const ohm_backend_ops ohm_backend_mg = {.name = "mg",
-                                        .create = mg_create,
-                                        .setup = mg_setup,
-                                        .solve = mg_solve,
-                                        .destroy = mg_destroy,
-                                        .release = mg_release,
-                                        .caps = OHM_BACKEND_STENCIL | OHM_BACKEND_WARM_START};

@@ -1,5 +1,7 @@
-/* solvers/mg.h — geometric multigrid on the voxel grid, matrix-free
- * (issue 35): the hierarchy of solver=mg (backend.h).
+/* solvers/mg.h — geometric multigrid on the voxel grid, matrix-free: the
+ * hierarchy of solver=mg (backend.h), and its solve on the host.  The cycle
+ * and the outer iteration are mg_cycle.c's, over the host's operations
+ * (mg.c) or an OpenCL device's (mg_device.h).
  *
  * The unknowns are cells of a regular grid, so the grid is the hierarchy:
  * a coarse cell is a 2x2x2 block of the finer grid's cells (those of the
@@ -11,8 +13,8 @@
  * the blocks' shared face, a coarse cell's sink the sum of its cells'
  * sinks; each coarse level is again a 7-point stencil (ohm_stencil) and
  * conserves power as the fine one does.  Piecewise-constant (unsmoothed)
- * aggregation alone loses its grip as grids grow (issue 35: 17 iterations
- * at 8.8e5 cells, 79 at 1e8 in a prototype); the K-cycle of Notay and
+ * aggregation alone loses its grip as grids grow (17 iterations at 8.8e5
+ * cells, 79 at 1e8 in a prototype: docs/multigrid.md); the K-cycle of Notay and
  * Vassilevski ("Recursive Krylov-based multigrid cycles", Numer. Linear
  * Algebra Appl. 15, 2008) restores it: each coarse correction is up to two
  * steps of flexible CG preconditioned by the next level's cycle, as in
@@ -46,6 +48,7 @@
 #include "base/ohm_error.h"
 #include "physics/network.h"
 #include "solvers/grid_order.h"
+#include "solvers/mg_ops.h"
 
 typedef struct ohm_mg ohm_mg;
 
@@ -76,6 +79,9 @@ void ohm_mg_precondition(ohm_mg *mg, const double *r, double *z);
  * its bandwidth bound at a measured triad rate. */
 double ohm_mg_cycle_bytes(const ohm_mg *mg);
 
+/* ||A||_inf of the network's stencil, as the solve's stopping tests use it. */
+double ohm_mg_norm_inf(const ohm_mg *mg);
+
 /* Levels, and cells summed over them (the finest included). */
 int ohm_mg_levels(const ohm_mg *mg, int64_t *cells);
 
@@ -105,42 +111,11 @@ typedef struct ohm_mg_view {
     const ohm_stencil *fine; /* the outer iteration's operator */
     double norm_A;
     int nlevels;
-    ohm_mg_level_view lev[40];
+    ohm_mg_level_view lev[OHM_MG_LEVELS_MAX];
     const double *dense;
     int64_t ndense;
 } ohm_mg_view;
 
 void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view);
-
-/* What the outer iteration's stopping test needs of b (mg.c, mg_device.c):
- * ||b||_2, sum |b|, and whether every b >= 0. */
-void ohm_mg_rhs_sizes(const double *b, int64_t n, double *norm2, double *sum_abs, int *nonnegative);
-
-/* s for the cycle's right-hand side s r (mg.c's precondition, mg_device.c's):
- * ||A||_inf / ||r||_inf, so that it is at most ||A||_inf. */
-double ohm_mg_rhs_scale(double norm_A, double nr);
-
-/* The Chebyshev smoother's two steps' coefficients (mg.c's smooth): the
- * first step's weight w0; the second's a (on x1 - y) and a2 (on the
- * Jacobi residual). */
-void ohm_mg_smoother(double *w0, double *a, double *a2);
-
-/* y = A x for the stencil's matrix (network.h), on up to `threads` cores. */
-void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
-
-/* ||b - A x||_inf, ||x||_inf and ||b||_inf in one pass, row by row, with
- * no vector of its own (threads <= 0: every usable core). */
-void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const double *x, int threads, double *nr,
-                                double *nx, double *nb);
-
-/* Add each piece's sum of the sinks and of A's diagonal into sink[p],
- * diag[p] (the unknowns' pieces, network.h). */
-void ohm_stencil_piece_sums(const ohm_stencil *st, const ohm_piece_runs *pieces, double *sink, double *diag);
-
-/* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
-double ohm_stencil_norm_inf(const ohm_stencil *st);
-
-/* A's diagonal entry in row v (its run found by bisection). */
-double ohm_stencil_diag(const ohm_stencil *st, int64_t v);
 
 #endif

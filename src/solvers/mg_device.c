@@ -1,6 +1,7 @@
 /* solvers/mg_device.c — see mg_device.h.  The host side of mg_device.cl:
- * buffers, the cycle's order of kernels (as mg.c's cycle and coarse_solve),
- * and the outer flexible CG (as mg.c's ohm_mg_solve). */
+ * its buffers, and the multigrid's operations (mg_ops.h) as launches of its
+ * kernels; the cycle and the outer iteration that call them are
+ * mg_cycle.c's, the host's too. */
 #include "solvers/mg_device.h"
 
 #include <math.h>
@@ -11,6 +12,7 @@
 #include "device/session.h"
 #include "solvers/mg_device_cl.h" /* ohm_mg_device_source: mg_device.cl as a string, generated */
 #include "solvers/backend.h"
+#include "solvers/mg_cycle.h"
 
 /* Work-groups a kernel runs at most (grid-stride loops cover the rest):
  * enough to fill a GPU's cores, few enough that a reduction's partial sums
@@ -21,7 +23,7 @@ enum { MAX_GROUPS = 1024, WG_MAX = 256 };
  * whole solve of 40^3 block-medium cells takes 0.02 s (docs/gpu.md), the
  * order of what a device solve spends on its ~800 kernel launches and ~40
  * synchronous read-backs of partial sums alone (14 iterations), before the
- * set-up.  To be re-measured on a GPU (issue 37). */
+ * set-up.  To be re-measured on a GPU (docs/gpu.md). */
 enum { AUTO_MIN_CELLS = 1 << 16 };
 
 enum kernel_id {
@@ -55,7 +57,7 @@ typedef struct dev_level {
     int kcycle;
     cl_mem off, c, invd;                 /* the stencil                          */
     cl_mem agg, start, children;         /* into the next level, and back        */
-    cl_mem b, x, r, t;                   /* right-hand side, correction, temporaries */
+    cl_mem b, x, t;                      /* right-hand side, correction, temporary */
     cl_mem c1, v1, c2, v2, rt;           /* the K-cycle's                        */
 } dev_level;
 
@@ -73,8 +75,10 @@ struct ohm_mg_device {
     int64_t ndense;
     cl_mem partial;
     double *partial_host;
-    dev_level lev[40];
+    dev_level lev[OHM_MG_LEVELS_MAX];
     int nlevels;
+    double *host_r;            /* r read back, where the solve stagnates */
+    ohm_mg_machine machine;    /* the hierarchy on the device, for mg_cycle.c */
 };
 
 /* ---- buffers and launches -------------------------------------------------------------- */
@@ -96,6 +100,12 @@ static void arg(ohm_mg_device *d, enum kernel_id k, cl_uint i, size_t size, cons
         type value_ = (v);                                                                                      \
         arg(d, k, i, sizeof value_, &value_);                                                                   \
     } while (0)
+
+/* kernel k's arguments first .. first + count - 1: the buffers mem */
+static void mem_args(ohm_mg_device *d, enum kernel_id k, cl_uint first, int count, const cl_mem *mem)
+{
+    for (int i = 0; i < count; ++i) arg(d, k, first + (cl_uint)i, sizeof(cl_mem), &mem[i]);
+}
 
 static size_t groups_for(const ohm_mg_device *d, int64_t n)
 {
@@ -130,7 +140,7 @@ static void reduce(ohm_mg_device *d, enum kernel_id k, int64_t n, cl_uint partia
     }
 }
 
-/* ---- the cycle (mg.c's smooth, cycle, coarse_solve) --------------------------------------- */
+/* ---- a level's operations (mg_ops.h) ------------------------------------------------------ */
 
 static void set_stencil(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
 {
@@ -222,85 +232,65 @@ static void dense_solve(ohm_mg_device *d, cl_mem b, cl_mem x)
     launch(d, K_DENSE_SOLVE, d->ndense, 1);
 }
 
-static void cycle(ohm_mg_device *d, int l, cl_mem b, cl_mem x);
+static ohm_mg_device *dev(void *self) { return self; }
 
-/* ec ~ A_l^-1 rc (mg.c's coarse_solve: the K-cycle of Notay and
- * Vassilevski 2008, Algorithm 2.1) */
-static void coarse_solve(ohm_mg_device *d, int l, cl_mem rc, cl_mem ec)
+static void dev_smooth(void *self, int l, ohm_mg_vec y, ohm_mg_vec b, ohm_mg_vec tmp, ohm_mg_vec out)
 {
-    dev_level *L = &d->lev[l];
-    int64_t n = L->n;
-    if (l == d->nlevels - 1) {
-        dense_solve(d, rc, ec);
-        return;
-    }
-    if (!L->kcycle) {
-        cycle(d, l, rc, ec);
-        return;
-    }
-    cycle(d, l, rc, L->c1);
-    double rho1 = level_apply_dot(d, L, L->c1, L->v1, NULL), alpha1 = dot(d, L->c1, rc, n);
-    if (!(rho1 > 0)) {
-        ARG_MEM(K_FILL_ZERO, 0, ec); /* as mg.c: a zero correction, whatever c1 holds */
-        ARG_VAL(K_FILL_ZERO, 1, cl_long, n);
-        launch(d, K_FILL_ZERO, n, 0);
-        return;
-    }
-    double a1 = alpha1 / rho1;
-    combine(d, L->rt, 1.0, rc, -a1, &L->v1, n);
-    cycle(d, l, L->rt, L->c2);
-    double beta = level_apply_dot(d, L, L->c2, L->v2, NULL);
-    double gamma = dot(d, L->c2, L->v1, n), alpha2 = dot(d, L->c2, L->rt, n);
-    double rho2 = beta - gamma * gamma / rho1;
-    if (!(rho2 > 0)) {
-        combine(d, ec, a1, L->c1, 0, NULL, n);
-        return;
-    }
-    double w1 = a1 - gamma * alpha2 / (rho1 * rho2), w2 = alpha2 / rho2;
-    combine(d, ec, w1, L->c1, w2, &L->c2, n);
+    cl_mem ym = y;
+    smooth(dev(self), &dev(self)->lev[l], y ? &ym : NULL, b, tmp, out);
 }
 
-/* x = M_l b (mg.c's cycle) */
-static void cycle(ohm_mg_device *d, int l, cl_mem b, cl_mem x)
+/* scratch = b - A x, summed into the coarse cells' rc */
+static void dev_restrict(void *self, int l, ohm_mg_vec x, ohm_mg_vec b, ohm_mg_vec scratch, ohm_mg_vec rc)
 {
-    dev_level *L = &d->lev[l], *C = &d->lev[l + 1];
-    smooth(d, L, NULL, b, x, L->t); /* pre-smoothed: t */
-    set_stencil(d, K_CYC_RESIDUAL, L); /* r = b - A t, summed into the coarse cells */
-    ARG_MEM(K_CYC_RESIDUAL, 2, L->t);
-    ARG_MEM(K_CYC_RESIDUAL, 3, b);
-    ARG_MEM(K_CYC_RESIDUAL, 4, L->r);
+    ohm_mg_device *d = self;
+    const dev_level *L = &d->lev[l];
+    mem_args(d, K_CYC_RESIDUAL, 0, 5, (cl_mem[]){L->off, L->c, x, b, scratch});
     ARG_VAL(K_CYC_RESIDUAL, 5, cl_long, L->n);
     launch(d, K_CYC_RESIDUAL, L->n, 0);
-    ARG_MEM(K_GATHER, 0, L->r);
-    ARG_MEM(K_GATHER, 1, L->start);
-    ARG_MEM(K_GATHER, 2, L->children);
-    ARG_MEM(K_GATHER, 3, C->b);
-    ARG_VAL(K_GATHER, 4, cl_long, C->n);
-    launch(d, K_GATHER, C->n, 0);
-    coarse_solve(d, l + 1, C->b, C->x);
-    ARG_MEM(K_PROLONG, 0, L->t); /* corrected: r */
-    ARG_MEM(K_PROLONG, 1, C->x);
-    ARG_MEM(K_PROLONG, 2, L->agg);
-    ARG_MEM(K_PROLONG, 3, L->r);
-    ARG_VAL(K_PROLONG, 4, cl_long, L->n);
-    launch(d, K_PROLONG, L->n, 0);
-    smooth(d, L, &L->r, b, L->t, x); /* post-smoothed: x */
+    mem_args(d, K_GATHER, 0, 4, (cl_mem[]){scratch, L->start, L->children, rc});
+    ARG_VAL(K_GATHER, 4, cl_long, L->nc);
+    launch(d, K_GATHER, L->nc, 0);
 }
 
-/* level 0's x = M (s r) (mg.c's precondition); returns 1 / s */
-static double precondition(ohm_mg_device *d, double nr)
+static void dev_prolong(void *self, int l, ohm_mg_vec x, ohm_mg_vec e, ohm_mg_vec out)
 {
-    dev_level *L0 = &d->lev[0];
-    double s = ohm_mg_rhs_scale(d->norm_A, nr);
-    ARG_MEM(K_TO_SINGLE, 0, d->r);
-    ARG_MEM(K_TO_SINGLE, 1, L0->b);
-    ARG_VAL(K_TO_SINGLE, 2, double, s);
-    ARG_VAL(K_TO_SINGLE, 3, cl_long, d->n);
-    launch(d, K_TO_SINGLE, d->n, 0);
-    if (d->nlevels == 1) dense_solve(d, L0->b, L0->x);
-    else cycle(d, 0, L0->b, L0->x);
-    return 1.0 / s;
+    ohm_mg_device *d = self;
+    const dev_level *L = &d->lev[l];
+    mem_args(d, K_PROLONG, 0, 4, (cl_mem[]){x, e, L->agg, out});
+    ARG_VAL(K_PROLONG, 4, cl_long, L->n);
+    launch(d, K_PROLONG, L->n, 0);
 }
+
+/* y NULL: into the level's v2, which nothing reads */
+static double dev_apply_dot(void *self, int l, ohm_mg_vec x, ohm_mg_vec y, ohm_mg_vec q)
+{
+    ohm_mg_device *d = self;
+    const dev_level *L = &d->lev[l];
+    cl_mem qm = q;
+    return level_apply_dot(d, L, x, y ? (cl_mem)y : L->v2, q ? &qm : NULL);
+}
+
+static double dev_dot(void *self, int l, ohm_mg_vec x, ohm_mg_vec y) { return dot(dev(self), x, y, dev(self)->lev[l].n); }
+
+static void dev_combine(void *self, int l, ohm_mg_vec out, double a, ohm_mg_vec x, double a2, ohm_mg_vec y)
+{
+    cl_mem ym = y;
+    combine(dev(self), out, a, x, a2, y ? &ym : NULL, dev(self)->lev[l].n);
+}
+
+static void dev_zero(void *self, int l, ohm_mg_vec x)
+{
+    ohm_mg_device *d = self;
+    cl_mem xm = x;
+    ARG_MEM(K_FILL_ZERO, 0, xm);
+    ARG_VAL(K_FILL_ZERO, 1, cl_long, d->lev[l].n);
+    launch(d, K_FILL_ZERO, d->lev[l].n, 0);
+}
+
+static void dev_coarsest(void *self, ohm_mg_vec b, ohm_mg_vec x) { dense_solve(dev(self), b, x); }
+
+static void device_machine(ohm_mg_device *d);
 
 /* ---- set-up ------------------------------------------------------------------------------- */
 
@@ -328,7 +318,7 @@ static double device_bytes(const ohm_mg_view *v)
     for (int l = 0; l < v->nlevels; ++l) {
         double n = (double)v->lev[l].n;
         bytes += n * (16 + 16 + 4); /* off, c, invd */
-        if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 4 * 4; /* agg, children, start; b x r t */
+        if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 3 * 4; /* agg, children, start; b x t */
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
     }
     return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
@@ -392,7 +382,6 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
         if (!rc) rc = buffer(d, &L->children, (size_t)n * sizeof *children, children, err);
         free(start);
         free(children);
-        if (!rc) rc = buffer(d, &L->r, (size_t)n * f, NULL, err);
         if (!rc) rc = buffer(d, &L->t, (size_t)n * f, NULL, err);
     }
     cl_mem *kv[] = {&L->c1, &L->v1, &L->c2, &L->v2, &L->rt};
@@ -468,6 +457,7 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const ohm_device_r
                       dev->name, d->s.picked, need / (1 << 30), dev->global_bytes / (1 << 30), ADVICE);
     if (!rc) rc = build_kernels(d, err);
     if (!rc) rc = upload(d, &view, err);
+    if (!rc) device_machine(d);
     if (rc) {
         ohm_mg_device_free(d);
         return rc;
@@ -488,7 +478,7 @@ void ohm_mg_device_free(ohm_mg_device *d)
     for (int l = 0; l < d->nlevels; ++l) {
         dev_level *L = &d->lev[l];
         cl_mem *m[] = {&L->off, &L->c,  &L->invd, &L->agg, &L->start, &L->children, &L->b, &L->x,
-                       &L->r,   &L->t,  &L->c1,   &L->v1,  &L->c2,    &L->v2,       &L->rt};
+                       &L->t,   &L->c1, &L->v1,   &L->c2,  &L->v2,    &L->rt};
         for (size_t i = 0; i < sizeof m / sizeof *m; ++i) ohm_device_release(&d->s, m[i]);
     }
     cl_mem *m[] = {&d->g, &d->sink, &d->x, &d->b, &d->r, &d->p, &d->ap, &d->dense, &d->dense_y, &d->partial};
@@ -497,11 +487,12 @@ void ohm_mg_device_free(ohm_mg_device *d)
         if (d->k[k]) d->s.cl.ReleaseKernel(d->k[k]);
     if (d->program) d->s.cl.ReleaseProgram(d->program);
     free(d->partial_host);
+    free(d->host_r);
     ohm_device_session_close(&d->s);
     free(d);
 }
 
-/* ---- the outer iteration (mg.c's ohm_mg_solve) -------------------------------------------- */
+/* ---- the outer iteration's operations (mg_ops.h) ------------------------------------------ */
 
 /* the network's stencil as kernel k's first three arguments (off: level 0's) */
 static void set_network(ohm_mg_device *d, enum kernel_id k)
@@ -511,9 +502,24 @@ static void set_network(ohm_mg_device *d, enum kernel_id k)
     ARG_MEM(k, 2, d->sink);
 }
 
-/* r = b - A x on the device: (||r||, sum r) */
-static void residual(ohm_mg_device *d, double *nr, double *sr)
+static int dev_begin(void *self, double *x, const double *b, ohm_error *err)
 {
+    ohm_mg_device *d = self;
+    size_t dn = (size_t)d->n * sizeof(double);
+    int rc = ohm_device_copy(&d->s, d->b, (void *)b, dn, 1, err);
+    return rc ? rc : ohm_device_copy(&d->s, d->x, x, dn, 1, err);
+}
+
+static int dev_end(void *self, double *x, ohm_error *err)
+{
+    ohm_mg_device *d = self;
+    return ohm_device_copy(&d->s, d->x, x, (size_t)d->n * sizeof(double), 0, err);
+}
+
+/* r = b - A x on the device: (||r||, sum r) */
+static void dev_residual(void *self, double *nr, double *sr)
+{
+    ohm_mg_device *d = self;
     enum kernel_id k = K_NET_RESIDUAL;
     set_network(d, k);
     ARG_MEM(k, 3, d->x);
@@ -526,136 +532,127 @@ static void residual(ohm_mg_device *d, double *nr, double *sr)
     *sr = s[1];
 }
 
-/* x's negative values set to 0 (mg.c's clamp_negative) */
-static void clamp(ohm_mg_device *d)
+static int dev_start_cold(void *self, double *x, const double *b, ohm_error *err)
 {
+    ohm_mg_device *d = self;
+    size_t dn = (size_t)d->n * sizeof(double);
+    int rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
+    return rc ? rc : ohm_device_copy(&d->s, d->r, (void *)b, dn, 1, err);
+}
+
+/* x's negative values set to 0, not counted (a count would be a read-back) */
+static int64_t dev_clamp(void *self)
+{
+    ohm_mg_device *d = self;
     ARG_MEM(K_CLAMP, 0, d->x);
     ARG_VAL(K_CLAMP, 1, cl_long, d->n);
     launch(d, K_CLAMP, d->n, 0);
+    return -1;
+}
+
+/* x and r read back to judge: only where the solve stagnates */
+static int dev_backward_error(void *self, double *x, const double *b, double *berr, ohm_error *err)
+{
+    ohm_mg_device *d = self;
+    size_t dn = (size_t)d->n * sizeof(double);
+    if (!d->host_r && !(d->host_r = malloc(dn))) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
+    int rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);
+    if (!rc) rc = ohm_device_copy(&d->s, d->r, d->host_r, dn, 0, err);
+    if (!rc) *berr = ohm_scaled_backward_error(b, x, d->host_r, (size_t)d->n, d->norm_A);
+    return rc;
+}
+
+/* level 0's b = s r, in single precision */
+static void dev_rhs(void *self, double s)
+{
+    ohm_mg_device *d = self;
+    ARG_MEM(K_TO_SINGLE, 0, d->r);
+    ARG_MEM(K_TO_SINGLE, 1, d->lev[0].b);
+    ARG_VAL(K_TO_SINGLE, 2, double, s);
+    ARG_VAL(K_TO_SINGLE, 3, cl_long, d->n);
+    launch(d, K_TO_SINGLE, d->n, 0);
+}
+
+static double dev_mixed_dot(void *self)
+{
+    ohm_mg_device *d = self;
+    double s[2];
+    ARG_MEM(K_MIXED_DOT, 0, d->lev[0].x);
+    ARG_MEM(K_MIXED_DOT, 1, d->ap);
+    ARG_VAL(K_MIXED_DOT, 2, cl_long, d->n);
+    reduce(d, K_MIXED_DOT, d->n, 3, s);
+    return s[0];
+}
+
+/* p = kz z - beta p, in double */
+static void dev_direction(void *self, double kz, double beta)
+{
+    ohm_mg_device *d = self;
+    ARG_MEM(K_DIRECTION, 0, d->lev[0].x);
+    ARG_MEM(K_DIRECTION, 1, d->p);
+    ARG_VAL(K_DIRECTION, 2, double, kz);
+    ARG_VAL(K_DIRECTION, 3, double, beta);
+    ARG_VAL(K_DIRECTION, 4, cl_long, d->n);
+    launch(d, K_DIRECTION, d->n, 0);
+}
+
+static void dev_apply_dots(void *self, double *pq, double *pr)
+{
+    ohm_mg_device *d = self;
+    double s[2];
+    set_network(d, K_NET_APPLY_DOTS);
+    ARG_MEM(K_NET_APPLY_DOTS, 3, d->p);
+    ARG_MEM(K_NET_APPLY_DOTS, 4, d->r);
+    ARG_MEM(K_NET_APPLY_DOTS, 5, d->ap);
+    ARG_VAL(K_NET_APPLY_DOTS, 6, cl_long, d->n);
+    reduce(d, K_NET_APPLY_DOTS, d->n, 7, s);
+    *pq = s[0];
+    *pr = s[1];
+}
+
+/* the step, then the next right-hand side scaled by the new residual's
+ * norm (a kernel of its own: the step's is a reduction already) */
+static double dev_step(void *self, double alpha, double nr, double *nr_after, double *sr_after)
+{
+    (void)nr;
+    ohm_mg_device *d = self;
+    double s[2];
+    ARG_MEM(K_STEP, 0, d->x);
+    ARG_MEM(K_STEP, 1, d->r);
+    ARG_MEM(K_STEP, 2, d->p);
+    ARG_MEM(K_STEP, 3, d->ap);
+    ARG_VAL(K_STEP, 4, double, alpha);
+    ARG_VAL(K_STEP, 5, cl_long, d->n);
+    reduce(d, K_STEP, d->n, 6, s);
+    *nr_after = sqrt(s[0]);
+    *sr_after = s[1];
+    double scale = ohm_mg_rhs_scale(d->norm_A, *nr_after);
+    dev_rhs(d, scale);
+    return scale;
+}
+
+static int dev_checked(void *self, ohm_error *err) { return ohm_device_checked(&dev(self)->s, err); }
+
+static const ohm_mg_ops device_ops = {
+    .smooth = dev_smooth, .restrict_residual = dev_restrict, .prolong_add = dev_prolong, .apply_dot = dev_apply_dot,
+    .dot = dev_dot, .combine = dev_combine, .zero = dev_zero, .coarsest_solve = dev_coarsest, .begin = dev_begin,
+    .end = dev_end, .residual = dev_residual, .start_cold = dev_start_cold, .clamp = dev_clamp,
+    .backward_error = dev_backward_error, .rhs = dev_rhs, .mixed_dot = dev_mixed_dot, .direction = dev_direction,
+    .apply_dots = dev_apply_dots, .step = dev_step, .checked = dev_checked};
+
+/* the levels' buffers for mg_cycle.c (a level's v2 is the device's own:
+ * dev_apply_dot's) */
+static void device_machine(ohm_mg_device *d)
+{
+    ohm_mg_machine_init(&d->machine, &device_ops, d, d->n, d->norm_A, d->nlevels);
+    for (int l = 0; l < d->nlevels; ++l) {
+        const dev_level *L = &d->lev[l];
+        ohm_mg_machine_level(&d->machine, l, L->n, L->kcycle, (ohm_mg_vec[]){L->b, L->x, L->t, L->c1, L->v1, L->c2, L->rt});
+    }
 }
 
 int ohm_mg_device_solve(ohm_mg_device *d, double *x, const double *b, double tol, int64_t max_iter,
                         const ohm_log *log, int64_t *iters, double *relres, ohm_error *err)
 {
-    int64_t n = d->n;
-    size_t dn = (size_t)n * sizeof(double);
-    double nb, sb;
-    int b_nonnegative;
-    ohm_mg_rhs_sizes(b, n, &nb, &sb, &b_nonnegative);
-#define CONVERGED(nr, sr) ((nr) <= tol * nb && fabs(sr) <= tol * sb)
-    *iters = 0;
-    *relres = 0.0;
-    if (!(nb > 0)) {
-        memset(x, 0, dn);
-        return OHM_OK;
-    }
-    int rc = ohm_device_copy(&d->s, d->b, (void *)b, dn, 1, err);
-    if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
-    if (rc) return rc;
-    int64_t it = 0;
-    int restarts = 0, clamps = 0;
-    ohm_progress prog;
-    ohm_progress_begin(&prog, log, "solve: mg");
-    double t_reported = prog.t_begin;
-    const cl_mem z = d->lev[0].x; /* the preconditioned residual, times kz */
-    double *host_r = NULL;
-    for (;;) {
-        double nr, sr;
-        residual(d, &nr, &sr);
-        if (!rc) rc = ohm_device_checked(&d->s, err);
-        if (rc) break;
-        if (it == 0 && !(nr <= nb)) { /* a warm start worse than zero: start cold */
-            memset(x, 0, dn);
-            rc = ohm_device_copy(&d->s, d->x, x, dn, 1, err);
-            if (!rc) rc = ohm_device_copy(&d->s, d->r, (void *)b, dn, 1, err);
-            if (rc) break;
-            nr = nb;
-            sr = 0;
-            for (int64_t i = 0; i < n; ++i) sr += b[i];
-        }
-        *relres = nr / nb;
-        if (CONVERGED(nr, sr) && b_nonnegative && clamps < 2) { /* clamped and judged again, as mg.c */
-            ++clamps;
-            clamp(d);
-            residual(d, &nr, &sr);
-            if ((rc = ohm_device_checked(&d->s, err))) break;
-            *relres = nr / nb;
-        }
-        if (CONVERGED(nr, sr)) break;
-        if (restarts > 0) { /* stagnated at the floor: read x and r back to judge */
-            if (!host_r && !(host_r = malloc(dn))) {
-                rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
-                break;
-            }
-            rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);
-            if (!rc) rc = ohm_device_copy(&d->s, d->r, host_r, dn, 0, err);
-            if (rc) break;
-            if (ohm_scaled_backward_error(b, x, host_r, (size_t)n, d->norm_A) <= 0.01 * tol) break;
-        }
-        if (it >= max_iter || restarts > 5) {
-            rc = ohm_fail(err, OHM_ERR_NUMERIC,
-                          "mg: did not converge: relative residual %.3g after %lld iterations (cg_tol=%.1g); use "
-                          "solver=direct, or a looser cg_tol=",
-                          nr / nb, (long long)it, tol);
-            break;
-        }
-        ++restarts;
-        double beta = 0, pq = 0, pr = 0;
-        for (int first = 1; !CONVERGED(nr, sr) && it < max_iter; first = 0) {
-            double kz = precondition(d, nr), s[2];
-            if (!first) {
-                ARG_MEM(K_MIXED_DOT, 0, z);
-                ARG_MEM(K_MIXED_DOT, 1, d->ap);
-                ARG_VAL(K_MIXED_DOT, 2, cl_long, n);
-                reduce(d, K_MIXED_DOT, n, 3, s);
-                beta = kz * s[0] / pq;
-            }
-            ARG_MEM(K_DIRECTION, 0, z);
-            ARG_MEM(K_DIRECTION, 1, d->p);
-            ARG_VAL(K_DIRECTION, 2, double, kz);
-            ARG_VAL(K_DIRECTION, 3, double, beta);
-            ARG_VAL(K_DIRECTION, 4, cl_long, n);
-            launch(d, K_DIRECTION, n, 0);
-            set_network(d, K_NET_APPLY_DOTS);
-            ARG_MEM(K_NET_APPLY_DOTS, 3, d->p);
-            ARG_MEM(K_NET_APPLY_DOTS, 4, d->r);
-            ARG_MEM(K_NET_APPLY_DOTS, 5, d->ap);
-            ARG_VAL(K_NET_APPLY_DOTS, 6, cl_long, n);
-            reduce(d, K_NET_APPLY_DOTS, n, 7, s);
-            pq = s[0];
-            pr = s[1];
-            if ((rc = ohm_device_checked(&d->s, err))) break;
-            if (!(pq > 0)) break; /* converged to round-off */
-            ARG_MEM(K_STEP, 0, d->x);
-            ARG_MEM(K_STEP, 1, d->r);
-            ARG_MEM(K_STEP, 2, d->p);
-            ARG_MEM(K_STEP, 3, d->ap);
-            ARG_VAL(K_STEP, 4, double, pr / pq);
-            ARG_VAL(K_STEP, 5, cl_long, n);
-            reduce(d, K_STEP, n, 6, s);
-            if ((rc = ohm_device_checked(&d->s, err))) break;
-            nr = sqrt(s[0]);
-            sr = s[1];
-            ++it;
-            if (ohm_log_cancelled(log)) {
-                rc = ohm_fail_cancelled(err, "mg");
-                break;
-            }
-            if (log && ohm_now() - t_reported >= 0.05) {
-                t_reported = ohm_now();
-                ohm_progress_update(&prog, fmin(1.0, fmax(0.0, log10(nr / nb) / log10(tol))));
-            }
-        }
-        if (rc) break;
-    }
-#undef CONVERGED
-    free(host_r);
-    if (!rc && b_nonnegative) { /* as mg.c: a nonnegative source's solution is nonnegative */
-        clamp(d);
-        rc = ohm_device_checked(&d->s, err);
-    }
-    if (!rc) rc = ohm_device_copy(&d->s, d->x, x, dn, 0, err);
-    *iters = it;
-    ohm_progress_end(&prog);
-    return rc;
+    return ohm_mg_fcg(&d->machine, x, b, tol, max_iter, log, iters, relres, err);
 }

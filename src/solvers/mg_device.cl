@@ -1,6 +1,8 @@
-/* mg_device.cl — solver=mg's kernels on an OpenCL device (mg_device.c):
- * the outer flexible CG in double on the network's stencil, the K-cycle in
- * single precision on the hierarchy's, the same arithmetic as mg.c's.
+/* mg_device.cl — solver=mg's kernels on an OpenCL device: each of the
+ * multigrid's operations (mg_ops.h) that mg_device.c launches, for the
+ * cycle and the outer iteration of mg_cycle.c: the outer flexible CG's steps
+ * in double on the network's stencil, the K-cycle's in single precision on
+ * the hierarchy's, the same arithmetic as the host's (mg.c).
  * Built with -D WG=<work-group size>.  A reduction's kernel runs a fixed
  * number of work-groups over the vector (a grid-stride loop) and writes
  * one partial sum per group; the host adds them in order, so a solve gives
@@ -10,10 +12,11 @@
 /* ---- stencil rows: sum of the neighbours' links times x, and the diagonal ---- */
 
 /* (A x)_v for the network's stencil (in double, from its single-precision
- * links), in flux form, as mg.c's row_apply: sink_v x_v + sum_w g_vw (x_v -
- * x_w), so that the rows' sum keeps the power balance's digits.  off[v] =
- * (-y, +y, -z, +z) offsets (0: none), g three +x, +y, +z conductances per
- * cell, sink the ground and boundary (physics/network.h's ohm_stencil). */
+ * links), in flux form, as the host's net_apply (physics/stencil_rows.h):
+ * sink_v x_v + sum_w g_vw (x_v - x_w), so that the rows' sum keeps the
+ * power balance's digits.  off[v] = (-y, +y, -z, +z) offsets (0: none), g
+ * three +x, +y, +z conductances per cell, sink the ground and boundary
+ * (physics/network.h's ohm_stencil). */
 inline double net_apply(__global const int4 *off, __global const float *g, __global const double *sink,
                         __global const double *x, long v, long n)
 {
@@ -153,7 +156,7 @@ __kernel void direction(__global const float *z, __global double *p, double a, d
     }
 }
 
-/* x = 0 where x < 0 (a nonnegative source has a nonnegative solution: mg.c) */
+/* x = 0 where x < 0 (a nonnegative source has a nonnegative solution: mg_cycle.c) */
 __kernel void clamp_negative(__global double *x, long n)
 {
     GRID_LOOP(i, n) if (x[i] < 0) x[i] = 0;

@@ -1,8 +1,9 @@
-/* mg_device.h — solver=mg on an OpenCL device (issue 37): the hierarchy
- * built on the host (mg.h) is copied to the device once, and the whole
- * solve runs there — the outer flexible CG in double on the network's
- * stencil, the K-cycle in single precision, the coarsest level's dense
- * factor — with the same arithmetic as mg.c (kernels: mg_device.cl).  The
+/* mg_device.h — solver=mg on an OpenCL device: the hierarchy built on the
+ * host (mg.h) is copied to the device once, and the whole solve runs there
+ * — the outer flexible CG in double on the network's stencil, the K-cycle
+ * in single precision, the coarsest level's dense factor — the same cycle
+ * and iteration as the host's (mg_cycle.c) over the device's operations
+ * (mg_ops.h; kernels: mg_device.cl).  The
  * host sends the right-hand side and the warm start and receives the
  * solution; a kept solver (keep=1, relighting) keeps its hierarchy on the
  * device between solves. */

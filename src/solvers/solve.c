@@ -72,9 +72,12 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    const char *name = ohm_solver_kind_name(s->params.num.solver);
-    s->backend = ohm_backend_find(name);
-    if (!s->backend) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
+    ohm_solver_kind kind = s->params.num.solver;
+    const char *name = ohm_solver_kind_name(kind);
+    /* a kind that transports photons has a transport; every other, a backend */
+    s->transport = (ohm_solver_kind_caps(kind) & OHM_SOLVES_TRANSPORT) ? ohm_transport_find(name) : NULL;
+    s->backend = s->transport ? NULL : ohm_backend_find(name);
+    if (!s->backend && !s->transport) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
     return OHM_OK;
 }
@@ -236,7 +239,7 @@ static int setup_media(const diffusion_run *run, const ohm_backend_config *bcfg,
 
 int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
-    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return OHM_OK; /* nothing to set up */
+    if (s->transport) return OHM_OK; /* nothing to set up */
     int channels, frames;
     lights_shape(s, lights, nlights, &channels, &frames);
     diffusion_run run;
@@ -387,7 +390,7 @@ static int media_together(const diffusion_run *run)
 /* Every medium set up first (one after another: the factorizations use the
  * BLAS's own threads), then the media's channels solved on the cores at
  * once, one medium per thread at a time: the paper's relight, three colours
- * for the wall time of about two (issue 15, item 3).  Only while each solve
+ * for the wall time of about two (docs/bench-notes.md).  Only while each solve
  * runs on one core (the backend's concurrent_max_bytes: direct's
  * substitution over a small factor, direct.h); a larger
  * factor's solve already runs on every core through the BLAS and is bound
@@ -461,8 +464,8 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
 static int relight_from_last(const ohm_solver *s, int channels, int frames)
 {
     const ohm_solve_params *p = &s->params;
-    return s->keep && s->solved && (s->backend->caps & OHM_BACKEND_WARM_START) && channels == s->sol.channels &&
-           frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
+    return s->keep && s->solved && s->backend && (s->backend->caps & OHM_BACKEND_WARM_START) &&
+           channels == s->sol.channels && frames == s->sol.frames && !(p->mc.handoff > 0) && !p->src.total_fluence;
 }
 
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
@@ -479,7 +482,7 @@ int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
     sol->frames = frames;
     int rc = ohm_solution_alloc(sol, err);
     if (rc) return rc;
-    if (s->backend->caps & OHM_BACKEND_TRANSPORT) return s->backend->transport(s, lights, nlights, err);
+    if (s->transport) return s->transport->solve(s, lights, nlights, err);
     rc = solve_diffusion(s, lights, nlights, from_last, err);
     if (!s->keep) /* a one-shot solve: the last medium's setup is not needed again */
         for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
@@ -505,7 +508,7 @@ int ohm_solver_settle_auto_hybrid(ohm_solver *s, const ohm_light *lights, size_t
 {
     int reaching = 0;
     for (size_t l = 0; l < nlights && !reaching; ++l) {
-        if (lights[l].type != OHM_LIGHT_PENCIL) continue;
+        if (!ohm_light_at_a_point(&lights[l])) continue;
         int rc = ohm_solver_light_reaches(s, &lights[l], &reaching, err);
         if (rc) return rc;
     }

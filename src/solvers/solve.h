@@ -7,7 +7,7 @@
  * multi-column right-hand sides (in batches when memory asks for it) — the
  * paper's point: a change of light never refactors.  Power is booked per solve:
  * in (deposited) = absorbed (sum G_a phi) + out (sum G_b phi), exact in this
- * discretisation up to round-off (DESIGN.md §2). */
+ * discretisation up to round-off (docs/design.md §3). */
 #ifndef OHM_SOLVE_H
 #define OHM_SOLVE_H
 
@@ -46,7 +46,7 @@ int ohm_solver_kind_parse(ohm_solver_kind *out, const char *name, ohm_error *err
 const char *ohm_solver_kind_name(ohm_solver_kind kind);
 unsigned ohm_solver_kind_caps(ohm_solver_kind kind);
 
-/* The parameters of a solve, one struct per thing they configure (issue 34),
+/* The parameters of a solve, one struct per thing they configure,
  * gathered in ohm_solve_params below; zero-initialised means every default. */
 
 /* What the network's matrix is. */
@@ -163,7 +163,7 @@ typedef struct ohm_solution {
     float *medium_density;
     ohm_curve medium_sa_curve[OHM_MAX_CHANNELS], medium_ss_curve[OHM_MAX_CHANNELS];
     double *curve_store;
-    /* statistics (DESIGN.md §7) */
+    /* statistics (the -stats JSON, docs/cli.md) */
     int factors;
     int analyses;                       /* symbolic analyses (one per grid)           */
     int64_t solves;                     /* columns solved, summed over channels       */

@@ -12,8 +12,8 @@
  *   sources.c    right-hand sides: the lights' sources, frame entries, the
  *                per-face powers traced once for every channel, the
  *                unscattered beam
- *   transport.c  Monte Carlo: the mc backend (backend.h's transport) and
- *                the hybrid's transport part
+ *   transport.c  Monte Carlo: solver=mc and the hybrid's transport part
+ *                (transport.h)
  *   batch.c      batches of frames: their size and work arrays, frames whose
  *                light did not change, warm starts, the scaled unknowns
  *   booking.c    power booked per solve, the constant-mode correction of
@@ -31,6 +31,7 @@
 
 #include "solvers/backend.h"
 #include "solvers/solve.h"
+#include "solvers/transport.h"
 
 /* What solving one channel adds to the solution's sums and counts.  Each
  * channel books into its own tally, added to the solution in channel order
@@ -44,17 +45,6 @@ typedef struct channel_tally {
     double mode_shift;                            /* largest constant-mode shift */
     int64_t solves, solves_skipped, mode_corrections;
 } channel_tally;
-
-/* The hybrid's transport part (solve.h, mc.handoff) for nb frames of one
- * channel: per column, what the photons tallied before their handoff. */
-typedef struct hybrid_part {
-    double *fluence, *face;       /* n and nf per column                   */
-    double *fluence_se, *exit_se; /* scratch for the tracer                */
-    double *power;                /* 3 per column: in, absorbed, out (W)    */
-    struct ohm_mc_device *device; /* the photons' device (device=), opened at
-                                     the first trace and kept; NULL: the host */
-    int device_opened;
-} hybrid_part;
 
 /* One distinct channel material's matrix and its set-up backend (a factor,
  * or a preconditioner): what a change of light reuses. */
@@ -87,7 +77,8 @@ struct ohm_solver {
     ohm_occluder *occ;
     cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
     int cc_started;
-    const ohm_backend_ops *backend;
+    const ohm_backend_ops *backend; /* the linear solver, or NULL with a transport */
+    const ohm_transport_ops *transport; /* solver=mc (transport.h), or NULL   */
     ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
     ohm_backend_report rep;      /* summed over the solver's life             */
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
@@ -160,16 +151,6 @@ int ohm_add_unscattered(ohm_solution *sol, double *X, size_t f0, size_t nb, int 
 void ohm_face_powers_free(face_powers *fp);
 int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *lights, size_t nlights, double cap,
                           ohm_error *err);
-
-/* transport.c */
-int ohm_hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err);
-void ohm_hybrid_free(hybrid_part *h);
-int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb, int c,
-                       const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
-                       size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
-void ohm_hybrid_add(ohm_solution *sol, channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
-                    int c);
-int ohm_hybrid_applies(const ohm_solver *s, ohm_error *err);
 
 /* batch.c */
 size_t ohm_distinct_columns(channel_tally *t, double *B, size_t *col_of, size_t nb, const double *prev_b,

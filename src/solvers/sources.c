@@ -33,7 +33,7 @@ int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_
     }
     for (size_t l = 0; l < nlights; ++l) {
         int lf = lights[l].frame;
-        if (fp_enter && lights[l].type != OHM_LIGHT_PENCIL) continue; /* traced already */
+        if (fp_enter && !ohm_light_at_a_point(&lights[l])) continue; /* traced already */
         for (size_t j = 0; j < nb; ++j) {
             if (lf != 0 && lf != (int)(f0 + j + 1)) continue;
             ohm_source_power pw = {0, 0, 0};
@@ -115,7 +115,7 @@ int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *light
             emu[c] = fp->enter_mu[c] + (size_t)fr * nf;
         }
         for (size_t l = 0; l < nlights && !rc; ++l) {
-            if (lights[l].type == OHM_LIGHT_PENCIL) continue;
+            if (ohm_light_at_a_point(&lights[l])) continue;
             if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
             rc = ohm_light_face_powers(en, emu, ar, channels, &sol->net, &lights[l], eta, eta_v, s->occ, err);
         }

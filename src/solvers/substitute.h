@@ -1,6 +1,6 @@
 /* solvers/substitute.h — one right-hand side through CHOLMOD's supernodal
  * factor, P A P^T = L L^T, by forward and back substitution over the
- * factor's own arrays (issue 15, item 3).
+ * factor's own arrays (docs/bench-notes.md).
  *
  * Why not cholmod_solve: for one column it makes a dense triangular solve
  * and a dense matrix-vector call into the BLAS for every supernode, and the

@@ -1,4 +1,4 @@
-/* solvers/transport.c — Monte Carlo transport in a solve (mc.h): solver=mc,
+/* solvers/transport.c — Monte Carlo transport in a solve (transport.h, mc.h): solver=mc,
  * every frame's light entries traced per channel instead of diffusion; and
  * the hybrid's transport part (mc.handoff), the photons traced to their
  * handoff, whose weight becomes diffusion's source.  The hybrid's arrays
@@ -208,14 +208,18 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     return rc;
 }
 
-/* solver=mc as a backend of the table (backend.h): the solver's lights
- * traced into its solution. */
+/* solver=mc (transport.h): the solver's lights traced into its solution. */
 static int mc_transport(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
     return mc_solve(&s->sol, &s->mat, lights, nlights, &s->params, s->occ, err);
 }
 
-const ohm_backend_ops ohm_backend_mc = {.name = "mc", .transport = mc_transport, .caps = OHM_BACKEND_TRANSPORT};
+const ohm_transport_ops ohm_transport_mc = {.name = "mc", .solve = mc_transport};
+
+const ohm_transport_ops *ohm_transport_find(const char *name)
+{
+    return name && strcmp(name, ohm_transport_mc.name) == 0 ? &ohm_transport_mc : NULL;
+}
 
 /* The hybrid (solve.h, mc.handoff) applies to optical media under the
  * Fresnel boundary, every cell kept. */

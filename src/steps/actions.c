@@ -16,6 +16,7 @@
 #include "outputs/export_vdb.h"
 #include "ohm_vdb.h"
 #include "ohm_version.h"
+#include "physics/light_kind.h"
 #include "steps/pipeline.h"
 #include "steps/render.h"
 #include "steps/resolution.h"
@@ -37,7 +38,7 @@ void ohm_state_free(ohm_state *s)
     ohm_solver_free(s->solver);
     free(s->solver_eta);
     free(s->solver_g);
-    free(s->lights);
+    ohm_lights_free(s->lights, s->nlights);
     ohm_scan_free(&s->scan);
     ohm_transfer_free(&s->transfer);
 }
@@ -351,7 +352,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         const ohm_field field = scan_object_field(&s->scan, threshold);
         rc = ohm_voxelize_field(&g, &field, lo, hi, threshold, &p, &s->log, err);
     }
-    /* name the file the object came from (DESIGN.md §6) */
+    /* name the file the object came from (docs/design.md §11) */
     if (rc) return ohm_error_name(err, rc, s->have_mesh ? s->mesh_path : s->scan_path);
     double t = ohm_now() - t0;
 
@@ -538,28 +539,6 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 
 /* ---- light --------------------------------------------------------------------- */
 
-static const ohm_opt_spec light_opts[] = {
-    {"type", OHM_OPT_ENUM, "directional", "kind of light", "directional|point|spot|area|pencil", 0, 0, 0},
-    {"pos", OHM_OPT_VEC3, NULL, "position in mm (point, spot, area centre, pencil)", NULL, 0, 0, 0},
-    {"dir", OHM_OPT_VEC3, NULL,
-     "direction the light travels (directional, spot axis, area facing, pencil): 0,0,-1 shines down", NULL, 0, 0,
-     0},
-    {"intensity", OHM_OPT_REAL13, "1",
-     "directional: W/mm^2 on a face square to it; point, spot: W/sr; area: total W emitted; pencil: W. One value "
-     "or r,g,b",
-     NULL, 0, 1e30, 0},
-    {"angle", OHM_OPT_REAL, "30", "spot: cone half-angle, degrees", NULL, 0.01, 90, 0},
-    {"falloff", OHM_OPT_REAL, "0", "spot: soft edge inside the cone, degrees", NULL, 0, 90, 0},
-    {"shape", OHM_OPT_ENUM, "rect", "area: rectangle or disk", "rect|disk", 0, 0, 0},
-    {"width", OHM_OPT_REAL, "10", "area: width, or the disk's diameter (mm)", NULL, 1e-9, 1e9, 0},
-    {"height", OHM_OPT_REAL, "10", "area: height of the rectangle (mm)", NULL, 1e-9, 1e9, 0},
-    {"samples", OHM_OPT_INT, "64", "area: sample points (rounded down to a square)", NULL, 1, 4096, 0},
-    {"orbit", OHM_OPT_INT, "0",
-     "N > 0: N frames with the light turned about the object's centre (a .vdb sequence, one factorization)", NULL,
-     0, 100000, 0},
-    {"axis", OHM_OPT_ENUM, "y", "orbit axis through the object's centre", "x|y|z", 0, 0, 0},
-    {0}};
-
 static void light_io(const ohm_invocation *inv, ohm_step_io *io)
 {
     if (ohm_opt_int(inv, "orbit") > 0)
@@ -578,42 +557,15 @@ static void rotate_axis(double v[3], int axis, double a)
     v[q] = x * sin(a) + y * cos(a);
 }
 
-static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+/* Light l to the scene, or orbit= copies of it turned about the object. */
+static int add_light(ohm_state *s, const ohm_light *l, const ohm_invocation *inv, ohm_error *err)
 {
-    ohm_light l;
-    memset(&l, 0, sizeof l);
-    snprintf(l.where, sizeof l.where, "%s", inv->where);
-    const char *type = ohm_opt_str(inv, "type");
-    l.type = strcmp(type, "point") == 0    ? OHM_LIGHT_POINT
-             : strcmp(type, "pencil") == 0 ? OHM_LIGHT_PENCIL
-             : strcmp(type, "spot") == 0   ? OHM_LIGHT_SPOT
-             : strcmp(type, "area") == 0   ? OHM_LIGHT_AREA
-                                           : OHM_LIGHT_DIRECTIONAL;
-    int need_pos = l.type != OHM_LIGHT_DIRECTIONAL, need_dir = l.type != OHM_LIGHT_POINT;
-    l.angle = ohm_opt_real(inv, "angle");
-    l.falloff = ohm_opt_real(inv, "falloff");
-    if (l.falloff > l.angle)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light falloff=%g is wider than angle=%g", inv->where, l.falloff,
-                        l.angle);
-    l.disk = strcmp(ohm_opt_str(inv, "shape"), "disk") == 0;
-    l.width = ohm_opt_real(inv, "width");
-    l.height = l.disk ? l.width : ohm_opt_real(inv, "height");
-    l.samples = (int)ohm_opt_int(inv, "samples");
-    if (need_pos && !ohm_opt_given(inv, "pos"))
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", inv->where, type);
-    if (need_dir && !ohm_opt_given(inv, "dir"))
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs dir=x,y,z", inv->where, type);
-    ohm_opt_vec3(inv, "pos", l.pos);
-    if (need_dir) {
-        ohm_opt_vec3(inv, "dir", l.dir);
-        if (!ohm_vec3_normalize(l.dir))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -light dir=%g,%g,%g has no direction", inv->where, l.dir[0],
-                            l.dir[1], l.dir[2]);
-    }
-    l.channels = ohm_opt_real13(inv, "intensity", l.intensity);
     int orbit = (int)ohm_opt_int(inv, "orbit");
     size_t add = orbit > 0 ? (size_t)orbit : 1;
     double centre[3] = {0, 0, 0};
+    if (orbit > 0 && l->type == OHM_LIGHT_ENVIRONMENT)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d: an environment light is all around: it has "
+                        "nothing to turn", inv->where, orbit);
     if (orbit > 0) {
         if (!s->have_mesh && !s->have_grid && !s->have_scan)
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d turns about the object: -read it first",
@@ -636,10 +588,10 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     if (!grown) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
     s->lights = grown;
     for (size_t k = 0; k < add; ++k) {
-        ohm_light lk = l;
+        ohm_light lk = *l;
         if (orbit > 0) {
             double angle = 2.0 * M_PI * (double)k / (double)orbit, rel[3];
-            for (int a = 0; a < 3; ++a) rel[a] = l.pos[a] - centre[a];
+            for (int a = 0; a < 3; ++a) rel[a] = l->pos[a] - centre[a];
             rotate_axis(rel, axis, angle);
             for (int a = 0; a < 3; ++a) lk.pos[a] = centre[a] + rel[a];
             rotate_axis(lk.dir, axis, angle);
@@ -649,6 +601,19 @@ static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     }
     s->have_solution = 0; /* stale; the setup stays, for ohm_state_relight */
     return OHM_OK;
+}
+
+/* The light from its kind's options (the table, physics/light_kind.h); then
+ * orbit=, which turns copies of it about the object. */
+static int run_light(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_light l;
+    ohm_opt_reader reader = ohm_opt_reader_of(inv);
+    int rc = ohm_light_read(&l, &reader, err);
+    if (rc) return rc;
+    rc = add_light(s, &l, inv, err);
+    if (rc) ohm_light_release(&l);
+    return rc;
 }
 
 /* ---- solve --------------------------------------------------------------------- */
@@ -846,7 +811,7 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
     if (strcmp(h, "auto") == 0) {
         *handoff = 0;
         for (size_t l = 0; l < s->nlights; ++l)
-            if (s->lights[l].type == OHM_LIGHT_PENCIL) *handoff = OHM_HYBRID_PENCIL;
+            if (ohm_light_at_a_point(&s->lights[l])) *handoff = OHM_HYBRID_PENCIL;
         if ((ohm_solver_kind_caps(p->num.solver) & OHM_SOLVES_TRANSPORT) || p->op.boundary != OHM_BOUNDARY_ROBIN ||
             p->op.band_k > 0 ||
             s->material.kind == OHM_MATERIAL_RESISTANCE)
@@ -922,7 +887,6 @@ static const char *deposit_name(ohm_deposit d)
  * the log says which -light it is. */
 static int warn_dark_lights(ohm_state *s, ohm_error *err)
 {
-    static const char *const type_names[] = {"directional", "point", "pencil", "spot", "area"}; /* ohm_light_type */
     long long dark = 0;
     for (size_t l = 0; l < s->nlights; ++l) {
         int reaches = 1;
@@ -932,7 +896,7 @@ static int warn_dark_lights(ohm_state *s, ohm_error *err)
         if (!reaches)
             ohm_log_warn(&s->log, "%s: -light type=%s reaches no part of the object (it misses it, or what it "
                                   "faces is in shadow): it adds no light",
-                         s->lights[l].where[0] ? s->lights[l].where : "a light", type_names[s->lights[l].type]);
+                         s->lights[l].where[0] ? s->lights[l].where : "a light", ohm_light_name(&s->lights[l]));
     }
     ohm_stats_set_int(&s->stats, "lights_reaching_nothing", dark);
     return OHM_OK;
@@ -1314,11 +1278,14 @@ const ohm_action ohm_actions[] = {
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
      material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL, material_io},
-    {"light", "add a light (directional, point, spot, area or a pencil beam)",
+    {"light", "add a light (directional, point, spot, area, a pencil beam or the environment)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
-     "Shadow rays (-solve shadows=) decide which of those faces the light reaches.",
-     light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io},
+     "Shadow rays (-solve shadows=) decide which of those faces the light reaches.  type=environment is\n"
+     "the sky all around (uniform radiance intensity=, or an equirectangular image sky=FILE.hdr|.exr):\n"
+     "each face is lit by the part of the sky it sees past the object itself, through samples= fixed\n"
+     "cosine-weighted directions (docs/lights.md).",
+     ohm_light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io},
     {"solve", "build the resistor network and solve every light (the solver chosen by size, or as asked)",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
      "term), solves all lights as one multi-column right-hand side, checks the backward error and books the\n"

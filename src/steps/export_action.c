@@ -8,6 +8,7 @@
 #include "outputs/export_csv.h"
 #include "outputs/export_df3.h"
 #include "outputs/export_ply.h"
+#include "physics/light_kind.h"
 
 const ohm_opt_spec ohm_export_opts[] = {
     {"ply", OHM_OPT_STRING, NULL, "write the mesh with per-vertex exitance and sRGB colours (binary PLY)", NULL, 0,
@@ -24,7 +25,8 @@ const ohm_opt_spec ohm_export_opts[] = {
     {"frame", OHM_OPT_INT, "1", "which frame of an orbit sequence (1 = the first)", NULL, 1, 1000000, 0},
     {0}};
 
-/* Direction from the object towards the lights of a frame (unit sum). */
+/* Direction from the object towards the lights of a frame (unit sum), each
+ * as its kind sees it (physics/light_kind.h; an environment has none). */
 static void toward_light(const ohm_state *s, int frame, double out[3])
 {
     double centre[3] = {0, 0, 0};
@@ -33,10 +35,9 @@ static void toward_light(const ohm_state *s, int frame, double out[3])
     out[0] = out[1] = out[2] = 0;
     for (size_t i = 0; i < s->nlights; ++i) {
         const ohm_light *l = &s->lights[i];
-        if (l->frame != 0 && l->frame != frame + 1) continue;
         double v[3];
-        for (int a = 0; a < 3; ++a) v[a] = l->type == OHM_LIGHT_POINT ? l->pos[a] - centre[a] : -l->dir[a];
-        if (!ohm_vec3_normalize(v)) continue;
+        if (l->frame != 0 && l->frame != frame + 1) continue;
+        if (!ohm_light_toward(l, centre, v)) continue;
         for (int a = 0; a < 3; ++a) out[a] += v[a];
     }
 }
@@ -79,6 +80,8 @@ int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         p.frame = frame;
         p.exitance = strcmp(ohm_opt_str(inv, "quantity"), "exitance") == 0;
         toward_light(s, frame, p.toward_light);
+        p.lights = s->lights;
+        p.nlights = s->nlights;
         ohm_df3_report rep;
         rc = ohm_export_df3(ohm_opt_str(inv, "df3"), &s->grid, ohm_state_solution(s), &p, &rep, s->outputs, err);
         if (rc) return rc;

@@ -1,4 +1,4 @@
-/* export_action.h — the -export action (issue 5): the solution as a coloured
+/* export_action.h — the -export action (docs/outputs.md): the solution as a coloured
  * PLY mesh (export_ply.h) and/or POV-Ray density files with a scene
  * (export_df3.h). */
 #ifndef OHM_EXPORT_ACTION_H

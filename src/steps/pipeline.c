@@ -366,6 +366,20 @@ int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
     return v ? ohm_opt_parse_real13(v, out) : 0;
 }
 
+/* ohm_opt_reader's functions: the ohm_opt_* above, on the invocation ctx */
+static int reader_given(const void *ctx, const char *name) { return ohm_opt_given(ctx, name); }
+static const char *reader_str(const void *ctx, const char *name) { return ohm_opt_str(ctx, name); }
+static long long reader_int(const void *ctx, const char *name) { return ohm_opt_int(ctx, name); }
+static double reader_real(const void *ctx, const char *name) { return ohm_opt_real(ctx, name); }
+static void reader_vec3(const void *ctx, const char *name, double out[3]) { ohm_opt_vec3(ctx, name, out); }
+static int reader_real13(const void *ctx, const char *name, double out[3]) { return ohm_opt_real13(ctx, name, out); }
+
+ohm_opt_reader ohm_opt_reader_of(const ohm_invocation *inv)
+{
+    ohm_opt_reader r = {inv, inv->where, reader_given, reader_str, reader_int, reader_real, reader_vec3, reader_real13};
+    return r;
+}
+
 /* ---- running ------------------------------------------------------------------- */
 
 /* Whether a step reads a file the run has staged but not yet renamed into

@@ -104,6 +104,9 @@ void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3]);
 /* REAL13: returns how many values (1 or 3) and fills out[0..2] (one value is
  * copied to all three). */
 int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3]);
+/* The same values through base/opt_spec.h's reader, for a stage below the
+ * steps that owns options (the light kinds). */
+ohm_opt_reader ohm_opt_reader_of(const ohm_invocation *inv);
 
 typedef struct ohm_chain {
     ohm_invocation *items;

@@ -9,6 +9,7 @@
 #include <embree3/rtcore.h>
 
 #include "base/vec3.h"
+#include "physics/light_kind.h"
 #include "ohm_oiio.h"
 
 #ifndef M_PI
@@ -41,6 +42,7 @@ typedef struct render_ctx {
     double eps;                /* offset for shadow rays (mm) */
     double *vnormal;           /* 3 per vertex: area-weighted, for smooth shading */
     double *exitance[3];       /* per unknown, this frame, per channel (solve.h) */
+    ohm_light_setup *setups;   /* one per light (compare=1) */
 } render_ctx;
 
 static double dot3(const double a[3], const double b[3]) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2]; }
@@ -157,47 +159,57 @@ static void exitance_at(const render_ctx *r, const double p[3], double out[3])
 
 static int light_in_frame(const ohm_light *l, int frame) { return l->frame == 0 || l->frame == frame + 1; }
 
+/* ohm_light_visibility for a surface point of the preview: its origin
+ * (lifted off the surface by eps) sees the light unless the mesh is in the way. */
+typedef struct point_view {
+    const render_ctx *r;
+    double org[3];
+} point_view;
+
+static double point_visibility(const void *ctx, const double l[3], double dist)
+{
+    const point_view *pv = ctx;
+    return occluded(pv->r, pv->org, l, isfinite(dist) ? dist - pv->r->eps : dist) ? 0.0 : 1.0;
+}
+
 /* Irradiance (W/mm^2 per channel) at surface point p with unit normal n, from
- * every light of the frame, with shadow rays.  Pencil beams enter at a single
- * point and are left out; an area light counts as a Lambertian point emitter
- * at its centre. */
+ * every light of the frame, with shadow rays: the table of light kinds'
+ * (physics/light_kind.h), as the solver's faces get it.  A pencil beam
+ * enters at one point and brings none. */
 static void irradiance_at(const render_ctx *r, const double p[3], const double n[3], double out[3])
 {
     out[0] = out[1] = out[2] = 0;
-    const ohm_state *s = r->s;
-    double org[3];
-    for (int a = 0; a < 3; ++a) org[a] = p[a] + r->eps * n[a];
-    for (size_t i = 0; i < s->nlights; ++i) {
-        const ohm_light *L = &s->lights[i];
-        if (!light_in_frame(L, r->frame) || L->type == OHM_LIGHT_PENCIL) continue;
-        double l[3], scale = 1, dist = INFINITY;
-        if (L->type == OHM_LIGHT_DIRECTIONAL) {
-            for (int a = 0; a < 3; ++a) l[a] = -L->dir[a];
-        } else {
-            for (int a = 0; a < 3; ++a) l[a] = L->pos[a] - p[a];
-            double d2 = dot3(l, l);
-            if (!(d2 > 0)) continue;
-            dist = sqrt(d2);
-            for (int a = 0; a < 3; ++a) l[a] /= dist;
-            scale = 1.0 / d2;
-            double ldir = -dot3(l, L->dir); /* cosine off the light's axis */
-            if (L->type == OHM_LIGHT_SPOT) {
-                double outer = cos(L->angle * M_PI / 180.0), inner = cos((L->angle - L->falloff) * M_PI / 180.0);
-                if (ldir <= outer) continue;
-                if (ldir < inner) {
-                    double t = (ldir - outer) / (inner - outer);
-                    scale *= t * t * (3.0 - 2.0 * t);
-                }
-            } else if (L->type == OHM_LIGHT_AREA) {
-                if (ldir <= 0) continue;
-                scale *= ldir / M_PI;
-            }
-        }
-        double cosn = dot3(n, l);
-        if (cosn <= 0) continue;
-        if (occluded(r, org, l, isfinite(dist) ? dist - r->eps : dist)) continue;
-        for (int c = 0; c < 3; ++c) out[c] += L->intensity[L->channels == 1 ? 0 : c] * cosn * scale;
+    point_view pv = {r, {0, 0, 0}};
+    for (int a = 0; a < 3; ++a) pv.org[a] = p[a] + r->eps * n[a];
+    for (size_t i = 0; i < r->s->nlights; ++i) {
+        if (!light_in_frame(&r->s->lights[i], r->frame)) continue;
+        double E[3], l_mean[3];
+        ohm_light_irradiance(&r->setups[i], p, n, point_visibility, &pv, E, l_mean);
+        for (int c = 0; c < 3; ++c) out[c] += E[c];
     }
+}
+
+/* The lights' setups (area samples, sky directions), PREVIEW_RAYS at most
+ * per point: every pixel of the no-scattering panel asks each light. */
+enum { PREVIEW_RAYS = 32 };
+
+static int setups_init(render_ctx *r, ohm_error *err)
+{
+    size_t n = r->s->nlights;
+    r->setups = calloc(n ? n : 1, sizeof *r->setups);
+    if (!r->setups) return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory");
+    for (size_t i = 0; i < n; ++i) {
+        int rc = ohm_light_setup_init(&r->setups[i], &r->s->lights[i], PREVIEW_RAYS, err);
+        if (rc) return rc;
+    }
+    return OHM_OK;
+}
+
+static void setups_free(render_ctx *r)
+{
+    for (size_t i = 0; r->setups && i < r->s->nlights; ++i) ohm_light_setup_free(&r->setups[i]);
+    free(r->setups);
+    r->setups = NULL;
 }
 
 /* Per-channel reflectance for the no-scattering image: the power the solution
@@ -323,13 +335,9 @@ static int view_direction(double f[3], const render_ctx *r, const double centre[
     }
     for (size_t i = 0; i < s->nlights; ++i) {
         const ohm_light *L = &s->lights[i];
-        if (!light_in_frame(L, r->frame)) continue;
         double d[3];
-        if (L->type == OHM_LIGHT_DIRECTIONAL) memcpy(d, L->dir, sizeof d);
-        else
-            for (int a = 0; a < 3; ++a) d[a] = centre[a] - L->pos[a];
-        if (!ohm_vec3_normalize(d)) memcpy(d, L->dir, sizeof d);
-        if (ohm_vec3_normalize(d)) memcpy(f, d, sizeof d);
+        if (!light_in_frame(L, r->frame) || !ohm_light_toward(L, centre, d)) continue;
+        for (int a = 0; a < 3; ++a) f[a] = -d[a]; /* the way its light travels */
         break;
     }
     return OHM_OK;
@@ -410,6 +418,7 @@ static int exitance_load(render_ctx *r)
 /* The scene, the vertex normals and the exitance: what tracing holds. */
 static void tracing_free(render_ctx *r)
 {
+    setups_free(r);
     scene_free(r);
     free(r->vnormal);
     r->vnormal = NULL;
@@ -497,9 +506,16 @@ static int trace_image(samples *sm, float **img, render_ctx *r, const camera *ca
     if (rc) return rc;
     double albedo[3] = {0, 0, 0};
     if (q->compare) {
+        rc = setups_init(r, err);
+        if (rc) {
+            setups_free(r);
+            scene_free(r);
+            return rc;
+        }
         lambert_albedo(r, albedo);
         r->vnormal = vertex_normals(&r->s->mesh);
         if (!r->vnormal) {
+            setups_free(r);
             scene_free(r);
             return ohm_fail(err, OHM_ERR_NOMEM, "-render: out of memory for vertex normals");
         }

@@ -1,4 +1,4 @@
-/* render.h — `-render`: a preview image of the solution (issue 5).
+/* render.h — `-render`: a preview image of the solution (docs/outputs.md).
  *
  * An orthographic camera looks at the centre of the mesh's bounding box along
  * view= (default: the direction the frame's first light travels, or down -z

@@ -1,5 +1,5 @@
 /* resolution.h — -voxelize error=: the coarsest grid predicted to meet an
- * error target in the surface exitance (issue 7).  Solves the scene (CG, no
+ * error target in the surface exitance (docs/accuracy.md).  Solves the scene (CG, no
  * band) at dim 16 and 32 with the accuracy study's probe
  * (outputs/exitance_probe.h), turns their binned-exitance difference into a
  * Richardson estimate of the error at 32 and extrapolates to the coarsest dim

@@ -1,4 +1,4 @@
-/* state.h — what a run's actions share, left to right (DESIGN.md §7): the
+/* state.h — what a run's actions share, left to right (docs/design.md §8): the
  * current mesh, the voxel object, the statistics, the log.  One per run, owned
  * by the caller; no action keeps anything elsewhere. */
 #ifndef OHM_STATE_H

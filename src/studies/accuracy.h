@@ -1,5 +1,5 @@
 /* accuracy.h — `ohm accuracy`: the speed/accuracy trade of a scene, measured
- * (issue 7): a resolution series per material against a finer reference and
+ * (docs/accuracy.md): a resolution series per material against a finer reference and
  * its Richardson extrapolation, both solvers timed, depth bands against the
  * full solve, and the half-space scene against its exact solution.  Prints
  * figures; asserts nothing (tests/cli_accuracy.sh does, on a small run).  The

@@ -11,8 +11,8 @@
  * the same run (a STREAM-like triad and a BLAS dgemm).  Markdown on stdout
  * (and md=), CSV with every raw figure (csv=), progress on stderr.
  *
- * Nothing here asserts a speed: it prints figures (DESIGN.md, tests never
- * time anything). */
+ * Nothing here asserts a speed: it prints figures (tests never time
+ * anything: speed is what benchmarks print). */
 #ifndef OHM_BENCH_H
 #define OHM_BENCH_H
 

@@ -1,5 +1,5 @@
 /* block_medium.h — the scale study's block medium (scripts/scale.sh,
- * docs/scale.md; issues 35 and 37): nx^3 cells of 1 mm in blocks of
+ * docs/scale.md, docs/multigrid.md, docs/gpu.md): nx^3 cells of 1 mm in blocks of
  * block^3, each sigma_s' 1 or 1e6 at random (p = 1/2: both phases
  * percolate, a maze of conductances 1e6 apart; a checkerboard's blocks
  * touch only at edges and are no test).  What the benchmarks (`ohm bench

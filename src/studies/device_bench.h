@@ -1,5 +1,5 @@
 /* device_bench.h — ohm on an OpenCL device against the host's cores
- * (issue 37, item 5): the rows `ohm bench device=` adds, and what the
+ * (docs/gpu.md): the rows `ohm bench device=` adds, and what the
  * benchmark that travels (tests/bench_device.c as ohm-gpu-bench,
  * scripts/gpu-pack.sh) prints.  Markdown tables; each row measured in the
  * same run on both sides, the device's answer checked against the host's.

@@ -1,5 +1,5 @@
 /* devices.h — `ohm devices`: the OpenCL platforms and devices this machine
- * has (issue 37), each with its memory, double precision, and its memory
+ * has (docs/devices.md), each with its memory, double precision, and its memory
  * bandwidth measured by a triad kernel that is checked element by element,
  * so that a listed device is known to build and run ohm's kernels. */
 #ifndef OHM_STUDIES_DEVICES_H

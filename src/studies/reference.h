@@ -1,5 +1,5 @@
 /* reference.h — analytic solutions the solver is checked against
- * (DESIGN.md §3).  All lengths mm, coefficients 1/mm, source power 1 W unless
+ * (docs/design.md §3).  All lengths mm, coefficients 1/mm, source power 1 W unless
  * a parameter says otherwise. */
 #ifndef OHM_REFERENCE_H
 #define OHM_REFERENCE_H

@@ -1,5 +1,5 @@
 /* validate.h — `ohm validate`: the solver against references that do not
- * depend on ohm's own code (DESIGN.md §3), on built-in scenes.  Each check is a
+ * depend on ohm's own code (docs/design.md §3), on built-in scenes.  Each check is a
  * row: what was compared, measured, expected, error, tolerance, pass.  The
  * test suite runs the same functions and asserts every row passes. */
 #ifndef OHM_VALIDATE_H
@@ -60,7 +60,7 @@ typedef struct ohm_halfspace_result {
 int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, const ohm_log *log, ohm_error *err);
 
 /* Diffusion against ohm's Monte Carlo transport (mc.h; validate_transport.c)
- * on issue 13's scenes — a slab lit by a pencil beam at eta 1.0 and 1.4, a
+ * on the transport study's scenes (docs/transport.md) — a slab lit by a pencil beam at eta 1.0 and 1.4, a
  * cube at eta 1.37, the same cube with a sphere of another medium — in the
  * MCX benchmark's medium (sigma_a 0.005, sigma_s 1 /mm, g 0.01), cube side
  * `size` mm (slabs 2 size wide, size / 2 thick), voxel h: per scene the
@@ -78,7 +78,7 @@ typedef struct ohm_transport_config {
     ohm_device_request device; /* where the photons run (mc.h; zero: the host) */
     double tol_fluence_mean, tol_fluence_rms, tol_absorbed, tol_reflectance, tol_rings;
 } ohm_transport_config;
-void ohm_transport_config_default(ohm_transport_config *cfg); /* issue 13's targets, h 1, size 60, 1e6 */
+void ohm_transport_config_default(ohm_transport_config *cfg); /* the transport study's targets, h 1, size 60, 1e6 */
 int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, const ohm_log *log, ohm_error *err);
 
 /* The Monte Carlo reference (mc.h) itself against published transport

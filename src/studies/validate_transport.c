@@ -1,5 +1,5 @@
 /* validate_transport.c — diffusion against ohm's own Monte Carlo transport
- * (mc.h) on the scenes of issue 13 (validate.h, ohm_validate_transport).
+ * (mc.h) on the transport study's scenes (docs/transport.md; validate.h).
  *
  * The medium is the MCX benchmark's: sigma_a 0.005, sigma_s 1 /mm, g 0.01
  * (sigma_s' 0.99, one transport mean free path 1/sigma_t' = 1.005 mm,
@@ -19,7 +19,7 @@
 
 static const double TR_SA = 0.005, TR_SS = 0.99, TR_G = 0.01;
 /* Diffusion cannot be compared within this many transport mean free paths of
- * the source or of a face (DESIGN.md §3); the Monte Carlo estimate is used
+ * the source or of a face (docs/design.md §3); the Monte Carlo estimate is used
  * only where its own standard error is below this fraction. */
 static const double NEAR_MFP = 2.0, MC_NOISE = 0.01;
 
@@ -256,7 +256,7 @@ void ohm_transport_config_default(ohm_transport_config *cfg)
     cfg->fresnel = OHM_FRESNEL_EXACT;
     cfg->deposit = OHM_DEPOSIT_EXPONENTIAL;
     cfg->hybrid = OHM_HYBRID_PENCIL; /* -solve's default for a pencil beam (hybrid=auto) */
-    /* issue 13's targets */
+    /* the transport study's targets (docs/transport.md) */
     cfg->tol_fluence_mean = 0.02;
     cfg->tol_fluence_rms = 0.04;
     cfg->tol_absorbed = 0.02;
@@ -449,7 +449,7 @@ int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threa
     char name[80];
     if (b.res.device[0]) snprintf(name, sizeof name, "mc: cube60 speed, photons/ms (%.40s)", b.res.device);
     else snprintf(name, sizeof name, "mc: cube60 speed, photons/ms (%d threads)", b.res.threads);
-    ohm_validation_add(v, name, b.res.device[0] ? "issue 37: >= 100000 on a GPU" : "issue 13: >= 100", speed,
+    ohm_validation_add(v, name, b.res.device[0] ? "target: >= 100000 on a GPU" : "target: >= 100", speed,
                        b.res.device[0] ? 100000 : 100, speed, -1);
     mc_box_free(&b);
     return OHM_OK;

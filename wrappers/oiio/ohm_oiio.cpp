@@ -158,6 +158,25 @@ int image_size(const char *path, int *w, int *h, int *channels, ohm_error *err)
     OHM_OIIO_CATCH(err, path)
 }
 
+// The first `use` channels of every pixel as floats, into buf; the image closed.
+int read_floats(const char *path, OIIO::ImageInput *in, int use, std::vector<float> &buf, ohm_error *err)
+{
+    const OIIO::ImageSpec &spec = in->spec();
+    buf.resize(size_t(int64_t(spec.width) * spec.height * use));
+    // A decoder that meets a short strip (libtiff's TIFFReadEncodedStrip on a
+    // truncated file) still returns true from read_image, with the rest of
+    // the slice left as it was: an error recorded on the way is a failed read.
+    const bool read = in->read_image(0, 0, 0, use, OIIO::TypeDesc::FLOAT, buf.data());
+    if (!read || in->has_error()) {
+        std::string msg = one_line(in->geterror());
+        return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels (%s): %s", path,
+                        read ? "the image is incomplete" : "the decoder failed",
+                        msg.empty() ? "unknown error" : msg.c_str());
+    }
+    in->close();
+    return OHM_OK;
+}
+
 int read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
 {
     if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_gray: NULL argument");
@@ -180,18 +199,9 @@ int read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
     default: break;
     }
     const int use = nc >= 3 ? 3 : 1; // grey, or R, G and B: never alpha nor extra channels
-    std::vector<float> buf(size_t(pw * ph * use));
-    // A decoder that meets a short strip (libtiff's TIFFReadEncodedStrip on a
-    // truncated file) still returns true from read_image, with the rest of
-    // the slice left as it was: an error recorded on the way is a failed read.
-    const bool read = in->read_image(0, 0, 0, use, OIIO::TypeDesc::FLOAT, buf.data());
-    if (!read || in->has_error()) {
-        std::string msg = one_line(in->geterror());
-        return ohm_fail(err, OHM_ERR_PARSE, "%s: cannot read pixels (%s): %s", path,
-                        read ? "the image is incomplete" : "the decoder failed",
-                        msg.empty() ? "unknown error" : msg.c_str());
-    }
-    in->close();
+    std::vector<float> buf;
+    rc = read_floats(path, in.get(), use, buf, err);
+    if (rc) return rc;
     float *out = static_cast<float *>(std::malloc(size_t(pw * ph) * sizeof(float)));
     if (!out) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory for %" PRId64 " pixels", path, pw * ph);
     for (size_t i = 0; i < size_t(pw * ph); ++i) {
@@ -209,10 +219,38 @@ int read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err)
     OHM_OIIO_CATCH(err, path)
 }
 
+// Linear RGB as OpenImageIO converts it to float (integer pixels scaled to
+// [0, 1]); a grey image (with or without alpha) repeats its channel.
+int read_rgb(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+{
+    if (!path || !pixels || !w || !h) return ohm_fail(err, OHM_ERR_INVALID, "ohm_image_read_rgb: NULL argument");
+    *pixels = nullptr;
+    *w = *h = 0;
+    OHM_OIIO_TRY
+    int rc;
+    auto in = open_slice(path, &rc, err);
+    if (!in) return rc;
+    const OIIO::ImageSpec &spec = in->spec();
+    const int64_t pw = spec.width, ph = spec.height;
+    const int use = spec.nchannels >= 3 ? 3 : 1;
+    std::vector<float> buf;
+    rc = read_floats(path, in.get(), use, buf, err);
+    if (rc) return rc;
+    float *out = static_cast<float *>(std::malloc(size_t(pw * ph) * 3 * sizeof(float)));
+    if (!out) return ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory for %" PRId64 " pixels", path, pw * ph);
+    for (size_t i = 0; i < size_t(pw * ph); ++i)
+        for (int c = 0; c < 3; ++c) out[3 * i + size_t(c)] = buf[i * size_t(use) + size_t(use == 3 ? c : 0)];
+    *pixels = out;
+    *w = int(pw);
+    *h = int(ph);
+    return OHM_OK;
+    OHM_OIIO_CATCH(err, path)
+}
+
 } // namespace
 
 extern "C" __attribute__((visibility("default"))) const ohm_oiio_api *ohm_oiio_module(void)
 {
-    static const ohm_oiio_api api = {write_to, read_gray, image_size};
+    static const ohm_oiio_api api = {write_to, read_gray, image_size, read_rgb};
     return &api;
 }

@@ -39,6 +39,12 @@ int ohm_image_write_to(const char *path, const char *write_path, const float *rg
  * only the first subimage. */
 int ohm_image_read_gray(const char *path, float **pixels, int *w, int *h, ohm_error *err);
 
+/* Read one image as linear RGB: *pixels is a malloc'd 3*w*h array of floats
+ * (row-major from the top-left) that the caller frees.  Float pixels are as
+ * stored (.hdr, .exr: radiance); integer ones are scaled to [0, 1]; a grey
+ * image repeats its channel; alpha is ignored.  Only the first subimage. */
+int ohm_image_read_rgb(const char *path, float **pixels, int *w, int *h, ohm_error *err);
+
 /* An image's width, height and channels, from its header alone (nothing
  * decoded): for checking a slice before reading it. */
 int ohm_image_size(const char *path, int *w, int *h, int *channels, ohm_error *err);

@@ -86,3 +86,9 @@ int ohm_image_size(const char *path, int *w, int *h, int *channels, ohm_error *e
     const ohm_oiio_api *a = api(path, err);
     return a ? a->size(path, w, h, channels, err) : OHM_ERR_INTERNAL;
 }
+
+int ohm_image_read_rgb(const char *path, float **pixels, int *w, int *h, ohm_error *err)
+{
+    const ohm_oiio_api *a = api(path, err);
+    return a ? a->read_rgb(path, pixels, w, h, err) : OHM_ERR_INTERNAL;
+}

@@ -23,6 +23,7 @@ typedef struct ohm_oiio_api {
                     ohm_error *err);
     int (*read_gray)(const char *path, float **pixels, int *w, int *h, ohm_error *err);
     int (*size)(const char *path, int *w, int *h, int *channels, ohm_error *err);
+    int (*read_rgb)(const char *path, float **pixels, int *w, int *h, ohm_error *err);
 } ohm_oiio_api;
 
 /* The module's one export (linked in directly by scripts/fuzz.sh). */

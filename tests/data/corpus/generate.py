@@ -211,7 +211,7 @@ add("not-increasing.transfer", T + "0 0.1 1\n100 0.1 1\n100 0.2 1\n", "transfer"
 add("no-points.transfer", T + "# nothing here\n", "transfer", 1, ":2: .*no control points")
 add("long-line.transfer", T + "0 0.1 1" + " " * 5000 + "\n", "transfer", 1, ":2: ")
 add("binary-junk.transfer", bytes((i * 91 + 3) % 256 for i in range(400)), "transfer", 1, ":1: .*NUL")
-# issue 17: finite numbers whose products overflow (an infinite sigma_a grid at -write, or a null
+# finite numbers whose products overflow (an infinite sigma_a grid at -write, or a null
 # power with -stats and exit 0, before the ranges of transfer.h)
 add("huge-sigma-a.transfer", T + "0 1e300 1\n100 0.1 1\n", "transfer", 1, r":2: .*sigma_a\) must be in \[0, 1e\+06\]")
 add("tiny-sigma-s.transfer", T + "0 0.1 1\n100 0.1 1e-300\n", "transfer", 1, r":3: .*sigma_s'\) must be in")
@@ -392,7 +392,7 @@ add("fuzz-vdb-empty-root.vdb", crash("vdb", "crash-cfd0cd52a74ee83cfe5bcab828acb
     ": .*topology ends at byte 664",
     "fuzz finding (regression, 2026-11-22): an empty root node made the checker qsort a NULL array (UB)")
 
-# ---- scan formats (issue 16): INRIMAGE-4, NRRD, MetaImage -----------------------
+# ---- scan formats (docs/scans.md): INRIMAGE-4, NRRD, MetaImage -----------------------
 def inr(fields, data, end=True):
     """An INR file: KEY=VALUE lines padded with newlines to a 256-byte header."""
     head = "#INRIMAGE-4#{\n" + "".join("%s=%s\n" % kv for kv in fields)
@@ -402,7 +402,7 @@ def inr(fields, data, end=True):
 INR_FIELDS = [("XDIM", 4), ("YDIM", 3), ("ZDIM", 2), ("VDIM", 1), ("TYPE", "signed fixed"), ("PIXSIZE", "16 bits"),
               ("SCALE", "2**0"), ("CPU", "decm"), ("VX", 1), ("VY", 1), ("VZ", 1)]
 VOXELS = bytes(range(48))  # 4 x 3 x 2 16-bit voxels
-S16 = "ohm: scan formats (issue 16)"
+S16 = "ohm: scan formats"
 add("unknown-type.inr", inr([(k, "complex" if k == "TYPE" else v) for k, v in INR_FIELDS], VOXELS), "scan", 1,
     ANY + ".*TYPE=complex", S16)
 add("truncated.inr", inr(INR_FIELDS, VOXELS[:30]), "scan", 1, ANY + ".*truncated", S16)
@@ -417,7 +417,7 @@ add("truncated.mha", (META % ("MET_SHORT", "LOCAL")).encode() + VOXELS[:20], "sc
 add("list.mhd", META % ("MET_SHORT", "LIST") + "slice1.raw\n", "scan", 1, ANY + ".*list of slice files", S16)
 add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan", 1, ANY + ".*MET_LONG_LONG", S16)
 
-# ---- honest bombs (issue 17): each header declares what its stream holds,
+# ---- honest bombs (docs/bad-input.md): each header declares what its stream holds,
 # 57.6e6 zero bytes (reading them would take 288 MB, over the readers'
 # 256 MiB floor) from ~56 KB of deflate, a bomb's 1030 voxels per byte (over
 # max_expansion's 500): each
@@ -425,7 +425,7 @@ add("bad-type.mha", (META % ("MET_LONG_LONG", "LOCAL")).encode() + VOXELS, "scan
 # (cli_corpus.sh also holds each run's peak memory to a few hundred MB).
 BOMB = (480, 400, 300)
 BOMB_ZEROS = bytes(BOMB[0] * BOMB[1] * BOMB[2])
-BOMB_NOTE = "bomb: issue 17, an honest header over 57.6 MB of zeros"
+BOMB_NOTE = "bomb: an honest header over 57.6 MB of zeros"
 def gz(data):
     return gzip.compress(data, 9, mtime=0)
 add("bomb-honest.nii.gz", gz(nifti(BOMB, data=BOMB_ZEROS)), "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
@@ -439,7 +439,7 @@ add("bomb-honest.mha", ("ObjectType = Image\nNDims = 3\nDimSize = %d %d %d\nElem
                         "CompressedData = True\nElementDataFile = LOCAL\n" % BOMB).encode()
     + zlib.compress(BOMB_ZEROS, 9), "scan", 1, ANY + ".*decompression bomb", BOMB_NOTE)
 
-# ---- DICOM (issue 16): one bad slice per folder (a folder is read as a series,
+# ---- DICOM (docs/scans.md): one bad slice per folder (a folder is read as a series,
 # and one broken file fails the whole folder, so each case needs its own).
 # Written through tests/write_dicom.py's pydicom code; series (gaps,
 # duplicates, two series, a DICOMDIR) are made at run time by
@@ -466,7 +466,7 @@ def dicom(name, change, pattern, code=1, cut=0, names_file=True):
     out = io.BytesIO()
     ds.save_as(out, write_like_original=False)
     data = out.getvalue()
-    add_slice_folder(name, data[:len(data) - cut] if cut else data, code, pattern, "ohm: DICOM (issue 16)",
+    add_slice_folder(name, data[:len(data) - cut] if cut else data, code, pattern, "ohm: DICOM",
                      names_file)
 
 def frames(ds):
@@ -491,7 +491,7 @@ dicom("dicom-zero-slope", lambda ds: setattr(ds, "RescaleSlope", "0"), ".*Rescal
 dicom("dicom-huge", lambda ds: (setattr(ds, "Rows", 65535), setattr(ds, "Columns", 65535)),
       ".*more than the limit", names_file=False)
 add_slice_folder("dicom-junk", bytes(128) + b"DICM" + bytes(range(256)) * 4, 1, ".*not a DICOM Part 10 file",
-                 "ohm: DICOM (issue 16): the mark and then noise")
+                 "ohm: DICOM: the mark and then noise")
 
 # DICOM fuzz findings (scripts/fuzz.sh dicom, 2026-12-03): GDCM 3.0.21 allocates
 # declared lengths and asserts (aborts) on bad VRs; the pre-pass refuses them
@@ -512,7 +512,7 @@ for name, crash_file, pattern, what in (
          "GDCM asserted in Attribute::SetFromDataSet (PixelRepresentation)")):
     add_slice_folder(name, crash("dicom", crash_file), 1, ".*" + pattern, "fuzz finding (regression): " + what)
 
-# ---- slice folders (issue 33): four slices, the last cut to half its bytes.
+# ---- slice folders (docs/scans.md): four slices, the last cut to half its bytes.
 # The decoders read what is there and, for TIFF, returned success with the
 # rest of the slice left undecoded; a partial slice must fail the read and
 # be named.  Written by hand (struct, zlib): 16 x 12 8-bit grey, pixels that
@@ -549,7 +549,7 @@ def truncated_stack(folder, ext, encode):
         with open(os.path.join(D, folder, "s%02d%s" % (z, ext)), "wb") as f:
             f.write(data[:len(data) // 2] if z == 3 else data)
     rows.append((folder, "scan", "1", esc(folder + "/s03" + ext) + ": cannot read pixels",
-                 "issue 33: a slice cut to half its bytes"))
+                 "a slice cut to half its bytes"))
 
 truncated_stack("stack-truncated-tif", ".tif", tiff_slice)
 truncated_stack("stack-truncated-png", ".png", png_slice)

@@ -1,0 +1,108 @@
+/* physics/stencil.h — the network's matrix in its 7-point stencil form:
+ * the form (ohm_stencil) and its runs, and its operations: A x, A's
+ * diagonal and norm, the residual's norms and the pieces' sums, on the
+ * stencil's runs (every solver that works matrix-free reads the network
+ * through these).  The network fills it (ohm_network_stencil, network.h)
+ * from the same row function as the matrix's assembly, so the two are one
+ * matrix. */
+#ifndef OHM_PHYSICS_STENCIL_H
+#define OHM_PHYSICS_STENCIL_H
+
+#include <stdint.h>
+
+#include "base/ohm_error.h"
+#include "base/sorted.h"
+
+/* The network's matrix as a 7-point stencil over its unknowns, what a
+ * matrix-free solver reads instead of the assembled A (28 B per unknown and
+ * a few per run, against CHOLMOD's 24 per entry, four entries per
+ * unknown): row v is
+ *   sink[v] x_v + sum_w g_vw (x_v - x_w)
+ * over v's face neighbours w.  Each link's conductance is stored once, by
+ * its lower unknown, in gx, gy or gz by its axis, and is > 0 exactly where
+ * the link is (0 where there is none).  Unknowns are numbered in cell
+ * order, so a +x neighbour is always v + 1 and needs no index; the y and
+ * z neighbours' offsets (w - v) are the same along most of a row of cells,
+ * so they are stored per run: a run is a longest stretch of consecutive
+ * unknowns whose four offsets are equal (the rows of a box's plane between
+ * its first and last are one run; an object's ragged edge cuts a row into a
+ * few).  A solver's rows then read
+ * their neighbours at fixed distances, as a box's would, and vectorise.
+ * The values are ohm_network_assemble's, by the same code: A = the
+ * stencil's matrix, up to the order its diagonal is summed in. */
+typedef struct ohm_stencil {
+    int64_t n;
+    int64_t nruns;
+    int64_t *run_start;    /* nruns + 1: run r is unknowns run_start[r] ..
+                              run_start[r + 1] - 1                         */
+    int32_t (*run_off)[4]; /* run r's -y, +y, -z, +z neighbour minus v; 0: none */
+    float *gx, *gy, *gz;   /* conductance of v's +x, +y, +z link; 0: none  */
+    double *sink;          /* ground + boundary (+ closure) conductance, scaled
+                              as the diagonal (network.h: s_v with eta_v)   */
+} ohm_stencil;
+
+/* The run holding unknown v, from *cursor (a run at or before v's; 0 to
+ * start): O(1) for unknowns visited in increasing order. */
+static inline int64_t ohm_stencil_run(const ohm_stencil *st, int64_t v, int64_t *cursor)
+{
+    int64_t r = *cursor;
+    while (st->run_start[r + 1] <= v) ++r;
+    return *cursor = r;
+}
+
+/* The run holding unknown v, by bisection. */
+static inline int64_t ohm_stencil_run_of(const ohm_stencil *st, int64_t v)
+{
+    return ohm_sorted_last_at_most(st->run_start, st->nruns, v);
+}
+
+/* The bytes st holds. */
+double ohm_stencil_bytes(const ohm_stencil *st);
+
+/* st's runs from per-unknown offsets off[v] (-y, +y, -z, +z; st->n of
+ * them), replacing any it has: for a stencil built cell by cell (a coarse
+ * level's).  OHM_ERR_NOMEM. */
+int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err);
+
+void ohm_stencil_free(ohm_stencil *st); /* NULL or zeroed is fine */
+
+/* A stencil's runs as they are found, in increasing unknowns: a new run
+ * where the offsets change (a builder's, one per thread's share of the
+ * rows). */
+typedef struct ohm_stencil_runs {
+    int64_t n, cap;
+    int64_t *start;
+    int32_t (*off)[4];
+    int failed; /* out of memory */
+} ohm_stencil_runs;
+
+/* Unknown v's offsets (-y, +y, -z, +z), v after every unknown pushed. */
+void ohm_stencil_runs_push(ohm_stencil_runs *rl, int64_t v, const int32_t off[4]);
+void ohm_stencil_runs_free(ohm_stencil_runs *rl);
+
+/* st's runs: the lists of consecutive stretches of its unknowns, in order,
+ * joined (a run cut only by where one list ends and the next begins is one
+ * run), replacing any it has.  OHM_ERR_NOMEM. */
+int ohm_stencil_adopt_runs(ohm_stencil *st, const ohm_stencil_runs *lists, int count, ohm_error *err);
+
+/* y = A x for the stencil's matrix, on up to `threads` cores. */
+void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads);
+
+/* ||b - A x||_inf, ||x||_inf and ||b||_inf in one pass, row by row, with
+ * no vector of its own (threads <= 0: every usable core). */
+void ohm_stencil_residual_norms(const ohm_stencil *st, const double *b, const double *x, int threads, double *nr,
+                                double *nx, double *nb);
+
+/* Add each piece's sum of the sinks and of A's diagonal into sink[p],
+ * diag[p]: the pieces as runs of unknowns (network.h's ohm_piece_runs:
+ * run r is start[r] .. start[r + 1] - 1, in piece[r]; count 0: one piece). */
+void ohm_stencil_piece_sums(const ohm_stencil *st, const int64_t *start, const int32_t *piece, int64_t count,
+                            double *sink, double *diag);
+
+/* ||A||_inf of the stencil's matrix: its largest row sum of |a|. */
+double ohm_stencil_norm_inf(const ohm_stencil *st);
+
+/* A's diagonal entry in row v (its run found by bisection). */
+double ohm_stencil_diag(const ohm_stencil *st, int64_t v);
+
+#endif
