@@ -7,6 +7,7 @@
 
 #include "solvers/backend.h"
 #include "solvers/solver_impl.h"
+#include "solvers/transport.h"
 #include "base/parallel.h"
 
 #include <stdint.h>

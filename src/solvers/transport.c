@@ -4,6 +4,7 @@
  * handoff, whose weight becomes diffusion's source.  The hybrid's arrays
  * belong to the batch's work (batch.c). */
 #include "solvers/solver_impl.h"
+#include "solvers/transport.h"
 
 #include "physics/mc_device.h"
 
