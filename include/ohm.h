@@ -67,9 +67,13 @@
  *     ohm_scene_free(scene);
  *     ohm_context_free(ctx);
  *
- * Relighting: ohm_scene_solve keeps the factor; ohm_scene_clear_lights,
- * ohm_scene_add_light and ohm_scene_relight then solve new lights with two
- * triangular solves each, never factoring again.
+ * Relighting: ohm_scene_solve keeps its solver's setup; ohm_scene_clear_lights,
+ * ohm_scene_add_light and ohm_scene_relight then solve new lights without
+ * setting up again: with solver=direct, two triangular solves each, never
+ * factoring again.  The default, solver=auto, solves the first light by
+ * multigrid and chooses for the relights once it has timed one (the
+ * statistics' solver and solver_reason say what it took and why);
+ * ohm_scene_estimate predicts that choice and the memory before any solve.
  *
  * Linking: pkg-config --cflags --libs ohm, or CMake's find_package(ohm)
  * and target ohm::ohm. */
@@ -83,7 +87,7 @@
 
 /* The version of this header; ohm_version() gives the library's. */
 #define OHM_VERSION_MAJOR 1
-#define OHM_VERSION_MINOR 1
+#define OHM_VERSION_MINOR 2
 #define OHM_VERSION_PATCH 0
 
 #if defined(__GNUC__) || defined(__clang__)
@@ -222,9 +226,9 @@ OHM_API int ohm_scene_add_light(ohm_scene *scene, const char *const *options);
 /* Remove every light (the setup of the last solve stays, for relighting). */
 OHM_API int ohm_scene_clear_lights(ohm_scene *scene);
 
-/* Solve the scene's lights: options as for the "solve" action; unless
- * options say keep=0, the factor (or preconditioner) of every channel
- * material is kept for ohm_scene_relight. */
+/* Solve the scene's lights: options as for the "solve" action (solver=auto
+ * unless told); unless options say keep=0, the factor (or preconditioner,
+ * or hierarchy) of every channel material is kept for ohm_scene_relight. */
 OHM_API int ohm_scene_solve(ohm_scene *scene, const char *const *options);
 
 /* Solve the scene's current lights again with the setup of the last
@@ -287,7 +291,8 @@ typedef enum ohm_member_type {
     OHM_MEMBER_INT = 2,  /* int     */
     OHM_MEMBER_INT32 = 3,
     OHM_MEMBER_INT64 = 4,
-    OHM_MEMBER_DOUBLE = 5
+    OHM_MEMBER_DOUBLE = 5,
+    OHM_MEMBER_CHAR = 6  /* char: a text of up to count - 1 bytes, NUL-terminated (1.2) */
 } ohm_member_type;
 
 typedef struct ohm_struct_member {
@@ -297,7 +302,8 @@ typedef struct ohm_struct_member {
     int count;        /* elements: 3 for an array of three, else 1     */
 } ohm_struct_member;
 
-/* The members of struct `name` ("ohm_grid_info" or "ohm_result_info") as
+/* The members of struct `name` ("ohm_grid_info", "ohm_result_info" or,
+ * from 1.2, "ohm_estimate_info") as
  * this library lays them out: *count entries, and the struct's size in
  * *size (either pointer may be NULL).  NULL, with the last error set, for
  * a name that is no sized struct of this library's. */
@@ -326,6 +332,38 @@ OHM_API int ohm_scene_stat(double *out, const ohm_scene *scene, const char *key)
  * *text, the scene's own string, valid until the scene's next call;
  * OHM_ERR_INVALID for a key it does not hold or that holds a number. */
 OHM_API int ohm_scene_stat_text(const char **text, const ohm_scene *scene, const char *key);
+
+/* ---- scene: what a solve will take, before anything is built (1.2) ------- */
+
+typedef struct ohm_estimate_info {
+    size_t size;            /* sizeof(ohm_estimate_info): OHM_ESTIMATE_INFO_INIT */
+    int64_t interior_cells; /* predicted cells inside the object at dim=       */
+    int64_t grid_cells;     /* cells of the grid's box, its margin included    */
+    double bytes_direct;    /* the process's predicted peak (B) with each solver */
+    double bytes_cg;
+    double bytes_amg;
+    double bytes_mg;
+    double bytes_auto;
+    double bytes_allowed;   /* max_memory=, or what the machine has available  */
+    double margin;          /* the model's error margin: a solve is judged to
+                               fit when its bytes x margin <= bytes_allowed    */
+    int largest_dim;        /* the largest dim= that fits with `solver`; 0: none */
+    int largest_dim_mg;     /* the same with mg                                 */
+    char solver[16];        /* solver= as asked, or what solver=auto would take */
+    char reason[256];       /* auto: its predicted times, and what fits        */
+} ohm_estimate_info;
+#define OHM_ESTIMATE_INFO_INIT {sizeof(ohm_estimate_info), 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, 0, "", ""}
+
+/* The memory a solve of the scene's mesh would take at dim= cells across,
+ * with each solver, and the solver solver=auto would take for it, predicted
+ * from the mesh's size and shape without building anything (the model:
+ * docs/blender.md), into *out (sized as ohm_scene_grid's).  Options:
+ * dim=N (required), solver=auto|direct|cg|amg|mg (default auto: *out
+ * names its choice), channels=1..3 (default the scene's material's, else
+ * 3), solves=N (solves of each channel to come, relights included;
+ * default 1), max_memory=MB (default what the machine has available).
+ * OHM_ERR_INVALID without a mesh. */
+OHM_API int ohm_scene_estimate(ohm_estimate_info *out, const ohm_scene *scene, const char *const *options);
 
 #ifdef __cplusplus
 }

@@ -1,6 +1,6 @@
 #!/usr/bin/env python3
-"""addon-memory.py — the Blender add-on's memory predictions
-(blender/ohm_blender/estimate.py) against measured peaks: each case runs, in
+"""addon-memory.py — the memory predictions the Blender add-on asks of the
+library (ohm_scene_estimate, through blender/ohm_blender/estimate.py) against measured peaks: each case runs, in
 a fresh process, the library calls the add-on's Solve makes (read the mesh,
 a measured preset, a point light, voxelize at Cells, solve keeping the
 solver), and reports the process's peak resident memory beside the
@@ -21,6 +21,10 @@ import numpy as np
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 BUILD = sys.argv[1] if len(sys.argv) > 1 else os.path.join(ROOT, "build")
+os.environ.setdefault("OHM_LIBRARY", os.path.join(BUILD, "libohm.so"))
+sys.path.insert(0, os.path.join(ROOT, "python"))
+import ohm  # noqa: E402  (the library's own estimate, ohm_scene_estimate: what the add-on asks)
+CTX = ohm.Context(verbosity=0)
 spec = importlib.util.spec_from_file_location("estimate", os.path.join(ROOT, "blender", "ohm_blender", "estimate.py"))
 estimate = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(estimate)
@@ -82,8 +86,8 @@ env = dict(os.environ, OHM_LIBRARY=os.path.join(BUILD, "libohm.so"))
 for name, size, dim, solver in CASES:
     verts, tris = read_mesh(os.path.join(ROOT, "samples", name))
     verts = verts * (size / np.ptp(verts, axis=0).max())
-    shape = estimate.Shape(verts, tris)
-    predicted = estimate.solve_bytes(shape, dim, solver, 3)
+    est = estimate.ask(CTX, verts, tris, dim, solver, 3, 1e15)
+    predicted = est["bytes_" + solver]
     out = subprocess.run([sys.executable, "-c", CHILD, ROOT, os.path.join(ROOT, "samples", name), str(size), str(dim),
                           solver], env=env, capture_output=True, text=True)
     if out.returncode != 0:
@@ -91,5 +95,5 @@ for name, size, dim, solver in CASES:
         continue
     r = json.loads(out.stdout.strip().splitlines()[-1])
     print("| %s | %d | %s (%s) | %d (%d) | %s | %s | %.2f |" % (
-        name, dim, solver, r["solver"], r["cells"], shape.cells(dim)[0], estimate.gib(r["peak"]),
+        name, dim, solver, r["solver"], r["cells"], est["interior_cells"], estimate.gib(r["peak"]),
         estimate.gib(predicted), predicted / r["peak"]), flush=True)

@@ -58,6 +58,16 @@ static void described_layouts(void)
         AT(ohm_result_info, power_in),       AT(ohm_result_info, power_absorbed), AT(ohm_result_info, power_out),
         AT(ohm_result_info, seconds_setup),  AT(ohm_result_info, seconds_solve)};
     members_match("ohm_result_info", sizeof(ohm_result_info), result, result_at, 14);
+    const char *estimate[] = {"size",        "interior_cells", "grid_cells",    "bytes_direct",   "bytes_cg",
+                              "bytes_amg",   "bytes_mg",       "bytes_auto",    "bytes_allowed",  "margin",
+                              "largest_dim", "largest_dim_mg", "solver",        "reason"};
+    const size_t estimate_at[] = {
+        AT(ohm_estimate_info, size),          AT(ohm_estimate_info, interior_cells), AT(ohm_estimate_info, grid_cells),
+        AT(ohm_estimate_info, bytes_direct),  AT(ohm_estimate_info, bytes_cg),       AT(ohm_estimate_info, bytes_amg),
+        AT(ohm_estimate_info, bytes_mg),      AT(ohm_estimate_info, bytes_auto),     AT(ohm_estimate_info, bytes_allowed),
+        AT(ohm_estimate_info, margin),        AT(ohm_estimate_info, largest_dim),    AT(ohm_estimate_info, largest_dim_mg),
+        AT(ohm_estimate_info, solver),        AT(ohm_estimate_info, reason)};
+    members_match("ohm_estimate_info", sizeof(ohm_estimate_info), estimate, estimate_at, 14);
 #undef AT
     size_t n = 7;
     CHECK(ohm_struct_members("ohm_scene", &n, NULL) == NULL && n == 7);

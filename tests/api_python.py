@@ -57,7 +57,7 @@ def scene_with(ctx, light):
     s.run("voxelize", dim=36)  # 6 500 cells: enough for a relight to solve its media on two threads
     s.run("material", preset="marble")
     s.add_light(**light)
-    s.solve()
+    s.solve(solver="direct")  # the factor, named: its relighting is what is tested (the default is auto)
     return s
 
 
@@ -248,6 +248,21 @@ def main():
                           "channel %d solved with the others differs from solved alone" % c)
             else:
                 print("api_python: one core: the media are never solved together here")
+
+        # the library's estimate of a solve, before anything is built (what
+        # the Blender add-on asks): its memory per solver and auto's choice
+        with ohm.Scene(ctx) as e:
+            e.run("read", file="samples/spot.obj", size=50)
+            small, big = e.estimate(dim=16, solves=1000), e.estimate(dim=64, solver="mg")
+            check(small["solver"] == "direct" and "predicted" in small["reason"] and small["margin"] > 1,
+                  "auto for many relights of a small grid: %s" % small)
+            check(big["solver"] == "mg" and big["reason"] == "asked for" and big["bytes_mg"] > small["bytes_mg"] and
+                  big["interior_cells"] > small["interior_cells"] > 0, "mg at dim 64: %s" % big)
+            try:
+                e.estimate(solver="mg")
+                check(False, "an estimate without dim= ran")
+            except ohm.UsageError as x:
+                check("needs dim=" in str(x), "estimate without dim=: %s" % x)
 
         # a mesh as arrays: the same object and solution as the file
         verts, tris = read_obj("samples/spot.obj")

@@ -10,6 +10,7 @@
  *    same mesh read from its file; a density volume handed over as an array
  *    voxelizes by threshold to the cells above it. */
 #include <math.h>
+#include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -165,8 +166,11 @@ static void solve_and_relight(void)
     const char *dirs[3][4] = {{"type=directional", "dir=0,-1,0", NULL},
                               {"type=directional", "dir=1,0,0", NULL},
                               {"type=point", "pos=0,40,10", "intensity=2000", NULL}};
+    /* the factor, named: relighting it is what this tests (the default,
+     * solver=auto, takes multigrid for one light) */
+    const char *direct[] = {"solver=direct", NULL};
     CHECK(ohm_scene_add_light(scene, dirs[0]) == OHM_OK);
-    CHECK(ohm_scene_solve(scene, NULL) == OHM_OK);
+    CHECK(ohm_scene_solve(scene, direct) == OHM_OK);
     CHECK_MSG(strstr(cap.last, "") != NULL && cap.messages > 5, "%d messages", cap.messages);
     CHECK_MSG(cap.progress_calls >= 1, "%d progress calls", cap.progress_calls);
     ohm_result_info r = OHM_RESULT_INFO_INIT;
@@ -225,7 +229,7 @@ static void solve_and_relight(void)
         double *relit = fluence_of(scene, &n1);
         ohm_scene *fresh = cube_scene(ctx, "dim=20");
         double *ref = NULL;
-        if (fresh && ohm_scene_add_light(fresh, dirs[k]) == OHM_OK && ohm_scene_solve(fresh, NULL) == OHM_OK)
+        if (fresh && ohm_scene_add_light(fresh, dirs[k]) == OHM_OK && ohm_scene_solve(fresh, direct) == OHM_OK)
             ref = fluence_of(fresh, &n2);
         CHECK(relit && ref && n1 == n2);
         if (relit && ref && n1 == n2)
@@ -363,6 +367,89 @@ static void mesh_arrays(void)
     ohm_context_free(ctx);
 }
 
+static int estimate_at(ohm_estimate_info *e, const ohm_scene *scene, int dim, const char *solver, const char *solves,
+                       const char *max_memory)
+{
+    char d[32], sv[32], n[32], mm[48];
+    snprintf(d, sizeof d, "dim=%d", dim);
+    snprintf(sv, sizeof sv, "solver=%s", solver);
+    snprintf(n, sizeof n, "solves=%s", solves);
+    snprintf(mm, sizeof mm, "max_memory=%s", max_memory);
+    const char *opts[] = {d, sv, n, mm, NULL};
+    *e = (ohm_estimate_info)OHM_ESTIMATE_INFO_INIT;
+    return ohm_scene_estimate(e, scene, opts);
+}
+
+/* ohm_scene_estimate: the library's own prediction of a solve's memory and
+ * of solver=auto's choice, before anything is built (what the Blender
+ * add-on asks instead of carrying a model of its own) */
+static void estimates(void)
+{
+    ohm_context *ctx = NULL;
+    CHECK(ohm_context_new(&ctx) == OHM_OK);
+    ohm_context_set_verbosity(ctx, 0);
+    ohm_scene *scene = cube_scene(ctx, "dim=24");
+    if (!scene) return;
+    ohm_grid_info g = OHM_GRID_INFO_INIT;
+    ohm_estimate_info e, f;
+    CHECK(ohm_scene_grid(&g, scene) == OHM_OK);
+    /* the interior cells at the grid's own dim: the sphere's volume over h^3 */
+    CHECK_MSG(estimate_at(&e, scene, 24, "mg", "1", "100000") == OHM_OK, "%s", ohm_error_last());
+    CHECK_MSG(fabs((double)e.interior_cells - (double)g.interior_cells) < 0.15 * (double)g.interior_cells,
+              "predicted %lld interior cells, voxelized %lld", (long long)e.interior_cells,
+              (long long)g.interior_cells);
+    CHECK(strcmp(e.solver, "mg") == 0 && strcmp(e.reason, "asked for") == 0 && e.margin > 1);
+    /* a finer grid takes more with every solver, the factor more than in
+     * proportion to the cells (its fill grows faster than n) */
+    CHECK(estimate_at(&f, scene, 96, "mg", "1", "100000") == OHM_OK);
+    CHECK(f.bytes_direct > e.bytes_direct && f.bytes_mg > e.bytes_mg && f.bytes_cg > e.bytes_cg &&
+          f.bytes_amg > e.bytes_amg && f.bytes_auto > e.bytes_auto);
+    double cells = (double)f.interior_cells / (double)e.interior_cells;
+    CHECK_MSG((f.bytes_direct - e.bytes_direct) / (f.bytes_mg - e.bytes_mg) > 1.0 &&
+                  f.bytes_direct - e.bytes_direct > cells * 0.5 * (e.bytes_direct - 95.0 * 1048576.0),
+              "direct %g -> %g B, mg %g -> %g B", e.bytes_direct, f.bytes_direct, e.bytes_mg, f.bytes_mg);
+    /* the largest dim named fits under max_memory with the margin, one more does not */
+    CHECK(estimate_at(&e, scene, 24, "direct", "1", "400") == OHM_OK);
+    int best = e.largest_dim;
+    CHECK_MSG(best >= 4 && e.largest_dim_mg > best, "largest dim %d, with mg %d", best, e.largest_dim_mg);
+    CHECK(estimate_at(&f, scene, best, "direct", "1", "400") == OHM_OK && f.margin * f.bytes_direct <= f.bytes_allowed);
+    CHECK(estimate_at(&f, scene, best + 1, "direct", "1", "400") == OHM_OK && f.margin * f.bytes_direct > f.bytes_allowed);
+    /* auto: the factor for many relights of a small grid; for one solve,
+     * the probe's own (mg); never one that does not fit */
+    CHECK(estimate_at(&e, scene, 24, "auto", "1000", "100000") == OHM_OK);
+    CHECK_MSG(strcmp(e.solver, "direct") == 0 && strstr(e.reason, "direct") && strstr(e.reason, "mg"), "%s: %s",
+              e.solver, e.reason);
+    CHECK(estimate_at(&e, scene, 160, "auto", "1", "100000") == OHM_OK);
+    CHECK_MSG(strcmp(e.solver, "mg") == 0, "%s: %s", e.solver, e.reason);
+    CHECK(estimate_at(&e, scene, 400, "auto", "1000000", "2000") == OHM_OK);
+    CHECK_MSG(strcmp(e.solver, "direct") != 0 && strstr(e.reason, "direct") && strstr(e.reason, "does not fit"),
+              "%s: %s", e.solver, e.reason);
+    /* bad calls: no dim=, a struct without its size, a scene without a mesh */
+    const char *no_dim[] = {"solver=mg", NULL};
+    e = (ohm_estimate_info)OHM_ESTIMATE_INFO_INIT;
+    CHECK(ohm_scene_estimate(&e, scene, no_dim) == OHM_ERR_USAGE && strstr(ohm_error_last(), "needs dim="));
+    const char *dim[] = {"dim=24", NULL};
+    e.size = 0;
+    CHECK(ohm_scene_estimate(&e, scene, dim) == OHM_ERR_USAGE && strstr(ohm_error_last(), "OHM_ESTIMATE_INFO_INIT"));
+    ohm_scene *empty = NULL;
+    CHECK(ohm_scene_new(&empty, ctx) == OHM_OK);
+    CHECK(estimate_at(&e, empty, 24, "mg", "1", "100") == OHM_ERR_INVALID);
+    /* a solve by default (solver=auto) says in the statistics what it took and why */
+    const char *light[] = {"type=directional", "dir=0,-1,0", NULL};
+    const char *text = NULL;
+    CHECK(ohm_scene_add_light(scene, light) == OHM_OK && ohm_scene_solve(scene, NULL) == OHM_OK);
+    CHECK_MSG(ohm_scene_stat_text(&text, scene, "solver_reason") == OHM_OK && text && strstr(text, "auto chooses"),
+              "%s", text ? text : "");
+    CHECK(ohm_scene_stat_text(&text, scene, "solver") == OHM_OK && text && strcmp(text, "mg") == 0);
+    /* ... and the relight, a warm column timed, the choice and its prediction */
+    CHECK(ohm_scene_relight(scene) == OHM_OK);
+    CHECK_MSG(ohm_scene_stat_text(&text, scene, "solver_reason") == OHM_OK && text && strstr(text, "predicted"), "%s",
+              text ? text : "");
+    ohm_scene_free(empty);
+    ohm_scene_free(scene);
+    ohm_context_free(ctx);
+}
+
 /* The environment light through the API: a light like any other (options
  * to ohm_scene_add_light, nothing new in the ABI): power conserved, and a
  * relit sky of twice the radiance gives twice the fluence; a sky= that
@@ -380,7 +467,9 @@ static void environment_light(void)
     CHECK_MSG(strstr(ohm_error_last(), "sky=") && strstr(ohm_error_last(), "no-such-sky.exr"), "%s",
               ohm_error_last());
     CHECK(ohm_scene_add_light(scene, sky) == OHM_OK);
-    CHECK_MSG(ohm_scene_solve(scene, NULL) == OHM_OK, "%s", ohm_error_last());
+    /* the factor, so that the relight's fluence is the first one's to round-off */
+    const char *direct[] = {"solver=direct", NULL};
+    CHECK_MSG(ohm_scene_solve(scene, direct) == OHM_OK, "%s", ohm_error_last());
     ohm_result_info r = OHM_RESULT_INFO_INIT;
     CHECK(ohm_scene_result(&r, scene) == OHM_OK);
     CHECK(r.power_incident > 0 && fabs(r.power_absorbed + r.power_out - r.power_in) <= 1e-10 * r.power_in);
@@ -402,6 +491,7 @@ static void environment_light(void)
 int main(void)
 {
     errors();
+    estimates();
     solve_and_relight();
     polled_progress();
     mesh_arrays();

@@ -26,7 +26,7 @@
 #include "studies/device_bench.h"
 #include "studies/devices.h"
 
-static int mc_main(const char *spec, int argc, char **argv)
+static int mc_main(const char *spec, const ohm_device_request *req, int argc, char **argv)
 {
     double photons = argc > 0 ? atof(argv[0]) : 1e6;
     double host = argc > 1 ? atof(argv[1]) : fmax(1e5, photons / 100);
@@ -39,7 +39,7 @@ static int mc_main(const char *spec, int argc, char **argv)
     for (int side = 0; side < 2; ++side) {
         ohm_error err;
         ohm_error_clear(&err);
-        if (ohm_device_bench_cube60(stdout, side ? NULL : spec, (int64_t)(side ? host : photons), 1, &err)) {
+        if (ohm_device_bench_cube60(stdout, side ? NULL : req, (int64_t)(side ? host : photons), 1, &err)) {
             fprintf(stderr, "bench_device: cube60 on %s: %s\n", side ? "the host" : spec, err.msg);
             rc = 1;
         }
@@ -49,8 +49,14 @@ static int mc_main(const char *spec, int argc, char **argv)
 
 int main(int argc, char **argv)
 {
-    if (argc >= 3 && strcmp(argv[2], "mc") == 0) return mc_main(argv[1], argc - 3, argv + 3);
     if (argc == 2 && strcmp(argv[1], "devices") == 0) return ohm_devices_main(0, NULL);
+    ohm_device_request req;
+    ohm_error perr;
+    if (argc >= 3 && ohm_device_request_parse(&req, argv[1], &perr)) {
+        fprintf(stderr, "bench_device: %s\n", perr.msg);
+        return 2;
+    }
+    if (argc >= 3 && strcmp(argv[2], "mc") == 0) return mc_main(argv[1], &req, argc - 3, argv + 3);
     if (argc < 3) {
         fprintf(stderr, "usage: bench_device DEVICE N... (DEVICE: gpu, cpu, opencl:K, auto; block medium on N^3 "
                         "cells), bench_device DEVICE mc PHOTONS [HOST_PHOTONS] (cube60), or bench_device devices\n");
@@ -66,7 +72,7 @@ int main(int argc, char **argv)
         }
         ohm_error err;
         ohm_error_clear(&err);
-        if (ohm_device_bench_mg(stdout, argv[1], nx, &err)) {
+        if (ohm_device_bench_mg(stdout, &req, nx, &err)) {
             fprintf(stderr, "bench_device: %d^3: %s\n", nx, err.msg);
             rc = 1;
         }

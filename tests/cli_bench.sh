@@ -53,11 +53,11 @@ expect_error_line "unknown option" "bench: unknown option 'frame'; did you mean 
 expect_exit 2 "bad sizes" -- "$OHM" bench sizes=8x8
 expect_error_line "bad sizes" "bench: sizes=8x8: expected a list like"
 expect_exit 2 "bad frames" -- "$OHM" bench frames=0
-expect_error_line "bad frames" "bench: frames=0: expected an integer"
+expect_error_line "bad frames" "bench: frames=0: expected a whole number from 1 to 100000"
 expect_exit 2 "bad material" -- "$OHM" bench material=cheese
 expect_error_line "bad material" "bench: material=cheese: expected a preset"
 expect_exit 2 "bad max" -- "$OHM" bench max=2
-expect_error_line "bad max" "bench: max=2: expected 0 or 1"
+expect_error_line "bad max" "bench: max=2: expected one of 0\\|1"
 expect_exit 2 "no value" -- "$OHM" bench csv
 expect_error_line "no value" "bench: option 'csv' needs a value"
 expect_exit 2 "bad device_sizes" -- "$OHM" bench device=cpu device_sizes=4

@@ -24,7 +24,7 @@ expect_error_line "a stray argument" "devices: unexpected 'fast'"
 # on the host
 SCENE=(-read file=samples/spot.obj size=50 -material preset=skin1 -voxelize dim=24
        -light type=point pos=100,40,40 intensity=100)
-expect_exit 2 "device= with solver=direct" -- "$OHM" "${SCENE[@]}" -solve device=gpu
+expect_exit 2 "device= with solver=direct" -- "$OHM" "${SCENE[@]}" -solve solver=direct device=gpu
 expect_error_line "device= with solver=direct" "device=gpu runs solver=mg's solve and traced photons \\(solver=mc, hybrid=\\); solver=direct traces none here and runs on the host"
 expect_exit 1 "device=gpu without a runtime" -- env OHM_OPENCL_LIBRARY=/nonexistent/libOpenCL.so.1 \
   "$OHM" "${SCENE[@]}" -solve solver=mg device=gpu -write file="$T/none.vdb"

@@ -152,7 +152,7 @@ expect_exit 1 "frame out of range" -- "$OHM" -read file=samples/cow.obj size=40 
 expect_error_line "frame out of range" "frame=3: the solution has 1 frame"
 
 # errors: nothing solved, no output named, unwritable path
-expect_exit 1 "export before solve" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -export ply="$T/x.ply"
+expect_exit 2 "export before solve" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -export ply="$T/x.ply"
 expect_error_line "export before solve" "-export: nothing to export: run -solve first"
 expect_exit 2 "export without outputs" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
   -material preset=marble -light dir=0,-1,0 -solve -export

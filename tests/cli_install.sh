@@ -79,7 +79,7 @@ check "relight: no factorization after the first solve" grep -q "frame 2: .*3 fa
 for f in 1 2; do
   dir=$(grep "^frame $f:" <<<"$out" | sed 's/^frame [0-9]*: dir=\([^:]*\):.*/\1/')
   "$P/bin/ohm" -q -read file=samples/spot.obj size=50 -voxelize dim=32 -material preset=marble \
-    -light type=directional dir="$dir" -solve -export csv="$T/cli_$f.csv"
+    -light type=directional dir="$dir" -solve solver=direct -export csv="$T/cli_$f.csv"
 done
 check "relit fluence = the command's, cell by cell, to 1e-12" $PY - "$T/relight.txt" "$T/cli_1.csv" "$T/cli_2.csv" <<'PYEOF'
 import csv, sys

@@ -87,10 +87,10 @@ check "SIGINT: no temporary left" test -z "$(ls -a "$T" | grep '\.ohm-' || true)
 expect_exit 1 "grid over max_memory" -- "$OHM" -read file=samples/spot.obj -voxelize dim=400 max_memory=100
 expect_error_line "grid over max_memory" "needs about [0-9.]+ MiB, more than the 100.0 MiB max_memory= allows; use a smaller dim="
 expect_exit 1 "factor over max_memory" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=48 \
-  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve max_memory=5
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve solver=direct max_memory=5
 expect_error_line "factor over max_memory" "Cholesky factor of [0-9]+ cells needs about .*nnz\(L\) = .*more than the 5.0 MiB"
 # and the same runs within a sufficient limit
 expect_exit 0 "factor within max_memory" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=48 \
-  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve max_memory=2000
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve solver=direct max_memory=2000
 
 finish

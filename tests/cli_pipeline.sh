@@ -36,9 +36,42 @@ expect_exit 2 "unknown command" -- "$OHM" rnu x.ohm
 # a typo late in a chain fails before anything runs (no output written)
 expect_exit 2 "late typo" -- "$OHM" -read file=samples/spot.obj -voxelize dim=16 -write file="$T/late.vdb" -stats fiel=x
 check "late typo wrote nothing" test ! -e "$T/late.vdb"
-# a run failure (not a usage error) exits 1
-expect_exit 1 "voxelize before read" -- "$OHM" -voxelize dim=8
+# a step that needs what no step before it makes is a usage error of the
+# chain, found before anything runs
+expect_exit 2 "voxelize before read" -- "$OHM" -voxelize dim=8
 expect_error_line "voxelize before read" "no mesh yet"
+
+# a later step that cannot use an earlier step's result: found before any
+# step runs (nothing written, the long solve never started), one line
+# naming both steps, exit 2
+head=(-read file=samples/ch2_2mm.nii.gz -voxelize dim=24 threshold=40 -material transfer=samples/mri-head.transfer
+      -light type=directional dir=0,-1,0)
+expect_exit 2 "render after a scan" -- "$OHM" "${head[@]}" -solve -write file="$T/head.vdb" -render file="$T/head.png"
+expect_error_line "render after a scan" "argument 14: -render: needs the mesh the solution was computed on .*-read at argument 1 gave a volume"
+check "render after a scan wrote nothing" test ! -e "$T/head.vdb"
+check "render after a scan solved nothing" bash -c "! grep -q 'solved' <<<\"\$1\"" _ "$LAST_ERR"
+cow=(-read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=marble -light type=directional dir=0,-1,0)
+expect_exit 2 "render after a light that follows the solve" -- "$OHM" "${cow[@]}" -solve -write file="$T/c.vdb" \
+  -light type=point pos=0,60,0 -render file="$T/c.png"
+expect_error_line "render after a light that follows the solve" \
+  "argument 17: -render: no solution yet.*-light at argument 14 comes after -solve at argument 11"
+check "stale render wrote nothing" test ! -e "$T/c.vdb"
+expect_exit 2 "export after a new mesh" -- "$OHM" "${cow[@]}" -solve -read file=samples/spot.obj -export csv="$T/c.csv"
+expect_error_line "export after a new mesh" "-export: nothing to export.*-read at argument 12 comes after -solve at argument 11"
+check "export after a new mesh wrote nothing" test ! -e "$T/c.csv"
+expect_exit 2 "solve after a new mesh" -- "$OHM" "${cow[@]}" -read file=samples/spot.obj -solve
+expect_error_line "solve after a new mesh" "-solve: no voxel object.*-read at argument 11 comes after -voxelize at argument 4"
+expect_exit 2 "export ply of a scan" -- "$OHM" "${head[@]}" -solve -export ply="$T/h.ply"
+expect_error_line "export ply of a scan" "-export: ply=: no mesh to export .*-read at argument 1 gave a volume"
+expect_exit 2 "transfer without a volume" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 \
+  -material transfer=samples/mri-head.transfer -light type=directional dir=0,-1,0 -solve
+expect_error_line "transfer without a volume" "-solve: transfer= maps a volume's density.*-read at argument 1 gave a mesh"
+expect_exit 2 "voxelize error= without a light" -- "$OHM" -read file=samples/cow.obj -voxelize error=0.05 \
+  -material preset=marble -solve
+expect_error_line "voxelize error= without a light" "-voxelize: error= probes the scene: it needs -material .* and -light"
+# the steps a -voxelize error= waits for, written after it, count
+expect_exit 0 "voxelize error= before its scene" -- "$OHM" --quiet -read file=samples/cow.obj size=40 \
+  -voxelize error=0.3 max_dim=40 -material preset=marble -light type=directional dir=0,-1,0
 
 # the same job from a pipeline file and from the command line: identical grids
 cat >"$T/job.ohm" <<OHM

@@ -60,7 +60,7 @@ check "stats: t_render" $PY -c "import json,sys; assert json.load(open(sys.argv[
 check "no temporary files left" bash -c "! ls -a '$T' | grep -q ohm-"
 
 # errors
-expect_exit 1 "render without a solution" -- "$OHM" -read file=samples/spot.obj -voxelize dim=16 \
+expect_exit 2 "render without a solution" -- "$OHM" -read file=samples/spot.obj -voxelize dim=16 \
   -render file="$T/x.png"
 expect_error_line "no solution: one line" "no solution"
 expect_exit 2 "render to .jpg" -- "$OHM" "${SCENE[@]}" -render file="$T/x.jpg"

@@ -5,7 +5,7 @@ source "$(dirname "$0")/lib.sh" "$1"
 
 # marble on spot, lit from above: three distinct channels, three factorizations
 expect_exit 0 "solve spot marble" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=24 \
-  -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve \
+  -material preset=marble -light type=directional dir=0,-1,0 intensity=1 -solve solver=direct \
   -write file="$T/spot.vdb" -stats file="$T/spot.json"
 check "stats: physics fields" $PY - "$T/spot.json" <<'PY'
 import json, sys
@@ -46,7 +46,7 @@ PY
 
 # grey material, grey light: one channel, grids without suffix
 expect_exit 0 "grey solve" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 \
-  -material sigma_a=0.01 sigma_s=1 -light type=point pos=0,100,0 intensity=1000 -solve -write file="$T/cow.vdb" -stats file="$T/cow.json"
+  -material sigma_a=0.01 sigma_s=1 -light type=point pos=0,100,0 intensity=1000 -solve solver=direct -write file="$T/cow.vdb" -stats file="$T/cow.json"
 check "grey: one channel, one factor" $PY -c "
 import json; s = json.load(open('$T/cow.json')); assert s['channels'] == 1 and s['factors'] == 1, s"
 check "grey: the uniform material's coefficients in the stats (what the Blender add-on's volume reads)" $PY -c "
@@ -57,23 +57,23 @@ import pyopenvdb as vdb; n = {g.name for g in vdb.readAll('$T/cow.vdb')[0]}; ass
 
 # neumann (the paper's boundary) lets nothing out
 expect_exit 0 "neumann" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 \
-  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve boundary=neumann -stats file="$T/n.json"
+  -material sigma_a=0.01 sigma_s=1 -light dir=0,-1,0 -solve solver=direct boundary=neumann -stats file="$T/n.json"
 check "neumann: power_out is 0" $PY -c "
 import json; s = json.load(open('$T/n.json')); assert s['power_out'] == 0 and s['power_absorbed'] > 0, s"
 
 # singular: sigma_a = 0 with neumann is refused with the physical cause, exit 1
 expect_exit 1 "singular" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
-  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve boundary=neumann
+  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve solver=direct boundary=neumann
 expect_error_line "singular" "sigma_a = 0 with boundary=neumann.*neither leave nor be absorbed"
 # the same with robin solves
 expect_exit 0 "sigma_a=0 robin" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
-  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve
+  -material sigma_a=0 sigma_s=1 -light dir=0,-1,0 -solve solver=direct
 
 # paper mode: resistances, neumann boundary; robin needs optics (usage error)
 expect_exit 0 "paper resistances" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
-  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve boundary=neumann
+  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve solver=direct boundary=neumann
 expect_exit 2 "resistances with robin" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 \
-  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve
+  -material resistance=1000 ground=1000 -light dir=0,-1,0 -solve solver=direct
 expect_error_line "resistances with robin" "boundary=robin needs optical coefficients"
 
 # low albedo gets a warning; pencil beam and missing pieces give clear errors
@@ -81,7 +81,7 @@ expect_exit 0 "ketchup" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize d
 check "ketchup warns: albedo < 0.8" grep -q "albedo 0.0.* < 0.8: the diffusion approximation is poor" <<<"$LAST_ERR"
 expect_exit 0 "pencil" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=12 -material preset=skin1 \
   -light type=pencil pos=0,100,0 dir=0,-1,0 -solve
-expect_exit 1 "solve without light" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -material preset=marble -solve
+expect_exit 2 "solve without light" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -material preset=marble -solve
 expect_error_line "solve without light" "no lights"
 expect_exit 2 "light without pos" -- "$OHM" -read file=samples/cow.obj -voxelize dim=8 -light type=point
 expect_error_line "light without pos" "type=point needs pos="
@@ -95,7 +95,7 @@ check "validate prints the summary" grep -q " 0 failed" "$T/stdout"
 # ordering=best keeps the smallest of the METIS, AMD and grid factors
 for o in metis amd grid best; do
   "$OHM" --quiet -read file=samples/spot.obj size=50 -voxelize dim=28 -material sigma_a=0.01 sigma_s=1 \
-    -light dir=0,-1,0 -solve ordering=$o -stats file="$T/o_$o.json" -export csv="$T/o_$o.csv"
+    -light dir=0,-1,0 -solve solver=direct ordering=$o -stats file="$T/o_$o.json" -export csv="$T/o_$o.csv"
 done
 check "ordering=best picks the smallest factor" $PY -c "
 import json
@@ -105,9 +105,9 @@ assert L['best']['ordering'] in ('metis', 'amd', 'grid')"
 # ordering=grid (geometric nested dissection) solves to METIS's fluence, cell
 # by cell, on a mesh and on a scan
 "$OHM" --quiet -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize dim=24 threshold=5000 \
-  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve ordering=grid -export csv="$T/w_grid.csv"
+  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve solver=direct ordering=grid -export csv="$T/w_grid.csv"
 "$OHM" --quiet -read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize dim=24 threshold=5000 \
-  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve ordering=metis -export csv="$T/w_metis.csv"
+  -material transfer=samples/walnut.transfer -light dir=0,-1,0 -solve solver=direct ordering=metis -export csv="$T/w_metis.csv"
 for pair in "o_grid o_metis" "w_grid w_metis"; do
   set -- $pair
   check "ordering=grid = metis to 1e-12 ($1)" $PY - "$T/$1.csv" "$T/$2.csv" <<'PYEOF'
@@ -123,7 +123,7 @@ done
 # relighting: a 16-frame orbit is one factorization per distinct channel and a
 # numbered .vdb sequence
 expect_exit 0 "orbit" -- "$OHM" -read file=samples/cow.obj size=40 -voxelize dim=16 -material preset=skin1 \
-  -light type=point pos=0,30,60 intensity=1000 orbit=16 -solve -write file="$T/orbit.vdb" -stats file="$T/orbit.json"
+  -light type=point pos=0,30,60 intensity=1000 orbit=16 -solve solver=direct -write file="$T/orbit.vdb" -stats file="$T/orbit.json"
 check "orbit: 16 files" test "$(ls "$T"/orbit_00*.vdb | wc -l)" = 16
 check "orbit: stats" $PY -c "
 import json; s = json.load(open('$T/orbit.json'))
@@ -155,7 +155,7 @@ expect_exit 2 "falloff wider than the cone" -- "$OHM" -light type=spot pos=0,1,0
 # is absorbed; both conserve exactly.
 for f in exact polynomial; do
   expect_exit 0 "fresnel=$f" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=20 \
-    -material sigma_a=0.05 sigma_s=1 eta=1.3 -light dir=0,-1,0 -solve fresnel=$f -stats file="$T/fr_$f.json"
+    -material sigma_a=0.05 sigma_s=1 eta=1.3 -light dir=0,-1,0 -solve solver=direct fresnel=$f -stats file="$T/fr_$f.json"
 done
 check "fresnel: polynomial A keeps more light in" $PY - "$T/fr_exact.json" "$T/fr_polynomial.json" <<'PY'
 import json, sys
@@ -179,7 +179,7 @@ expect_exit 0 "mc: seed 3" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 s
   -write file="$T/mc.vdb" -stats file="$T/mc3.json"
 expect_exit 0 "mc: seed 3 again" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=3 -stats file="$T/mc3b.json"
 expect_exit 0 "mc: seed 4" -- "$OHM" "${MC[@]}" -solve solver=mc photons=32000 seed=4 -stats file="$T/mc4.json"
-expect_exit 0 "mc: diffusion beside it" -- "$OHM" "${MC[@]}" -solve -stats file="$T/mcd.json"
+expect_exit 0 "mc: diffusion beside it" -- "$OHM" "${MC[@]}" -solve solver=direct -stats file="$T/mcd.json"
 check "mc: stats" $PY - "$T/mc3.json" "$T/mc3b.json" "$T/mc4.json" "$T/mcd.json" <<'PY'
 import json, sys
 a, b, c, d = (json.load(open(f)) for f in sys.argv[1:5])
@@ -206,7 +206,7 @@ assert all(s < 0.2 * v for v, s in top), top[:5]
 PY
 # sigma_s_full= with g= is sigma_s' = sigma_s (1 - g): the same diffusion
 expect_exit 0 "material: sigma_s_full" -- "$OHM" -read file=samples/spot.obj size=50 -voxelize dim=16 \
-  -material sigma_a=0.05 sigma_s_full=2 g=0.5 eta=1.3 -light dir=0,-1,0 -solve -stats file="$T/full.json"
+  -material sigma_a=0.05 sigma_s_full=2 g=0.5 eta=1.3 -light dir=0,-1,0 -solve solver=direct -stats file="$T/full.json"
 check "sigma_s_full=2 g=0.5 is sigma_s'=1" $PY - "$T/full.json" "$T/mcd.json" <<'PY'
 import json, sys
 a, b = (json.load(open(f)) for f in sys.argv[1:3])

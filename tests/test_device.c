@@ -18,37 +18,49 @@
 #include "check.h"
 #include "opencl_test.h"
 
+/* device= as a run reads it: the text parsed once (request.h), then picked */
+static int pick_text(int *picked, const ohm_device *list, int n, const char *text, ohm_error *err)
+{
+    ohm_device_request req;
+    int rc = ohm_device_request_parse(&req, text, err);
+    if (rc) {
+        *picked = -1;
+        return rc;
+    }
+    return ohm_device_pick(picked, list, n, &req, err);
+}
+
 static void test_picks(const ohm_device *list, int n)
 {
     ohm_error err;
     int picked = 7;
     ohm_error_clear(&err);
-    CHECK(ohm_device_pick(&picked, list, n, "host", &err) == OHM_OK && picked == -1);
+    CHECK(pick_text(&picked, list, n, "host", &err) == OHM_OK && picked == -1);
     int gpus = 0, cpu = -1;
     for (int i = 0; i < n; ++i) {
         gpus += list[i].is_gpu && list[i].fp64;
         if (!list[i].is_gpu && cpu < 0) cpu = i;
     }
-    CHECK(ohm_device_pick(&picked, list, n, "auto", &err) == OHM_OK);
+    CHECK(pick_text(&picked, list, n, "auto", &err) == OHM_OK);
     CHECK_MSG(gpus ? picked >= 0 && list[picked].is_gpu : picked == -1, "auto picked %d with %d GPUs", picked, gpus);
     if (!gpus) {
         ohm_error_clear(&err);
-        CHECK(ohm_device_pick(&picked, list, n, "gpu", &err) == OHM_ERR_INVALID);
+        CHECK(pick_text(&picked, list, n, "gpu", &err) == OHM_ERR_INVALID);
         CHECK_MSG(strstr(err.msg, "no GPU") && strstr(err.msg, "opencl:0"), "%s", err.msg);
     }
     if (cpu >= 0 && list[cpu].fp64) {
-        CHECK(ohm_device_pick(&picked, list, n, "cpu", &err) == OHM_OK && picked == cpu);
+        CHECK(pick_text(&picked, list, n, "cpu", &err) == OHM_OK && picked == cpu);
         char spec[32];
         snprintf(spec, sizeof spec, "opencl:%d", cpu);
-        CHECK(ohm_device_pick(&picked, list, n, spec, &err) == OHM_OK && picked == cpu);
+        CHECK(pick_text(&picked, list, n, spec, &err) == OHM_OK && picked == cpu);
     }
     ohm_error_clear(&err);
-    CHECK(ohm_device_pick(&picked, list, n, "opencl:99", &err) == OHM_ERR_INVALID);
+    CHECK(pick_text(&picked, list, n, "opencl:99", &err) == OHM_ERR_INVALID);
     CHECK_MSG(strstr(err.msg, "opencl:99") && strstr(err.msg, "opencl:0 ("), "%s", err.msg);
     ohm_error_clear(&err);
-    CHECK(ohm_device_pick(&picked, list, n, "opencl:x", &err) == OHM_ERR_INVALID);
+    CHECK(pick_text(&picked, list, n, "opencl:x", &err) == OHM_ERR_USAGE);
     ohm_error_clear(&err);
-    CHECK(ohm_device_pick(&picked, list, n, "fast", &err) == OHM_ERR_USAGE);
+    CHECK(pick_text(&picked, list, n, "fast", &err) == OHM_ERR_USAGE);
     CHECK_MSG(strstr(err.msg, "expected host, gpu, cpu, opencl:N or auto"), "%s", err.msg);
 }
 

@@ -314,7 +314,7 @@ static int index_column(ohm_solution *sol, ohm_voxel_grid *g, const char *solver
     memset(&p, 0, sizeof p);
     p.op.boundary = OHM_BOUNDARY_ROBIN;
     p.num.ordering = "amd";
-    p.num.solver = solver;
+    ohm_solver_kind_parse(&p.num.solver, solver, NULL); /* the name, as -solve solver= reads it */
     p.num.cg_tol = 1e-13;
     p.op.mirrors = &mirror;
     p.media.sigma_a[0] = sa;

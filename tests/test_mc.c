@@ -25,7 +25,7 @@ static void test_published(void)
     memset(&v, 0, sizeof v);
     ohm_log quiet = {.verbosity = 0};
     ohm_error err = {0};
-    CHECK(ohm_validate_mc(&v, 100000, 7, 0, NULL, &quiet, &err) == 0);
+    CHECK(ohm_validate_mc(&v, 100000, 7, 0, (ohm_device_request){OHM_DEVICE_HOST, 0}, &quiet, &err) == 0);
     ohm_validation_print(stdout, &v);
     CHECK(v.n == 6);
     for (int i = 0; i < v.n; ++i)
@@ -44,7 +44,7 @@ static int solve_box(ohm_solution *sol, ohm_voxel_grid *g, const char *solver, u
     ohm_light l = ohm_scene_pencil((const double[3]){x, x, 9.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.num.solver = solver;
+    ohm_solver_kind_parse(&p.num.solver, solver, NULL); /* the name, as -solve solver= reads it */
     p.src.total_fluence = total;
     p.mc = (ohm_mc_params){.photons = 32000, .seed = seed, .threads = 2, .handoff = handoff};
     ohm_log quiet = {.verbosity = 0};
@@ -146,7 +146,7 @@ static int slab_run(ohm_solution *sol, ohm_voxel_grid *g, int per_cell, double *
     ohm_light l = ohm_scene_pencil((const double[3]){5.0, 5.0, 1.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.num.solver = "mc";
+    p.num.solver = OHM_SOLVER_MC;
     p.media.g_v = per_cell ? gv : NULL;
     p.mc = (ohm_mc_params){.photons = 100000, .seed = 9, .threads = 2};
     ohm_log quiet = {.verbosity = 0};

@@ -39,6 +39,19 @@
 
 /* ---- Philox against Random123's known-answer vectors (kat_vectors) ---- */
 
+/* device= as a run reads it: the text parsed once (device/request.h); NULL
+ * is the host */
+static ohm_device_request req_of(const char *text)
+{
+    ohm_device_request r = {OHM_DEVICE_HOST, 0};
+    ohm_error err;
+    if (text && ohm_device_request_parse(&r, text, &err)) {
+        fprintf(stderr, "test_mc_device: %s\n", err.msg);
+        exit(1);
+    }
+    return r;
+}
+
 static void philox_known_answers(const char *spec)
 {
     static const cl_uint ctr[3][4] = {{0, 0, 0, 0},
@@ -53,6 +66,7 @@ static void philox_known_answers(const char *spec)
     ohm_cl cl;
     ohm_device *list = NULL;
     int n = 0, picked = -1;
+    const ohm_device_request req = req_of(spec);
     ohm_device_queue q = {0};
     cl_program prog = NULL;
     cl_kernel k = NULL;
@@ -61,7 +75,7 @@ static void philox_known_answers(const char *spec)
     memset(got, 0, sizeof got);
     CHECK(ohm_cl_open(&cl, &err) == 0);
     CHECK(ohm_device_list(&list, &n, &cl, &err) == 0);
-    CHECK(ohm_device_pick(&picked, list, n, spec, &err) == 0 && picked >= 0);
+    CHECK(ohm_device_pick(&picked, list, n, &req, &err) == 0 && picked >= 0);
     CHECK_MSG(ohm_device_queue_open(&q, &cl, &list[picked], &err) == 0, "%s", err.msg);
     CHECK_MSG(ohm_device_build(&prog, &q, ohm_mc_device_source, "-D WG=64", &err) == 0, "%s", err.msg);
     cl_int st = CL_SUCCESS;
@@ -98,7 +112,7 @@ static void published(const char *spec)
     ohm_log quiet = {.verbosity = 0};
     ohm_error err;
     ohm_error_clear(&err);
-    CHECK_MSG(ohm_validate_mc(&v, 100000, 7, 0, spec, &quiet, &err) == 0, "%s", err.msg);
+    CHECK_MSG(ohm_validate_mc(&v, 100000, 7, 0, req_of(spec), &quiet, &err) == 0, "%s", err.msg);
     ohm_validation_print(stdout, &v);
     CHECK(v.n == 6);
     for (int i = 0; i < v.n; ++i)
@@ -179,7 +193,7 @@ static int trace(traced *t, const scene *s, const char *device, uint64_t seed, i
     t->r = (ohm_mc_result){.fluence = t->phi, .fluence_se = t->phi_se, .face_exitance = t->face,
                            .exitance_se = t->exit_se, .handoff = t->handoff};
     ohm_mc_params p = {.photons = 100000, .seed = seed, .threads = 2, .max_path = max_path, .handoff = handoff,
-                       .device = device};
+                       .device = req_of(device)};
     ohm_error err;
     ohm_error_clear(&err);
     int rc = ohm_mc_trace(&t->r, &s->net, &s->med, s->in.entry, s->in.count, 0, &p, &err);
@@ -298,8 +312,8 @@ static void through_solve(const char *spec)
     ohm_light l = ohm_scene_pencil((const double[3]){3.1, 3.1, 9.0}, (const double[3]){0, 0, -1.0});
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
-    p.num.solver = "mc";
-    p.mc = (ohm_mc_params){.photons = 20000, .seed = 3, .device = spec};
+    p.num.solver = OHM_SOLVER_MC;
+    p.mc = (ohm_mc_params){.photons = 20000, .seed = 3, .device = req_of(spec)};
     ohm_log quiet = {.verbosity = 0};
     CHECK_MSG(ohm_solve(&sol, &g, &m, &l, 1, &p, &quiet, &err) == 0, "%s", err.msg);
     printf("solver=mc device=%s: on '%s', in %.6f = absorbed %.6f + out %.6f\n", spec, sol.device, sol.power_in,
@@ -318,7 +332,7 @@ static void refused(const char *what, const scene *s, const char *spec, int code
     size_t n = (size_t)s->net.n, nf = (size_t)s->net.nfaces;
     t.phi = calloc(n, 8), t.phi_se = calloc(n, 8), t.face = calloc(nf, 8), t.exit_se = calloc(n, 8);
     t.r = (ohm_mc_result){.fluence = t.phi, .fluence_se = t.phi_se, .face_exitance = t.face, .exitance_se = t.exit_se};
-    ohm_mc_params p = {.photons = 1000, .seed = 1, .device = spec};
+    ohm_mc_params p = {.photons = 1000, .seed = 1, .device = req_of(spec)};
     ohm_error err;
     ohm_error_clear(&err);
     int rc = ohm_mc_trace(&t.r, &s->net, &s->med, s->in.entry, s->in.count, 0, &p, &err);
@@ -339,7 +353,7 @@ static void cancelled(const char *spec)
     size_t n = (size_t)s.net.n, nf = (size_t)s.net.nfaces;
     double *phi = calloc(n, 8), *se = calloc(n, 8), *face = calloc(nf, 8), *ese = calloc(n, 8);
     ohm_mc_result r = {.fluence = phi, .fluence_se = se, .face_exitance = face, .exitance_se = ese};
-    ohm_mc_params p = {.photons = 10000000, .seed = 1, .device = spec, .log = &log};
+    ohm_mc_params p = {.photons = 10000000, .seed = 1, .device = req_of(spec), .log = &log};
     ohm_error err;
     ohm_error_clear(&err);
     int rc = ohm_mc_trace(&r, &s.net, &s.med, s.in.entry, s.in.count, 0, &p, &err);

@@ -23,6 +23,18 @@
 #include "solvers/mg.h"
 #include "solvers/mg_device.h"
 
+/* device= as a run reads it: the text parsed once (device/request.h) */
+static ohm_device_request req_of(const char *text)
+{
+    ohm_device_request r = {OHM_DEVICE_HOST, 0};
+    ohm_error err;
+    if (ohm_device_request_parse(&r, text, &err)) {
+        fprintf(stderr, "test_mg_device: %s\n", err.msg);
+        exit(1);
+    }
+    return r;
+}
+
 /* The host's and the device's solutions of st for b: the largest cell
  * difference over the largest value, and the power balance on the device. */
 static void compare(const char *what, const ohm_stencil *st, const ohm_grid_layout *layout, const double *b,
@@ -34,8 +46,9 @@ static void compare(const char *what, const ohm_stencil *st, const ohm_grid_layo
     double *xh = calloc((size_t)n, 8), *xd = calloc((size_t)n, 8), rh = 0, rd = 0;
     ohm_mg *mg = NULL;
     ohm_mg_device *dev = NULL;
+    const ohm_device_request req = req_of(spec);
     CHECK_MSG(ohm_mg_setup(&mg, st, layout, 2, &err) == 0, "%s", err.msg);
-    CHECK_MSG(mg && ohm_mg_device_open(&dev, mg, spec, NULL, &err) == 0 && dev, "%s: %s", what, err.msg);
+    CHECK_MSG(mg && ohm_mg_device_open(&dev, mg, &req, NULL, &err) == 0 && dev, "%s: %s", what, err.msg);
     if (!mg || !dev) goto done;
     CHECK_MSG(ohm_mg_solve(mg, xh, b, 1e-10, 500, NULL, &its_host, &rh, &err) == 0, "%s", err.msg);
     CHECK_MSG(ohm_mg_device_solve(dev, xd, b, 1e-10, 500, NULL, &its_dev, &rd, &err) == 0, "%s: %s", what, err.msg);
@@ -130,9 +143,9 @@ static void refusals(void)
     ohm_mg *mg = NULL;
     CHECK(ohm_mg_setup(&mg, &st, &layout, 1, &err) == 0);
     ohm_mg_device *dev = (ohm_mg_device *)&err; /* must be set to NULL */
-    CHECK(ohm_mg_device_open(&dev, mg, "host", NULL, &err) == 0 && dev == NULL);
+    CHECK(ohm_mg_device_open(&dev, mg, &(const ohm_device_request){OHM_DEVICE_HOST, 0}, NULL, &err) == 0 && dev == NULL);
     ohm_error_clear(&err);
-    CHECK(ohm_mg_device_open(&dev, mg, "opencl:99", NULL, &err) == OHM_ERR_INVALID && dev == NULL);
+    CHECK(ohm_mg_device_open(&dev, mg, &(const ohm_device_request){OHM_DEVICE_INDEX, 99}, NULL, &err) == OHM_ERR_INVALID && dev == NULL);
     CHECK_MSG(strstr(err.msg, "opencl:99") && strstr(err.msg, "opencl:0 ("), "%s", err.msg);
     ohm_mg_free(mg);
     ohm_stencil_free(&st);

@@ -162,19 +162,20 @@ class Session:
         verts = bridge.world_mm(obj, local, mm)
         budget_mb, available_mb = bridge.memory_budget_mb(st.max_memory_fraction)
         solver, self.solver_note = st.solver, ""
+        budget = budget_mb * 2 ** 20
         if st.grid == "DIM":  # (an accuracy target's grid is the library's to choose, and check)
-            shape = estimate.Shape(verts, tris)
-            if solver == "auto":
-                solver, why = estimate.choose(shape, st.dim, _channels(st), budget_mb * 2 ** 20)
-                self.solver_note = "Auto: %s (%s)" % (solver, why)
-            refusal = estimate.check(shape, st.dim, solver, _channels(st), budget_mb * 2 ** 20,
+            est = estimate.ask(self.ctx, verts, tris, st.dim, solver, _channels(st), budget)
+            if solver == "auto":  # the library's choice, for the relights to come
+                solver = est["solver"]
+                self.solver_note = "Auto: %s (%s)" % (solver, est["reason"])
+            refusal = estimate.check(est, st.dim, solver, budget,
                                      "%d%% of the %s available" % (round(100 * st.max_memory_fraction),
                                                                    estimate.gib(available_mb * 2 ** 20)))
             if refusal:
                 raise ohmlib.UsageError(ohmlib.ERR_USAGE, refusal)
         else:  # the library picks the grid: it refuses one finer than what fits (max_dim=), after its probes
             limit_solver = "mg" if solver == "auto" else solver
-            max_dim = estimate.largest_dim(estimate.Shape(verts, tris), limit_solver, _channels(st), budget_mb * 2 ** 20)
+            max_dim = estimate.ask(self.ctx, verts, tris, 4, limit_solver, _channels(st), budget)["largest_dim"]
             if max_dim < 4:
                 raise ohmlib.UsageError(ohmlib.ERR_USAGE, "no grid with solver %s fits the %s Memory allows" % (
                     limit_solver, estimate.gib(budget_mb * 2 ** 20)))

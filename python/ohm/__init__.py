@@ -43,6 +43,7 @@ _lib = _library.load()
 # the sized structs as this library lays them out (ohm.h's ABI rule)
 _GridInfo = _library.struct_type(_lib, "ohm_grid_info")
 _ResultInfo = _library.struct_type(_lib, "ohm_result_info")
+_EstimateInfo = _library.struct_type(_lib, "ohm_estimate_info")
 
 __all__ = ["Context", "Scene", "Error", "UsageError", "Cancelled", "version"]
 
@@ -306,7 +307,7 @@ class Scene(_Handle):
         _check(_lib.ohm_scene_clear_lights(self._live()))
 
     def solve(self, **options):
-        """Solve the lights, keeping the factor for relight() (keep=0 does not)."""
+        """Solve the lights (solver=auto unless told), keeping the solver's setup for relight() (keep=0 does not)."""
         array, _keep = _words(options)
         self._context._settle(_lib.ohm_scene_solve(self._live(), array))
 
@@ -323,6 +324,16 @@ class Scene(_Handle):
         _check(_lib.ohm_scene_grid(ctypes.byref(g), self._live()))
         return {"dims": tuple(g.dims), "origin": tuple(g.origin), "voxel": g.voxel, "cells": g.cells,
                 "interior_cells": g.interior_cells}
+
+    def estimate(self, **options):
+        """What a solve of the scene's mesh would take at dim= cells across, predicted before anything is
+        built: interior_cells, grid_cells, bytes_direct/cg/amg/mg/auto (the process's peak), bytes_allowed,
+        margin, largest_dim (with solver=, or auto's choice), largest_dim_mg, solver (auto: its choice) and
+        reason.  Options as ohm_scene_estimate's: dim= (required), solver=, channels=, solves=, max_memory=."""
+        e = _library.sized(_EstimateInfo)
+        array, _keep = _words(options)
+        _check(_lib.ohm_scene_estimate(ctypes.byref(e), self._live(), array))
+        return _library.fields_of(e)
 
     def _shape(self):
         nx, ny, nz = self.grid["dims"]

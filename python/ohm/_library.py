@@ -52,7 +52,8 @@ class _Field(ctypes.Structure):
 
 
 # ohm.h's ohm_member_type -> the ctypes type of one element
-_FIELD_TYPES = {1: ctypes.c_size_t, 2: ctypes.c_int, 3: ctypes.c_int32, 4: ctypes.c_int64, 5: ctypes.c_double}
+_FIELD_TYPES = {1: ctypes.c_size_t, 2: ctypes.c_int, 3: ctypes.c_int32, 4: ctypes.c_int64, 5: ctypes.c_double,
+                6: ctypes.c_char}  # 6: a NUL-terminated text of `count` bytes (1.2)
 
 
 def struct_type(lib, name):
@@ -83,8 +84,9 @@ def struct_type(lib, name):
 
 
 def fields_of(struct):
-    """A sized struct's members by name, without its size and padding."""
-    return {name: getattr(struct, name) for name, _ in struct._fields_ if name != "size" and not name.startswith("_pad")}
+    """A sized struct's members by name, without its size and padding; texts as str."""
+    out = {name: getattr(struct, name) for name, _ in struct._fields_ if name != "size" and not name.startswith("_pad")}
+    return {k: v.decode(errors="replace") if isinstance(v, bytes) else v for k, v in out.items()}
 
 
 def sized(kind):
@@ -122,6 +124,7 @@ def _declare(lib):
         "ohm_scene_grid": (i, [vp, vp]),
         "ohm_scene_inside": (i, [ctypes.POINTER(ctypes.c_uint8), sz, vp]),
         "ohm_scene_result": (i, [vp, vp]),
+        "ohm_scene_estimate": (i, [vp, vp, c_char_pp]),
         "ohm_scene_fluence": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_exitance": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_vertex_exitance": (i, [c_float_p, sz, vp, i]),

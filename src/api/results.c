@@ -78,6 +78,23 @@ static const ohm_struct_member result_info_members[] = {
     MEMBER(ohm_result_info, seconds_solve, OHM_MEMBER_DOUBLE, 1),
 };
 
+static const ohm_struct_member estimate_info_members[] = {
+    MEMBER(ohm_estimate_info, size, OHM_MEMBER_SIZE, 1),
+    MEMBER(ohm_estimate_info, interior_cells, OHM_MEMBER_INT64, 1),
+    MEMBER(ohm_estimate_info, grid_cells, OHM_MEMBER_INT64, 1),
+    MEMBER(ohm_estimate_info, bytes_direct, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, bytes_cg, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, bytes_amg, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, bytes_mg, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, bytes_auto, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, bytes_allowed, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, margin, OHM_MEMBER_DOUBLE, 1),
+    MEMBER(ohm_estimate_info, largest_dim, OHM_MEMBER_INT, 1),
+    MEMBER(ohm_estimate_info, largest_dim_mg, OHM_MEMBER_INT, 1),
+    MEMBER(ohm_estimate_info, solver, OHM_MEMBER_CHAR, 16),
+    MEMBER(ohm_estimate_info, reason, OHM_MEMBER_CHAR, 256),
+};
+
 #undef MEMBER
 
 const ohm_struct_member *ohm_struct_members(const char *name, size_t *count, size_t *size)
@@ -90,6 +107,8 @@ const ohm_struct_member *ohm_struct_members(const char *name, size_t *count, siz
         {"ohm_grid_info", grid_info_members, sizeof grid_info_members / sizeof grid_info_members[0], sizeof(ohm_grid_info)},
         {"ohm_result_info", result_info_members, sizeof result_info_members / sizeof result_info_members[0],
          sizeof(ohm_result_info)},
+        {"ohm_estimate_info", estimate_info_members, sizeof estimate_info_members / sizeof estimate_info_members[0],
+         sizeof(ohm_estimate_info)},
     };
     for (size_t k = 0; name && k < sizeof known / sizeof known[0]; ++k)
         if (strcmp(known[k].name, name) == 0) {
@@ -97,7 +116,8 @@ const ohm_struct_member *ohm_struct_members(const char *name, size_t *count, siz
             if (size) *size = known[k].size;
             return known[k].fields;
         }
-    ohm_api_fail(OHM_ERR_USAGE, "ohm_struct_members: '%s' is no sized struct of ohm.h (ohm_grid_info, ohm_result_info)",
+    ohm_api_fail(OHM_ERR_USAGE, "ohm_struct_members: '%s' is no sized struct of ohm.h (ohm_grid_info, ohm_result_info, "
+                 "ohm_estimate_info)",
                  name ? name : "(null)");
     return NULL;
 }

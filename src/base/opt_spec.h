@@ -13,7 +13,9 @@ typedef enum ohm_opt_type {
     OHM_OPT_STRING, /* any text (file names)                                */
     OHM_OPT_ENUM,   /* one of choices, "a|b|c"                              */
     OHM_OPT_VEC3,   /* x,y,z finite reals                                   */
-    OHM_OPT_REAL13  /* one finite real (grey) or three (r,g,b), each in [min, max] */
+    OHM_OPT_REAL13, /* one finite real (grey) or three (r,g,b), each in [min, max] */
+    OHM_OPT_DEVICE  /* host, auto, gpu, cpu or opencl:N: checked by its users
+                       against device/request.h (a later stage than base) */
 } ohm_opt_type;
 
 typedef struct ohm_opt_spec {

@@ -143,32 +143,34 @@ static void device_names(char *buf, size_t size, const ohm_device *list, int n)
     }
 }
 
-int ohm_device_pick(int *picked, const ohm_device *list, int n, const char *spec, ohm_error *err)
+int ohm_device_pick(int *picked, const ohm_device *list, int n, const ohm_device_request *req, ohm_error *err)
 {
     *picked = -1;
-    char names[512];
+    char names[512], spec[32];
     device_names(names, sizeof names, list, n);
+    ohm_device_request_name(req, spec, sizeof spec);
     int want = -1;
-    if (strcmp(spec, "host") == 0) return OHM_OK;
-    if (strcmp(spec, "auto") == 0 || strcmp(spec, "gpu") == 0) {
+    switch (req->kind) {
+    case OHM_DEVICE_HOST: return OHM_OK;
+    case OHM_DEVICE_AUTO:
+    case OHM_DEVICE_GPU:
         for (int i = 0; i < n && want < 0; ++i)
             if (list[i].is_gpu && list[i].fp64) want = i;
-        if (want < 0 && strcmp(spec, "auto") == 0) return OHM_OK; /* the host */
+        if (want < 0 && req->kind == OHM_DEVICE_AUTO) return OHM_OK; /* the host */
         if (want < 0)
             return ohm_fail(err, OHM_ERR_INVALID, "device=gpu: no GPU with double precision among the OpenCL devices: %s",
                             names);
-    } else if (strcmp(spec, "cpu") == 0) {
+        break;
+    case OHM_DEVICE_CPU:
         for (int i = 0; i < n && want < 0; ++i)
             if (!list[i].is_gpu) want = i;
         if (want < 0) return ohm_fail(err, OHM_ERR_INVALID, "device=cpu: no OpenCL CPU device among: %s", names);
-    } else if (strncmp(spec, "opencl:", 7) == 0) {
-        char *end = NULL;
-        long k = strtol(spec + 7, &end, 10);
-        if (end == spec + 7 || *end || k < 0 || k >= n)
+        break;
+    case OHM_DEVICE_INDEX:
+        if (req->index < 0 || req->index >= n)
             return ohm_fail(err, OHM_ERR_INVALID, "device=%s: there are %d OpenCL device(s): %s", spec, n, names);
-        want = (int)k;
-    } else {
-        return ohm_fail(err, OHM_ERR_USAGE, "device=%s: expected host, gpu, cpu, opencl:N or auto", spec);
+        want = req->index;
+        break;
     }
     if (!list[want].fp64)
         return ohm_fail(err, OHM_ERR_INVALID,

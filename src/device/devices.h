@@ -1,5 +1,6 @@
 /* devices.h — the OpenCL devices this machine has, and the one a run asks
- * for: device=gpu|cpu|opencl:N|auto (docs/devices.md).
+ * for: device=gpu|cpu|opencl:N|auto (docs/devices.md), read once into an
+ * ohm_device_request.
  *
  * Devices are numbered across platforms in the order the runtime lists
  * them (opencl:0, opencl:1, ...), as `ohm devices` prints them.  A device
@@ -9,6 +10,7 @@
 #define OHM_DEVICE_DEVICES_H
 
 #include "device/opencl.h"
+#include "device/request.h"
 
 typedef struct ohm_device {
     int index; /* opencl:N */
@@ -27,12 +29,12 @@ typedef struct ohm_device {
  * no platform gives 0 devices and OHM_OK. */
 int ohm_device_list(ohm_device **out, int *count, const ohm_cl *cl, ohm_error *err);
 
-/* The device `spec` names among list[0..n): "gpu" the first GPU, "cpu" the
- * first CPU device, "opencl:N" that one, "auto" the first GPU, else none
+/* The device `req` names among list[0..n): gpu the first GPU, cpu the
+ * first CPU device, opencl:N that one, auto the first GPU, else none
  * (*picked -1 and OHM_OK: the caller runs on the host).  A device that
  * cannot be had (none of that kind, N out of range, no fp64) is an error
  * that says which devices there are. */
-int ohm_device_pick(int *picked, const ohm_device *list, int n, const char *spec, ohm_error *err);
+int ohm_device_pick(int *picked, const ohm_device *list, int n, const ohm_device_request *req, ohm_error *err);
 
 /* A device in use: its context and queue. */
 typedef struct ohm_device_queue {

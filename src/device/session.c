@@ -4,21 +4,23 @@
 #include <stdlib.h>
 #include <string.h>
 
-int ohm_device_session_open(ohm_device_session *s, int *opened, const char *spec, const char *what,
+int ohm_device_session_open(ohm_device_session *s, int *opened, const ohm_device_request *req, const char *what,
                             const ohm_log *log, ohm_error *err)
 {
     memset(s, 0, sizeof *s);
     s->what = what;
     s->picked = -1;
     *opened = 0;
-    if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
-    int automatic = strcmp(spec, "auto") == 0;
+    if (!req || req->kind == OHM_DEVICE_HOST) return OHM_OK;
+    int automatic = req->kind == OHM_DEVICE_AUTO;
+    char spec[32];
+    ohm_device_request_name(req, spec, sizeof spec);
     int rc = ohm_cl_open(&s->cl, err);
     if (!rc) rc = ohm_device_list(&s->devices, &s->ndevices, &s->cl, err);
     if (!rc && s->ndevices == 0 && !automatic)
         rc = ohm_fail(err, OHM_ERR_INVALID, "device=%s: the OpenCL runtime %s found no device (see 'ohm devices')",
                       spec, s->cl.path);
-    if (!rc) rc = ohm_device_pick(&s->picked, s->devices, s->ndevices, spec, err);
+    if (!rc) rc = ohm_device_pick(&s->picked, s->devices, s->ndevices, req, err);
     if (rc || s->picked < 0) {
         ohm_device_session_close(s);
         if (!automatic) return rc;

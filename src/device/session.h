@@ -23,12 +23,12 @@ typedef struct ohm_device_session {
     cl_int status;         /* the first failed launch since the last check */
 } ohm_device_session;
 
-/* Opens the device `spec` names (devices.h: gpu, cpu, opencl:N, auto) into
- * *s (zeroed first).  *opened 0 and OHM_OK when spec is NULL or "host", or
- * "auto" finds no GPU with double precision (then a log line says the work
+/* Opens the device `req` names (devices.h: gpu, cpu, opencl:N, auto) into
+ * *s (zeroed first).  *opened 0 and OHM_OK when req is NULL or the host, or
+ * auto finds no GPU with double precision (then a log line says the work
  * stays on the host); otherwise the runtime, the device and its queue are
  * open, or an error says which of them is missing. */
-int ohm_device_session_open(ohm_device_session *s, int *opened, const char *spec, const char *what,
+int ohm_device_session_open(ohm_device_session *s, int *opened, const ohm_device_request *req, const char *what,
                             const ohm_log *log, ohm_error *err);
 void ohm_device_session_close(ohm_device_session *s); /* zeroed is fine */
 

@@ -69,7 +69,7 @@ double ohm_exitance_l1_diff(const double *a, const double *b, size_t n)
 }
 
 int ohm_probe_solve(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
-                    const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver, double band,
+                    const ohm_material *mat, const ohm_light *lights, size_t nlights, ohm_solver_kind solver, double band,
                     int64_t photons, ohm_error *err)
 {
     static const ohm_log quiet = {.verbosity = 0};
@@ -102,7 +102,7 @@ int ohm_probe_voxelize_and_solve(ohm_voxel_grid *g, ohm_solution *sol, double *t
     *t_voxelize = ohm_now() - t0;
     if (rc) return rc;
     *flipped = vr.flipped;
-    rc = ohm_probe_solve(sol, g, vr.flipped, mesh, mat, lights, nlights, use_cg ? "cg" : "direct", band, 0, err);
+    rc = ohm_probe_solve(sol, g, vr.flipped, mesh, mat, lights, nlights, use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT, band, 0, err);
     if (rc) ohm_voxel_grid_free(g);
     return rc;
 }

@@ -37,10 +37,10 @@ double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *s
 double ohm_exitance_l1_diff(const double *a, const double *b, size_t n);
 
 /* The probe's solve on grid g (Robin, METIS, exponential deposit, mesh
- * shadows, nothing logged): solver "direct", "cg" or "mc" (then photons per
+ * shadows, nothing logged): solver direct, cg or mc (then photons per
  * solve, seed 1); band: the depth band's k, 0 for none. */
 int ohm_probe_solve(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
-                    const ohm_material *mat, const ohm_light *lights, size_t nlights, const char *solver, double band,
+                    const ohm_material *mat, const ohm_light *lights, size_t nlights, ohm_solver_kind solver, double band,
                     int64_t photons, ohm_error *err);
 
 /* Voxelize the mesh at dim and solve it (ohm_probe_solve, "cg" or "direct").

@@ -89,13 +89,13 @@ void ohm_mc_device_free(ohm_mc_device *d)
     free(d);
 }
 
-int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, const ohm_log *log,
+int ohm_mc_device_open(ohm_mc_device **out, const ohm_device_request *req, int64_t photons, const ohm_log *log,
                        ohm_error *err)
 {
     *out = NULL;
-    if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
+    if (!req || req->kind == OHM_DEVICE_HOST) return OHM_OK;
     if (photons <= 0) photons = 1000000; /* mc_params.h's default */
-    if (strcmp(spec, "auto") == 0 && photons < AUTO_MIN_PHOTONS) {
+    if (req->kind == OHM_DEVICE_AUTO && photons < AUTO_MIN_PHOTONS) {
         ohm_log_info(log, "monte carlo: device=auto: %lld photons, fewer than %d: they run on the host",
                      (long long)photons, AUTO_MIN_PHOTONS);
         return OHM_OK;
@@ -103,7 +103,7 @@ int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, c
     ohm_mc_device *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "monte carlo: out of memory");
     int opened = 0;
-    int rc = ohm_device_session_open(&d->s, &opened, spec, "monte carlo", log, err);
+    int rc = ohm_device_session_open(&d->s, &opened, req, "monte carlo", log, err);
     if (rc || !opened) { /* an error, or device=auto on the host */
         ohm_mc_device_free(d);
         return rc;

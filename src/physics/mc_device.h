@@ -20,7 +20,7 @@
 
 typedef struct ohm_mc_device ohm_mc_device;
 
-/* The device `spec` names (gpu, cpu, opencl:N, auto; devices.h), open for
+/* The device `req` names (gpu, cpu, opencl:N, auto; devices.h), open for
  * tracing `photons` per trace (0: mc_params.h's default, 10^6): *out NULL and
  * OHM_OK when that is the host
  * (host; auto without a GPU, or for fewer photons than pay for opening
@@ -29,7 +29,7 @@ typedef struct ohm_mc_device ohm_mc_device;
  * open across its frames and channels (ohm_mc_params.kept), so the queue,
  * the built kernels, the network's layout and the tallies' buffers are
  * made once. */
-int ohm_mc_device_open(ohm_mc_device **out, const char *spec, int64_t photons, const ohm_log *log,
+int ohm_mc_device_open(ohm_mc_device **out, const ohm_device_request *req, int64_t photons, const ohm_log *log,
                        ohm_error *err);
 
 /* Trace on d into res (its arrays zeroed by the caller), P the entries'

@@ -10,6 +10,7 @@
 #include <stdint.h>
 
 #include "base/log.h"
+#include "device/request.h"
 
 enum { OHM_MC_BATCHES = 16 };
 
@@ -35,9 +36,9 @@ typedef struct ohm_mc_params {
                            the nearest cell centres so that its place is kept
                            (ohm_mc_result.handoff) */
     const ohm_log *log; /* progress; NULL: quiet */
-    const char *device; /* NULL or "host": the host's threads; gpu, cpu,
-                           opencl:N, auto: an OpenCL device (mc_device.h),
-                           opened for this trace */
+    ohm_device_request device; /* zero (host): the host's threads; else an
+                                  OpenCL device (mc_device.h), opened for
+                                  this trace */
     struct ohm_mc_device *kept; /* a device kept open by the caller
                                    (mc_device.h), which traces instead of
                                    `device`; NULL: none */

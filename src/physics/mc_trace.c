@@ -36,7 +36,7 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     }
     res->device[0] = '\0';
     ohm_mc_device *dev = params->kept;
-    int rc = dev ? OHM_OK : ohm_mc_device_open(&dev, params->device, per_batch * OHM_MC_BATCHES, params->log, err);
+    int rc = dev ? OHM_OK : ohm_mc_device_open(&dev, &params->device, per_batch * OHM_MC_BATCHES, params->log, err);
     int on_device = dev != NULL;
     if (!rc && on_device)
         rc = ohm_mc_device_run(dev, res, net, med, entries, nentries, channel, P, per_batch, params, err);

@@ -34,6 +34,7 @@
 #include "solvers/backend.h"
 
 #include "base/memory.h"
+#include "solvers/estimate.h"
 
 #include <math.h>
 #include <stdio.h>
@@ -99,6 +100,19 @@ static int auto_setup(void *state, const ohm_operator *op, ohm_backend_report *r
     return rc ? rc : s->probe_ops->setup(s->probe, op, rep, err);
 }
 
+double ohm_auto_direct_seconds(double n, int materials, double columns)
+{
+    double t_analyze = 1.4e-6 * pow(n, 1.155), t_factor = materials * 1.02e-7 * pow(n, 1.4);
+    return t_analyze + t_factor + columns * 1.7e-9 * 3.5 * pow(n, 4.0 / 3.0);
+}
+
+double ohm_auto_amg_seconds(double n, int materials, double columns)
+{
+    /* under mpirun every rank takes a slab (assumed to scale: docs/scale.md) */
+    return 1e-9 * n * (materials * AMG_SETUP_NS + columns * AMG_COLUMN_NS) / ohm_mpi_ranks() +
+           (ohm_backend_amg_started() ? 0.0 : AMG_START_S);
+}
+
 typedef struct candidate {
     const ohm_backend_ops *ops;
     double t;
@@ -156,11 +170,8 @@ static int rank_candidates(candidate *c, const auto_state *s, double n, double t
 {
     int nc = 0;
     int materials = s->cfg.materials > 0 ? s->cfg.materials : 1;
-    double t_analyze = 1.4e-6 * pow(n, 1.155), t_factor = materials * 1.02e-7 * pow(n, 1.4);
-    double t_direct = t_analyze + t_factor + rest * 1.7e-9 * 3.5 * pow(n, 4.0 / 3.0);
-    /* under mpirun every rank takes a slab (assumed to scale: docs/scale.md) */
-    double t_amg = 1e-9 * n * (materials * AMG_SETUP_NS + rest * AMG_COLUMN_NS) / ohm_mpi_ranks() +
-                   (ohm_backend_amg_started() ? 0.0 : AMG_START_S);
+    double t_direct = ohm_auto_direct_seconds(n, materials, rest);
+    double t_amg = ohm_auto_amg_seconds(n, materials, rest);
     c[nc++] = (candidate){&ohm_backend_direct, t_direct};
     if (ohm_backend_amg_available()) c[nc++] = (candidate){&ohm_backend_amg, t_amg};
     if (t1 >= 0) c[nc++] = (candidate){s->probe_ops, rest * t1};
@@ -218,6 +229,11 @@ static int auto_solve(void *state, const ohm_operator *op, const double *B, doub
         }
         break;
     }
+    if (!s->chosen) /* (a kept solver of one column per medium: the choice comes with the relight) */
+        snprintf(rep->reason, sizeof rep->reason,
+                 "%.120sthe probe, %s, solved the first column; auto chooses when it has timed a warm one (the next "
+                 "solve of this medium)",
+                 s->probe_note, s->probe_ops->name);
     return OHM_OK;
 }
 

@@ -42,6 +42,7 @@
 
 #include "base/log.h"
 #include "base/ohm_error.h"
+#include "device/request.h"
 #include "solvers/grid_order.h"
 
 /* What a backend did, summed over its setups and solves (the driver copies it
@@ -100,8 +101,7 @@ typedef struct ohm_backend_config {
     double columns;            /* columns to be solved in all (auto's cost model) */
     int materials;             /* distinct channel materials = setups to come   */
     int from_scan;             /* direct, ordering=auto: the object is a scan's */
-    const char *device;        /* mg: where the solve runs: host (NULL), gpu, cpu,
-                                  opencl:N, auto (mg_device.h)                     */
+    ohm_device_request device; /* mg: where the solve runs (mg_device.h; zero: the host) */
     const ohm_log *log;
 } ohm_backend_config;
 

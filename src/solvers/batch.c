@@ -3,6 +3,7 @@
  * frames whose light did not change skipped and restored, each batch's warm
  * start, and the scaled unknowns of a per-cell index (network.h). */
 #include "solvers/solver_impl.h"
+#include "solvers/transport.h"
 
 #include <stdint.h>
 #include <stdlib.h>

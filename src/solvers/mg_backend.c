@@ -59,7 +59,7 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     const ohm_stencil *st = op->stencil;
     if (!st) rc = op->make_stencil(op->maker, &st, err);
     if (!rc) rc = ohm_mg_setup(&s->mg, st, s->cfg.layout, 0, err);
-    if (!rc) rc = ohm_mg_device_open(&s->device, s->mg, s->cfg.device, s->cfg.log, err);
+    if (!rc) rc = ohm_mg_device_open(&s->device, s->mg, &s->cfg.device, s->cfg.log, err);
     if (rc) return rc;
     if (s->device) snprintf(rep->device, sizeof rep->device, "%s", ohm_mg_device_name(s->device));
     rep->t_precond += ohm_now() - t0;

@@ -428,14 +428,14 @@ static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
     return rc;
 }
 
-int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, const ohm_log *log,
+int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const ohm_device_request *req, const ohm_log *log,
                        ohm_error *err)
 {
     *out = NULL;
-    if (!spec || strcmp(spec, "host") == 0) return OHM_OK;
+    if (!req || req->kind == OHM_DEVICE_HOST) return OHM_OK;
     ohm_mg_view view;
     ohm_mg_view_of(mg, &view);
-    if (strcmp(spec, "auto") == 0 && view.fine->n < AUTO_MIN_CELLS) {
+    if (req->kind == OHM_DEVICE_AUTO && view.fine->n < AUTO_MIN_CELLS) {
         ohm_log_info(log, "solve: device=auto: %lld cells, fewer than %d: the cycle runs on the host",
                      (long long)view.fine->n, AUTO_MIN_CELLS);
         return OHM_OK;
@@ -443,7 +443,7 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, 
     ohm_mg_device *d = calloc(1, sizeof *d);
     if (!d) return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory");
     int opened = 0;
-    int rc = ohm_device_session_open(&d->s, &opened, spec, "mg", log, err);
+    int rc = ohm_device_session_open(&d->s, &opened, req, "mg", log, err);
     if (rc || !opened) { /* an error, or device=auto on the host */
         ohm_mg_device_free(d);
         return rc;

@@ -10,16 +10,17 @@
 #ifndef OHM_SOLVERS_MG_DEVICE_H
 #define OHM_SOLVERS_MG_DEVICE_H
 
+#include "device/request.h"
 #include "solvers/mg.h"
 
 typedef struct ohm_mg_device ohm_mg_device;
 
-/* The device `spec` names (device= of -solve: gpu, cpu, opencl:N, auto;
+/* The device `req` names (device= of -solve: gpu, cpu, opencl:N, auto;
  * devices.h), with mg's hierarchy copied to it.  *out NULL and OHM_OK when
- * spec is host, or auto finds no GPU: the caller solves on the host.  No
+ * req is NULL or the host, or auto finds no GPU: the caller solves on the host.  No
  * runtime, no such device, no double precision, too little device memory,
  * a kernel that does not build: an error that says which. */
-int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const char *spec, const ohm_log *log,
+int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const ohm_device_request *req, const ohm_log *log,
                        ohm_error *err);
 
 /* As ohm_mg_solve (mg.h), on the device. */

@@ -4,6 +4,7 @@
  * conservation error, the medium per unknown).  The solution owns every
  * array it points to (ohm_solution_free). */
 #include "solvers/solver_impl.h"
+#include "solvers/solve.h"
 
 #include <math.h>
 #include <stdio.h>

@@ -7,6 +7,7 @@
 
 #include "solvers/backend.h"
 #include "solvers/solver_impl.h"
+#include "solvers/transport.h"
 #include "base/parallel.h"
 
 #include <stdint.h>
@@ -46,9 +47,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     /* per-cell media compacted to the band's unknowns (when there is one) */
     ohm_coeff *compact[2 * OHM_MAX_CHANNELS] = {NULL};
     rc = ohm_setup_band(sol, &s->params, compact, s->grid, &s->mat, params, s->log, err);
-    snprintf(s->solver_name, sizeof s->solver_name, "%s", params->num.solver ? params->num.solver : "direct");
     snprintf(s->ordering, sizeof s->ordering, "%s", params->num.ordering ? params->num.ordering : "metis");
-    s->params.num.solver = s->solver_name;
     s->params.num.ordering = s->ordering;
     if (params->num.petsc_options &&
         !(s->params.num.petsc_options = s->petsc_options = strdup(params->num.petsc_options)))
@@ -74,8 +73,10 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    const char *name = s->params.num.solver;
-    s->transport = ohm_transport_find(name); /* a transport, or a backend */
+    ohm_solver_kind kind = s->params.num.solver;
+    const char *name = ohm_solver_kind_name(kind);
+    /* a kind that transports photons has a transport; every other, a backend */
+    s->transport = (ohm_solver_kind_caps(kind) & OHM_SOLVES_TRANSPORT) ? ohm_transport_find(name) : NULL;
     s->backend = s->transport ? NULL : ohm_backend_find(name);
     if (!s->backend && !s->transport) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");

@@ -30,8 +30,18 @@
 #include <cholmod.h>
 
 #include "solvers/backend.h"
-#include "solvers/solve.h"
-#include "solvers/transport.h"
+#include "solvers/solve_types.h"
+
+/* What the photons tallied before their handoff, for nb frames of one
+ * channel, per column. */
+typedef struct hybrid_part {
+    double *fluence, *face;       /* n and nf per column                   */
+    double *fluence_se, *exit_se; /* scratch for the tracer                */
+    double *power;                /* 3 per column: in, absorbed, out (W)    */
+    struct ohm_mc_device *device; /* the photons' device (device=), opened at
+                                     the first trace and kept; NULL: the host */
+    int device_opened;
+} hybrid_part;
 
 /* What solving one channel adds to the solution's sums and counts.  Each
  * channel books into its own tally, added to the solution in channel order
@@ -68,7 +78,7 @@ struct ohm_solver {
     ohm_solution sol;            /* topology, media, statistics; then results */
     ohm_solve_params params;     /* the caller's, with the band's arrays and
                                     the solver's own copies of its strings    */
-    char solver_name[16], ordering[16];
+    char ordering[16];
     char *petsc_options;
     ohm_material mat;
     const ohm_voxel_grid *grid;
@@ -78,7 +88,7 @@ struct ohm_solver {
     cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
     int cc_started;
     const ohm_backend_ops *backend; /* the linear solver, or NULL with a transport */
-    const ohm_transport_ops *transport; /* solver=mc (transport.h), or NULL   */
+    const struct ohm_transport_ops *transport; /* solver=mc (transport.h), or NULL   */
     ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
     ohm_backend_report rep;      /* summed over the solver's life             */
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */

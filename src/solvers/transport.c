@@ -4,6 +4,7 @@
  * handoff, whose weight becomes diffusion's source.  The hybrid's arrays
  * belong to the batch's work (batch.c). */
 #include "solvers/solver_impl.h"
+#include "solvers/transport.h"
 
 #include "physics/mc_device.h"
 #include "physics/mc_trace.h"
@@ -74,7 +75,7 @@ int ohm_hybrid_sources(ohm_solution *sol, channel_tally *t, double *B, hybrid_pa
     int rc = OHM_OK;
     if (!h->device_opened) { /* the photons' device, once for the solve */
         h->device_opened = 1;
-        rc = ohm_mc_device_open(&h->device, params->mc.device, params->mc.photons, params->mc.log, err);
+        rc = ohm_mc_device_open(&h->device, &params->mc.device, params->mc.photons, params->mc.log, err);
     }
     for (size_t j = 0; j < nb && !rc; ++j) {
         rc = ohm_frame_entries(&in, net, lights, nlights, f0 + j, sol->channels, mat->eta, med->eta_v, occ, err);
@@ -164,7 +165,7 @@ static int mc_solve(ohm_solution *sol, const ohm_material *mat, const ohm_light 
     snprintf(sol->solver, sizeof sol->solver, "mc");
     snprintf(sol->solver_reason, sizeof sol->solver_reason, "asked for");
     ohm_mc_device *device = NULL; /* device=: open for every frame and channel */
-    rc = ohm_mc_device_open(&device, params->mc.device, params->mc.photons, params->mc.log, err);
+    rc = ohm_mc_device_open(&device, &params->mc.device, params->mc.photons, params->mc.log, err);
     if (rc) return rc;
     ohm_light_entries in = {0};
     for (size_t fr = 0; fr < frames && !rc; ++fr) {

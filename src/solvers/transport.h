@@ -14,7 +14,7 @@
 #include <stddef.h>
 
 #include "base/ohm_error.h"
-#include "solvers/solve.h"
+#include "solvers/solve_types.h"
 
 struct channel_tally; /* solver_impl.h: what solving one channel adds */
 
@@ -34,31 +34,24 @@ const ohm_transport_ops *ohm_transport_find(const char *name);
 
 /* ---- the hybrid's transport part ------------------------------------------------- */
 
-/* What the photons tallied before their handoff, for nb frames of one
- * channel, per column. */
-typedef struct hybrid_part {
-    double *fluence, *face;       /* n and nf per column                   */
-    double *fluence_se, *exit_se; /* scratch for the tracer                */
-    double *power;                /* 3 per column: in, absorbed, out (W)    */
-    struct ohm_mc_device *device; /* the photons' device (device=), opened at
-                                     the first trace and kept; NULL: the host */
-    int device_opened;
-} hybrid_part;
+/* The hybrid's state in a solve: solver_impl.h (a solver's batch work holds it). */
+struct hybrid_part;
 
-int ohm_hybrid_alloc(hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err);
-void ohm_hybrid_free(hybrid_part *h);
+int ohm_hybrid_alloc(struct hybrid_part *h, size_t n, size_t nf, size_t batch, ohm_error *err);
+void ohm_hybrid_free(struct hybrid_part *h);
 
 /* Column j of B (zeroed first) gets frame f0 + j's handed-off weight in
  * channel c: the frame's light entries traced to their handoff; the
  * photons' own fluence, exitance and power go to h for ohm_hybrid_add. */
-int ohm_hybrid_sources(ohm_solution *sol, struct channel_tally *t, double *B, hybrid_part *h, size_t f0, size_t nb,
-                       int c, const ohm_channel_medium *med, const ohm_material *mat, const ohm_light *lights,
-                       size_t nlights, const ohm_solve_params *params, const ohm_occluder *occ, ohm_error *err);
+int ohm_hybrid_sources(ohm_solution *sol, struct channel_tally *t, double *B, struct hybrid_part *h, size_t f0,
+                       size_t nb, int c, const ohm_channel_medium *med, const ohm_material *mat,
+                       const ohm_light *lights, size_t nlights, const ohm_solve_params *params,
+                       const ohm_occluder *occ, ohm_error *err);
 
 /* After the diffusion solve's power is booked: the photons' part added to
  * frames f0..f0+nb of channel c (X their fluence). */
-void ohm_hybrid_add(ohm_solution *sol, struct channel_tally *t, double *X, const hybrid_part *h, size_t f0, size_t nb,
-                    int c);
+void ohm_hybrid_add(ohm_solution *sol, struct channel_tally *t, double *X, const struct hybrid_part *h, size_t f0,
+                    size_t nb, int c);
 
 /* Whether the hybrid applies to this solver's scene (optical media, the
  * Fresnel boundary, every cell kept); else a one-line error. */

@@ -220,6 +220,19 @@ int ohm_state_set_mesh(ohm_state *s, ohm_mesh *m_in, const char *name, double sc
     return OHM_OK;
 }
 
+/* A mesh replaces the grid made from the last one; a volume keeps the
+ * grid (it may be the mesh's material); either makes a solution stale. */
+static void read_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    if (ohm_scan_is_volume_path(ohm_opt_str(inv, "file"))) {
+        io->provides = OHM_RES_VOLUME;
+        io->drops = OHM_RES_SOLUTION;
+    } else {
+        io->provides = OHM_RES_MESH;
+        io->drops = OHM_RES_GRID | OHM_RES_SOLUTION;
+    }
+}
+
 /* ---- voxelize ------------------------------------------------------------------ */
 
 static const ohm_opt_spec voxelize_opts[] = {
@@ -246,6 +259,25 @@ static const ohm_opt_spec voxelize_opts[] = {
 
 /* -voxelize error= solves the scene: it waits for the material and lights */
 static int voxelize_waits(const ohm_invocation *inv) { return ohm_opt_given(inv, "error"); }
+
+static void voxelize_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    int i = 0;
+    if (ohm_opt_given(inv, "error")) {
+        io->needs[i++] = (ohm_need){OHM_RES_MESH, 0, "error= needs a mesh (a volume has no exitance to probe)"};
+        static const char probes[] = "error= probes the scene: it needs -material (optical coefficients, not "
+                                     "transfer= or resistance=) and -light, before it or right after it";
+        io->needs[i++] = (ohm_need){OHM_RES_MATERIAL, 0, probes};
+        io->needs[i++] = (ohm_need){OHM_RES_LIGHTS, 0, probes};
+    } else if (ohm_opt_given(inv, "threshold")) {
+        io->needs[i++] = (ohm_need){OHM_RES_MESH | OHM_RES_VOLUME, 0, "nothing to voxelize yet: put -read before it"};
+    } else {
+        io->needs[i++] = (ohm_need){OHM_RES_MESH, 0, "no mesh yet: put -read file=MESH before it (a volume alone "
+                                                     "needs threshold=, the density of its surface)"};
+    }
+    io->provides = OHM_RES_GRID;
+    io->drops = OHM_RES_SOLUTION;
+}
 
 /* A scan's object ends at its box (scan.h).  Where the scan's background is
  * below the threshold, the scan ends it there by itself: past the box its
@@ -392,6 +424,13 @@ static const ohm_opt_spec material_opts[] = {
      0, 0, 0},
     {0}};
 
+static void material_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    int transfer = ohm_opt_given(inv, "transfer");
+    io->provides = OHM_RES_MATERIAL | (transfer ? OHM_RES_TRANSFER : 0u);
+    io->drops = OHM_RES_SOLUTION | (transfer ? 0u : OHM_RES_TRANSFER);
+}
+
 static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     ohm_material m;
@@ -500,6 +539,15 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 
 /* ---- light --------------------------------------------------------------------- */
 
+static void light_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    if (ohm_opt_int(inv, "orbit") > 0)
+        io->needs[0] = (ohm_need){OHM_RES_MESH | OHM_RES_VOLUME | OHM_RES_GRID, 0,
+                                  "orbit= turns about the object: -read it first"};
+    io->provides = OHM_RES_LIGHTS;
+    io->drops = OHM_RES_SOLUTION; /* stale until solved again */
+}
+
 /* Rotate v about the axis (0 x, 1 y, 2 z) by angle a (right-handed). */
 static void rotate_axis(double v[3], int axis, double a)
 {
@@ -596,15 +644,17 @@ static const ohm_opt_spec solve_opts[] = {
      "shadow rays: mesh (Embree, against the triangles), grid (through the voxel cells), none; auto = mesh when "
      "there is one",
      "auto|mesh|grid|none", 0, 0, 0},
-    {"solver", OHM_OPT_ENUM, "direct",
-     "direct (Cholesky factor, reused by every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
+    {"solver", OHM_OPT_ENUM, "auto",
+     "auto (the default: mg solves the first light, then the rest go to whichever of mg, direct and amg fits the "
+     "memory and is predicted quickest; the statistics' solver_reason says why) | direct (Cholesky factor, reused by "
+     "every light) | cg (MIC(0) conjugate gradients: memory O(cells), "
      "warm-started frame to frame) | amg (PETSc CG + hypre BoomerAMG: memory O(cells), iterations independent of "
      "the grid, distributed under mpirun) | mg (geometric multigrid on the voxel grid, matrix-free: memory and time "
-     "O(cells), iterations independent of the grid and of contrasts, warm-started) | auto (memory first, then the cheapest by a cost model) | mc (Monte "
+     "O(cells), iterations independent of the grid and of contrasts, warm-started) | mc (Monte "
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
-    {"device", OHM_OPT_STRING, "host",
+    {"device", OHM_OPT_DEVICE, "host",
      "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
      "opencl:N (as 'ohm devices' numbers them), auto (a GPU when there is one, for a grid of 2^16 cells or "
@@ -647,6 +697,16 @@ static const ohm_opt_spec solve_opts[] = {
      "channels are solved",
      "0|1", 0, 0, 0},
     {0}};
+
+static void solve_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    (void)inv;
+    io->needs[0] = (ohm_need){OHM_RES_GRID, 0, "no voxel object: -read and -voxelize first"};
+    io->needs[1] = (ohm_need){OHM_RES_MATERIAL, 0, "no material: add -material (e.g. preset=marble) first"};
+    io->needs[2] = (ohm_need){OHM_RES_LIGHTS, 0, "no lights: add -light first"};
+    io->needs[3] = (ohm_need){OHM_RES_VOLUME, OHM_RES_TRANSFER, "transfer= maps a volume's density: -read one first"};
+    io->provides = OHM_RES_SOLUTION;
+}
 
 /* The material from the volume through the transfer function: the density
  * at each interior cell (trilinear at its centre, or the mean over the cell
@@ -732,13 +792,13 @@ static int material_from_scan(ohm_state *s, ohm_media_params *p, float **density
  * hybrid=auto is settled, it would do nothing, and says so. */
 static int device_has_work(const ohm_solve_params *p, const ohm_invocation *inv, ohm_error *err)
 {
-    const char *dev = p->num.device;
-    if (!dev || strcmp(dev, "host") == 0 || strcmp(dev, "auto") == 0) return OHM_OK;
-    if (strcmp(p->num.solver, "mg") == 0 || strcmp(p->num.solver, "mc") == 0 || p->mc.handoff > 0) return OHM_OK;
+    ohm_device_kind dev = p->num.device.kind;
+    if (dev == OHM_DEVICE_HOST || dev == OHM_DEVICE_AUTO) return OHM_OK;
+    if ((ohm_solver_kind_caps(p->num.solver) & OHM_SOLVES_ON_DEVICE) || p->mc.handoff > 0) return OHM_OK;
     return ohm_fail(err, OHM_ERR_USAGE,
                     "%s: -solve: device=%s runs solver=mg's solve and traced photons (solver=mc, hybrid=); "
                     "solver=%s traces none here and runs on the host",
-                    inv->where, dev, p->num.solver);
+                    inv->where, ohm_opt_str(inv, "device"), ohm_solver_kind_name(p->num.solver));
 }
 
 /* -solve hybrid=auto|N (solve.h), after p's boundary, solver and band are
@@ -752,7 +812,8 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
         *handoff = 0;
         for (size_t l = 0; l < s->nlights; ++l)
             if (ohm_light_at_a_point(&s->lights[l])) *handoff = OHM_HYBRID_PENCIL;
-        if (strcmp(p->num.solver, "mc") == 0 || p->op.boundary != OHM_BOUNDARY_ROBIN || p->op.band_k > 0 ||
+        if ((ohm_solver_kind_caps(p->num.solver) & OHM_SOLVES_TRANSPORT) || p->op.boundary != OHM_BOUNDARY_ROBIN ||
+            p->op.band_k > 0 ||
             s->material.kind == OHM_MATERIAL_RESISTANCE)
             *handoff = 0; /* all transport already, or a scene the tracer does not model */
         return OHM_OK;
@@ -783,8 +844,10 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     p->num.ordering = ohm_opt_str(inv, "ordering");
     p->num.from_scan = s->have_scan && !s->have_mesh;
     p->src.total_fluence = strcmp(ohm_opt_str(inv, "fluence"), "total") == 0;
-    p->num.solver = ohm_opt_str(inv, "solver");
-    p->num.device = ohm_opt_str(inv, "device");
+    /* the texts read once: the layers below get the typed choices */
+    int rc_choice = ohm_solver_kind_parse(&p->num.solver, ohm_opt_str(inv, "solver"), err);
+    if (!rc_choice) rc_choice = ohm_device_request_parse(&p->num.device, ohm_opt_str(inv, "device"), err);
+    if (rc_choice) return rc_choice;
     if (ohm_opt_given(inv, "petsc_options")) p->num.petsc_options = ohm_opt_str(inv, "petsc_options");
     p->num.cg_tol = ohm_opt_real(inv, "cg_tol");
     p->mc.photons = (int64_t)ohm_opt_real(inv, "photons");
@@ -868,7 +931,8 @@ static void report_solve(ohm_state *s, double t0, int relit)
                  "%.2g, power in %.6g W = absorbed %.6g + out %.6g (conservation error %.2g)",
                  (long long)sol->n, sol->channels, sol->factors, s->nlights, ohm_now() - t0, sol->residual,
                  sol->power_in, sol->power_absorbed, sol->power_out, cons);
-    if (strcmp(sol->solver, "mc") == 0)
+    const int transport = (ohm_solver_kind_caps(p.num.solver) & OHM_SOLVES_TRANSPORT) != 0;
+    if (transport)
         ohm_log_info(&s->log,
                      "monte carlo: %lld photons (g=%g, seed=%llu, %d threads) at %.4g photons/ms, %.4g path "
                      "segments each%s",
@@ -966,7 +1030,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set(st, "power_absorbed", sol->power_absorbed);
     ohm_stats_set(st, "power_out", sol->power_out);
     ohm_stats_set(st, "conservation_error", cons);
-    if (strcmp(sol->solver, "mc") == 0) {
+    if (transport) {
         ohm_stats_set_int(st, "mc_photons", (long long)sol->mc_photons);
         ohm_stats_set_int(st, "mc_seed", (long long)p.mc.seed);
         ohm_stats_set(st, "mc_g", s->material.g);
@@ -1066,6 +1130,14 @@ static const ohm_opt_spec place_opts[] = {
     {"offset", OHM_OPT_VEC3, "0,0,0", "then move it by this many mm", NULL, 0, 0, 0},
     {0}};
 
+static void place_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    io->needs[0] = (ohm_need){OHM_RES_VOLUME, 0, "no volume to place: -read one first"};
+    if (strcmp(ohm_opt_str(inv, "fit"), "1") == 0)
+        io->needs[1] = (ohm_need){OHM_RES_MESH, 0, "fit=1: no mesh to fit the volume into"};
+    io->drops = OHM_RES_SOLUTION;
+}
+
 static int run_place(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     if (!s->have_scan)
@@ -1104,6 +1176,12 @@ static int run_place(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 static const ohm_opt_spec write_opts[] = {
     {"file", OHM_OPT_STRING, NULL, "output .vdb (written to a temporary file, then renamed)", NULL, 0, 0, 1},
     {0}};
+
+static void write_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    (void)inv;
+    io->needs[0] = (ohm_need){OHM_RES_GRID, 0, "nothing to write yet: put -voxelize before it"};
+}
 
 static int has_suffix(const char *s, const char *suffix)
 {
@@ -1185,21 +1263,21 @@ const ohm_action ohm_actions[] = {
     {"read", "read a mesh (OBJ, PLY, STL, OFF; .gz too) and scale it to millimetres",
      "Reads a triangle mesh; polygons are split into triangles.  Reports open and non-manifold edges.\n"
      "Meshes come in arbitrary units: units= says what one unit is, size= scales the longest axis to a length.",
-     read_opts, run_read, 0, NULL},
+     read_opts, run_read, 0, NULL, read_io},
     {"voxelize", "find the cells inside the mesh (or above a volume's threshold) on a regular grid",
      "Classifies cell centres with the generalized winding number (robust to holes, open rims, overlapping\n"
      "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
      "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
-     voxelize_opts, run_voxelize, 0, voxelize_waits},
+     voxelize_opts, run_voxelize, 0, voxelize_waits, voxelize_io},
     {"place", "put a density volume where the mesh is (fit its box, scale, offset)",
      "For a mesh whose material comes from a scan: fit=1 stretches the volume's box onto the mesh's, then\n"
      "scale= and offset= adjust it.  A NIfTI volume already carries its world placement (sform/qform).",
-     place_opts, run_place, 0, NULL},
+     place_opts, run_place, 0, NULL, place_io},
     {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
      "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
-     material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL},
+     material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL, material_io},
     {"light", "add a light (directional, point, spot, area, a pencil beam or the environment)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
@@ -1207,19 +1285,22 @@ const ohm_action ohm_actions[] = {
      "the sky all around (uniform radiance intensity=, or an equirectangular image sky=FILE.hdr|.exr):\n"
      "each face is lit by the part of the sky it sees past the object itself, through samples= fixed\n"
      "cosine-weighted directions (docs/lights.md).",
-     ohm_light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL},
-    {"solve", "build the resistor network, factor it once per distinct channel, solve every light",
+     ohm_light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io},
+    {"solve", "build the resistor network and solve every light (the solver chosen by size, or as asked)",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
-     "term), factors it with CHOLMOD (one analysis shared by every channel), solves all lights as one\n"
-     "multi-column right-hand side, checks the backward error and books the power: in = absorbed + out.\n"
-     "solver=cg solves by conjugate gradients instead (no factor: O(cells) memory, faster for a few lights);\n"
-     "solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells) memory, iterations that do not grow with the\n"
-     "grid; under `mpirun -np N ohm ...` every rank solves a slab: README, docs/scale.md); solver=auto picks\n"
-     "by memory, then predicted time.  depth_band= / depth_band_error= solve only the cells light reaches.\n"
+     "term), solves all lights as one multi-column right-hand side, checks the backward error and books the\n"
+     "power: in = absorbed + out.  By default (solver=auto) geometric multigrid solves the first light and the\n"
+     "rest go to the solver that fits the memory and is predicted quickest for them; the log and the\n"
+     "statistics (solver, solver_reason) say which and why.  solver=direct factors the matrix with CHOLMOD\n"
+     "(one analysis shared by every channel, the factor reused by every light); solver=cg solves by conjugate\n"
+     "gradients (no factor: O(cells) memory); solver=amg by PETSc's CG with hypre's BoomerAMG (O(cells)\n"
+     "memory, iterations that do not grow with the grid; under `mpirun -np N ohm ...` every rank solves a\n"
+     "slab: docs/scale.md); solver=mg by geometric multigrid alone.  depth_band= / depth_band_error= solve\n"
+     "only the cells light reaches.\n"
      "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
      "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
      "validate transport`, docs/transport.md).",
-     solve_opts, run_solve, 0, NULL},
+     solve_opts, run_solve, 0, NULL, solve_io},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files, CSV",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
      "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
@@ -1228,19 +1309,19 @@ const ohm_action ohm_actions[] = {
      "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.  csv=FILE\n"
      "writes one line per solved cell (i,j,k, centre in mm, fluence and exitance per channel) with 17\n"
      "significant digits: doubles read back exactly.",
-     ohm_export_opts, ohm_run_export, OHM_ACTION_WRITES, NULL},
+     ohm_export_opts, ohm_run_export, OHM_ACTION_WRITES, NULL, ohm_export_io},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
      "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
      "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
-     write_opts, run_write, OHM_ACTION_WRITES, NULL},
+     write_opts, run_write, OHM_ACTION_WRITES, NULL, write_io},
     {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
      "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
      "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
      "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
      "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
-     ohm_render_opts, ohm_run_render, OHM_ACTION_WRITES, NULL},
+     ohm_render_opts, ohm_run_render, OHM_ACTION_WRITES, NULL, ohm_render_io},
     {"stats", "write the run's figures as one JSON object",
      "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats,
-     OHM_ACTION_WRITES, NULL},
-    {NULL, NULL, NULL, NULL, NULL, 0, NULL}};
+     OHM_ACTION_WRITES, NULL, NULL},
+    {NULL, NULL, NULL, NULL, NULL, 0, NULL, NULL}};

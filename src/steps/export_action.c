@@ -42,6 +42,12 @@ static void toward_light(const ohm_state *s, int frame, double out[3])
     }
 }
 
+void ohm_export_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    io->needs[0] = (ohm_need){OHM_RES_SOLUTION, 0, "nothing to export: run -solve first"};
+    if (ohm_opt_given(inv, "ply")) io->needs[1] = (ohm_need){OHM_RES_MESH, 0, "ply=: no mesh to export"};
+}
+
 int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     int want_ply = ohm_opt_given(inv, "ply"), want_df3 = ohm_opt_given(inv, "df3");

@@ -8,5 +8,6 @@
 
 extern const ohm_opt_spec ohm_export_opts[];
 int ohm_run_export(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
+void ohm_export_io(const ohm_invocation *inv, ohm_step_io *io);
 
 #endif

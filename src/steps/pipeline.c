@@ -1,10 +1,10 @@
 /* pipeline.c — parse, validate, document and run chains of actions. */
 #include "steps/pipeline.h"
 #include "base/suggest.h"
+#include "device/request.h"
 
-#include <ctype.h>
 #include <errno.h>
-#include <math.h>
+#include <stdint.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -24,12 +24,7 @@ const ohm_action *ohm_action_find(const char *name)
     return NULL;
 }
 
-static int spec_index(const ohm_action *a, const char *name)
-{
-    for (int i = 0; a->opts[i].name; ++i)
-        if (strcmp(a->opts[i].name, name) == 0) return i;
-    return -1;
-}
+static int spec_index(const ohm_action *a, const char *name) { return ohm_opt_index(a->opts, name); }
 
 static const char *suggest_action(const char *word)
 {
@@ -49,126 +44,16 @@ static const char *suggest_option(const ohm_action *a, const char *word)
 
 /* ---- value validation ------------------------------------------------------ */
 
-static int parse_real(const char *s, double *out)
-{
-    if (!*s || isspace((unsigned char)*s)) return -1;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (*end || errno == ERANGE || !isfinite(v)) return -1;
-    *out = v;
-    return 0;
-}
-
-static int parse_int(const char *s, long long *out)
-{
-    if (!*s || isspace((unsigned char)*s)) return -1;
-    char *end;
-    errno = 0;
-    long long v = strtoll(s, &end, 10);
-    if (*end || errno == ERANGE) return -1;
-    *out = v;
-    return 0;
-}
-
-static int parse_vec3(const char *s, double out[3])
-{
-    char buf[256];
-    if (strlen(s) >= sizeof buf) return -1;
-    strcpy(buf, s);
-    char *p = buf;
-    for (int i = 0; i < 3; ++i) {
-        char *comma = strchr(p, ',');
-        if (i < 2 && !comma) return -1;
-        if (i == 2 && comma) return -1;
-        if (comma) *comma = '\0';
-        if (parse_real(p, &out[i])) return -1;
-        p = comma ? comma + 1 : p;
-    }
-    return 0;
-}
-
-/* "x" or "r,g,b" */
-static int parse_real13(const char *s, double out[3])
-{
-    if (!strchr(s, ',')) {
-        if (parse_real(s, &out[0])) return 0;
-        out[1] = out[2] = out[0];
-        return 1;
-    }
-    return parse_vec3(s, out) ? 0 : 3;
-}
-
-static int enum_has(const char *choices, const char *v)
-{
-    size_t lv = strlen(v);
-    for (const char *p = choices; *p;) {
-        const char *bar = strchr(p, '|');
-        size_t l = bar ? (size_t)(bar - p) : strlen(p);
-        if (l == lv && strncmp(p, v, l) == 0) return 1;
-        if (!bar) break;
-        p = bar + 1;
-    }
-    return 0;
-}
-
+/* base/options.h's check, and a device's words, which that stage cannot know */
 static int validate_value(const ohm_action *a, const ohm_opt_spec *o, const char *v, const char *where,
                           ohm_error *err)
 {
-    int has_range = o->min != o->max;
-    switch (o->type) {
-    case OHM_OPT_INT: {
-        long long x;
-        if (parse_int(v, &x) || (has_range && (x < o->min || x > o->max))) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number from %.0f to %.0f", where,
-                                a->name, o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a whole number", where, a->name, o->name, v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_REAL: {
-        double x;
-        if (parse_real(v, &x) || (has_range && (x < o->min || x > o->max))) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a number from %g to %g", where, a->name,
-                                o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected a finite number", where, a->name, o->name,
-                            v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_VEC3: {
-        double x[3];
-        if (parse_vec3(v, x))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected three numbers x,y,z", where, a->name, o->name,
-                            v);
-        return OHM_OK;
-    }
-    case OHM_OPT_REAL13: {
-        double x[3];
-        int k = parse_real13(v, x);
-        int bad = k == 0;
-        for (int i = 0; i < k && !bad; ++i) bad = has_range && (x[i] < o->min || x[i] > o->max);
-        if (bad) {
-            if (has_range)
-                return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b), each "
-                                "from %g to %g", where, a->name, o->name, v, o->min, o->max);
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one number (grey) or three (r,g,b)", where,
-                            a->name, o->name, v);
-        }
-        return OHM_OK;
-    }
-    case OHM_OPT_ENUM:
-        if (!enum_has(o->choices, v))
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=%s: expected one of %s", where, a->name, o->name, v,
-                            o->choices);
-        return OHM_OK;
-    case OHM_OPT_STRING:
-        if (!*v) return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s %s=: the value is empty", where, a->name, o->name);
-        return OHM_OK;
-    }
-    return OHM_OK;
+    char prefix[320];
+    snprintf(prefix, sizeof prefix, "%s: -%s", where, a->name);
+    int rc = ohm_opt_check(o, v, prefix, err);
+    const char *expected = !rc && o->type == OHM_OPT_DEVICE ? ohm_device_request_expected(v) : NULL;
+    if (expected) rc = ohm_fail(err, OHM_ERR_USAGE, "%s %s=%s: %s", prefix, o->name, v, expected);
+    return rc;
 }
 
 /* ---- building chains ------------------------------------------------------- */
@@ -289,6 +174,30 @@ int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_er
     if (!rc && c->n == 0) rc = ohm_fail(err, OHM_ERR_USAGE, "no actions given (see 'ohm help')");
     if (rc) ohm_chain_free(c);
     return rc;
+}
+
+int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, const char *const *argv, ohm_error *err)
+{
+    memset(inv, 0, sizeof *inv);
+    inv->action = a;
+    snprintf(inv->where, sizeof inv->where, "%s", a->name);
+    ohm_chain one = {inv, 1, 1};
+    int rc = OHM_OK;
+    for (int i = 0; i < argc && !rc; ++i) {
+        snprintf(inv->where, sizeof inv->where, "argument %d", i + 1);
+        rc = add_option(&one, argv[i], inv->where, err);
+    }
+    if (!rc) rc = finish_action(&one, err);
+    if (rc) ohm_invocation_free(inv);
+    return rc;
+}
+
+void ohm_invocation_free(ohm_invocation *inv)
+{
+    for (int j = 0; j < OHM_MAX_OPTS; ++j) {
+        free(inv->values[j]);
+        inv->values[j] = NULL;
+    }
 }
 
 /* Split one line into tokens: whitespace-separated, "double quotes" group
@@ -431,7 +340,7 @@ long long ohm_opt_int(const ohm_invocation *inv, const char *name)
 {
     const char *v = value_or_default(inv, name);
     long long x = 0;
-    if (v) parse_int(v, &x);
+    if (v) ohm_opt_parse_int(v, &x);
     return x;
 }
 
@@ -439,7 +348,7 @@ double ohm_opt_real(const ohm_invocation *inv, const char *name)
 {
     const char *v = value_or_default(inv, name);
     double x = 0;
-    if (v) parse_real(v, &x);
+    if (v) ohm_opt_parse_real(v, &x);
     return x;
 }
 
@@ -447,14 +356,14 @@ void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3])
 {
     const char *v = value_or_default(inv, name);
     out[0] = out[1] = out[2] = 0;
-    if (v) parse_vec3(v, out);
+    if (v) ohm_opt_parse_vec3(v, out);
 }
 
 int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
 {
     const char *v = value_or_default(inv, name);
     out[0] = out[1] = out[2] = 0;
-    return v ? parse_real13(v, out) : 0;
+    return v ? ohm_opt_parse_real13(v, out) : 0;
 }
 
 /* ohm_opt_reader's functions: the ohm_opt_* above, on the invocation ctx */
@@ -503,39 +412,166 @@ static int run_step(const ohm_invocation *inv, ohm_state *s, ohm_error *err)
     return rc;
 }
 
-/* The chain's steps in order, except that a step that waits for the scene
- * runs once the scene steps right after it have: the natural order "read,
- * voxelize error=, material, light, solve" works as the user wrote it. */
-static int run_steps(const ohm_chain *c, ohm_state *s, ohm_error *err)
+/* Whether step i waits for the scene: it runs once the scene steps right
+ * after it have, so that the natural order "read, voxelize error=,
+ * material, light, solve" works as the user wrote it. */
+static int step_waits(const ohm_chain *c, size_t i)
 {
-    const ohm_invocation *waiting = NULL;
+    const ohm_invocation *inv = &c->items[i];
+    return inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
+           (c->items[i + 1].action->flags & OHM_ACTION_SETS_SCENE);
+}
+
+/* The order the steps run in, c->n indices into order[]: as written,
+ * except that a step that waits moves after the scene steps that follow it
+ * (ohm_chain_check follows the same order). */
+static void run_order(const ohm_chain *c, size_t *order)
+{
+    size_t k = 0, waiting = SIZE_MAX;
     for (size_t i = 0; i < c->n; ++i) {
-        const ohm_invocation *inv = &c->items[i];
-        int rc;
-        if (waiting && !(inv->action->flags & OHM_ACTION_SETS_SCENE)) {
-            rc = run_step(waiting, s, err);
-            if (rc) return rc;
-            waiting = NULL;
+        if (waiting != SIZE_MAX && !(c->items[i].action->flags & OHM_ACTION_SETS_SCENE)) {
+            order[k++] = waiting;
+            waiting = SIZE_MAX;
         }
-        if (!waiting && inv->action->waits && inv->action->waits(inv) && i + 1 < c->n &&
-            (c->items[i + 1].action->flags & OHM_ACTION_SETS_SCENE)) {
+        if (waiting == SIZE_MAX && step_waits(c, i)) waiting = i;
+        else order[k++] = i;
+    }
+    if (waiting != SIZE_MAX) order[k++] = waiting;
+}
+
+static int run_steps(const ohm_chain *c, const size_t *order, ohm_state *s, ohm_error *err)
+{
+    for (size_t k = 0; k < c->n; ++k) {
+        const ohm_invocation *inv = &c->items[order[k]];
+        if (step_waits(c, order[k]))
             ohm_log_info(&s->log, "%s: -%s runs after the -material and -light steps that follow it", inv->where,
                          inv->action->name);
-            waiting = inv;
-            continue;
-        }
-        rc = run_step(inv, s, err);
+        int rc = run_step(inv, s, err);
         if (rc) return rc;
     }
-    return waiting ? run_step(waiting, s, err) : OHM_OK;
+    return OHM_OK;
+}
+
+/* ---- what each step needs from the ones before it ----------------------------- */
+
+static const char *const resource_names[OHM_RES_COUNT] = {"a mesh",     "a volume", "a voxel object", "a material",
+                                                          "a transfer", "lights",   "a solution"};
+
+/* Who made each resource, as the check walks the chain: the step's index,
+ * HELD (the state the chain starts on) or NONE; and who removed it. */
+enum { NONE = -1, HELD = -2 };
+
+typedef struct chain_walk {
+    const ohm_chain *c;
+    int made_by[OHM_RES_COUNT];
+    int dropped_by[OHM_RES_COUNT], dropped_from[OHM_RES_COUNT];
+} chain_walk;
+
+static unsigned held_resources(const ohm_state *s)
+{
+    return (s->have_mesh ? OHM_RES_MESH : 0u) | (s->have_scan ? OHM_RES_VOLUME : 0u) |
+           (s->have_grid ? OHM_RES_GRID : 0u) | (s->have_material ? OHM_RES_MATERIAL : 0u) |
+           (s->have_transfer ? OHM_RES_TRANSFER : 0u) | (s->nlights ? OHM_RES_LIGHTS : 0u) |
+           (ohm_state_solution(s) ? OHM_RES_SOLUTION : 0u);
+}
+
+static int present(const chain_walk *w, unsigned mask)
+{
+    for (int r = 0; r < OHM_RES_COUNT; ++r)
+        if ((mask >> r & 1u) && w->made_by[r] != NONE) return 1;
+    return 0;
+}
+
+static int all_present(const chain_walk *w, unsigned mask)
+{
+    for (int r = 0; r < OHM_RES_COUNT; ++r)
+        if ((mask >> r & 1u) && w->made_by[r] == NONE) return 0;
+    return 1;
+}
+
+/* "-solve at argument 7", or "the scene" for what the state held */
+static void step_name(char *buf, size_t size, const chain_walk *w, int step)
+{
+    if (step < 0) snprintf(buf, size, "the scene it starts on");
+    else snprintf(buf, size, "-%s at %s", w->c->items[step].action->name, w->c->items[step].where);
+}
+
+/* The need's failure: the step's own message, and the earlier step that
+ * removed what it needs, or that gave something else instead. */
+static int unmet(const chain_walk *w, const ohm_invocation *inv, const ohm_need *need, ohm_error *err)
+{
+    char other[800] = "", by[320], from[320]; /* a step's name holds its `where` (256) */
+    for (int r = 0; r < OHM_RES_COUNT && !other[0]; ++r) {
+        if (!(need->any >> r & 1u) || w->dropped_by[r] == NONE) continue;
+        step_name(by, sizeof by, w, w->dropped_by[r]);
+        step_name(from, sizeof from, w, w->dropped_from[r]);
+        snprintf(other, sizeof other, " (%s comes after %s and replaces or invalidates %s it made)", by, from,
+                 resource_names[r]);
+    }
+    /* a mesh wanted where the chain has a volume, or the other way round */
+    unsigned instead = (need->any & OHM_RES_MESH ? OHM_RES_VOLUME : 0u) | (need->any & OHM_RES_VOLUME ? OHM_RES_MESH : 0u);
+    for (int r = 0; r < OHM_RES_COUNT && !other[0]; ++r) {
+        if (!(instead >> r & 1u) || w->made_by[r] == NONE) continue;
+        step_name(by, sizeof by, w, w->made_by[r]);
+        snprintf(other, sizeof other, " (%s gave %s instead)", by, resource_names[r]);
+    }
+    return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: %s%s; nothing was run", inv->where, inv->action->name, need->missing,
+                    other);
+}
+
+int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
+{
+    size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
+    if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    run_order(c, order);
+    chain_walk w = {.c = c};
+    unsigned held = held_resources(s);
+    for (int r = 0; r < OHM_RES_COUNT; ++r) {
+        w.made_by[r] = held >> r & 1u ? HELD : NONE;
+        w.dropped_by[r] = w.dropped_from[r] = NONE;
+    }
+    int rc = OHM_OK;
+    for (size_t k = 0; k < c->n && !rc; ++k) {
+        const ohm_invocation *inv = &c->items[order[k]];
+        if (!inv->action->io) continue;
+        ohm_step_io io;
+        memset(&io, 0, sizeof io);
+        inv->action->io(inv, &io);
+        for (int i = 0; i < OHM_MAX_NEEDS && io.needs[i].any && !rc; ++i)
+            if (all_present(&w, io.needs[i].when) && !present(&w, io.needs[i].any))
+                rc = unmet(&w, inv, &io.needs[i], err);
+        for (int r = 0; r < OHM_RES_COUNT; ++r) {
+            if ((io.drops >> r & 1u) && w.made_by[r] != NONE) {
+                w.dropped_by[r] = (int)order[k];
+                w.dropped_from[r] = w.made_by[r];
+                w.made_by[r] = NONE;
+            }
+            if (io.provides >> r & 1u) {
+                w.made_by[r] = (int)order[k];
+                w.dropped_by[r] = w.dropped_from[r] = NONE;
+            }
+        }
+    }
+    free(order);
+    return rc;
 }
 
 int ohm_chain_run(const ohm_chain *c, ohm_state *s, ohm_error *err)
 {
-    if (s->outputs) return run_steps(c, s, err); /* inside a run: part of it */
+    int rc = ohm_chain_check(c, s, err);
+    if (rc) return rc;
+    size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
+    if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
+    run_order(c, order);
+    if (s->outputs) { /* inside a run: part of it */
+        rc = run_steps(c, order, s, err);
+        free(order);
+        return rc;
+    }
     ohm_output_batch batch = {0};
     s->outputs = &batch;
-    int rc = run_steps(c, s, err);
+    rc = run_steps(c, order, s, err);
+    free(order);
     s->outputs = NULL;
     if (rc) {
         ohm_output_batch_abort(&batch);
@@ -555,6 +591,7 @@ static const char *type_name(const ohm_opt_spec *o)
     case OHM_OPT_ENUM: return o->choices;
     case OHM_OPT_VEC3: return "x,y,z";
     case OHM_OPT_REAL13: return "v|r,g,b";
+    case OHM_OPT_DEVICE: return "host|auto|gpu|cpu|opencl:N";
     }
     return "";
 }

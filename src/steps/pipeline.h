@@ -10,18 +10,18 @@
  * one action per line ("read file=a.obj", a leading '-' is optional), '#'
  * starts a comment, values may be "double quoted".  Both go through the same
  * validation and the same executor, so they produce identical results.
- * The whole chain is validated before anything runs: a typo fails at once
- * with exit 2, not after a long solve. */
+ * The whole chain is validated before anything runs — its options, and what
+ * each step needs from the ones before it — so that a typo or a step that
+ * cannot use an earlier one's result fails at once with exit 2, not after a
+ * long solve. */
 #ifndef OHM_PIPELINE_H
 #define OHM_PIPELINE_H
 
 #include <stddef.h>
 
 #include "base/ohm_error.h"
-#include "base/opt_spec.h"
+#include "base/options.h"
 #include "steps/state.h"
-
-enum { OHM_MAX_OPTS = 24 };
 
 typedef struct ohm_action ohm_action;
 
@@ -33,6 +33,42 @@ typedef struct ohm_invocation {
 } ohm_invocation;
 
 typedef int (*ohm_action_fn)(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
+
+/* What a step needs from the steps before it (or from the state the chain
+ * starts on), and what it leaves for the steps after it: the whole chain is
+ * checked against these before any step runs (ohm_chain_check), so that a
+ * later step that cannot use an earlier one's result fails at once, not
+ * after a long solve. */
+enum {
+    OHM_RES_MESH = 1u << 0,     /* a triangle mesh (-read of a mesh)           */
+    OHM_RES_VOLUME = 1u << 1,   /* a density volume (-read of a scan)           */
+    OHM_RES_GRID = 1u << 2,     /* the voxel object (-voxelize)                 */
+    OHM_RES_MATERIAL = 1u << 3, /* -material                                    */
+    OHM_RES_TRANSFER = 1u << 4, /* the material maps a volume's density         */
+    OHM_RES_LIGHTS = 1u << 5,   /* at least one -light                          */
+    OHM_RES_SOLUTION = 1u << 6, /* a solution for the lights there are (-solve) */
+    OHM_RES_COUNT = 7
+};
+
+/* One need: any of the resources in `any`, when every one in `when` is
+ * there (0: always); `missing` is the step's message without it ("no
+ * lights: add -light first"). */
+typedef struct ohm_need {
+    unsigned any, when;
+    const char *missing;
+} ohm_need;
+
+enum { OHM_MAX_NEEDS = 4 };
+
+typedef struct ohm_step_io {
+    ohm_need needs[OHM_MAX_NEEDS]; /* the first with any == 0 ends them   */
+    unsigned provides;             /* resources it makes                  */
+    unsigned drops;                /* resources it makes stale or removes */
+} ohm_step_io;
+
+/* An action's needs and products for one invocation (its options decide
+ * some: -read of a mesh or a volume, -export ply=). */
+typedef void (*ohm_action_io_fn)(const ohm_invocation *inv, ohm_step_io *io);
 
 /* ohm_action.flags.  SETS_SCENE: sets up the scene (the material, the
  * lights), which a step that `waits` needs whichever side of it the user
@@ -51,6 +87,7 @@ struct ohm_action {
      * after the scene-setting steps that directly follow it (-voxelize
      * error=, whose probes solve the scene) */
     int (*waits)(const ohm_invocation *inv);
+    ohm_action_io_fn io;         /* what it needs and provides (above)       */
 };
 
 /* The table (actions.c), terminated by an entry with name NULL. */
@@ -83,9 +120,24 @@ void ohm_chain_free(ohm_chain *c);
  * word without '-': the nearest of `ohm`'s commands, or the action). */
 int ohm_chain_parse_args(ohm_chain *c, int argc, const char *const *argv, ohm_error *err);
 
+/* key=value words against the options of an action outside the table (a
+ * call that takes options as an action does: the library's
+ * ohm_scene_estimate), checked as the chain's parser checks them, into
+ * *inv (where: "argument N" as on the command line); free it with
+ * ohm_invocation_free.  The ohm_opt_* calls read it. */
+int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, const char *const *argv, ohm_error *err);
+void ohm_invocation_free(ohm_invocation *inv);
+
 /* Parse a pipeline file (or a buffer, for tests and fuzzing). */
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
 int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
+
+/* Every step's needs (ohm_step_io) met by the state s starts the chain
+ * with and the steps that run before it, in the order ohm_chain_run runs
+ * them; else OHM_ERR_USAGE with one line naming the step, what it lacks,
+ * and the earlier step that removed it or gave something else instead.
+ * Runs nothing.  ohm_chain_run calls it first. */
+int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err);
 
 /* Run every invocation in order (a step that `waits` after the scene steps
  * that follow it); stops at the first failure, whose message

@@ -595,6 +595,13 @@ static int write_image(const render_request *q, const float *img, ohm_output_bat
 
 /* ---- the action ----------------------------------------------------------------- */
 
+void ohm_render_io(const ohm_invocation *inv, ohm_step_io *io)
+{
+    (void)inv;
+    io->needs[0] = (ohm_need){OHM_RES_SOLUTION, 0, "no solution yet: put -solve before it"};
+    io->needs[1] = (ohm_need){OHM_RES_MESH, 0, "needs the mesh the solution was computed on"};
+}
+
 int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
     render_request q;

@@ -18,5 +18,6 @@
 
 extern const ohm_opt_spec ohm_render_opts[];
 int ohm_run_render(ohm_state *s, const ohm_invocation *inv, ohm_error *err);
+void ohm_render_io(const ohm_invocation *inv, ohm_step_io *io);
 
 #endif

@@ -23,6 +23,8 @@
  * scene's solve are outputs/exitance_probe.c's, which -voxelize error= uses. */
 #include "studies/accuracy.h"
 
+#include "base/options.h"
+
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -59,6 +61,7 @@ typedef struct acc_options {
     const char *csv;
     int model_mc;                   /* model=mc: diffusion against transport */
     int64_t photons;                /* per Monte Carlo solve                 */
+    ohm_opt_values given;           /* the words as given (accuracy_opts); the texts point into it */
 } acc_options;
 
 typedef struct acc_row {
@@ -165,60 +168,47 @@ static int parse_list(const char *key, const char *text, double lo, double hi, d
     return OHM_OK;
 }
 
+/* `ohm accuracy`'s options (base/options.h: the words checked as the
+ * pipeline's are; the lists are read after) */
+static const ohm_opt_spec accuracy_opts[] = {
+    {"mesh", OHM_OPT_STRING, "samples/spot.obj", "mesh to read", NULL, 0, 0, 0},
+    {"size", OHM_OPT_REAL, "50", "scale the longest axis to this many mm", NULL, 1e-9, 1e9, 0},
+    {"materials", OHM_OPT_STRING, "marble,skin1,ketchup", "presets, separated by commas", NULL, 0, 0, 0},
+    {"dims", OHM_OPT_STRING, "16,24,32,48,64,96,128", "grid sizes, increasing", NULL, 0, 0, 0},
+    {"ref", OHM_OPT_INT, "192", "the reference grid, 4..2048, or 0 for none", NULL, 0, 2048, 0},
+    {"solvers", OHM_OPT_ENUM, "direct,cg", "the solvers timed", "direct|cg|direct,cg|cg,direct", 0, 0, 0},
+    {"bands", OHM_OPT_STRING, "1,2,3,4", "depth bands", NULL, 0, 0, 0},
+    {"band_dim", OHM_OPT_INT, "0", "the depth bands' grid (0: the largest of dims=)", NULL, 0, 2048, 0},
+    {"slab", OHM_OPT_STRING, "1,0.5,0.35,0.25", "the slab's voxel sizes (mm), or 0 for none", NULL, 0, 0, 0},
+    {"csv", OHM_OPT_STRING, NULL, "every row", NULL, 0, 0, 0},
+    {"model", OHM_OPT_ENUM, "none", "mc: diffusion against Monte Carlo transport", "mc|none", 0, 0, 0},
+    {"photons", OHM_OPT_REAL, "1e6", "photons per Monte Carlo solve", NULL, 16, 1e12, 0},
+    {0}};
+
 static int parse_options(acc_options *o, int argc, char **argv, ohm_error *err)
 {
     memset(o, 0, sizeof *o);
-    o->mesh = "samples/spot.obj";
-    o->size = 50;
-    const char *mats = "marble,skin1,ketchup", *dims = "16,24,32,48,64,96,128", *bands = "1,2,3,4";
-    const char *slab = "1,0.5,0.35,0.25";
-    o->ref = 192;
-    o->direct = o->cg = 1;
-    o->photons = 1000000;
-    for (int i = 0; i < argc; ++i) {
-        const char *a = argv[i], *eq = strchr(a, '=');
-        if (!eq) return usage_error(err, "'%s': options are key=value words", a);
-        size_t kl = (size_t)(eq - a);
-        const char *v = eq + 1;
-#define KEY(s) (kl == strlen(s) && strncmp(a, s, kl) == 0)
-        if (KEY("mesh")) o->mesh = v;
-        else if (KEY("size")) {
-            char *end;
-            o->size = strtod(v, &end);
-            if (*end || !(o->size > 0 && o->size < 1e9)) return usage_error(err, "size=%s: expected mm > 0", v);
-        } else if (KEY("materials")) mats = v;
-        else if (KEY("dims")) dims = v;
-        else if (KEY("ref")) {
-            char *end;
-            long r = strtol(v, &end, 10);
-            if (*end || (r != 0 && r < 4) || r > 2048)
-                return usage_error(err, "ref=%s: expected a grid size 4..2048, or 0 for none", v);
-            o->ref = (int)r;
-        } else if (KEY("solvers")) {
-            o->direct = strstr(v, "direct") != NULL;
-            o->cg = strstr(v, "cg") != NULL;
-            if (!o->direct && !o->cg) return usage_error(err, "solvers=%s: expected direct, cg or direct,cg", v);
-        } else if (KEY("bands")) bands = v;
-        else if (KEY("band_dim")) {
-            char *end;
-            long r = strtol(v, &end, 10);
-            if (*end || r < 0 || r > 2048) return usage_error(err, "band_dim=%s: expected a grid size", v);
-            o->band_dim = (int)r;
-        } else if (KEY("slab")) slab = v;
-        else if (KEY("csv")) o->csv = v;
-        else if (KEY("model")) {
-            if (strcmp(v, "mc") && strcmp(v, "none"))
-                return usage_error(err, "model=%s: expected mc (diffusion against Monte Carlo transport) or none", v);
-            o->model_mc = strcmp(v, "mc") == 0;
-        } else if (KEY("photons")) {
-            char *end;
-            double ph = strtod(v, &end);
-            if (*end || !(ph >= 16 && ph <= 1e12)) return usage_error(err, "photons=%s: expected 16 .. 1e12", v);
-            o->photons = (int64_t)ph;
-        }
-        else return usage_error(err, "unknown option '%.*s'", (int)kl, a);
-#undef KEY
-    }
+    int rc0 = ohm_opt_words(&o->given, accuracy_opts, "accuracy", argc, (const char *const *)argv, err);
+    if (rc0) return rc0;
+    const ohm_opt_values *g = &o->given;
+    long long n;
+    double x;
+    o->mesh = ohm_opt_text(g, "mesh");
+    ohm_opt_parse_real(ohm_opt_text(g, "size"), &o->size);
+    const char *mats = ohm_opt_text(g, "materials"), *dims = ohm_opt_text(g, "dims"), *bands = ohm_opt_text(g, "bands");
+    const char *slab = ohm_opt_text(g, "slab");
+    ohm_opt_parse_int(ohm_opt_text(g, "ref"), &n);
+    if (n != 0 && n < 4) return usage_error(err, "ref=%lld: expected a grid size 4..2048, or 0 for none", n);
+    o->ref = (int)n;
+    const char *solvers = ohm_opt_text(g, "solvers");
+    o->direct = strstr(solvers, "direct") != NULL;
+    o->cg = strstr(solvers, "cg") != NULL;
+    ohm_opt_parse_int(ohm_opt_text(g, "band_dim"), &n);
+    o->band_dim = (int)n;
+    o->csv = ohm_opt_text(g, "csv");
+    o->model_mc = strcmp(ohm_opt_text(g, "model"), "mc") == 0;
+    ohm_opt_parse_real(ohm_opt_text(g, "photons"), &x);
+    o->photons = (int64_t)x;
     double d[ACC_MAX_DIMS];
     int rc = parse_list("dims", dims, 4, 2048, d, ACC_MAX_DIMS, &o->ndims, err);
     if (rc) return rc;
@@ -368,7 +358,7 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
         ohm_log_info(log, "accuracy: %s dim %d: Monte Carlo, %.3g photons", row->material, dim, (double)mc_photons);
         ohm_solution t;
         double t0 = ohm_now();
-        rc = ohm_probe_solve(&t, &g, flipped, mesh, mat, &light, 1, "mc", 0, mc_photons, err);
+        rc = ohm_probe_solve(&t, &g, flipped, mesh, mat, &light, 1, OHM_SOLVER_MC, 0, mc_photons, err);
         if (!rc) {
             row->t_mc = ohm_now() - t0;
             double *Pmc = ohm_exitance_binned(Lat, &t, &g);
@@ -647,5 +637,6 @@ int ohm_accuracy_main(int argc, char **argv)
     const ohm_log log = {.verbosity = 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
+    ohm_opt_values_free(&o.given);
     return ohm_subcommand_exit(rc, &err, "accuracy failed");
 }

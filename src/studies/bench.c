@@ -8,7 +8,7 @@
  * only the largest grid that fits is factorized.  Results live in the structs
  * below, passed down and printed at the end: Markdown on stdout and md=, CSV
  * on csv=, progress on stderr. */
-#include "base/suggest.h"
+#include "base/options.h"
 #include "studies/bench.h"
 
 #include <errno.h>
@@ -47,7 +47,6 @@ void dgemm_(const char *transa, const char *transb, const int *m, const int *n, 
 enum { BENCH_MAX_SIZES = 32, BENCH_MAX_DIM = 4096 };
 
 /* The paper's four Al/Dolphin grids and the next doubling. */
-static const int default_sizes[][3] = {{8, 8, 4}, {16, 16, 8}, {32, 32, 16}, {64, 64, 32}, {128, 128, 64}};
 #define DEFAULT_SIZES_TEXT "8x8x4,16x16x8,32x32x16,64x64x32,128x128x64"
 
 /* Machine measurement sizes.  The triad's three arrays together are ~200 MB,
@@ -82,9 +81,11 @@ typedef struct bench_options {
     ohm_shadows shadows;
     const char *csv, *md;
     const char *device;    /* device=: also the device rows (device_bench.h); NULL: none */
+    ohm_device_request device_request; /* the same, read once */
     int device_sizes[BENCH_MAX_SIZES]; /* the block medium's N^3 there     */
     size_t ndevice_sizes;
     double photons;        /* cube60 on the device; the host traces 1/100 (>= 1e5) */
+    ohm_opt_values given;  /* the words as given (bench_opts); the texts above point into it */
 } bench_options;
 
 typedef struct bench_machine {
@@ -124,11 +125,27 @@ typedef struct bench_figures {
 
 /* ---- usage and option parsing ------------------------------------------------ */
 
-static const char *const option_names[] = {"mesh",    "size",     "material", "sizes",        "max",
-                                           "mem",     "max_time", "frames",   "batch",        "ordering",
-                                           "shadows", "csv",      "md",       "device",       "device_sizes",
-                                           "photons"};
-enum { NOPTIONS = sizeof option_names / sizeof *option_names };
+/* `ohm bench`'s options (base/options.h: the words checked as the
+ * pipeline's are; the lists below are read after) */
+static const ohm_opt_spec bench_opts[] = {
+    {"mesh", OHM_OPT_STRING, "samples/spot.obj", "mesh to read", NULL, 0, 0, 0},
+    {"size", OHM_OPT_REAL, "50", "scale the longest axis to this many mm", NULL, 1e-6, 1e9, 0},
+    {"material", OHM_OPT_STRING, "marble", "measured preset", NULL, 0, 0, 0},
+    {"sizes", OHM_OPT_STRING, DEFAULT_SIZES_TEXT, "grids, e.g. 8x8x4,16x16x8", NULL, 0, 0, 0},
+    {"max", OHM_OPT_ENUM, "0", "also the largest grid that fits", "0|1", 0, 0, 0},
+    {"mem", OHM_OPT_REAL, "0.6", "share of the available memory max=1 may plan for", NULL, 1e-6, 0.95, 0},
+    {"max_time", OHM_OPT_REAL, "0", "max=1: stop growing past this predicted factorization time (s)", NULL, 0, 1e9,
+     0},
+    {"frames", OHM_OPT_INT, "16", "lights, one per frame", NULL, 1, 100000, 0},
+    {"batch", OHM_OPT_STRING, "1", "frames per solve, or all", NULL, 0, 0, 0},
+    {"ordering", OHM_OPT_ENUM, "grid", "the factor's ordering", "metis|amd|nesdis|grid|best", 0, 0, 0},
+    {"shadows", OHM_OPT_ENUM, "mesh", "shadow rays in the source", "mesh|grid|none", 0, 0, 0},
+    {"csv", OHM_OPT_STRING, NULL, "every raw figure, one row per grid", NULL, 0, 0, 0},
+    {"md", OHM_OPT_STRING, NULL, "the Markdown table", NULL, 0, 0, 0},
+    {"device", OHM_OPT_DEVICE, NULL, "also an OpenCL device against this machine's cores", NULL, 0, 0, 0},
+    {"device_sizes", OHM_OPT_STRING, "100,216", "the block medium's N^3 grids on the device", NULL, 0, 0, 0},
+    {"photons", OHM_OPT_REAL, "1e6", "cube60's photons on the device", NULL, 16, 1e12, 0},
+    {0}};
 
 static void usage(FILE *f)
 {
@@ -192,17 +209,6 @@ static int parse_long(const char *s, long lo, long hi, long *out)
     return 0;
 }
 
-static int parse_double(const char *s, double lo, double hi, double *out)
-{
-    if (!*s) return -1;
-    char *end;
-    errno = 0;
-    double v = strtod(s, &end);
-    if (*end || errno == ERANGE || !isfinite(v) || v < lo || v > hi) return -1;
-    *out = v;
-    return 0;
-}
-
 /* "8x8x4,16x16x8": three positive counts per size, nothing else. */
 static int parse_sizes(bench_options *o, const char *text, ohm_error *err)
 {
@@ -234,105 +240,51 @@ static int parse_sizes(bench_options *o, const char *text, ohm_error *err)
 static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err)
 {
     memset(o, 0, sizeof *o);
-    o->mesh = "samples/spot.obj";
-    o->size_mm = 50;
-    o->material = "marble";
-    o->nsizes = sizeof default_sizes / sizeof *default_sizes;
-    memcpy(o->sizes, default_sizes, sizeof default_sizes);
-    o->mem = 0.6;
-    o->frames = 16;
-    o->batch = 1;
-    o->ordering = "grid"; /* what -solve's ordering=auto picks for a mesh */
-    o->shadows = OHM_SHADOWS_MESH;
-    o->device_sizes[0] = 100;
-    o->device_sizes[1] = 216;
-    o->ndevice_sizes = 2;
-    o->photons = 1e6;
-    int seen[NOPTIONS] = {0};
-    for (int i = 0; i < argc; ++i) {
-        const char *word = argv[i];
-        const char *eq = strchr(word, '=');
-        char key[64];
-        size_t klen = eq ? (size_t)(eq - word) : strlen(word);
-        snprintf(key, sizeof key, "%.*s", (int)(klen < sizeof key ? klen : sizeof key - 1), word);
-        int k = -1;
-        for (int j = 0; j < NOPTIONS; ++j)
-            if (strcmp(key, option_names[j]) == 0) k = j;
-        if (k < 0) {
-            const char *s = ohm_suggest(key, option_names, NOPTIONS);
-            if (s) return usage_error(err, "unknown option '%s'; did you mean '%s'?", key, s);
-            return usage_error(err, "unknown option '%s'%s", key, eq ? "" : "; options are key=value words");
-        }
-        if (!eq) return usage_error(err, "option '%s' needs a value: %s=...", key, key);
-        if (seen[k]++) return usage_error(err, "option '%s' is given twice", key);
-        const char *v = eq + 1;
-        long n;
-        double x;
-        if (strcmp(key, "mesh") == 0) {
-            if (!*v) return usage_error(err, "mesh=: expected a file name");
-            o->mesh = v;
-        } else if (strcmp(key, "size") == 0) {
-            if (parse_double(v, 1e-6, 1e9, &x)) return usage_error(err, "size=%s: expected a length in mm > 0", v);
-            o->size_mm = x;
-        } else if (strcmp(key, "material") == 0) {
-            ohm_material m;
-            if (ohm_material_preset(&m, v, NULL))
-                return usage_error(err, "material=%s: expected a preset: %s", v, ohm_preset_names);
-            o->material = v;
-        } else if (strcmp(key, "sizes") == 0) {
-            int rc = parse_sizes(o, v, err);
-            if (rc) return rc;
-        } else if (strcmp(key, "max") == 0) {
-            if (parse_long(v, 0, 1, &n)) return usage_error(err, "max=%s: expected 0 or 1", v);
-            o->max = (int)n;
-        } else if (strcmp(key, "mem") == 0) {
-            if (parse_double(v, 1e-6, 0.95, &x) || !(x > 0))
-                return usage_error(err, "mem=%s: expected a fraction of the available memory, 0 < mem <= 0.95", v);
-            o->mem = x;
-        } else if (strcmp(key, "max_time") == 0) {
-            if (parse_double(v, 0, 1e9, &x)) return usage_error(err, "max_time=%s: expected seconds >= 0", v);
-            o->max_time = x;
-        } else if (strcmp(key, "frames") == 0) {
-            if (parse_long(v, 1, 100000, &n))
-                return usage_error(err, "frames=%s: expected an integer from 1 to 100000", v);
-            o->frames = (int)n;
-        } else if (strcmp(key, "batch") == 0) {
-            if (strcmp(v, "all") == 0) o->batch = 0;
-            else if (parse_long(v, 1, 100000, &n))
-                return usage_error(err, "batch=%s: expected 'all' or an integer from 1 to 100000", v);
-            else o->batch = (int)n;
-        } else if (strcmp(key, "ordering") == 0) {
-            if (strcmp(v, "metis") && strcmp(v, "amd") && strcmp(v, "nesdis") && strcmp(v, "grid") && strcmp(v, "best"))
-                return usage_error(err, "ordering=%s: expected metis, amd, nesdis, grid or best", v);
-            o->ordering = v;
-        } else if (strcmp(key, "shadows") == 0) {
-            if (strcmp(v, "mesh") == 0) o->shadows = OHM_SHADOWS_MESH;
-            else if (strcmp(v, "grid") == 0) o->shadows = OHM_SHADOWS_GRID;
-            else if (strcmp(v, "none") == 0) o->shadows = OHM_SHADOWS_NONE;
-            else return usage_error(err, "shadows=%s: expected mesh, grid or none", v);
-        } else if (strcmp(key, "device") == 0) {
-            if (!*v) return usage_error(err, "device=: expected gpu, cpu, opencl:N or auto");
-            o->device = v; /* checked where it is opened (devices.h) */
-        } else if (strcmp(key, "device_sizes") == 0) {
-            o->ndevice_sizes = 0;
-            for (const char *q = v; *q;) {
-                char *end;
-                long nx = strtol(q, &end, 10);
-                if (end == q || nx < 8 || nx > 2000 || o->ndevice_sizes == BENCH_MAX_SIZES || (*end && *end != ','))
-                    return usage_error(err, "device_sizes=%s: expected grid sizes 8..2000, e.g. 100,216", v);
-                o->device_sizes[o->ndevice_sizes++] = (int)nx;
-                q = *end ? end + 1 : end;
-            }
-            if (!o->ndevice_sizes) return usage_error(err, "device_sizes=: expected grid sizes, e.g. 100,216");
-        } else if (strcmp(key, "photons") == 0) {
-            if (parse_double(v, 16, 1e12, &x)) return usage_error(err, "photons=%s: expected a count 16..1e12", v);
-            o->photons = x;
-        } else if (strcmp(key, "csv") == 0 || strcmp(key, "md") == 0) {
-            if (!*v) return usage_error(err, "%s=: expected a file name", key);
-            if (strcmp(key, "csv") == 0) o->csv = v;
-            else o->md = v;
-        }
+    int rc = ohm_opt_words(&o->given, bench_opts, "bench", argc, (const char *const *)argv, err);
+    if (rc) return rc;
+    const ohm_opt_values *g = &o->given;
+    double x;
+    long long n;
+    o->mesh = ohm_opt_text(g, "mesh");
+    ohm_opt_parse_real(ohm_opt_text(g, "size"), &o->size_mm);
+    o->material = ohm_opt_text(g, "material");
+    ohm_material m;
+    if (ohm_material_preset(&m, o->material, NULL))
+        return usage_error(err, "material=%s: expected a preset: %s", o->material, ohm_preset_names);
+    rc = parse_sizes(o, ohm_opt_text(g, "sizes"), err);
+    if (rc) return rc;
+    o->max = strcmp(ohm_opt_text(g, "max"), "1") == 0;
+    ohm_opt_parse_real(ohm_opt_text(g, "mem"), &o->mem);
+    ohm_opt_parse_real(ohm_opt_text(g, "max_time"), &o->max_time);
+    ohm_opt_parse_int(ohm_opt_text(g, "frames"), &n);
+    o->frames = (int)n;
+    const char *batch = ohm_opt_text(g, "batch");
+    if (strcmp(batch, "all") == 0) o->batch = 0;
+    else if (ohm_opt_parse_int(batch, &n) || n < 1 || n > 100000)
+        return usage_error(err, "batch=%s: expected 'all' or an integer from 1 to 100000", batch);
+    else o->batch = (int)n;
+    o->ordering = ohm_opt_text(g, "ordering");
+    const char *sh = ohm_opt_text(g, "shadows");
+    o->shadows = strcmp(sh, "grid") == 0 ? OHM_SHADOWS_GRID : strcmp(sh, "none") == 0 ? OHM_SHADOWS_NONE
+                                                                                        : OHM_SHADOWS_MESH;
+    o->csv = ohm_opt_text(g, "csv");
+    o->md = ohm_opt_text(g, "md");
+    o->device = ohm_opt_text(g, "device");
+    if (o->device && (ohm_device_request_expected(o->device) || strcmp(o->device, "host") == 0))
+        return usage_error(err, "device=%s: expected gpu, cpu, opencl:N or auto", o->device);
+    if (o->device) ohm_device_request_parse(&o->device_request, o->device, NULL); /* read once: typed from here */
+    const char *ds = ohm_opt_text(g, "device_sizes");
+    for (const char *q = ds; *q;) {
+        char *end;
+        long nx = strtol(q, &end, 10);
+        if (end == q || nx < 8 || nx > 2000 || o->ndevice_sizes == BENCH_MAX_SIZES || (*end && *end != ','))
+            return usage_error(err, "device_sizes=%s: expected grid sizes 8..2000, e.g. 100,216", ds);
+        o->device_sizes[o->ndevice_sizes++] = (int)nx;
+        q = *end ? end + 1 : end;
     }
+    if (!o->ndevice_sizes) return usage_error(err, "device_sizes=: expected grid sizes, e.g. 100,216");
+    ohm_opt_parse_real(ohm_opt_text(g, "photons"), &x);
+    o->photons = x;
     return OHM_OK;
 }
 
@@ -777,13 +729,13 @@ static int measure_device(bench_machine *m, const bench_options *o, const ohm_lo
                "the hierarchy built on the host once and copied to the device (timed apart).\n\n");
     ohm_device_bench_mg_header(f);
     int rc = OHM_OK;
-    for (size_t i = 0; i < o->ndevice_sizes && !rc; ++i) rc = ohm_device_bench_mg(f, o->device, o->device_sizes[i], err);
+    for (size_t i = 0; i < o->ndevice_sizes && !rc; ++i) rc = ohm_device_bench_mg(f, &o->device_request, o->device_sizes[i], err);
     if (!rc) {
         fprintf(f, "\n### On device=%s: the Monte Carlo tracer on MCX's cube60\n\n", o->device);
         fprintf(f, "60³ cells of 1 mm, σa 0.005, σs 1/mm, g 0.01, a pencil beam, no reflection, a 5 ns gate; the time "
                    "includes opening the device, building the kernels and copying the scene.\n\n");
         ohm_device_bench_mc_header(f);
-        rc = ohm_device_bench_cube60(f, o->device, (int64_t)o->photons, 1, err);
+        rc = ohm_device_bench_cube60(f, &o->device_request, (int64_t)o->photons, 1, err);
     }
     if (!rc) rc = ohm_device_bench_cube60(f, NULL, (int64_t)fmax(1e5, o->photons / 100), 1, err);
     fclose(f);
@@ -941,5 +893,6 @@ int ohm_bench_main(int argc, char **argv)
     const ohm_log log = {.verbosity = 1};
     int rc = parse_options(&o, argc, argv, &err);
     if (!rc) rc = run(&o, &log, &err);
+    ohm_opt_values_free(&o.given);
     return ohm_subcommand_exit(rc, &err, "bench failed");
 }

@@ -19,8 +19,10 @@ void ohm_device_bench_mg_header(FILE *out)
     fprintf(out, "|---|---:|---:|---:|---|---:|---:|---:|---:|---:|\n");
 }
 
-int ohm_device_bench_mg(FILE *out, const char *spec, int nx, ohm_error *err)
+int ohm_device_bench_mg(FILE *out, const ohm_device_request *req, int nx, ohm_error *err)
 {
+    char spec[32];
+    ohm_device_request_name(req, spec, sizeof spec);
     ohm_voxel_grid g;
     ohm_coeff *ss = NULL;
     if (ohm_block_medium_grid(&g, nx, &ss, 8)) return ohm_fail(err, OHM_ERR_NOMEM, "bench: out of memory for %d^3", nx);
@@ -50,7 +52,7 @@ int ohm_device_bench_mg(FILE *out, const char *spec, int nx, ohm_error *err)
     }
     if (!rc) {
         double t0 = ohm_now();
-        rc = ohm_mg_device_open(&dev, mg, spec, NULL, err);
+        rc = ohm_mg_device_open(&dev, mg, req, NULL, err);
         t_copy = ohm_now() - t0;
         if (!rc && !dev) rc = ohm_fail(err, OHM_ERR_INVALID, "device=%s: no device (the host would run it)", spec);
     }
@@ -110,7 +112,7 @@ static int cube60_entry(ohm_light_entry *e, const ohm_network *net, const ohm_vo
     return e->face < 0 ? ohm_fail(err, OHM_ERR_INTERNAL, "cube60: no top face at the beam") : OHM_OK;
 }
 
-int ohm_device_bench_cube60(FILE *out, const char *spec, int64_t photons, uint64_t seed, ohm_error *err)
+int ohm_device_bench_cube60(FILE *out, const ohm_device_request *req, int64_t photons, uint64_t seed, ohm_error *err)
 {
     enum { N = 60 };
     ohm_voxel_grid g;
@@ -136,7 +138,8 @@ int ohm_device_bench_cube60(FILE *out, const char *spec, int64_t photons, uint64
     med.g = 0.01;
     med.eta = 1.0;
     ohm_mc_result r = {.fluence = phi, .fluence_se = phi_se, .face_exitance = face, .exitance_se = exit_se};
-    ohm_mc_params p = {.photons = photons, .seed = seed, .max_path = 5.0 * 299.792458 / 1.37, .device = spec};
+    ohm_mc_params p = {.photons = photons, .seed = seed, .max_path = 5.0 * 299.792458 / 1.37};
+    if (req) p.device = *req;
     if (!rc) rc = ohm_mc_trace(&r, &net, &med, &e, 1, 0, &p, err);
     if (!rc) {
         char where[128];

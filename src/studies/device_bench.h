@@ -18,14 +18,15 @@
 #include <stdio.h>
 
 #include "base/ohm_error.h"
+#include "device/request.h"
 
 void ohm_device_bench_mg_header(FILE *out);
-/* One row at nx^3 on device `spec` (gpu, cpu, opencl:N, auto). */
-int ohm_device_bench_mg(FILE *out, const char *spec, int nx, ohm_error *err);
+/* One row at nx^3 on the device `req` asks for (gpu, cpu, opencl:N, auto). */
+int ohm_device_bench_mg(FILE *out, const ohm_device_request *req, int nx, ohm_error *err);
 
 void ohm_device_bench_mc_header(FILE *out);
-/* One row: cube60 with `photons` on device `spec`, or on the host's cores
- * (spec NULL), from seed `seed`. */
-int ohm_device_bench_cube60(FILE *out, const char *spec, int64_t photons, uint64_t seed, ohm_error *err);
+/* One row: cube60 with `photons` on the device `req` asks for, or on the
+ * host's cores (req NULL), from seed `seed`. */
+int ohm_device_bench_cube60(FILE *out, const ohm_device_request *req, int64_t photons, uint64_t seed, ohm_error *err);
 
 #endif

@@ -342,7 +342,7 @@ int ohm_halfspace_accuracy(ohm_halfspace_result *out, double h, int use_cg, cons
     memset(&p, 0, sizeof p);
     p.op.boundary = OHM_BOUNDARY_ROBIN;
     p.num.ordering = "metis";
-    p.num.solver = use_cg ? "cg" : "direct";
+    p.num.solver = use_cg ? OHM_SOLVER_CG : OHM_SOLVER_DIRECT;
     p.op.mirrors = &mirror;
     p.src.custom_source = src_beam;
     p.src.custom_user = &bs;

@@ -12,6 +12,7 @@
 #include "physics/light.h"
 #include "base/log.h"
 #include "base/ohm_error.h"
+#include "device/request.h"
 
 typedef struct ohm_check_row {
     char name[128];      /* the scene and quantity                         */
@@ -74,7 +75,7 @@ typedef struct ohm_transport_config {
     ohm_fresnel fresnel;      /* the diffusion solve's settings            */
     ohm_deposit deposit;
     int hybrid;               /* > 0: -solve hybrid= (solve.h, mc.handoff)  */
-    const char *device;       /* where the photons run (mc.h): NULL/host, gpu, cpu, opencl:N, auto */
+    ohm_device_request device; /* where the photons run (mc.h; zero: the host) */
     double tol_fluence_mean, tol_fluence_rms, tol_absorbed, tol_reflectance, tol_rings;
 } ohm_transport_config;
 void ohm_transport_config_default(ohm_transport_config *cfg); /* the transport study's targets, h 1, size 60, 1e6 */
@@ -84,7 +85,7 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
  * values, `photons` each (random stream `seed`): van de Hulst's matched slab (MCML's check), MCML's
  * mismatched half-space, MCX's cube60 absorbed fraction; each row passes
  * within 4 combined standard errors; and its speed on cube60. */
-int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const char *device,
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, ohm_device_request device,
                     const ohm_log *log, ohm_error *err);
 
 /* All of the above, in order. */

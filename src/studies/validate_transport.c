@@ -80,7 +80,7 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     p.op.mirrors = &mirror;
     p.op.fresnel = cfg->fresnel;
     p.src.deposit = cfg->deposit;
-    p.num.solver = mc ? "mc" : "auto";
+    p.num.solver = mc ? OHM_SOLVER_MC : OHM_SOLVER_AUTO;
     if (mc) p.mc = *mc;
     if (!mc && cfg->hybrid > 0) { /* the hybrid: its transport part from another stream than the reference's */
         p.mc.photons = cfg->photons;
@@ -396,7 +396,7 @@ static void published_row(ohm_validation *v, const char *name, const char *ref, 
     ohm_validation_add(v, name, ref, measured, expected, fabs(measured - expected), tol);
 }
 
-int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, const char *device,
+int ohm_validate_mc(ohm_validation *v, int64_t photons, uint64_t seed, int threads, ohm_device_request device,
                     const ohm_log *log, ohm_error *err)
 {
     ohm_mc_params p = {.photons = photons, .seed = seed, .threads = threads, .log = log, .device = device};
