@@ -22,6 +22,8 @@ from ohm_blender import operators, session
 
 MODE, DIM = sys.argv[sys.argv.index("--") + 1], int(sys.argv[sys.argv.index("--") + 2])
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+sys.path.insert(0, os.path.join(ROOT, "tests"))
+from blender_scene import read_obj, scene_with_mesh  # noqa: E402
 marks = []  # (what, start, seconds) of the add-on's main-thread steps
 
 
@@ -43,26 +45,10 @@ timed(operators, "_after_setup")
 
 
 def build_scene():
-    for o in list(bpy.data.objects):
-        bpy.data.objects.remove(o)
-    sc = bpy.context.scene
-    sc.unit_settings.scale_length = 0.001
-    verts, faces = [], []
-    for line in open(os.path.join(ROOT, "samples", "spot.obj")):
-        t = line.split()
-        if t and t[0] == "v":
-            verts.append(tuple(float(x) for x in t[1:4]))
-        elif t and t[0] == "f":
-            faces.append(tuple(int(w.split("/")[0]) - 1 for w in t[1:]))
+    verts, faces = read_obj(os.path.join(ROOT, "samples", "spot.obj"))
     verts = np.array(verts)
     verts = (verts - verts.mean(axis=0)) * (50.0 / np.ptp(verts, axis=0).max())
-    me = bpy.data.meshes.new("spot")
-    me.from_pydata([tuple(v) for v in verts], [], faces)
-    me.update()
-    obj = bpy.data.objects.new("spot", me)
-    sc.collection.objects.link(obj)
-    bpy.context.view_layer.objects.active = obj
-    obj.select_set(True)
+    sc, obj = scene_with_mesh("spot", verts, faces)
     lamp_data = bpy.data.lights.new("lamp", "POINT")
     lamp_data.energy = 2.0e4
     lamp = bpy.data.objects.new("lamp", lamp_data)

@@ -39,6 +39,8 @@ MOVES = int(args[6]) if len(args) > 6 else 24
 # 2.4e5 cells, where a factorization takes seconds
 BIG_DIM = 120
 report = {"mode": MODE, "dim": DIM, "problems": []}
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_scene import install_addon, read_obj, scene_with_mesh  # noqa: E402
 
 
 def problem(text):
@@ -46,36 +48,14 @@ def problem(text):
     print("PROBLEM:", text)
 
 
-def read_obj(path):
-    verts, faces = [], []
-    for line in open(path):
-        t = line.split()
-        if not t:
-            continue
-        if t[0] == "v":
-            verts.append(tuple(float(x) for x in t[1:4]))
-        elif t[0] == "f":
-            faces.append(tuple(int(w.split("/")[0]) - 1 for w in t[1:]))
-    return np.array(verts), faces
-
-
-bpy.ops.preferences.addon_install(filepath=os.path.abspath(ZIP), overwrite=True)
-bpy.ops.preferences.addon_enable(module="ohm_blender")
+install_addon(ZIP)
 from ohm_blender import bridge, estimate, operators, session  # noqa: E402  (installed just now)
 
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
-sc = bpy.context.scene
-sc.unit_settings.scale_length = 0.001  # 1 Blender unit = 1 mm
 verts, faces = read_obj(MESH)
+verts = np.array(verts)
 verts = (verts - verts.mean(axis=0)) * (50.0 / np.ptp(verts, axis=0).max())
-me = bpy.data.meshes.new("spot")
-me.from_pydata([tuple(v) for v in verts], [], faces)
-me.update()
-obj = bpy.data.objects.new("spot", me)
-sc.collection.objects.link(obj)
-bpy.context.view_layer.objects.active = obj
-obj.select_set(True)
+sc, obj = scene_with_mesh("spot", verts, faces)
+me = obj.data
 lamp_data = bpy.data.lights.new("lamp", "POINT")
 lamp_data.energy = 2.0e4  # W: about 1.3 mW/mm^2 at 110 mm
 lamp = bpy.data.objects.new("lamp", lamp_data)

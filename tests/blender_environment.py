@@ -24,35 +24,15 @@ import bpy
 import numpy as np
 
 ZIP, MESH, OUT = sys.argv[sys.argv.index("--") + 1:][:3]
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from blender_scene import install_addon, read_obj, scene_with_mesh  # noqa: E402
 
 
-def read_obj(path):
-    verts, faces = [], []
-    for line in open(path):
-        t = line.split()
-        if t and t[0] == "v":
-            verts.append(tuple(float(x) for x in t[1:4]))
-        elif t and t[0] == "f":
-            faces.append(tuple(int(w.split("/")[0]) - 1 for w in t[1:]))
-    return verts, faces
-
-
-bpy.ops.preferences.addon_install(filepath=os.path.abspath(ZIP), overwrite=True)
-bpy.ops.preferences.addon_enable(module="ohm_blender")
+install_addon(ZIP)
 from ohm_blender import bridge, session  # noqa: E402  (installed just now)
 
-for o in list(bpy.data.objects):
-    bpy.data.objects.remove(o)
-sc = bpy.context.scene
-sc.unit_settings.scale_length = 0.001  # 1 Blender unit = 1 mm
 verts, faces = read_obj(MESH)
-me = bpy.data.meshes.new("object")
-me.from_pydata(verts, [], faces)
-me.update()
-obj = bpy.data.objects.new("object", me)
-sc.collection.objects.link(obj)
-bpy.context.view_layer.objects.active = obj
-obj.select_set(True)
+sc, obj = scene_with_mesh("object", verts, faces)
 obj.ohm.preset = "marble"
 obj.ohm.dim = 24
 obj.ohm.solver = "direct"
