@@ -1,6 +1,6 @@
 """ohm for Blender: subsurface scattering solved by ohm's diffusion network
 (libohm, bundled in this add-on's lib/), written onto the mesh as a colour
-attribute, relit live from one factor, baked over an animation.
+attribute, relit live from one solver set-up, baked over an animation.
 
 Operators (bpy.ops.ohm.*): solve (in the background when invoked from the
 panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake.  The
@@ -12,7 +12,7 @@ bl_info = {
     "version": (0, 2, 0),
     "blender": (3, 4, 0),
     "location": "Properties > Object > ohm",
-    "description": "Heterogeneous subsurface scattering by factor-once diffusion: solve, live relight, bake",
+    "description": "Heterogeneous subsurface scattering by set-up-once diffusion: solve, live relight, bake",
     "category": "Render",
 }
 

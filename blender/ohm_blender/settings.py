@@ -46,8 +46,9 @@ class OhmSettings(bpy.types.PropertyGroup):
                                             ("neumann", "Closed (neumann)", "the paper's: no light leaves"),
                                             ("dirichlet", "Zero (dirichlet)", "fluence 0 at the surface")])
     solver: bpy.props.EnumProperty(name="Solver", default="auto",
-                                   items=[("auto", "Auto", "the factor up to 2.5e5 cells where it fits (the fastest "
-                                           "relights there), multigrid beyond (docs/blender.md)"),
+                                   items=[("auto", "Auto", "the library's choice by memory and predicted time over a "
+                                           "Live session's solves: the factor where it fits and pays, multigrid beyond "
+                                           "(docs/blender-addon.md)"),
                                           ("direct", "Direct (factor once)", "Cholesky factor reused for every light"),
                                           ("mg", "Multigrid", "geometric multigrid: large grids, low memory, "
                                            "a quick first solve"),

@@ -249,8 +249,8 @@ static int send_medium(ohm_mc_device *d, const ohm_network *net, const ohm_chann
 }
 
 /* This trace's entries: their cumulative power in `channel`, their cells
- * and faces, their points and directions (mc.c's start_point, what does
- * not draw). */
+ * and faces, their points and directions (mc_step.h's mc_start_point, what
+ * does not draw). */
 static int send_entries(ohm_mc_device *d, const ohm_network *net, const ohm_light_entry *entries, size_t nentries,
                         int channel, double P, ohm_error *err)
 {

@@ -34,7 +34,7 @@ enum { KCYCLE_LEVELS = 2 };
  * bounded share of the whole (a thin sheet or line coarsens by 4 or 2). */
 static const double KCYCLE_MAX_RATIO = 0.25;
 
-/* A level: its operator, network.h's ohm_stencil (level 0: the network's
+/* A level: its operator, an ohm_stencil (physics/stencil_form.h; level 0: the network's
  * own, shared with the outer iteration, whose links are single precision
  * already, so the cycle needs no copy of them; a coarse level's: the
  * Galerkin sums, owned), the smoother's inverse diagonal, and the cycle's

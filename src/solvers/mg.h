@@ -95,7 +95,7 @@ double ohm_mg_bytes_estimate(int64_t n);
 void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
 
 /* The hierarchy as built, read-only, for running its cycle elsewhere (an
- * OpenCL device: mg_device.h).  Level l's stencil (network.h's form; level
+ * OpenCL device: mg_device.h).  Level l's stencil (physics/stencil_form.h; level
  * 0's is the network's), its inverse diagonal, its map into level l + 1
  * (NULL at the coarsest) and whether the K-cycle solves it; the coarsest
  * level's dense lower Cholesky factor (ndense x ndense, row-major). */

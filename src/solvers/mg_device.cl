@@ -16,7 +16,7 @@
  * sink_v x_v + sum_w g_vw (x_v - x_w), so that the rows' sum keeps the
  * power balance's digits.  off[v] = (-y, +y, -z, +z) offsets (0: none), g
  * three +x, +y, +z conductances per cell, sink the ground and boundary
- * (physics/network.h's ohm_stencil). */
+ * (physics/stencil_form.h's ohm_stencil). */
 inline double net_apply(__global const int4 *off, __global const float *g, __global const double *sink,
                         __global const double *x, long v, long n)
 {

@@ -19,7 +19,9 @@
 enum { OHM_HYBRID_PENCIL = 10 };
 
 /* Which solver: -solve solver=, read once from its name where the text
- * comes in (ohm_solver_kind_parse) and passed on typed.  Zero is direct. */
+ * comes in (ohm_solver_kind_parse) and passed on typed.  Zero is direct,
+ * what a zeroed ohm_solve_params asks inside the library; the -solve action,
+ * the API's solve and Python default to auto (steps/actions.c). */
 typedef enum ohm_solver_kind {
     OHM_SOLVER_DIRECT = 0, /* CHOLMOD's factor (solvers/direct.c)                */
     OHM_SOLVER_CG,         /* MIC(0) conjugate gradients (cg.c)                   */
@@ -36,7 +38,8 @@ typedef enum ohm_solver_kind {
 enum { OHM_SOLVES_TRANSPORT = 1u << 0, OHM_SOLVES_ON_DEVICE = 1u << 1 };
 
 /* The parameters of a solve, one struct per thing they configure,
- * gathered in ohm_solve_params below; zero-initialised means every default. */
+ * gathered in ohm_solve_params below; zero-initialised means every default
+ * (the solver's zero is direct: see ohm_solver_kind). */
 
 /* What the network's matrix is. */
 typedef struct ohm_operator_params {
