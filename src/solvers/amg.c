@@ -354,11 +354,13 @@ static int setup_collective(amg_state *s, const amg_cmd *cmd, const char *user_o
 }
 
 /* Every rank: column after column, scatter b, solve,
- * gather x (on rank 0, B and X are the whole n x ncols; elsewhere NULL). */
+ * gather x (on rank 0, B and X are the whole n x ncols; elsewhere NULL);
+ * the first column's KSP reason for stopping short of tol, if any, and how
+ * many columns did. */
 static int solve_collective(amg_state *s, int64_t ncols, const double *B, double *X, int64_t *iters, double *relres,
-                            int *reason, ohm_error *err)
+                            int *reason, int64_t *stopped_short, ohm_error *err)
 {
-    *iters = 0, *relres = 0, *reason = 0;
+    *iters = 0, *relres = 0, *reason = 0, *stopped_short = 0;
     for (int64_t j = 0; j < ncols; ++j) {
         size_t off = (size_t)j * (size_t)s->n;
         PetscScalar *pb;
@@ -377,6 +379,7 @@ static int solve_collective(amg_state *s, int64_t ncols, const double *B, double
         *iters += its;
         if (bnorm > 0 && rnorm / bnorm > *relres) *relres = rnorm / bnorm;
         if (why < 0 && *reason == 0) *reason = (int)why;
+        *stopped_short += why < 0;
         const PetscScalar *cx;
         PCALL("vectors", VecGetArrayRead(s->x, &cx));
         MPI_Gatherv(cx, (int)s->rows, MPI_DOUBLE, X ? X + off : NULL, s->counts, s->displs, MPI_DOUBLE, 0, proc.comm);
@@ -427,7 +430,8 @@ int ohm_mpi_serve(void)
             int64_t its;
             double relres;
             int reason;
-            solve_collective(&s, cmd.ncols, NULL, NULL, &its, &relres, &reason, &err);
+            int64_t stopped_short;
+            solve_collective(&s, cmd.ncols, NULL, NULL, &its, &relres, &reason, &stopped_short, &err);
         }
     }
     destroy_system(&s);
@@ -609,20 +613,23 @@ static int amg_solve(void *state, const ohm_operator *op, const double *B, doubl
         amg_cmd cmd = {.op = CMD_SOLVE, .n = s->n, .ncols = (int64_t)ncols};
         send_cmd(&cmd);
     }
-    int64_t its = 0;
+    int64_t its = 0, stopped_short = 0;
     double relres = 0;
     int reason = 0;
-    int rc = solve_collective(s, (int64_t)ncols, B, X, &its, &relres, &reason, err);
+    int rc = solve_collective(s, (int64_t)ncols, B, X, &its, &relres, &reason, &stopped_short, err);
     if (rc) return rc;
-    rep->iterations += its;
-    if (relres > rep->relres) rep->relres = relres;
-    if (!s->checked_options && (rc = check_options_used(s, err))) return rc;
+    if (!s->checked_options && (rc = check_options_used(s, err))) {
+        ohm_backend_book_columns(rep, its, relres, s->cfg.tol, 0);
+        return rc;
+    }
     *berr = ohm_backward_error(A, B, X, ncols, s->norm_A);
     /* a nearly singular A (almost no absorption, no leak) leaves a residual
      * floor of about kappa eps that CG cannot pass: accepted, as for
      * solver=cg, when the scaled backward error is as small as a converged
-     * solve's */
-    if (reason != 0 && !(*berr <= 0.01 * s->cfg.tol))
+     * solve's, and the columns that stopped short booked (the driver says so) */
+    int accepted = reason == 0 || *berr <= 0.01 * s->cfg.tol;
+    ohm_backend_book_columns(rep, its, relres, s->cfg.tol, accepted ? stopped_short : 0);
+    if (!accepted)
         return ohm_fail(err, OHM_ERR_NUMERIC,
                         "solve: amg did not converge: %s (relative residual %.3g after %lld iterations, "
                         "cg_tol=%.1g); use solver=direct, a looser cg_tol=, or other petsc_options=",

@@ -137,16 +137,26 @@ void ohm_backend_iterative_defaults(ohm_backend_config *cfg, int64_t max_iter)
     if (cfg->max_iter <= 0) cfg->max_iter = max_iter;
 }
 
+void ohm_backend_book_columns(ohm_backend_report *rep, int64_t iters, double relres, double tol, int64_t stopped_short)
+{
+    rep->iterations += iters;
+    if (relres > rep->relres) rep->relres = relres;
+    rep->tol = tol;
+    rep->stalled += stopped_short;
+}
+
 int ohm_backend_solve_columns(ohm_column_solver fn, void *solver, size_t n, const double *B, double *X, size_t ncols,
-                              ohm_backend_report *rep, ohm_error *err)
+                              double tol, ohm_backend_report *rep, ohm_error *err)
 {
     for (size_t j = 0; j < ncols; ++j) {
         int64_t its = 0;
         double relres = 0;
         if (j > 0) memcpy(X + j * n, X + (j - 1) * n, n * sizeof *X);
         int rc = fn(solver, X + j * n, B + j * n, &its, &relres, err);
-        rep->iterations += its;
-        if (relres > rep->relres) rep->relres = relres;
+        /* a column the solver accepted above tol passed its backward-error
+         * test at the cap or a residual floor (cg.c, mg_cycle.c): kept, but
+         * said; a failed column is no accepted one */
+        ohm_backend_book_columns(rep, its, relres, tol, !rc && relres > tol);
         if (rc) return rc;
     }
     return OHM_OK;

@@ -60,6 +60,10 @@ typedef struct ohm_backend_report {
     char ordering[16];          /* direct: metis | amd | nesdis | grid         */
     int64_t iterations;         /* iterative backends: summed over columns     */
     double relres;              /* iterative backends: largest final ||r||/||b|| */
+    double tol;                 /* iterative backends: the ||r||/||b|| asked (cg_tol) */
+    int64_t stalled;            /* iterative backends: columns accepted short of tol
+                                   (at the iteration cap or a residual floor, their
+                                   scaled backward error small): the driver warns */
     int refined;                /* direct: solves that took a refinement step  */
     double bytes;               /* memory the backend holds at most (estimate) */
     int ranks;                  /* MPI ranks that took part (amg), else 1      */
@@ -175,11 +179,16 @@ void ohm_backend_iterative_defaults(ohm_backend_config *cfg, int64_t max_iter);
 typedef int (*ohm_column_solver)(void *solver, double *x, const double *b, int64_t *iters, double *relres,
                                  ohm_error *err);
 
+/* Columns an iterative backend solved, booked in rep: their iterations,
+ * their largest final relative residual, the tolerance asked, and how many
+ * of them were accepted short of it (rep->stalled; the driver warns). */
+void ohm_backend_book_columns(ohm_backend_report *rep, int64_t iters, double relres, double tol, int64_t stopped_short);
+
 /* The ncols columns of X (n each) one by one, each after the first started
- * from the solution of the one before (consecutive frames), the
- * iterations and the largest relative residual booked in rep. */
+ * from the solution of the one before (consecutive frames), each booked in
+ * rep (ohm_backend_book_columns; a column left above tol stopped short). */
 int ohm_backend_solve_columns(ohm_column_solver fn, void *solver, size_t n, const double *B, double *X, size_t ncols,
-                              ohm_backend_report *rep, ohm_error *err);
+                              double tol, ohm_backend_report *rep, ohm_error *err);
 
 /* OHM_OK when `need` bytes fit the limit (max_memory > 0, else what the
  * machine has available); else OHM_ERR_NOMEM with one message for every

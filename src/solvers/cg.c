@@ -264,7 +264,7 @@ static int cg_backend_solve(void *state, const ohm_operator *op, const double *B
 {
     cholmod_sparse *A = op->A;
     cg_state *s = state;
-    int rc = ohm_backend_solve_columns(cg_column, s, A->nrow, B, X, ncols, rep, err);
+    int rc = ohm_backend_solve_columns(cg_column, s, A->nrow, B, X, ncols, s->cfg.tol, rep, err);
     if (!rc) *berr = ohm_backward_error(A, B, X, ncols, s->cg.norm_A);
     return rc;
 }

@@ -82,7 +82,7 @@ static int mg_solve(void *state, const ohm_operator *op, const double *B, double
                     ohm_backend_report *rep, ohm_error *err)
 {
     mg_state *s = state;
-    int rc = ohm_backend_solve_columns(mg_column, s, (size_t)op->n, B, X, ncols, rep, err);
+    int rc = ohm_backend_solve_columns(mg_column, s, (size_t)op->n, B, X, ncols, s->cfg.tol, rep, err);
     if (!rc) *berr = ohm_operator_backward_error(op, B, X, ncols, ohm_mg_norm_inf(s->mg));
     return rc;
 }

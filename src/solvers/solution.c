@@ -95,6 +95,8 @@ void ohm_solution_report_backend(ohm_solution *sol, const ohm_backend_report *re
     sol->flops = rep->flops;
     sol->cg_iterations = rep->iterations;
     sol->cg_relres = rep->relres;
+    sol->cg_tol = rep->tol;
+    sol->cg_stalled = rep->stalled;
     sol->refined = rep->refined;
     sol->solver_bytes = rep->bytes;
     sol->ranks = rep->ranks > 0 ? rep->ranks : 1;
@@ -141,5 +143,6 @@ void ohm_solution_reset(ohm_solution *sol, ohm_backend_report *rep, int keep_flu
     sol->power_incident = sol->power_entered = sol->power_in = sol->power_absorbed = sol->power_out = 0;
     rep->iterations = 0;
     rep->relres = 0;
+    rep->stalled = 0;
     rep->refined = 0;
 }

@@ -430,6 +430,22 @@ static int solve_media_together(const diffusion_run *run, channel_tally *tally, 
     return rc;
 }
 
+/* One warning when an iterative backend accepted columns short of cg_tol:
+ * its backward-error test (cg.c, mg_cycle.c, amg.c) keeps an answer whose
+ * scaled backward error is small though ||b - A x|| / ||b|| is not, at the
+ * iteration cap or a residual floor — a good answer for a well-conditioned
+ * A, a less accurate one than asked where A is ill-conditioned (huge
+ * diffusion coefficients in clear regions), so the user is told. */
+static void warn_stopped_short(const ohm_backend_report *rep, const ohm_log *log)
+{
+    if (rep->stalled <= 0) return;
+    ohm_log_warn(log,
+                 "solve: %s stopped short of cg_tol=%.3g in %lld column(s): relative residual %.3g after %lld "
+                 "iterations in all; the result is kept (its scaled backward error is small); for the accuracy asked "
+                 "use solver=direct, or accept what was reached with a looser cg_tol=",
+                 rep->solver, rep->tol, (long long)rep->stalled, rep->relres, (long long)rep->iterations);
+}
+
 /* The diffusion solve of every channel, medium by medium (diffusion_plan),
  * every frame of its channels solved with its set-up.  Grey materials with
  * grey lights have one channel. */
@@ -454,6 +470,7 @@ static int solve_diffusion(ohm_solver *s, const ohm_light *lights, size_t nlight
                                   : solve_media_in_turn(&run, tally, &bcfg, err);
     for (int c = 0; c < run.channels; ++c) ohm_tally_add(sol, &tally[c], c);
     ohm_solution_report_backend(sol, &s->rep);
+    if (!rc) warn_stopped_short(&s->rep, s->log);
     ohm_face_powers_free(&run.fp);
     return rc;
 }

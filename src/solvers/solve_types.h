@@ -175,6 +175,9 @@ typedef struct ohm_solution {
     int64_t cg_iterations;              /* CG iterations (MIC- or AMG-preconditioned),
                                            summed over columns                        */
     double cg_relres;                   /* largest final relative residual            */
+    double cg_tol;                      /* the relative residual asked (iterative)    */
+    int64_t cg_stalled;                 /* columns accepted short of cg_tol (at the
+                                           iteration cap or a residual floor)         */
     double t_cg_setup;                  /* building the preconditioners (cg, amg)     */
     double solver_bytes;                /* memory the backend held (its estimate)     */
     int ranks;                          /* MPI ranks that solved (amg), else 1        */

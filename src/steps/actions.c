@@ -1004,6 +1004,8 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
+    ohm_stats_set(st, "cg_relres", sol->cg_relres);
+    ohm_stats_set_int(st, "cg_stalled", (long long)sol->cg_stalled);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
     ohm_stats_set_int(st, "mg_levels", sol->mg_levels);
