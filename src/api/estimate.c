@@ -22,7 +22,7 @@ static const ohm_opt_spec estimate_opts[] = {
     {0}};
 
 static const ohm_action estimate_action = {"estimate", "what a solve would take", NULL, estimate_opts,
-                                           NULL,       0,                        NULL, NULL};
+                                           NULL,       0,                        NULL, NULL, NULL};
 
 int ohm_scene_estimate(ohm_estimate_info *out, const ohm_scene *scene, const char *const *options)
 {

@@ -132,7 +132,7 @@ static int finish_action(const ohm_chain *c, ohm_error *err)
         if (a->opts[i].required && !inv->values[i])
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s needs %s= (%s)", inv->where, a->name, a->opts[i].name,
                             a->opts[i].doc);
-    return OHM_OK;
+    return a->check ? a->check(inv, err) : OHM_OK;
 }
 
 /* A first word that is no action: a misspelled command of `ohm`, or an

@@ -88,6 +88,9 @@ struct ohm_action {
      * error=, whose probes solve the scene) */
     int (*waits)(const ohm_invocation *inv);
     ohm_action_io_fn io;         /* what it needs and provides (above)       */
+    /* NULL, or options that do not go together, found when the action's
+     * words are parsed (before any step runs) */
+    int (*check)(const ohm_invocation *inv, ohm_error *err);
 };
 
 /* The table (actions.c), terminated by an entry with name NULL. */
