@@ -196,9 +196,3 @@ const char *ohm_opt_text(const ohm_opt_values *v, const char *name)
     if (i < 0) return NULL;
     return v->values[i] ? v->values[i] : v->specs[i].def;
 }
-
-int ohm_opt_values_given(const ohm_opt_values *v, const char *name)
-{
-    int i = ohm_opt_index(v->specs, name);
-    return i >= 0 && v->values[i] != NULL;
-}

@@ -39,7 +39,6 @@ void ohm_opt_values_free(ohm_opt_values *v);
 
 /* A value as given, else its default (NULL when it has none). */
 const char *ohm_opt_text(const ohm_opt_values *v, const char *name);
-int ohm_opt_values_given(const ohm_opt_values *v, const char *name);
 
 /* Texts already checked, as numbers: 0 on success (ohm_opt_check's rules
  * without the range). */

@@ -48,7 +48,8 @@ const ohm_light_kind *ohm_light_kind_of(const ohm_light *l)
     return (int)l->type >= 0 && (int)l->type < NKINDS ? kinds[l->type] : kinds[0];
 }
 
-const ohm_light_kind *ohm_light_kind_named(const char *name)
+/* The kind of a type= name (NULL: none). */
+static const ohm_light_kind *kind_named(const char *name)
 {
     for (int k = 0; k < NKINDS; ++k)
         if (strcmp(kinds[k]->name, name) == 0) return kinds[k];
@@ -58,7 +59,7 @@ const ohm_light_kind *ohm_light_kind_named(const char *name)
 int ohm_light_options_check(const ohm_opt_reader *r, ohm_error *err)
 {
     const char *type = r->str(r->ctx, "type");
-    const ohm_light_kind *kind = ohm_light_kind_named(type);
+    const ohm_light_kind *kind = kind_named(type);
     if (!kind) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s: no such kind of light", r->where, type);
     long long orbit = r->integer(r->ctx, "orbit");
     if (kind->type == OHM_LIGHT_ENVIRONMENT && orbit > 0)
@@ -77,7 +78,7 @@ int ohm_light_read(ohm_light *l, const ohm_opt_reader *r, ohm_error *err)
     int rc = ohm_light_options_check(r, err);
     if (rc) return rc;
     const char *type = r->str(r->ctx, "type");
-    const ohm_light_kind *kind = ohm_light_kind_named(type);
+    const ohm_light_kind *kind = kind_named(type);
     l->type = kind->type;
     if ((kind->needs & OHM_LIGHT_NEEDS_POS) && !r->given(r->ctx, "pos"))
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", r->where, type);

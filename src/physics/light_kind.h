@@ -74,9 +74,8 @@ typedef struct ohm_light_kind {
     void (*release)(ohm_light *l); /* NULL: owns nothing */
 } ohm_light_kind;
 
-/* The kind of a light, or the kind of a type= name (NULL: none). */
+/* The kind of a light. */
 const ohm_light_kind *ohm_light_kind_of(const ohm_light *l);
-const ohm_light_kind *ohm_light_kind_named(const char *name);
 
 /* -light's options that do not go together (type=environment with orbit=,
  * sky= with another type=), checked from the words alone: the command

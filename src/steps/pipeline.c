@@ -519,7 +519,12 @@ static int unmet(const chain_walk *w, const ohm_invocation *inv, const ohm_need 
                     other);
 }
 
-int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
+/* Every step's needs (ohm_step_io) met by the state s starts the chain
+ * with and the steps that run before it, in the order ohm_chain_run runs
+ * them; else OHM_ERR_USAGE with one line naming the step, what it lacks,
+ * and the earlier step that removed it or gave something else instead.
+ * Runs nothing.  ohm_chain_run calls it first. */
+static int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
 {
     size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
     if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");

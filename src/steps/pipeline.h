@@ -135,13 +135,6 @@ void ohm_invocation_free(ohm_invocation *inv);
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
 int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
 
-/* Every step's needs (ohm_step_io) met by the state s starts the chain
- * with and the steps that run before it, in the order ohm_chain_run runs
- * them; else OHM_ERR_USAGE with one line naming the step, what it lacks,
- * and the earlier step that removed it or gave something else instead.
- * Runs nothing.  ohm_chain_run calls it first. */
-int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err);
-
 /* Run every invocation in order (a step that `waits` after the scene steps
  * that follow it); stops at the first failure, whose message
  * names the action and where it came from.  All or nothing for its outputs:

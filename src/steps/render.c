@@ -12,10 +12,6 @@
 #include "physics/light_kind.h"
 #include "ohm_oiio.h"
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 const ohm_opt_spec ohm_render_opts[] = {
     {"file", OHM_OPT_STRING, NULL, "output image: .png (8-bit sRGB) or .exr (half float, linear)", NULL, 0, 0, 1},
     {"size", OHM_OPT_STRING, "640,480", "W,H in pixels: the whole image (with compare=1, two W/2 x H panels)", NULL,
