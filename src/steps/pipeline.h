@@ -28,7 +28,7 @@ typedef struct ohm_action ohm_action;
 /* One action with its parsed option values (text, validated). */
 typedef struct ohm_invocation {
     const ohm_action *action;
-    char *values[OHM_MAX_OPTS]; /* by spec index; NULL = not given         */
+    ohm_opt_values opts;        /* by the action's spec index (base/options.h) */
     char where[256];            /* "command line argument 3" / "x.ohm:12"   */
 } ohm_invocation;
 
