@@ -107,4 +107,14 @@ bg.inputs["Strength"].default_value = 2.0
 light = solve("sky")
 assert os.path.samefile(light["sky"], sky_path), light
 assert np.allclose(light["intensity"], 2e-6, rtol=1e-12, atol=0), light
+
+# an image with no file of its own (generated here; a packed one alike): refused, naming the image
+tex.image = bpy.data.images.new("painted sky", 8, 4, float_buffer=True)
+try:
+    refused, why = bpy.ops.ohm.solve() == {"CANCELLED"}, ""
+except RuntimeError as e:
+    refused, why = True, str(e)
+why += session.get(obj).status if session.get(obj) else ""
+assert refused and "'painted sky' is packed or generated" in why, \
+    "Solve with a generated sky image: refused %s, %r" % (refused, why)
 print("blender_environment: ok")

@@ -36,6 +36,16 @@ expect_exit 2 "unknown command" -- "$OHM" rnu x.ohm
 # a typo late in a chain fails before anything runs (no output written)
 expect_exit 2 "late typo" -- "$OHM" -read file=samples/spot.obj -voxelize dim=16 -write file="$T/late.vdb" -stats fiel=x
 check "late typo wrote nothing" test ! -e "$T/late.vdb"
+# -light's options that do not go together: refused as parsed, before the
+# steps ahead of it run (nothing written)
+expect_exit 2 "environment orbit" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -write file="$T/orbit.vdb" \
+  -light type=environment orbit=4
+expect_error_line "environment orbit" "argument 7: -light type=environment orbit=4: an environment light is all around"
+check "environment orbit wrote nothing" test ! -e "$T/orbit.vdb"
+expect_exit 2 "sky= on a lamp" -- "$OHM" -read file=samples/spot.obj -voxelize dim=8 -write file="$T/sky.vdb" \
+  -light type=point pos=0,0,50 sky=samples/none.hdr
+expect_error_line "sky= on a lamp" "argument 7: -light type=point sky=: sky= is an environment light's image"
+check "sky= on a lamp wrote nothing" test ! -e "$T/sky.vdb"
 # a step that needs what no step before it makes is a usage error of the
 # chain, found before anything runs
 expect_exit 2 "voxelize before read" -- "$OHM" -voxelize dim=8

@@ -4,6 +4,11 @@ import math
 
 import numpy as np
 
+try:  # the package bundled into the add-on's zip, as session.py finds it
+    from . import ohm as ohmlib
+except ImportError:  # running from a source tree with ohm on sys.path
+    import ohm as ohmlib
+
 
 def mm_per_unit(scene):
     """Millimetres per Blender unit (the scene's unit scale: 1 unit = scale_length m)."""
@@ -146,8 +151,7 @@ def world_light(scene):
         if colour_in.is_linked:
             src = colour_in.links[0].from_node
             if src.type == "TEX_ENVIRONMENT" and src.image is not None:
-                import bpy
-                image, colour = bpy.path.abspath(src.image.filepath_raw or src.image.filepath), np.ones(3)
+                image, colour = _sky_file(src.image), np.ones(3)
     radiance = colour * strength * 1e-6
     if image is None and not radiance.any():
         return None
@@ -155,6 +159,19 @@ def world_light(scene):
     if image:
         opts["sky"] = image
     return opts
+
+
+def _sky_file(image):
+    """The file an Environment Texture's image reads, absolute; a packed or
+    generated image has none ohm could read (its path is empty, and
+    bpy.path.abspath("") is the .blend's folder): refused, as session.py's
+    refusals are."""
+    import bpy
+    path = image.filepath_raw or image.filepath
+    if image.packed_file is not None or not path:
+        raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the World's Environment Texture image '%s' is packed or generated: "
+                                "save it to a .hdr or .exr file first" % image.name)
+    return bpy.path.abspath(path)
 
 
 def scene_lights(scene, mm):

@@ -43,7 +43,6 @@ _lib = _library.load()
 # the sized structs as this library lays them out (ohm.h's ABI rule)
 _GridInfo = _library.struct_type(_lib, "ohm_grid_info")
 _ResultInfo = _library.struct_type(_lib, "ohm_result_info")
-_EstimateInfo = _library.struct_type(_lib, "ohm_estimate_info")
 
 __all__ = ["Context", "Scene", "Error", "UsageError", "Cancelled", "version"]
 
@@ -330,9 +329,11 @@ class Scene(_Handle):
         built: interior_cells, grid_cells, bytes_direct/cg/amg/mg/auto (the process's peak), bytes_allowed,
         margin, largest_dim (with solver=, or auto's choice), largest_dim_mg, solver (auto: its choice) and
         reason.  Options as ohm_scene_estimate's: dim= (required), solver=, channels=, solves=, max_memory=."""
-        e = _library.sized(_EstimateInfo)
+        # 1.2's: declared here, not at import, so the package reads a 1.1 library (RuntimeError here)
+        estimate = _library.later_function(_lib, "ohm_scene_estimate")
+        e = _library.sized(_library.struct_type(_lib, "ohm_estimate_info"))
         array, _keep = _words(options)
-        _check(_lib.ohm_scene_estimate(ctypes.byref(e), self._live(), array))
+        _check(estimate(ctypes.byref(e), self._live(), array))
         return _library.fields_of(e)
 
     def _shape(self):

@@ -124,7 +124,6 @@ def _declare(lib):
         "ohm_scene_grid": (i, [vp, vp]),
         "ohm_scene_inside": (i, [ctypes.POINTER(ctypes.c_uint8), sz, vp]),
         "ohm_scene_result": (i, [vp, vp]),
-        "ohm_scene_estimate": (i, [vp, vp, c_char_pp]),
         "ohm_scene_fluence": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_exitance": (i, [c_double_p, sz, vp, i, i]),
         "ohm_scene_vertex_exitance": (i, [c_float_p, sz, vp, i]),
@@ -136,3 +135,24 @@ def _declare(lib):
         fn.restype = res
         fn.argtypes = args
     return lib
+
+
+# Functions of a later 1.x than the oldest library the package reads: each
+# is declared when first called, so that `import ohm` works against an older
+# 1.x library and only the call that needs the newer one fails.
+_LATER = {
+    "ohm_scene_estimate": ("1.2", ctypes.c_int, [ctypes.c_void_p, ctypes.c_void_p, c_char_pp]),
+}
+
+
+def later_function(lib, name):
+    """ohm.h's function `name` of a later 1.x (_LATER), declared; an older
+    library: RuntimeError naming the version found and the one needed."""
+    since, res, args = _LATER[name]
+    fn = getattr(lib, name, None)
+    if fn is None:
+        found = lib.ohm_version(None, None, None).decode()
+        raise RuntimeError(f"ohm: {name} needs libohm {since} or later; the library loaded is {found}")
+    fn.restype = res
+    fn.argtypes = args
+    return fn

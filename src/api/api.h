@@ -39,6 +39,11 @@ int ohm_api_fail(int code, const char *fmt, ...)
 #endif
     ;
 
+/* OHM_OK when a caller's sized struct (ohm.h's ABI rule) holds at least
+ * the fields of the struct's first version, its first end_of_first bytes;
+ * else OHM_ERR_USAGE, naming fn and the struct's *_INIT. */
+int ohm_api_sized_ok(size_t size, size_t end_of_first, const char *fn, const char *init);
+
 /* The scene's log follows its context's (set before every step). */
 void ohm_api_sync_log(ohm_scene *scene);
 

@@ -49,6 +49,14 @@ int ohm_api_fail(int code, const char *fmt, ...)
     return code;
 }
 
+int ohm_api_sized_ok(size_t size, size_t end_of_first, const char *fn, const char *init)
+{
+    if (size < end_of_first)
+        return ohm_api_fail(OHM_ERR_USAGE, "%s: out->size is %zu, less than the %zu bytes of the struct's first "
+                            "version: set it with %s", fn, size, end_of_first, init);
+    return OHM_OK;
+}
+
 int ohm_context_new(ohm_context **out)
 {
     if (!out) return ohm_api_fail(OHM_ERR_USAGE, "ohm_context_new: out is NULL");

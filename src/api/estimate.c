@@ -22,15 +22,16 @@ static const ohm_opt_spec estimate_opts[] = {
     {0}};
 
 static const ohm_action estimate_action = {"estimate", "what a solve would take", NULL, estimate_opts,
-                                           NULL,       0,                        NULL, NULL};
+                                           NULL,       0,                        NULL, NULL, NULL};
 
 int ohm_scene_estimate(ohm_estimate_info *out, const ohm_scene *scene, const char *const *options)
 {
     if (!out || !scene) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_estimate: out or scene is NULL");
     const size_t size = out->size;
-    if (size < sizeof(size_t) + sizeof(int64_t))
-        return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_estimate: out->size is %zu: set it with OHM_ESTIMATE_INFO_INIT",
-                            size);
+    /* the struct came in 1.2 with all of its present fields */
+    int rc = ohm_api_sized_ok(size, offsetof(ohm_estimate_info, reason) + sizeof out->reason, "ohm_scene_estimate",
+                              "OHM_ESTIMATE_INFO_INIT");
+    if (rc) return rc;
     if (!scene->state.have_mesh)
         return ohm_api_fail(OHM_ERR_INVALID, "ohm_scene_estimate: the scene has no mesh (read one or set it first)");
     int argc = 0;
@@ -38,7 +39,7 @@ int ohm_scene_estimate(ohm_estimate_info *out, const ohm_scene *scene, const cha
     ohm_invocation inv;
     ohm_error err;
     ohm_error_clear(&err);
-    int rc = ohm_invocation_parse(&inv, &estimate_action, argc, options, &err);
+    rc = ohm_invocation_parse(&inv, &estimate_action, argc, options, &err);
     if (rc) return ohm_api_return(rc, &err);
     const ohm_state *s = &scene->state;
     int channels = ohm_opt_given(&inv, "channels") ? (int)ohm_opt_int(&inv, "channels")

@@ -20,21 +20,11 @@ static size_t grid_cells(const ohm_voxel_grid *g)
     return (size_t)g->dims[0] * (size_t)g->dims[1] * (size_t)g->dims[2];
 }
 
-/* A caller's sized struct (ohm.h's ABI rule) holds at least 1.0's fields,
- * the first end_of_1_0 bytes. */
-static int sized_ok(size_t size, size_t end_of_1_0, const char *fn, const char *init)
-{
-    if (size < end_of_1_0)
-        return ohm_api_fail(OHM_ERR_USAGE, "%s: out->size is %zu, less than the %zu bytes of ohm 1.0's struct: set "
-                            "it with %s", fn, size, end_of_1_0, init);
-    return OHM_OK;
-}
-
 int ohm_scene_grid(ohm_grid_info *out, const ohm_scene *scene)
 {
     if (!out) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_grid: out is NULL");
     const size_t size = out->size;
-    int rc = sized_ok(size, offsetof(ohm_grid_info, interior_cells) + sizeof out->interior_cells, "ohm_scene_grid",
+    int rc = ohm_api_sized_ok(size, offsetof(ohm_grid_info, interior_cells) + sizeof out->interior_cells, "ohm_scene_grid",
                       "OHM_GRID_INFO_INIT");
     if (!rc) rc = need_grid(scene, "ohm_scene_grid");
     if (rc) return rc;
@@ -169,7 +159,7 @@ int ohm_scene_result(ohm_result_info *out, const ohm_scene *scene)
 {
     if (!out) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_result: out is NULL");
     const size_t size = out->size;
-    int rc = sized_ok(size, offsetof(ohm_result_info, seconds_solve) + sizeof out->seconds_solve, "ohm_scene_result",
+    int rc = ohm_api_sized_ok(size, offsetof(ohm_result_info, seconds_solve) + sizeof out->seconds_solve, "ohm_scene_result",
                       "OHM_RESULT_INFO_INIT");
     if (rc) return rc;
     const ohm_solution *sol = need_solution(scene, "ohm_scene_result");

@@ -143,35 +143,40 @@ void ohm_opt_values_free(ohm_opt_values *v)
     }
 }
 
-/* One word into out, or the error; `see` is the command's help hint. */
-static int one_word(ohm_opt_values *out, const char *cmd, const char *word, const char *see, ohm_error *err)
+int ohm_opt_word(ohm_opt_values *out, const char *word, const char *prefix, const char *see,
+                 ohm_opt_value_check check, ohm_error *err)
 {
     const char *eq = strchr(word, '=');
     char key[64];
     size_t klen = eq ? (size_t)(eq - word) : strlen(word);
-    snprintf(key, sizeof key, "%.*s", (int)(klen < sizeof key ? klen : sizeof key - 1), word);
+    if (eq == word) return ohm_fail(err, OHM_ERR_USAGE, "%s: '%s' is not key=value %s", prefix, word, see);
+    if (klen >= sizeof key)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: option name '%.32s...' is too long %s", prefix, word, see);
+    snprintf(key, sizeof key, "%.*s", (int)klen, word);
     int k = ohm_opt_index(out->specs, key);
+    if (k < 0 && !eq) return ohm_fail(err, OHM_ERR_USAGE, "%s: '%s' is not key=value %s", prefix, word, see);
     if (k < 0) {
         const char *names[OHM_MAX_OPTS];
         size_t n = 0;
         for (int i = 0; out->specs[i].name && n < OHM_MAX_OPTS; ++i) names[n++] = out->specs[i].name;
         const char *s = ohm_suggest(key, names, n);
-        if (s) return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown option '%s'; did you mean '%s'? %s", cmd, key, s, see);
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown option '%s'%s %s", cmd, key,
-                        eq ? "" : "; options are key=value words", see);
+        if (s)
+            return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown option '%s'; did you mean '%s'? %s", prefix, key, s, see);
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: unknown option '%s' %s", prefix, key, see);
     }
-    if (!eq) return ohm_fail(err, OHM_ERR_USAGE, "%s: option '%s' needs a value: %s=... %s", cmd, key, key, see);
-    if (out->values[k]) return ohm_fail(err, OHM_ERR_USAGE, "%s: option '%s' is given twice %s", cmd, key, see);
-    char prefix[64];
-    snprintf(prefix, sizeof prefix, "%s:", cmd);
-    int rc = ohm_opt_check(&out->specs[k], eq + 1, prefix, err);
+    if (!eq) return ohm_fail(err, OHM_ERR_USAGE, "%s: option '%s' needs a value: %s=... %s", prefix, key, key, see);
+    if (out->values[k]) return ohm_fail(err, OHM_ERR_USAGE, "%s: option '%s' is given twice %s", prefix, key, see);
+    char at[320];
+    snprintf(at, sizeof at, "%s:", prefix);
+    int rc = ohm_opt_check(&out->specs[k], eq + 1, at, err);
+    if (!rc && check) rc = check(&out->specs[k], eq + 1, at, err);
     if (rc) {
         char said[sizeof err->msg];
         snprintf(said, sizeof said, "%s", err->msg);
         return ohm_fail(err, rc, "%.*s %s", (int)(sizeof said - 40), said, see);
     }
     out->values[k] = strdup(eq + 1);
-    return out->values[k] ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory", cmd);
+    return out->values[k] ? OHM_OK : ohm_fail(err, OHM_ERR_NOMEM, "%s: out of memory", prefix);
 }
 
 int ohm_opt_words(ohm_opt_values *out, const ohm_opt_spec *specs, const char *cmd, int argc, const char *const *argv,
@@ -182,7 +187,7 @@ int ohm_opt_words(ohm_opt_values *out, const ohm_opt_spec *specs, const char *cm
     char see[64];
     snprintf(see, sizeof see, "(see 'ohm %s help')", cmd);
     int rc = OHM_OK;
-    for (int i = 0; i < argc && !rc; ++i) rc = one_word(out, cmd, argv[i], see, err);
+    for (int i = 0; i < argc && !rc; ++i) rc = ohm_opt_word(out, argv[i], cmd, see, NULL, err);
     for (int i = 0; specs[i].name && !rc; ++i)
         if (specs[i].required && !out->values[i])
             rc = ohm_fail(err, OHM_ERR_USAGE, "%s: %s= is needed (%s) %s", cmd, specs[i].name, specs[i].doc, see);

@@ -28,6 +28,17 @@ int ohm_opt_check(const ohm_opt_spec *o, const char *v, const char *prefix, ohm_
 /* The spec of that name's index in specs, or -1. */
 int ohm_opt_index(const ohm_opt_spec *specs, const char *name);
 
+/* A further check of a value after ohm_opt_check's (OHM_OPT_DEVICE's
+ * words, which a later stage knows), or NULL. */
+typedef int (*ohm_opt_value_check)(const ohm_opt_spec *o, const char *v, const char *prefix, ohm_error *err);
+
+/* One key=value word into out (whose specs are set): an unknown key (with
+ * the nearest name), a word without '=', a value given twice or one its
+ * spec refuses is OHM_ERR_USAGE.  Messages begin with prefix ("bench",
+ * "argument 3: -voxelize") and end with see ("(see 'ohm help voxelize')"). */
+int ohm_opt_word(ohm_opt_values *out, const char *word, const char *prefix, const char *see,
+                 ohm_opt_value_check check, ohm_error *err);
+
 /* key=value words into *out (zeroed first), for a command with options of
  * its own: `cmd` names it in the messages ("bench: unknown option 'frame';
  * did you mean 'frames'?"), which ohm_subcommand_usage_error's form
@@ -39,6 +50,7 @@ void ohm_opt_values_free(ohm_opt_values *v);
 
 /* A value as given, else its default (NULL when it has none). */
 const char *ohm_opt_text(const ohm_opt_values *v, const char *name);
+/* Whether it was given. */
 int ohm_opt_values_given(const ohm_opt_values *v, const char *name);
 
 /* Texts already checked, as numbers: 0 on success (ohm_opt_check's rules

@@ -128,7 +128,7 @@ static int write_pov(const char *path, const char *const *df3_names, const ohm_v
     fputs("\n// The lights of the frame, as each kind writes itself (the media above only emit: these\n"
           "// light what you add to the scene).  Colours are in ohm's units, as each line says.\n", f);
     for (size_t i = 0; i < p->nlights; ++i)
-        if (p->lights[i].frame == 0 || p->lights[i].frame == p->frame + 1) ohm_light_pov(f, &p->lights[i]);
+        if (ohm_light_in_frame(&p->lights[i], p->frame)) ohm_light_pov(f, &p->lights[i]);
     if (ferror(f)) {
         ohm_output_abort(&out);
         return ohm_fail(err, OHM_ERR_IO, "cannot write '%s'", path);

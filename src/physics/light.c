@@ -8,10 +8,6 @@
 #include <stdlib.h>
 #include <string.h>
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 const char *ohm_light_name(const ohm_light *l) { return ohm_light_kind_of(l)->name; }
 
 int ohm_light_at_a_point(const ohm_light *l) { return ohm_light_kind_of(l)->at_a_point; }

@@ -48,20 +48,37 @@ const ohm_light_kind *ohm_light_kind_of(const ohm_light *l)
     return (int)l->type >= 0 && (int)l->type < NKINDS ? kinds[l->type] : kinds[0];
 }
 
-const ohm_light_kind *ohm_light_kind_named(const char *name)
+/* The kind of a type= name (NULL: none). */
+static const ohm_light_kind *kind_named(const char *name)
 {
     for (int k = 0; k < NKINDS; ++k)
         if (strcmp(kinds[k]->name, name) == 0) return kinds[k];
     return NULL;
 }
 
+int ohm_light_options_check(const ohm_opt_reader *r, ohm_error *err)
+{
+    const char *type = r->str(r->ctx, "type");
+    const ohm_light_kind *kind = kind_named(type);
+    if (!kind) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s: no such kind of light", r->where, type);
+    long long orbit = r->integer(r->ctx, "orbit");
+    if (kind->type == OHM_LIGHT_ENVIRONMENT && orbit > 0)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=environment orbit=%lld: an environment light is all "
+                        "around: it has nothing to turn", r->where, orbit);
+    if (kind->type != OHM_LIGHT_ENVIRONMENT && r->given(r->ctx, "sky"))
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s sky=: sky= is an environment light's image "
+                        "(type=environment)", r->where, type);
+    return OHM_OK;
+}
+
 int ohm_light_read(ohm_light *l, const ohm_opt_reader *r, ohm_error *err)
 {
     memset(l, 0, sizeof *l);
     snprintf(l->where, sizeof l->where, "%s", r->where);
+    int rc = ohm_light_options_check(r, err);
+    if (rc) return rc;
     const char *type = r->str(r->ctx, "type");
-    const ohm_light_kind *kind = ohm_light_kind_named(type);
-    if (!kind) return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s: no such kind of light", r->where, type);
+    const ohm_light_kind *kind = kind_named(type);
     l->type = kind->type;
     if ((kind->needs & OHM_LIGHT_NEEDS_POS) && !r->given(r->ctx, "pos"))
         return ohm_fail(err, OHM_ERR_USAGE, "%s: -light type=%s needs pos=x,y,z", r->where, type);

@@ -74,9 +74,13 @@ typedef struct ohm_light_kind {
     void (*release)(ohm_light *l); /* NULL: owns nothing */
 } ohm_light_kind;
 
-/* The kind of a light, or the kind of a type= name (NULL: none). */
+/* The kind of a light. */
 const ohm_light_kind *ohm_light_kind_of(const ohm_light *l);
-const ohm_light_kind *ohm_light_kind_named(const char *name);
+
+/* -light's options that do not go together (type=environment with orbit=,
+ * sky= with another type=), checked from the words alone: the command
+ * line's parse calls it, before any step runs, and ohm_light_read again. */
+int ohm_light_options_check(const ohm_opt_reader *r, ohm_error *err);
 
 /* A light from -light's options (ohm_light_opts): type, the shared ones,
  * then its kind's.  On failure nothing is left owned. */

@@ -36,4 +36,8 @@ typedef struct ohm_light {
     char where[256];                /* how the user gave it ("argument 12"), for messages   */
 } ohm_light;
 
+/* Whether light l shines in frame `frame` (0-based): one without an orbit in
+ * every frame, an orbit's copy (frame = k >= 1) in frame k - 1 only. */
+static inline int ohm_light_in_frame(const ohm_light *l, int frame) { return l->frame == 0 || l->frame == frame + 1; }
+
 #endif

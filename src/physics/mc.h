@@ -43,7 +43,6 @@
 #include "physics/mc_params.h"
 #include "physics/network.h"
 #include "base/ohm_error.h"
-#include "device/request.h"
 
 /* The host's threads a trace uses: params->threads, else every core the
  * process may use, at most one per batch. */

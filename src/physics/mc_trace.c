@@ -30,11 +30,11 @@ int ohm_mc_trace(ohm_mc_result *res, const ohm_network *net, const ohm_channel_m
     res->power_in = res->power_absorbed = res->power_out = res->power_gated = res->power_handoff = 0;
     if (params->handoff > 0) memset(res->handoff, 0, n * sizeof *res->handoff);
     res->photons = res->truncated = res->events = 0;
+    res->device[0] = '\0';
     if (!(P > 0)) { /* unlit in this channel: nothing to trace */
         res->seconds = ohm_now() - t0;
         return OHM_OK;
     }
-    res->device[0] = '\0';
     ohm_mc_device *dev = params->kept;
     int rc = dev ? OHM_OK : ohm_mc_device_open(&dev, &params->device, per_batch * OHM_MC_BATCHES, params->log, err);
     int on_device = dev != NULL;

@@ -54,7 +54,7 @@ int ohm_frame_entries(ohm_light_entries *in, const ohm_network *net, const ohm_l
     in->count = 0;
     int rc = OHM_OK;
     for (size_t l = 0; l < nlights && !rc; ++l)
-        if (lights[l].frame == 0 || lights[l].frame == (int)fr + 1)
+        if (ohm_light_in_frame(&lights[l], (int)fr))
             rc = ohm_light_entries_add(in, net, &lights[l], channels, eta, eta_v, occ, err);
     return rc;
 }
@@ -116,7 +116,7 @@ int ohm_face_powers_trace(face_powers *fp, ohm_solver *s, const ohm_light *light
         }
         for (size_t l = 0; l < nlights && !rc; ++l) {
             if (ohm_light_at_a_point(&lights[l])) continue;
-            if (lights[l].frame != 0 && lights[l].frame != fr + 1) continue;
+            if (!ohm_light_in_frame(&lights[l], fr)) continue;
             rc = ohm_light_face_powers(en, emu, ar, channels, &sol->net, &lights[l], eta, eta_v, s->occ, err);
         }
         for (int c = 0; c < channels; ++c) fp->arrive[c][fr] = ar[c];

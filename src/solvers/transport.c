@@ -216,11 +216,12 @@ static int mc_transport(ohm_solver *s, const ohm_light *lights, size_t nlights, 
     return mc_solve(&s->sol, &s->mat, lights, nlights, &s->params, s->occ, err);
 }
 
-const ohm_transport_ops ohm_transport_mc = {.name = "mc", .solve = mc_transport};
+/* mc: Monte Carlo transport instead of diffusion. */
+static const ohm_transport_ops transport_mc = {.name = "mc", .solve = mc_transport};
 
 const ohm_transport_ops *ohm_transport_find(const char *name)
 {
-    return name && strcmp(name, ohm_transport_mc.name) == 0 ? &ohm_transport_mc : NULL;
+    return name && strcmp(name, transport_mc.name) == 0 ? &transport_mc : NULL;
 }
 
 /* The hybrid (solve.h, mc.handoff) applies to optical media under the

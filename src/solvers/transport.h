@@ -26,9 +26,6 @@ typedef struct ohm_transport_ops {
     int (*solve)(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err);
 } ohm_transport_ops;
 
-/* mc: Monte Carlo transport instead of diffusion. */
-extern const ohm_transport_ops ohm_transport_mc;
-
 /* The transport of that name (mc), or NULL: the name is a backend's, or none. */
 const ohm_transport_ops *ohm_transport_find(const char *name);
 

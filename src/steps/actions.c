@@ -548,6 +548,13 @@ static void light_io(const ohm_invocation *inv, ohm_step_io *io)
     io->drops = OHM_RES_SOLUTION; /* stale until solved again */
 }
 
+/* type=, orbit= and sky= that do not go together: refused when parsed */
+static int light_check(const ohm_invocation *inv, ohm_error *err)
+{
+    ohm_opt_reader reader = ohm_opt_reader_of(inv);
+    return ohm_light_options_check(&reader, err);
+}
+
 /* Rotate v about the axis (0 x, 1 y, 2 z) by angle a (right-handed). */
 static void rotate_axis(double v[3], int axis, double a)
 {
@@ -563,9 +570,6 @@ static int add_light(ohm_state *s, const ohm_light *l, const ohm_invocation *inv
     int orbit = (int)ohm_opt_int(inv, "orbit");
     size_t add = orbit > 0 ? (size_t)orbit : 1;
     double centre[3] = {0, 0, 0};
-    if (orbit > 0 && l->type == OHM_LIGHT_ENVIRONMENT)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d: an environment light is all around: it has "
-                        "nothing to turn", inv->where, orbit);
     if (orbit > 0) {
         if (!s->have_mesh && !s->have_grid && !s->have_scan)
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -light orbit=%d turns about the object: -read it first",
@@ -1265,21 +1269,21 @@ const ohm_action ohm_actions[] = {
     {"read", "read a mesh (OBJ, PLY, STL, OFF; .gz too) and scale it to millimetres",
      "Reads a triangle mesh; polygons are split into triangles.  Reports open and non-manifold edges.\n"
      "Meshes come in arbitrary units: units= says what one unit is, size= scales the longest axis to a length.",
-     read_opts, run_read, 0, NULL, read_io},
+     read_opts, run_read, 0, NULL, read_io, NULL},
     {"voxelize", "find the cells inside the mesh (or above a volume's threshold) on a regular grid",
      "Classifies cell centres with the generalized winding number (robust to holes, open rims, overlapping\n"
      "pieces and inside-out winding) and measures the distance to the mesh in a narrow band.  The grid covers\n"
      "the bounding box plus a margin; dim=N puts N cells along its longest axis.",
-     voxelize_opts, run_voxelize, 0, voxelize_waits, voxelize_io},
+     voxelize_opts, run_voxelize, 0, voxelize_waits, voxelize_io, NULL},
     {"place", "put a density volume where the mesh is (fit its box, scale, offset)",
      "For a mesh whose material comes from a scan: fit=1 stretches the volume's box onto the mesh's, then\n"
      "scale= and offset= adjust it.  A NIfTI volume already carries its world placement (sform/qform).",
-     place_opts, run_place, 0, NULL, place_io},
+     place_opts, run_place, 0, NULL, place_io, NULL},
     {"material", "set the optical material (preset, sigma_a/sigma_s/eta, or the paper's resistances)",
      "Presets are the measured materials of Jensen et al. 2001 (sigma_s', sigma_a per R,G,B in 1/mm, eta 1.3).\n"
      "sigma_a= and sigma_s= take one value (grey, one channel) or three (R,G,B).  resistance= and ground=\n"
      "give the paper's raw resistor values instead (use with boundary=neumann or dirichlet).",
-     material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL, material_io},
+     material_opts, run_material, OHM_ACTION_SETS_SCENE, NULL, material_io, NULL},
     {"light", "add a light (directional, point, spot, area, a pencil beam or the environment)",
      "Lights add up; every -light stays for later -solve actions.  Faces turned to the light receive\n"
      "E = I max(0, n.l) (point lights also 1/d^2); the part Fresnel transmits is deposited below the face.\n"
@@ -1287,7 +1291,7 @@ const ohm_action ohm_actions[] = {
      "the sky all around (uniform radiance intensity=, or an equirectangular image sky=FILE.hdr|.exr):\n"
      "each face is lit by the part of the sky it sees past the object itself, through samples= fixed\n"
      "cosine-weighted directions (docs/lights.md).",
-     ohm_light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io},
+     ohm_light_opts, run_light, OHM_ACTION_SETS_SCENE, NULL, light_io, light_check},
     {"solve", "build the resistor network and solve every light (the solver chosen by size, or as asked)",
      "Assembles the diffusion network (harmonic-mean conductances, ground sigma_a h^3, the chosen boundary\n"
      "term), solves all lights as one multi-column right-hand side, checks the backward error and books the\n"
@@ -1302,7 +1306,7 @@ const ohm_action ohm_actions[] = {
      "solver=mc traces Monte Carlo photon transport through the same cells, media and lights instead: the\n"
      "reference for diffusion's own error on this scene (same grids, plus fluence_se / exitance_se; `ohm\n"
      "validate transport`, docs/transport.md).",
-     solve_opts, run_solve, 0, NULL, solve_io},
+     solve_opts, run_solve, 0, NULL, solve_io, NULL},
     {"export", "write the solution for other tools: a coloured PLY mesh, POV-Ray density files, CSV",
      "ply=FILE writes the input mesh (mm) as binary PLY with the exitance interpolated at each vertex\n"
      "(float exitance or exitance_r/_g/_b, W/mm^2) and 8-bit sRGB colours at a stated exposure (default:\n"
@@ -1311,19 +1315,19 @@ const ohm_action ohm_actions[] = {
      "scaled so the maximum is 65535) and BASE.pov, a scene that renders them as emitting media.  csv=FILE\n"
      "writes one line per solved cell (i,j,k, centre in mm, fluence and exitance per channel) with 17\n"
      "significant digits: doubles read back exactly.",
-     ohm_export_opts, ohm_run_export, OHM_ACTION_WRITES, NULL, ohm_export_io},
+     ohm_export_opts, ohm_run_export, OHM_ACTION_WRITES, NULL, ohm_export_io, NULL},
     {"write", "write the voxel object (and any solution) as a .vdb",
      "Grids: 'surface' (level set, signed distance in mm, negative inside) and 'density' (fog volume, 1 in\n"
      "interior cells, what Blender's Principled Volume reads); after -solve also 'fluence' and 'exitance'\n"
      "(W/mm^2; with suffixes _r _g _b for RGB).  World units are millimetres.",
-     write_opts, run_write, OHM_ACTION_WRITES, NULL, write_io},
+     write_opts, run_write, OHM_ACTION_WRITES, NULL, write_io, NULL},
     {"render", "draw a preview image (.png or .exr) of the solution; compare=1 adds one without scattering",
      "An orthographic view of the mesh (along view=, default the first light's direction), each point shaded\n"
      "by the exitance of the solved frame around it; exposure= scales W/mm^2 to 1 (default: the 99th\n"
      "percentile of what is seen).  compare=1 puts the same view lit without scattering (n.l with shadow\n"
      "rays, the same total power out) beside it.  PNG is 8-bit sRGB, EXR half-float linear.",
-     ohm_render_opts, ohm_run_render, OHM_ACTION_WRITES, NULL, ohm_render_io},
+     ohm_render_opts, ohm_run_render, OHM_ACTION_WRITES, NULL, ohm_render_io, NULL},
     {"stats", "write the run's figures as one JSON object",
      "Counts, sizes and per-stage times (t_read, t_voxelize, t_write, ...) recorded so far.", stats_opts, run_stats,
-     OHM_ACTION_WRITES, NULL, NULL},
-    {NULL, NULL, NULL, NULL, NULL, 0, NULL, NULL}};
+     OHM_ACTION_WRITES, NULL, NULL, NULL},
+    {NULL, NULL, NULL, NULL, NULL, 0, NULL, NULL, NULL}};

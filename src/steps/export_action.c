@@ -36,7 +36,7 @@ static void toward_light(const ohm_state *s, int frame, double out[3])
     for (size_t i = 0; i < s->nlights; ++i) {
         const ohm_light *l = &s->lights[i];
         double v[3];
-        if (l->frame != 0 && l->frame != frame + 1) continue;
+        if (!ohm_light_in_frame(l, frame)) continue;
         if (!ohm_light_toward(l, centre, v)) continue;
         for (int a = 0; a < 3; ++a) out[a] += v[a];
     }

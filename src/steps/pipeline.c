@@ -24,8 +24,6 @@ const ohm_action *ohm_action_find(const char *name)
     return NULL;
 }
 
-static int spec_index(const ohm_action *a, const char *name) { return ohm_opt_index(a->opts, name); }
-
 static const char *suggest_action(const char *word)
 {
     const char *names[64];
@@ -34,26 +32,13 @@ static const char *suggest_action(const char *word)
     return ohm_suggest(word, names, n);
 }
 
-static const char *suggest_option(const ohm_action *a, const char *word)
-{
-    const char *names[OHM_MAX_OPTS];
-    size_t n = 0;
-    for (int i = 0; a->opts[i].name && n < OHM_MAX_OPTS; ++i) names[n++] = a->opts[i].name;
-    return ohm_suggest(word, names, n);
-}
-
 /* ---- value validation ------------------------------------------------------ */
 
-/* base/options.h's check, and a device's words, which that stage cannot know */
-static int validate_value(const ohm_action *a, const ohm_opt_spec *o, const char *v, const char *where,
-                          ohm_error *err)
+/* OHM_OPT_DEVICE's words (device/request.h), which base/options.h cannot know */
+static int check_device(const ohm_opt_spec *o, const char *v, const char *prefix, ohm_error *err)
 {
-    char prefix[320];
-    snprintf(prefix, sizeof prefix, "%s: -%s", where, a->name);
-    int rc = ohm_opt_check(o, v, prefix, err);
-    const char *expected = !rc && o->type == OHM_OPT_DEVICE ? ohm_device_request_expected(v) : NULL;
-    if (expected) rc = ohm_fail(err, OHM_ERR_USAGE, "%s %s=%s: %s", prefix, o->name, v, expected);
-    return rc;
+    const char *expected = o->type == OHM_OPT_DEVICE ? ohm_device_request_expected(v) : NULL;
+    return expected ? ohm_fail(err, OHM_ERR_USAGE, "%s %s=%s: %s", prefix, o->name, v, expected) : OHM_OK;
 }
 
 /* ---- building chains ------------------------------------------------------- */
@@ -62,7 +47,7 @@ void ohm_chain_free(ohm_chain *c)
 {
     if (!c) return;
     for (size_t i = 0; i < c->n; ++i)
-        for (int j = 0; j < OHM_MAX_OPTS; ++j) free(c->items[i].values[j]);
+        ohm_opt_values_free(&c->items[i].opts);
     free(c->items);
     memset(c, 0, sizeof *c);
 }
@@ -87,6 +72,7 @@ static int begin_action(ohm_chain *c, const char *name, const char *where, ohm_e
     ohm_invocation *inv = &c->items[c->n++];
     memset(inv, 0, sizeof *inv);
     inv->action = a;
+    inv->opts.specs = a->opts;
     snprintf(inv->where, sizeof inv->where, "%s", where);
     return OHM_OK;
 }
@@ -94,33 +80,10 @@ static int begin_action(ohm_chain *c, const char *name, const char *where, ohm_e
 static int add_option(ohm_chain *c, const char *token, const char *where, ohm_error *err)
 {
     ohm_invocation *inv = &c->items[c->n - 1];
-    const ohm_action *a = inv->action;
-    const char *eq = strchr(token, '=');
-    if (!eq || eq == token)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: '%s' is not key=value (see 'ohm help %s')", where, a->name,
-                        token, a->name);
-    char key[64];
-    size_t kl = (size_t)(eq - token);
-    if (kl >= sizeof key)
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: option name '%.*s...' is too long", where, a->name, 32, token);
-    memcpy(key, token, kl);
-    key[kl] = '\0';
-    int idx = spec_index(a, key);
-    if (idx < 0) {
-        const char *s = suggest_option(a, key);
-        if (s)
-            return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: unknown option '%s'; did you mean '%s'? (see 'ohm help %s')",
-                            where, a->name, key, s, a->name);
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: unknown option '%s' (see 'ohm help %s')", where, a->name, key,
-                        a->name);
-    }
-    if (inv->values[idx])
-        return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s: option '%s' is given twice", where, a->name, key);
-    int rc = validate_value(a, &a->opts[idx], eq + 1, where, err);
-    if (rc) return rc;
-    inv->values[idx] = strdup(eq + 1);
-    if (!inv->values[idx]) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");
-    return OHM_OK;
+    char prefix[sizeof inv->where + 80], see[96];
+    snprintf(prefix, sizeof prefix, "%.255s: -%s", where, inv->action->name);
+    snprintf(see, sizeof see, "(see 'ohm help %s')", inv->action->name);
+    return ohm_opt_word(&inv->opts, token, prefix, see, check_device, err);
 }
 
 static int finish_action(const ohm_chain *c, ohm_error *err)
@@ -129,10 +92,10 @@ static int finish_action(const ohm_chain *c, ohm_error *err)
     const ohm_invocation *inv = &c->items[c->n - 1];
     const ohm_action *a = inv->action;
     for (int i = 0; a->opts[i].name; ++i)
-        if (a->opts[i].required && !inv->values[i])
+        if (a->opts[i].required && !inv->opts.values[i])
             return ohm_fail(err, OHM_ERR_USAGE, "%s: -%s needs %s= (%s)", inv->where, a->name, a->opts[i].name,
                             a->opts[i].doc);
-    return OHM_OK;
+    return a->check ? a->check(inv, err) : OHM_OK;
 }
 
 /* A first word that is no action: a misspelled command of `ohm`, or an
@@ -180,6 +143,7 @@ int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, con
 {
     memset(inv, 0, sizeof *inv);
     inv->action = a;
+    inv->opts.specs = a->opts;
     snprintf(inv->where, sizeof inv->where, "%s", a->name);
     ohm_chain one = {inv, 1, 1};
     int rc = OHM_OK;
@@ -194,10 +158,7 @@ int ohm_invocation_parse(ohm_invocation *inv, const ohm_action *a, int argc, con
 
 void ohm_invocation_free(ohm_invocation *inv)
 {
-    for (int j = 0; j < OHM_MAX_OPTS; ++j) {
-        free(inv->values[j]);
-        inv->values[j] = NULL;
-    }
+    ohm_opt_values_free(&inv->opts);
 }
 
 /* Split one line into tokens: whitespace-separated, "double quotes" group
@@ -317,28 +278,17 @@ int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err)
 
 /* ---- option access ------------------------------------------------------------ */
 
-static const char *value_or_default(const ohm_invocation *inv, const char *name)
-{
-    int i = spec_index(inv->action, name);
-    if (i < 0) return NULL;
-    return inv->values[i] ? inv->values[i] : inv->action->opts[i].def;
-}
-
-int ohm_opt_given(const ohm_invocation *inv, const char *name)
-{
-    int i = spec_index(inv->action, name);
-    return i >= 0 && inv->values[i] != NULL;
-}
+int ohm_opt_given(const ohm_invocation *inv, const char *name) { return ohm_opt_values_given(&inv->opts, name); }
 
 const char *ohm_opt_str(const ohm_invocation *inv, const char *name)
 {
-    const char *v = value_or_default(inv, name);
+    const char *v = ohm_opt_text(&inv->opts, name);
     return v ? v : "";
 }
 
 long long ohm_opt_int(const ohm_invocation *inv, const char *name)
 {
-    const char *v = value_or_default(inv, name);
+    const char *v = ohm_opt_text(&inv->opts, name);
     long long x = 0;
     if (v) ohm_opt_parse_int(v, &x);
     return x;
@@ -346,7 +296,7 @@ long long ohm_opt_int(const ohm_invocation *inv, const char *name)
 
 double ohm_opt_real(const ohm_invocation *inv, const char *name)
 {
-    const char *v = value_or_default(inv, name);
+    const char *v = ohm_opt_text(&inv->opts, name);
     double x = 0;
     if (v) ohm_opt_parse_real(v, &x);
     return x;
@@ -354,14 +304,14 @@ double ohm_opt_real(const ohm_invocation *inv, const char *name)
 
 void ohm_opt_vec3(const ohm_invocation *inv, const char *name, double out[3])
 {
-    const char *v = value_or_default(inv, name);
+    const char *v = ohm_opt_text(&inv->opts, name);
     out[0] = out[1] = out[2] = 0;
     if (v) ohm_opt_parse_vec3(v, out);
 }
 
 int ohm_opt_real13(const ohm_invocation *inv, const char *name, double out[3])
 {
-    const char *v = value_or_default(inv, name);
+    const char *v = ohm_opt_text(&inv->opts, name);
     out[0] = out[1] = out[2] = 0;
     return v ? ohm_opt_parse_real13(v, out) : 0;
 }
@@ -389,7 +339,7 @@ static int reads_staged(const ohm_invocation *inv, const ohm_output_batch *b)
 {
     if (inv->action->flags & OHM_ACTION_WRITES) return 0;
     for (int k = 0; k < OHM_MAX_OPTS; ++k)
-        if (inv->values[k] && ohm_output_batch_holds(b, inv->values[k])) return 1;
+        if (inv->opts.values[k] && ohm_output_batch_holds(b, inv->opts.values[k])) return 1;
     return 0;
 }
 
@@ -519,7 +469,12 @@ static int unmet(const chain_walk *w, const ohm_invocation *inv, const ohm_need 
                     other);
 }
 
-int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
+/* Every step's needs (ohm_step_io) met by the state s starts the chain
+ * with and the steps that run before it, in the order ohm_chain_run runs
+ * them; else OHM_ERR_USAGE with one line naming the step, what it lacks,
+ * and the earlier step that removed it or gave something else instead.
+ * Runs nothing.  ohm_chain_run calls it first. */
+static int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err)
 {
     size_t *order = malloc((c->n ? c->n : 1) * sizeof *order);
     if (!order) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory");

@@ -28,7 +28,7 @@ typedef struct ohm_action ohm_action;
 /* One action with its parsed option values (text, validated). */
 typedef struct ohm_invocation {
     const ohm_action *action;
-    char *values[OHM_MAX_OPTS]; /* by spec index; NULL = not given         */
+    ohm_opt_values opts;        /* by the action's spec index (base/options.h) */
     char where[256];            /* "command line argument 3" / "x.ohm:12"   */
 } ohm_invocation;
 
@@ -88,6 +88,9 @@ struct ohm_action {
      * error=, whose probes solve the scene) */
     int (*waits)(const ohm_invocation *inv);
     ohm_action_io_fn io;         /* what it needs and provides (above)       */
+    /* NULL, or options that do not go together, found when the action's
+     * words are parsed (before any step runs) */
+    int (*check)(const ohm_invocation *inv, ohm_error *err);
 };
 
 /* The table (actions.c), terminated by an entry with name NULL. */
@@ -131,13 +134,6 @@ void ohm_invocation_free(ohm_invocation *inv);
 /* Parse a pipeline file (or a buffer, for tests and fuzzing). */
 int ohm_chain_parse_file(ohm_chain *c, const char *path, ohm_error *err);
 int ohm_chain_parse_text(ohm_chain *c, const char *text, size_t len, const char *name, ohm_error *err);
-
-/* Every step's needs (ohm_step_io) met by the state s starts the chain
- * with and the steps that run before it, in the order ohm_chain_run runs
- * them; else OHM_ERR_USAGE with one line naming the step, what it lacks,
- * and the earlier step that removed it or gave something else instead.
- * Runs nothing.  ohm_chain_run calls it first. */
-int ohm_chain_check(const ohm_chain *c, const ohm_state *s, ohm_error *err);
 
 /* Run every invocation in order (a step that `waits` after the scene steps
  * that follow it); stops at the first failure, whose message

@@ -12,10 +12,6 @@
 #include "physics/light_kind.h"
 #include "ohm_oiio.h"
 
-#ifndef M_PI
-#define M_PI 3.14159265358979323846
-#endif
-
 const ohm_opt_spec ohm_render_opts[] = {
     {"file", OHM_OPT_STRING, NULL, "output image: .png (8-bit sRGB) or .exr (half float, linear)", NULL, 0, 0, 1},
     {"size", OHM_OPT_STRING, "640,480", "W,H in pixels: the whole image (with compare=1, two W/2 x H panels)", NULL,
@@ -157,8 +153,6 @@ static void exitance_at(const render_ctx *r, const double p[3], double out[3])
     if (isfinite(best)) cell_exitance(r, bc[0], bc[1], bc[2], 1.0, out);
 }
 
-static int light_in_frame(const ohm_light *l, int frame) { return l->frame == 0 || l->frame == frame + 1; }
-
 /* ohm_light_visibility for a surface point of the preview: its origin
  * (lifted off the surface by eps) sees the light unless the mesh is in the way. */
 typedef struct point_view {
@@ -182,7 +176,7 @@ static void irradiance_at(const render_ctx *r, const double p[3], const double n
     point_view pv = {r, {0, 0, 0}};
     for (int a = 0; a < 3; ++a) pv.org[a] = p[a] + r->eps * n[a];
     for (size_t i = 0; i < r->s->nlights; ++i) {
-        if (!light_in_frame(&r->s->lights[i], r->frame)) continue;
+        if (!ohm_light_in_frame(&r->s->lights[i], r->frame)) continue;
         double E[3], l_mean[3];
         ohm_light_irradiance(&r->setups[i], p, n, point_visibility, &pv, E, l_mean);
         for (int c = 0; c < 3; ++c) out[c] += E[c];
@@ -336,7 +330,7 @@ static int view_direction(double f[3], const render_ctx *r, const double centre[
     for (size_t i = 0; i < s->nlights; ++i) {
         const ohm_light *L = &s->lights[i];
         double d[3];
-        if (!light_in_frame(L, r->frame) || !ohm_light_toward(L, centre, d)) continue;
+        if (!ohm_light_in_frame(L, r->frame) || !ohm_light_toward(L, centre, d)) continue;
         for (int a = 0; a < 3; ++a) f[a] = -d[a]; /* the way its light travels */
         break;
     }

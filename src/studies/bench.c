@@ -270,9 +270,10 @@ static int parse_options(bench_options *o, int argc, char **argv, ohm_error *err
     o->csv = ohm_opt_text(g, "csv");
     o->md = ohm_opt_text(g, "md");
     o->device = ohm_opt_text(g, "device");
-    if (o->device && (ohm_device_request_expected(o->device) || strcmp(o->device, "host") == 0))
+    /* read once: typed from here on (the host is the baseline, not a device to compare) */
+    if (o->device && (ohm_device_request_parse(&o->device_request, o->device, NULL) ||
+                      o->device_request.kind == OHM_DEVICE_HOST))
         return usage_error(err, "device=%s: expected gpu, cpu, opencl:N or auto", o->device);
-    if (o->device) ohm_device_request_parse(&o->device_request, o->device, NULL); /* read once: typed from here */
     const char *ds = ohm_opt_text(g, "device_sizes");
     for (const char *q = ds; *q;) {
         char *end;

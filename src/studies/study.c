@@ -38,8 +38,8 @@ static int transport_args(ohm_transport_config *cfg, int argc, char **argv, ohm_
         else if (k == 4 && !strncmp(argv[i], "seed", k) && number && x >= 0 && x < 9e15) cfg->seed = (uint64_t)x;
         else if (k == 6 && !strncmp(argv[i], "hybrid", k) && number && x >= 0 && x <= 1000 && x == floor(x))
             cfg->hybrid = (int)x;
-        else if (k == 6 && !strncmp(argv[i], "device", k) && !ohm_device_request_expected(val))
-            ohm_device_request_parse(&cfg->device, val, NULL); /* read once: typed from here on */
+        else if (k == 6 && !strncmp(argv[i], "device", k) && !ohm_device_request_parse(&cfg->device, val, NULL))
+            continue; /* read once: typed from here on */
         else if (k == 7 && !strncmp(argv[i], "fresnel", k) && (!strcmp(val, "exact") || !strcmp(val, "polynomial")))
             cfg->fresnel = strcmp(val, "exact") ? OHM_FRESNEL_POLYNOMIAL : OHM_FRESNEL_EXACT;
         else if (k == 7 && !strncmp(argv[i], "deposit", k) &&
