@@ -3,8 +3,8 @@
 A thin layer over libohm's C API (include/ohm.h, whose comments are the
 manual): a Context holds verbosity and the log and progress callbacks; a
 Scene holds one object and its light — mesh or density volume, voxel grid,
-material, lights — and the solver set up for them, whose factor is kept so
-that relight() solves new lights without factoring again.
+material, lights — and the solver set up for them (solver=auto unless asked),
+kept so that relight() solves new lights without setting up again.
 
     import ohm
     with ohm.Context() as ctx, ohm.Scene(ctx) as scene:
@@ -16,7 +16,7 @@ that relight() solves new lights without factoring again.
         phi = scene.fluence(channel=0)           # numpy, shape (nz, ny, nx)
         scene.clear_lights()
         scene.add_light(type="point", pos=(0, 80, 40), intensity=5000)
-        scene.relight()                          # no new factorization
+        scene.relight()                          # no new set-up
 
 Steps are ohm's pipeline actions (`ohm help`, `ohm help ACTION`), their
 options keyword arguments (a tuple or list becomes "x,y,z").  Arrays over
@@ -311,7 +311,7 @@ class Scene(_Handle):
         self._context._settle(_lib.ohm_scene_solve(self._live(), array))
 
     def relight(self):
-        """Solve the current lights with the last solve's factor."""
+        """Solve the current lights with the last solve's solver, set up once."""
         self._context._settle(_lib.ohm_scene_relight(self._live()))
 
     # ---- results ----------------------------------------------------------

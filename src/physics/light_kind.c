@@ -33,7 +33,7 @@ const ohm_opt_spec ohm_light_opts[] = {
      "whose pixels times intensity are the sky's radiance; without it the sky is uniform",
      NULL, 0, 0, 0},
     {"orbit", OHM_OPT_INT, "0",
-     "N > 0: N frames with the light turned about the object's centre (a .vdb sequence, one factorization)", NULL,
+     "N > 0: N frames with the light turned about the object's centre (a .vdb sequence, one solver set-up)", NULL,
      0, 100000, 0},
     {"axis", OHM_OPT_ENUM, "y", "orbit axis through the object's centre", "x|y|z", 0, 0, 0},
     {0}};

@@ -9,15 +9,6 @@
 #include "base/memory.h"
 #include "physics/stencil.h"
 
-const ohm_backend_ops *ohm_backend_find(const char *name)
-{
-    static const ohm_backend_ops *const all[] = {&ohm_backend_direct, &ohm_backend_cg, &ohm_backend_amg,
-                                                 &ohm_backend_mg, &ohm_backend_auto};
-    for (size_t i = 0; name && i < sizeof all / sizeof all[0]; ++i)
-        if (strcmp(all[i]->name, name) == 0) return all[i];
-    return NULL;
-}
-
 double ohm_sym_upper_norm_inf(const cholmod_sparse *A)
 {
     /* row sums of |A| = column sums (A is symmetric): each stored

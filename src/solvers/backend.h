@@ -160,9 +160,6 @@ enum { OHM_BACKEND_STENCIL = 1u << 3 };
 
 extern const ohm_backend_ops ohm_backend_direct, ohm_backend_cg, ohm_backend_amg, ohm_backend_mg, ohm_backend_auto;
 
-/* The backend of that name (direct | cg | amg | mg | auto), or NULL. */
-const ohm_backend_ops *ohm_backend_find(const char *name);
-
 /* Whether this build has the amg backend (PETSc); when not, its create fails
  * with a message saying so.  Whether this process has started PETSc and MPI
  * already (under mpirun, or at an earlier solver=amg): the first start costs

@@ -73,12 +73,12 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     s->cc_started = 1;
     s->cc.print = 0;
     s->cc.error_handler = NULL;
-    ohm_solver_kind kind = s->params.num.solver;
-    const char *name = ohm_solver_kind_name(kind);
     /* a kind that transports photons has a transport; every other, a backend */
-    s->transport = (ohm_solver_kind_caps(kind) & OHM_SOLVES_TRANSPORT) ? ohm_transport_find(name) : NULL;
-    s->backend = s->transport ? NULL : ohm_backend_find(name);
-    if (!s->backend && !s->transport) return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", name);
+    ohm_solver_kind kind = s->params.num.solver;
+    s->transport = ohm_solver_kind_transport(kind);
+    s->backend = ohm_solver_kind_backend(kind);
+    if (!s->backend && !s->transport)
+        return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", ohm_solver_kind_name(kind));
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
     return OHM_OK;
 }

@@ -181,4 +181,10 @@ int ohm_conserve_exactly(channel_tally *t, const ohm_network *net, double *X, co
                          const double *ga, const double *gb, const ohm_operator *op, const ohm_channel_medium *med,
                          double *berr, ohm_error *err);
 
+/* The object that solves a kind of solver (choice.c's table): its backend
+ * (NULL for a kind that transports photons), or its transport (NULL for
+ * every diffusion solver). */
+const ohm_backend_ops *ohm_solver_kind_backend(ohm_solver_kind kind);
+const struct ohm_transport_ops *ohm_solver_kind_transport(ohm_solver_kind kind);
+
 #endif

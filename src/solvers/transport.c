@@ -217,12 +217,7 @@ static int mc_transport(ohm_solver *s, const ohm_light *lights, size_t nlights, 
 }
 
 /* mc: Monte Carlo transport instead of diffusion. */
-static const ohm_transport_ops transport_mc = {.name = "mc", .solve = mc_transport};
-
-const ohm_transport_ops *ohm_transport_find(const char *name)
-{
-    return name && strcmp(name, transport_mc.name) == 0 ? &transport_mc : NULL;
-}
+const ohm_transport_ops ohm_transport_mc = {.name = "mc", .solve = mc_transport};
 
 /* The hybrid (solve.h, mc.handoff) applies to optical media under the
  * Fresnel boundary, every cell kept. */

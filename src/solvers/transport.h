@@ -18,7 +18,8 @@
 
 struct channel_tally; /* solver_impl.h: what solving one channel adds */
 
-/* A transport chosen by the solver's name, in place of a backend. */
+/* A transport, in place of a backend, for a solver kind that traces photons
+ * (choice.c's table). */
 typedef struct ohm_transport_ops {
     const char *name;
     /* Every frame and channel of these lights solved into the solver's
@@ -26,8 +27,8 @@ typedef struct ohm_transport_ops {
     int (*solve)(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err);
 } ohm_transport_ops;
 
-/* The transport of that name (mc), or NULL: the name is a backend's, or none. */
-const ohm_transport_ops *ohm_transport_find(const char *name);
+/* Monte Carlo transport: solver=mc. */
+extern const ohm_transport_ops ohm_transport_mc;
 
 /* ---- the hybrid's transport part ------------------------------------------------- */
 
