@@ -162,8 +162,13 @@ OHM_API int ohm_context_progress(ohm_context *ctx, char *what, size_t size, doub
  * it succeeds); the scene keeps what it held before that step and solves
  * again normally.  Any thread may call this, and so may the progress
  * callback and a signal handler (it is one lock-free atomic store).  A
- * request made while no call runs stops the next one; the call that
- * returns OHM_ERR_CANCELLED takes the request back.  Stopped at once:
+ * request applies to the call running when it is made: every call that
+ * runs steps (ohm_scene_run and the calls built on it, ohm_scene_solve,
+ * ohm_scene_relight) drops, as it begins, a request made before it — one
+ * aimed at a call that had already returned, or made while none ran — so
+ * a late Esc never stops the next solve.  (A caller that cancels a job of
+ * several calls should also stop issuing them: a request that arrives
+ * between two calls is dropped by the second.)  Stopped at once:
  * reading slices, voxelizing, factorizing (between CHOLMOD's supernodes),
  * conjugate gradients (every iteration), Monte Carlo (every few hundred
  * photons) and between a run's steps and output files; the METIS ordering

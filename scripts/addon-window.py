@@ -1,7 +1,8 @@
 """addon-window.py — the Blender add-on in a real window (run by
 scripts/addon-window.sh under Xvfb, not headless): what an artist feels.
 
-  blender -P scripts/addon-window.py -- solve DIM   # Solve from the button, then a second one cancelled
+  blender -P scripts/addon-window.py -- solve DIM   # Solve from the button, then a second one cancelled,
+                                                    # then a third stopped by Esc while it voxelizes
   blender -P scripts/addon-window.py -- live DIM    # Live relight with the light moved every tick
 
 A 20 ms bpy.app.timers timer records when Blender's main thread runs; the
@@ -12,6 +13,7 @@ otherwise; NO3D=1 turns the 3D views into text editors (live: the rate
 without Blender's viewport redraw)."""
 import math
 import os
+import subprocess
 import sys
 import time
 
@@ -21,6 +23,7 @@ import numpy as np
 from ohm_blender import operators, session
 
 MODE, DIM = sys.argv[sys.argv.index("--") + 1], int(sys.argv[sys.argv.index("--") + 2])
+ESC_DIM = int(os.environ.get("ESC_DIM", "112"))  # Spot at 50 mm: 198 991 cells
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 sys.path.insert(0, os.path.join(ROOT, "tests"))
 from blender_scene import read_obj, scene_with_mesh  # noqa: E402
@@ -121,6 +124,19 @@ def solve_tick(now, s, phase):
         main = [d for _, _, d in marks]
         print("MAIN THREAD: the add-on's longest step %.1f ms (%s)" % (
             1e3 * max(main), max(marks, key=lambda m: m[2])[0]))
+        obj.ohm.dim = ESC_DIM  # a new setup, stopped by Esc while it voxelizes
+        run(lambda: bpy.ops.ohm.solve("INVOKE_DEFAULT"))
+        state.update(phase="third", t0=now)
+    elif phase == "third" and s.progress[0].startswith("voxelize") and s.progress[1] > 0.2:
+        # a real key press, as an artist's (xdotool, through the X server)
+        subprocess.Popen(["xdotool", "mousemove", "400", "300", "key", "Escape"])
+        state.update(phase="escaping", tc=now, at=s.progress)
+    elif phase == "escaping" and s.job is None:
+        print("ESC during %s at %.0f%% (dim %d): stopped after %.3f s (%s)" % (
+            state["at"][0], 100 * state["at"][1], ESC_DIM, now - state["tc"], s.status))
+        return None
+    elif phase == "escaping" and now - state["tc"] > 30:
+        print("ESC during %s: not stopped after 30 s" % state["at"][0])
         return None
     return 0.02
 

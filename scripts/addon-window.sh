@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # addon-window.sh — the Blender add-on in a real window under Xvfb (docs/blender.md):
 # a Solve's main-thread gaps, Blender's own redraw time, a cancel inside the
-# factorization, and Live relight's rate with and without a 3D view.  Prints
-# the figures docs/blender.md quotes ("The add-on in a real window").  Needs
-# xvfb-run (Debian's xvfb).  About 2 minutes.
+# factorization, Esc (a real key press, by xdotool) while voxelizing, and
+# Live relight's rate with and without a 3D view.  Prints the figures
+# docs/blender.md quotes ("The add-on in a real window").  Needs xvfb-run
+# (Debian's xvfb) and xdotool.  About 2 minutes.
 #   scripts/addon-window.sh [build]        SOLVE_DIM=112 LIVE_DIM=60
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +19,7 @@ bpy.ops.preferences.addon_enable(module='ohm_blender')
 bpy.context.preferences.view.show_splash = False
 bpy.ops.wm.save_userpref()" > "$T/install.log" 2>&1 || { tail "$T/install.log"; exit 1; }
 window() { xvfb-run -a -s "-screen 0 1280x800x24" blender -P scripts/addon-window.py -- "$@" 2>&1 \
-  | grep -E "^(SOLVE|REDRAW|CANCEL|GAPS|MAIN THREAD|LIVE)"; }
+  | grep -E "^(SOLVE|REDRAW|CANCEL|ESC|GAPS|MAIN THREAD|LIVE)"; }
 window solve "${SOLVE_DIM:-112}"
 window live "${LIVE_DIM:-60}"
 NO3D=1 window live "${LIVE_DIM:-60}"

@@ -104,6 +104,26 @@ def stopped(what, scene, kind, request):
     check(r["power_in"] > 0 and conserves(r), "%s: the scene does not solve afterwards" % what)
 
 
+def one_progress_bar():
+    """A solve of three colour channels, each an iterative solve of its
+    own, fills one progress bar: its reports never go back, the first
+    channel ends a third of the way, and the last at 1."""
+    seen = []
+    ctx = ohm.Context(verbosity=0, progress=lambda what, f: seen.append((what, f)))
+    with ohm.Scene(ctx) as s:
+        s.run("read", file="samples/spot.obj", size=50)
+        s.run("voxelize", dim=24)
+        s.run("material", preset="skin1")  # three media: one solve per channel
+        s.add_light(type="point", pos=(0, 80, 60), intensity=100)
+        s.solve(solver="cg")
+    solve = [f for what, f in seen if what.startswith("solve")]
+    check(len(solve) >= 3 and all(b >= a for a, b in zip(solve, solve[1:])),
+          "the solve's progress goes back: %s" % solve)
+    check(any(abs(f - 1 / 3) < 1e-9 for f in solve) and solve[-1] == 1.0,
+          "the three channels do not share one bar: %s" % solve)
+    ctx.close()
+
+
 def interruptions():
     ctx = ohm.Context(verbosity=0)
     scene = long_scene(ctx)
@@ -111,6 +131,10 @@ def interruptions():
     stopped("Ctrl-C", scene, KeyboardInterrupt, lambda: os.kill(os.getpid(), signal.SIGINT))
     # Context.cancel() from another thread
     stopped("Context.cancel()", scene, ohm.Cancelled, ctx.cancel)
+    # a cancel while nothing runs is aimed at no call: the next solve runs
+    ctx.cancel()
+    scene.solve(solver="mc", photons=10000)
+    check(conserves(scene.result()), "a solve after a cancel made while nothing ran")
 
     # an exception in the progress callable
     class Boom(Exception):
@@ -299,6 +323,7 @@ def main():
                 u.run("voxelize", threshold=50, voxel=1)
                 cells = u.grid["interior_cells"]
                 check(cells == 22 ** 3, "uniform array: %d cells, expected 22^3" % cells)
+    one_progress_bar()
     interruptions()
     print("api_python: %d failure(s)" % failures)
     return 1 if failures else 0

@@ -344,6 +344,13 @@ if MODE == "live":
     place_light((0, 1, 0))
     if operators.live_step(bpy.context, obj) != "relight":
         problem("after a cancelled solve the session did not relight")
+    # an Esc that arrives when nothing runs (after the job ended) is aimed at
+    # nothing: the next update runs to its end instead of ending "cancelled"
+    s.ctx.cancel()
+    place_light((1, 0, 0))
+    late = operators.live_step(bpy.context, obj)
+    if late != "relight" or "cancel" in s.status:
+        problem("after a cancel with nothing running, the next update gave %r: %s" % (late, s.status))
     # a panel value that would not fit is refused before anything is built,
     # naming what it needs and the largest Cells that fits
     obj.ohm.dim = 1024

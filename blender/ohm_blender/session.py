@@ -208,7 +208,9 @@ class Session:
         job["seconds"] = time.perf_counter() - t0
 
     def _compute(self, sc, job):
+        _go_on(job)
         sc.set_mesh(job["verts"], job["tris"], name=job["name"])
+        _go_on(job)
         if job["material"] == "PRESET":
             sc.run("material", preset=job["preset"])
         elif job["material"] == "COEFFICIENTS":
@@ -219,11 +221,13 @@ class Session:
             sc.run("material", transfer=job["transfer"])
         for opts in job["lights"]:
             sc.add_light(**opts)
+        _go_on(job)
         memory = {"max_memory": job["max_memory_mb"]}
         if job["grid"] == "DIM":
             sc.run("voxelize", dim=job["dim"], **memory)
         else:
             sc.run("voxelize", error=job["error"], max_dim=job["max_dim"], **memory)
+        _go_on(job)
         # the device runs mg's solve only (Auto's choice is made by then: gather)
         device = {"device": job["device"]} if job["solver"] == "mg" and job["device"] != "host" else {}
         sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
@@ -264,9 +268,11 @@ class Session:
         sc = self.scene
         t_source0, t_solve0 = sc.stat("t_source"), sc.stat("t_solve")
         t0 = time.perf_counter()
+        _go_on(job)
         sc.clear_lights()
         for opts in job["lights"]:
             sc.add_light(**opts)
+        _go_on(job)
         sc.relight()
         t1 = time.perf_counter()
         job["exitance"] = sc.vertex_exitance()
@@ -358,6 +364,16 @@ class Session:
             self.solver += " on " + self.scene.stat("device")
 
 
+def _go_on(job):
+    """Raise ohm.Cancelled when the job was cancelled.  The library drops a
+    cancel made while none of its calls runs (ohm.h: a request applies to
+    the call running), so a job of several calls checks between them.  (A
+    synchronous setup or relight has no Job, and nothing to cancel it.)"""
+    cancelled = job.get("cancelled")
+    if cancelled is not None and cancelled.is_set():
+        raise ohmlib.Cancelled(ohmlib.ERR_CANCELLED, "cancelled")
+
+
 class Job:
     """A compute step (a setup's, or with compute=Session.relight_compute a
     relight's) on a thread of its own, so that Blender's window stays
@@ -369,6 +385,7 @@ class Job:
         self.compute = compute or s.compute
         self.kind = "relight" if compute == s.relight_compute else "setup"
         self.error = None
+        job["cancelled"] = threading.Event()
         s.job = self
         self.thread = threading.Thread(target=self._run, name="ohm %s %s" % (self.kind, s.name), daemon=True)
         self.t0 = time.perf_counter()
@@ -384,6 +401,7 @@ class Job:
         return not self.thread.is_alive()
 
     def cancel(self):
+        self.job["cancelled"].set()
         self.session.ctx.cancel()
 
     def wait(self, seconds=None):

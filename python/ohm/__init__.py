@@ -29,6 +29,8 @@ second when asked: Ctrl-C during scene.solve() raises KeyboardInterrupt,
 Context.cancel() (from another thread, or from fn) makes the running call
 raise ohm.Cancelled, and an exception raised in fn or in the log callable
 stops the call and reaches its caller.  The scene stays usable either way.
+A cancel made while no call runs is aimed at nothing: the next call drops
+it and runs.
 """
 import ctypes
 import sys
@@ -176,7 +178,8 @@ class Context(_Handle):
 
     def cancel(self):
         """Stop the call running on one of this context's scenes: it raises
-        ohm.Cancelled within about a second.  Any thread may call this."""
+        ohm.Cancelled within about a second.  Any thread may call this.
+        With no call running it does nothing (the next call drops it)."""
         _lib.ohm_context_cancel(self._live())
 
     def set_log(self, fn):

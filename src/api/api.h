@@ -14,8 +14,8 @@
 struct ohm_context {
     ohm_log log;            /* verbosity and the caller's callbacks; log.cancel
                                points at `cancel`                             */
-    atomic_int cancel;      /* ohm_context_cancel's request, until a call
-                               returns OHM_ERR_CANCELLED for it               */
+    atomic_int cancel;      /* ohm_context_cancel's request for the calls
+                               running; cleared as the next call begins      */
     /* the latest progress report, kept for ohm_context_progress when the
      * context polls (ohm_context_poll_progress); any thread reads it */
     pthread_mutex_t progress_lock;
@@ -47,8 +47,9 @@ int ohm_api_sized_ok(size_t size, size_t end_of_first, const char *fn, const cha
 /* The scene's log follows its context's (set before every step). */
 void ohm_api_sync_log(ohm_scene *scene);
 
-/* ohm_api_return for a call that ran steps on the scene: a cancelled one
- * also takes back the request it answered, so the next call runs. */
-int ohm_api_scene_return(ohm_scene *scene, int rc, const ohm_error *err);
+/* A call that runs steps on the scene begins: a cancellation requested
+ * before it (aimed at an earlier call, or made while none ran) is dropped,
+ * and the scene's log follows its context's. */
+void ohm_api_scene_begin(ohm_scene *scene);
 
 #endif

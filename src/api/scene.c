@@ -35,20 +35,20 @@ void ohm_scene_free(ohm_scene *scene)
     free(scene);
 }
 
-int ohm_api_scene_return(ohm_scene *scene, int rc, const ohm_error *err)
+void ohm_api_scene_begin(ohm_scene *scene)
 {
-    if (rc == OHM_ERR_CANCELLED) atomic_store(&scene->ctx->cancel, 0);
-    return ohm_api_return(rc, err);
+    atomic_store(&scene->ctx->cancel, 0);
+    ohm_api_sync_log(scene);
 }
 
 static int run_chain(ohm_scene *scene, ohm_chain *chain)
 {
-    ohm_api_sync_log(scene);
+    ohm_api_scene_begin(scene);
     ohm_error err;
     ohm_error_clear(&err);
     int rc = ohm_chain_run(chain, &scene->state, &err);
     ohm_chain_free(chain);
-    return ohm_api_scene_return(scene, rc, &err);
+    return ohm_api_return(rc, &err);
 }
 
 int ohm_scene_run_args(ohm_scene *scene, int argc, const char *const *argv)
@@ -212,8 +212,8 @@ int ohm_scene_solve(ohm_scene *scene, const char *const *options)
 int ohm_scene_relight(ohm_scene *scene)
 {
     if (!scene) return ohm_api_fail(OHM_ERR_USAGE, "ohm_scene_relight: scene is NULL");
-    ohm_api_sync_log(scene);
+    ohm_api_scene_begin(scene);
     ohm_error err;
     ohm_error_clear(&err);
-    return ohm_api_scene_return(scene, ohm_state_relight(&scene->state, &err), &err);
+    return ohm_api_return(ohm_state_relight(&scene->state, &err), &err);
 }

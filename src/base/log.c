@@ -51,9 +51,17 @@ void ohm_progress_begin(ohm_progress *p, const ohm_log *log, const char *what)
     p->printed = 0;
 }
 
+/* A step's fraction on the bar its log's span gives it. */
+static double spanned(const ohm_log *log, double fraction)
+{
+    const ohm_progress_span *s = log ? log->span : NULL;
+    return s && s->hi > s->lo ? s->lo + fraction * (s->hi - s->lo) : fraction;
+}
+
 int ohm_progress_update(ohm_progress *p, double fraction)
 {
     if (!p) return 0;
+    fraction = spanned(p->log, fraction);
     if (p->log && p->log->progress) {
         p->log->progress(p->log->progress_user, p->what, fraction);
         return ohm_log_cancelled(p->log);
@@ -75,7 +83,7 @@ int ohm_fail_cancelled(ohm_error *err, const char *step)
 void ohm_progress_end(ohm_progress *p)
 {
     if (p && p->log && p->log->progress) {
-        p->log->progress(p->log->progress_user, p->what, 1.0);
+        p->log->progress(p->log->progress_user, p->what, spanned(p->log, 1.0));
         return;
     }
     if (!p || !p->printed) return;

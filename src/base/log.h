@@ -13,6 +13,13 @@
 
 #include "base/ohm_error.h" /* OHM_LOG_WARNING, OHM_LOG_INFO, OHM_ERR_CANCELLED */
 
+/* One progress bar over several steps: while hi > lo, a step's fraction f
+ * is shown as lo + f (hi - lo) (a solve's channels and batches of frames,
+ * each an iterative solve of its own, fill one bar from 0 to 100%). */
+typedef struct ohm_progress_span {
+    double lo, hi;
+} ohm_progress_span;
+
 typedef struct ohm_log {
     FILE *stream;    /* where messages go; NULL = stderr                  */
     int verbosity;   /* 0 errors and warnings only, 1 normal, 2 verbose    */
@@ -28,6 +35,9 @@ typedef struct ohm_log {
      * ohm_log_cancelled, at least about every 0.1 s of work, and return
      * OHM_ERR_CANCELLED, having freed what they made. */
     const atomic_int *cancel;
+    /* The share of one progress bar the steps now running fill, or NULL:
+     * each step's own 0 to 100% (owned by whoever set it: a solver). */
+    const ohm_progress_span *span;
 } ohm_log;
 
 /* 1 when the run has been asked to stop. */

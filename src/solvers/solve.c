@@ -83,6 +83,19 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     return OHM_OK;
 }
 
+/* The solver's log is the caller's as it is now (callbacks, verbosity and
+ * cancellation), with the solver's progress span: the backends hold
+ * s->log from their set-up, so a relight reports where the caller now
+ * listens.  Called as each of the solver's calls begins. */
+static void follow_caller_log(ohm_solver *s)
+{
+    if (s->caller_log) s->log_own = *s->caller_log;
+    else memset(&s->log_own, 0, sizeof s->log_own);
+    s->log_own.span = &s->span;
+    s->span = (ohm_progress_span){0, 0};
+    s->log = &s->log_own;
+}
+
 int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_material *mat,
                       const ohm_solve_params *params, int keep, const ohm_log *log, ohm_error *err)
 {
@@ -98,7 +111,8 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
     ohm_take_media(&s->sol, &params->media);
     s->mat = *mat;
     s->grid = grid;
-    s->log = log;
+    s->caller_log = log;
+    follow_caller_log(s);
     s->keep = keep;
     s->held = -1;
     int rc = solver_prepare(s, params, err);
@@ -240,6 +254,7 @@ static int setup_media(const diffusion_run *run, const ohm_backend_config *bcfg,
 
 int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
+    follow_caller_log(s);
     if (s->transport) return OHM_OK; /* nothing to set up */
     int channels, frames;
     lights_shape(s, lights, nlights, &channels, &frames);
@@ -251,12 +266,26 @@ int ohm_solver_setup(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm
     return rc;
 }
 
+/* Channel `rank` of the `count` solved in turn: its share of the solve's
+ * one progress bar (ohm_progress_span). */
+typedef struct bar_share {
+    int rank, count;
+} bar_share;
+
+/* The bar's span for the batch of frames [f0, f0 + nb) of the channel. */
+static void share_bar(ohm_solver *s, const bar_share *bar, size_t f0, size_t nb, size_t frames)
+{
+    double w = 1.0 / bar->count;
+    s->span.lo = (bar->rank + (double)f0 / (double)frames) * w;
+    s->span.hi = (bar->rank + (double)(f0 + nb) / (double)frames) * w;
+}
+
 /* Every frame of channel c solved with medium k's setup, batch by batch:
  * sources, distinct columns, the backend, exact conservation, booking, and
  * what is added after the solve (the hybrid's part, the unscattered beam).
  * Writes channel c's arrays of the solution, *t and *rep only. */
 static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally *t, ohm_backend_report *rep, int c,
-                         int k, int warm_from, ohm_error *err)
+                         int k, int warm_from, const bar_share *bar, ohm_error *err)
 {
     ohm_solver *s = run->s;
     ohm_solution *sol = &s->sol;
@@ -271,6 +300,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
     for (size_t f0 = 0; f0 < frames && !rc; f0 += run->batch) {
         if (ohm_log_cancelled(s->log)) return ohm_fail_cancelled(err, "solve");
         size_t nb = frames - f0 < run->batch ? frames - f0 : run->batch;
+        if (bar) share_bar(s, bar, f0, nb, frames);
         double t0 = ohm_now();
         const face_powers *fp = &run->fp;
         rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights,
@@ -328,6 +358,7 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
     batch_work w;
     int rc = ohm_batch_work_alloc(&w, &s->sol, run->batch, run->hybrid, err);
     int solved[OHM_MAX_CHANNELS] = {0};
+    int rank = 0; /* channels solved so far: the progress bar's share */
     for (int k = 0; k < run->channels && !rc; ++k) {
         if (run->cls[k] != k) continue; /* not the first channel of its class */
         rc = slot_acquire(s, k, bcfg, err);
@@ -338,11 +369,13 @@ static int solve_media_in_turn(const diffusion_run *run, channel_tally *tally, c
             int warm_from = -1;
             for (int q = 0; q < run->channels; ++q)
                 if (solved[q]) warm_from = q;
-            rc = solve_channel(run, &w, &tally[c], &s->rep, c, k, warm_from, err);
+            bar_share bar = {rank++, run->channels};
+            rc = solve_channel(run, &w, &tally[c], &s->rep, c, k, warm_from, &bar, err);
             solved[c] = 1;
         }
     }
     ohm_batch_work_free(&w);
+    s->span = (ohm_progress_span){0, 0};
     return rc;
 }
 
@@ -363,7 +396,7 @@ static void solve_medium_job(void *arg, int64_t i)
     batch_work w;
     job->rc = ohm_batch_work_alloc(&w, &run->s->sol, run->batch, run->hybrid, &job->err);
     for (int c = job->k; c < run->channels && !job->rc; ++c)
-        if (run->cls[c] == job->k) job->rc = solve_channel(run, &w, &job->tally[c], &job->rep, c, job->k, -1, &job->err);
+        if (run->cls[c] == job->k) job->rc = solve_channel(run, &w, &job->tally[c], &job->rep, c, job->k, -1, NULL, &job->err);
     ohm_batch_work_free(&w);
 }
 
@@ -488,6 +521,7 @@ static int relight_from_last(const ohm_solver *s, int channels, int frames)
 
 int ohm_solver_solve(ohm_solver *s, const ohm_light *lights, size_t nlights, ohm_error *err)
 {
+    follow_caller_log(s);
     ohm_solution *sol = &s->sol;
     int channels, frames;
     lights_shape(s, lights, nlights, &channels, &frames);

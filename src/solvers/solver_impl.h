@@ -82,7 +82,12 @@ struct ohm_solver {
     char *petsc_options;
     ohm_material mat;
     const ohm_voxel_grid *grid;
-    const ohm_log *log;
+    const ohm_log *log;          /* &log_own: the caller's, with the span       */
+    const ohm_log *caller_log;   /* the caller's log, copied into log_own as
+                                    each call begins (its callbacks may change) */
+    ohm_log log_own;
+    ohm_progress_span span;      /* the share of the solve's one progress bar
+                                    the backend's solve now running fills      */
     int keep;                    /* keep every medium's setup between solves   */
     ohm_occluder *occ;
     cholmod_common cc;           /* for assembling A in CHOLMOD's form        */
