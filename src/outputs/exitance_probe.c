@@ -68,6 +68,40 @@ double ohm_exitance_l1_diff(const double *a, const double *b, size_t n)
     return s;
 }
 
+/* ohm_exitance_binned_noise (exitance_probe.h): each face's variance (its
+ * cell's standard error squared) spread with the trilinear weights like its
+ * power (not their squares: an upper estimate), the nodes' errors taken as
+ * independent, and E|N(0, s)| = s sqrt(2/pi). */
+double ohm_exitance_binned_noise(const ohm_exitance_lattice *L, const ohm_solution *mc, const ohm_voxel_grid *g,
+                                 const double *P)
+{
+    ohm_solution var = *mc; /* the same faces, with se^2 h^2 per face as "exitance" */
+    double *fx[OHM_MAX_CHANNELS] = {NULL};
+    int ok = 1;
+    for (int c = 0; c < mc->channels && ok; ++c) {
+        fx[c] = malloc((size_t)(mc->net.nfaces ? mc->net.nfaces : 1) * sizeof(double));
+        ok = fx[c] != NULL;
+        for (int64_t f = 0; ok && f < mc->net.nfaces; ++f) {
+            double se = mc->exitance_se[c][mc->net.face_unknown[f]];
+            fx[c][f] = se * se * g->h * g->h; /* binned x h^2 below: se^2 h^4, a power's variance */
+        }
+        var.face_exitance[c] = fx[c];
+    }
+    double *V = ok ? ohm_exitance_binned(L, &var, g) : NULL;
+    double noise = NAN;
+    if (V) {
+        double sum = 0, sp = 0;
+        for (size_t i = 0; i < L->nodes * 3; ++i) {
+            sum += sqrt(fmax(V[i], 0.0)) * sqrt(2.0 / 3.14159265358979323846);
+            sp += fabs(P[i]);
+        }
+        noise = sp > 0 ? sum / sp : 0;
+    }
+    free(V);
+    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) free(fx[c]);
+    return noise;
+}
+
 int ohm_probe_solve(ohm_solution *sol, const ohm_voxel_grid *g, int flipped, const ohm_mesh *mesh,
                     const ohm_material *mat, const ohm_light *lights, size_t nlights, ohm_solver_kind solver, double band,
                     int64_t photons, ohm_error *err)

@@ -35,6 +35,10 @@ void ohm_exitance_lattice_for(ohm_exitance_lattice *L, const ohm_mesh *mesh);
 double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *sol, const ohm_voxel_grid *g);
 /* sum |a - b| over n values. */
 double ohm_exitance_l1_diff(const double *a, const double *b, size_t n);
+/* The noise of a Monte Carlo solution's binned exitance P (ohm_exitance_binned
+ * of mc) as a part of sum |P|, from the tracer's standard errors. */
+double ohm_exitance_binned_noise(const ohm_exitance_lattice *L, const ohm_solution *mc, const ohm_voxel_grid *g,
+                                 const double *P);
 
 /* The probe's solve on grid g (Robin, METIS, exponential deposit, mesh
  * shadows, nothing logged): solver direct, cg or mc (then photons per

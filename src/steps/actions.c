@@ -28,6 +28,7 @@ void ohm_state_init(ohm_state *s)
     memset(s, 0, sizeof *s);
     s->log.verbosity = 1;
     s->mesh_scale_mm = 1.0;
+    s->model_error = -1;
     ohm_stats_set_str(&s->stats, "ohm_version", OHM_VERSION);
 }
 
@@ -305,6 +306,7 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         return ohm_fail(err, OHM_ERR_INVALID, "%s: -voxelize: no mesh yet: put -read file=MESH before it", inv->where);
     }
     ohm_voxelize_params p = {0};
+    double model_target = 0, model_error = -1; /* what -solve model=auto reads */
     if (ohm_opt_given(inv, "voxel")) p.voxel = ohm_opt_real(inv, "voxel") * unit_mm(ohm_opt_str(inv, "units"));
     else p.dim = (int)ohm_opt_int(inv, "dim");
     if (ohm_opt_given(inv, "error")) {
@@ -321,7 +323,8 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
                             inv->where);
         ohm_resolution_pick pick;
         double target = ohm_opt_real(inv, "error");
-        int rc = ohm_pick_resolution(&pick, &s->mesh, &s->material, s->lights, s->nlights, target, &s->log, err);
+        int rc = ohm_pick_resolution(&pick, &s->mesh, &s->material, s->lights, s->nlights, target,
+                                     ohm_model_probe_photons(&s->material, target), &s->log, err);
         if (rc) return rc;
         if (ohm_opt_given(inv, "max_dim") && pick.dim > ohm_opt_int(inv, "max_dim"))
             return ohm_fail(err, OHM_ERR_NOMEM,
@@ -334,6 +337,13 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
         ohm_stats_set(&s->stats, "error_probe", pick.probe_error);
         ohm_stats_set_int(&s->stats, "dim_chosen", pick.dim);
         ohm_stats_add(&s->stats, "t_error_probe", pick.t_probe);
+        model_target = target;
+        if (pick.photons > 0) {
+            ohm_stats_set(&s->stats, "model_error_probe", pick.model_error);
+            ohm_stats_set(&s->stats, "model_diff_probe", pick.model_diff);
+            ohm_stats_add(&s->stats, "t_model_probe", pick.t_model);
+            model_error = pick.model_error;
+        }
     }
     p.band_voxels = (int)ohm_opt_int(inv, "band");
     if (ohm_opt_given(inv, "max_memory")) p.max_memory = ohm_opt_real(inv, "max_memory") * 1048576.0;
@@ -361,6 +371,8 @@ static int run_voxelize(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     s->grid = g;
     s->mesh_flipped = rep.flipped;
     s->have_grid = 1;
+    s->error_target = model_target;
+    s->model_error = model_error;
     double cell_volume = g.h * g.h * g.h;
     double vol = (double)g.interior_cells * cell_volume;
     if (rep.flipped)
@@ -517,6 +529,7 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
     drop_solution(s);
     s->material = m;
     s->have_material = 1;
+    s->model_error = -1; /* a probe of another material, if any */
     if (m.kind == OHM_MATERIAL_OPTICAL) {
         static const char *cn[3] = {"R", "G", "B"};
         for (int c = 0; c < m.channels; ++c) {
@@ -529,7 +542,9 @@ static int run_material(ohm_state *s, const ohm_invocation *inv, ohm_error *err)
             if (alb < 0.8)
                 ohm_log_warn(&s->log,
                              "material %s%s%s has albedo %.3f < 0.8: the diffusion approximation is poor there "
-                             "(light is absorbed before it scatters enough); expect errors of tens of percent",
+                             "(light is absorbed before it scatters enough); expect errors of tens of percent "
+                             "(-solve model=transport traces it instead; with -voxelize error=, model=auto "
+                             "measures diffusion's error and chooses)",
                              m.name, m.channels == 1 ? "" : " ", m.channels == 1 ? "" : cn[c], alb);
         }
     }
@@ -658,6 +673,12 @@ static const ohm_opt_spec solve_opts[] = {
      "Carlo photon transport through the same cells and lights instead of diffusion: the reference for the "
      "model's error, with standard errors; photons= seed= threads=; -material g= for the phase function)",
      "direct|cg|amg|mg|auto|mc", 0, 0, 0},
+    {"model", OHM_OPT_ENUM, "auto",
+     "the light's model: diffusion (the resistor network, solved by solver=) | transport (Monte Carlo photons "
+     "through the same cells: solver=mc) | auto (the default: diffusion, unless -voxelize error=E measured "
+     "diffusion's own error against transport above E in this scene (it does for a material with an albedo "
+     "below 0.9) and solver= is auto: then transport; docs/transport.md)",
+     "auto|diffusion|transport", 0, 0, 0},
     {"device", OHM_OPT_DEVICE, "host",
      "where mg's solve and traced photons (solver=mc, and hybrid='s beside any solver) run: host (this "
      "machine's cores), gpu (the first GPU with double precision), cpu (an OpenCL CPU device, e.g. PoCL), "
@@ -832,6 +853,47 @@ static int hybrid_option(const ohm_state *s, const ohm_invocation *inv, const oh
     return OHM_OK;
 }
 
+/* -solve model=auto|diffusion|transport (docs/transport.md, "Which model"),
+ * after p's solver is read: transport is solver=mc; auto takes it where
+ * -voxelize error='s probe measured diffusion's own error above the target
+ * and the solver was left to ohm. */
+static int model_option(const ohm_state *s, const ohm_invocation *inv, ohm_solve_params *p, ohm_error *err)
+{
+    const char *model = ohm_opt_str(inv, "model");
+    int solver_given = ohm_opt_given(inv, "solver") && strcmp(ohm_opt_str(inv, "solver"), "auto") != 0;
+    int transport = p->num.solver == OHM_SOLVER_MC;
+    if (strcmp(model, "diffusion") == 0 && transport)
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: model=diffusion and solver=mc contradict (solver=mc is transport)",
+                        inv->where);
+    if (strcmp(model, "transport") == 0) {
+        if (solver_given && !transport)
+            return ohm_fail(err, OHM_ERR_USAGE,
+                            "%s: -solve: model=transport is Monte Carlo (solver=mc); solver=%s solves diffusion",
+                            inv->where, ohm_opt_str(inv, "solver"));
+        p->num.solver = OHM_SOLVER_MC;
+        return OHM_OK;
+    }
+    if (strcmp(model, "auto") != 0 || s->model_error < 0 || !(s->error_target > 0)) return OHM_OK;
+    if (s->model_error > s->error_target && !solver_given) {
+        p->num.solver = OHM_SOLVER_MC;
+        ohm_log_info(&s->log,
+                     "-solve model=auto: transport (solver=mc): diffusion's own error against transport in this "
+                     "scene is at least %.3g (measured by -voxelize error=%g), more than the %g asked",
+                     s->model_error, s->error_target, s->error_target);
+    } else if (s->model_error > s->error_target) {
+        ohm_log_warn(&s->log,
+                     "-solve solver=%s is diffusion, whose own error against transport in this scene is at least "
+                     "%.3g (measured by -voxelize error=%g): more than asked; model=transport traces it instead",
+                     ohm_opt_str(inv, "solver"), s->model_error, s->error_target);
+    } else {
+        ohm_log_info(&s->log,
+                     "-solve model=auto: diffusion: its own error against transport measured by -voxelize error=%g "
+                     "is below the target (at least %.3g)",
+                     s->error_target, s->model_error);
+    }
+    return OHM_OK;
+}
+
 /* -solve's options into p (strings point into inv). */
 static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invocation *inv, ohm_error *err)
 {
@@ -866,6 +928,8 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
                             inv->where);
         p->op.band_k = 0.5 * log(1.0 / ohm_opt_real(inv, "depth_band_error"));
     }
+    int rc_m = model_option(s, inv, p, err);
+    if (rc_m) return rc_m;
     int rc_h = hybrid_option(s, inv, p, &p->mc.handoff, err);
     if (rc_h) return rc_h;
     const char *sh = ohm_opt_str(inv, "shadows");
@@ -1007,6 +1071,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_str(st, "ordering", sol->ordering);
     ohm_stats_set_str(st, "solver", sol->solver);
     ohm_stats_set_str(st, "solver_reason", sol->solver_reason);
+    ohm_stats_set_str(st, "model", (ohm_solver_kind_caps(p.num.solver) & OHM_SOLVES_TRANSPORT) ? "transport" : "diffusion");
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_set(st, "cg_relres", sol->cg_relres);
     ohm_stats_set_int(st, "cg_stalled", (long long)sol->cg_stalled);

@@ -41,6 +41,12 @@ typedef struct ohm_state {
     ohm_light *lights;              /* every -light so far, in order           */
     size_t nlights;
 
+    /* -voxelize error=: the accuracy asked (0: none) and the lower bound on
+     * diffusion's model error its probe measured (-1: not measured), which
+     * -solve model=auto reads (steps/resolution.h); a grid made without
+     * error= or a new material drops them */
+    double error_target, model_error;
+
     /* The latest -solve: its network, media and solution, and with keep=1
      * every channel material's factor, for relighting (ohm_state_relight).
      * A new mesh, grid, volume or material frees it; a new light only makes

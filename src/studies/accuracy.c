@@ -281,40 +281,6 @@ static double observed_order(double d12, double d23, double h1, double h2, doubl
 
 /* ---- one solve ---------------------------------------------------------------- */
 
-/* The noise of a Monte Carlo solution's binned exitance as a part of it:
- * each face's variance (its cell's standard error squared) spread with the
- * trilinear weights like its power (not their squares: an upper estimate),
- * the nodes' errors taken as independent, and E|N(0, s)| = s sqrt(2/pi). */
-static double binned_noise(const ohm_exitance_lattice *L, const ohm_solution *mc, const ohm_voxel_grid *g,
-                           const double *P)
-{
-    ohm_solution var = *mc; /* the same faces, with se^2 h^2 per face as "exitance" */
-    double *fx[OHM_MAX_CHANNELS] = {NULL};
-    int ok = 1;
-    for (int c = 0; c < mc->channels && ok; ++c) {
-        fx[c] = malloc((size_t)(mc->net.nfaces ? mc->net.nfaces : 1) * sizeof(double));
-        ok = fx[c] != NULL;
-        for (int64_t f = 0; ok && f < mc->net.nfaces; ++f) {
-            double se = mc->exitance_se[c][mc->net.face_unknown[f]];
-            fx[c][f] = se * se * g->h * g->h; /* binned x h^2 below: se^2 h^4, a power's variance */
-        }
-        var.face_exitance[c] = fx[c];
-    }
-    double *V = ok ? ohm_exitance_binned(L, &var, g) : NULL;
-    double noise = NAN;
-    if (V) {
-        double sum = 0, sp = 0;
-        for (size_t i = 0; i < L->nodes * 3; ++i) {
-            sum += sqrt(fmax(V[i], 0.0)) * sqrt(2.0 / 3.14159265358979323846);
-            sp += fabs(P[i]);
-        }
-        noise = sp > 0 ? sum / sp : 0;
-    }
-    free(V);
-    for (int c = 0; c < OHM_MAX_CHANNELS; ++c) free(fx[c]);
-    return noise;
-}
-
 static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_mesh *mesh, const ohm_material *mat,
                      int dim, int use_cg, double band, int64_t mc_photons, const ohm_log *log, ohm_error *err)
 {
@@ -365,7 +331,7 @@ static int solve_one(acc_row *row, const ohm_exitance_lattice *Lat, const ohm_me
             if (Pmc) {
                 double worst;
                 errors(row->P, Pmc, Lat->nodes * 3, &row->err_model, &worst);
-                row->mc_noise = binned_noise(Lat, &t, &g, Pmc);
+                row->mc_noise = ohm_exitance_binned_noise(Lat, &t, &g, Pmc);
             }
             free(Pmc);
             ohm_solution_free(&t);
