@@ -168,6 +168,23 @@ static int same_bits(const ohm_solution *a, const ohm_solution *b)
            a->power_out == b->power_out && a->power_absorbed == b->power_absorbed;
 }
 
+/* mg on a scene at clear=off and clear=effective: effective finds one
+ * region, conserves power to 1e-10 and converges in few iterations. */
+static void check_effective(const ohm_voxel_grid *g, scene_kind kind, double depth, double radius, const char *what)
+{
+    ohm_solution off, eff;
+    CHECK(scene_solve(&off, g, kind, depth, radius, OHM_CLEAR_OFF, OHM_SOLVER_MG) == 0);
+    CHECK(scene_solve(&eff, g, kind, depth, radius, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_MG) == 0);
+    printf("%s, mg: %lld iterations with clear=off (relative residual %.2g), %lld with clear=effective (%.2g); "
+           "conservation %.2g\n",
+           what, (long long)off.cg_iterations, off.cg_relres, (long long)eff.cg_iterations, eff.cg_relres,
+           ohm_solution_conservation_error(&eff));
+    CHECK(eff.clear.count == 1);
+    CHECK(ohm_solution_conservation_error(&eff) <= 1e-10);
+    CHECK(eff.cg_iterations <= 30);
+    ohm_solution_free(&off), ohm_solution_free(&eff);
+}
+
 int main(void)
 {
     ohm_error err = {0};
@@ -212,42 +229,14 @@ int main(void)
     ohm_solution_free(&off), ohm_solution_free(&eff), ohm_solution_free(&autos);
 
     /* the head slab: effective conserves power, mg converges in few iterations */
-    CHECK(scene_solve(&off, &slab, SCENE_SLAB, 0, 0, OHM_CLEAR_OFF, OHM_SOLVER_MG) == 0);
-    CHECK(scene_solve(&eff, &slab, SCENE_SLAB, 0, 0, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_MG) == 0);
-    printf("head slab, mg: %lld iterations with clear=off, %lld with clear=effective; conservation %.2g\n",
-           (long long)off.cg_iterations, (long long)eff.cg_iterations, ohm_solution_conservation_error(&eff));
-    ohm_solution_free(&off);
-    CHECK(eff.clear.count == 1);
-    CHECK(ohm_solution_conservation_error(&eff) <= 1e-10);
-    CHECK(eff.cg_iterations <= 30);
-    ohm_solution_free(&eff);
-
-    /* a larger air cavity (radius 16 mm in a 40 x 40 x 60 mm quarter box):
-     * mg on off's operator against effective's */
+    check_effective(&slab, SCENE_SLAB, 0, 0, "head slab");
+    /* a larger air cavity (radius 16 mm in a 40 x 40 x 60 mm quarter box) */
     ohm_voxel_grid big;
     CHECK(ohm_scene_box(&big, 40, 40, 60, 1.0, &err) == 0);
-    CHECK(scene_solve(&off, &big, SCENE_AIR, 25.0, 16.0, OHM_CLEAR_OFF, OHM_SOLVER_MG) == 0);
-    CHECK(scene_solve(&eff, &big, SCENE_AIR, 25.0, 16.0, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_MG) == 0);
-    printf("air cavity, mg: %lld iterations with clear=off (relative residual %.2g), %lld with clear=effective "
-           "(%.2g); conservation %.2g\n",
-           (long long)off.cg_iterations, off.cg_relres, (long long)eff.cg_iterations, eff.cg_relres,
-           ohm_solution_conservation_error(&eff));
-    CHECK(eff.clear.count == 1);
-    CHECK(ohm_solution_conservation_error(&eff) <= 1e-10);
-    CHECK(eff.cg_iterations <= 30);
-    ohm_solution_free(&off), ohm_solution_free(&eff);
+    check_effective(&big, SCENE_AIR, 25.0, 16.0, "air cavity");
     /* a 2 mm shell of CSF around a ball of brain of radius 20 mm, the
      * shape the head's CSF has: a thin sheet coarse grids cannot see */
-    CHECK(scene_solve(&off, &big, SCENE_SHELL, 30.0, 20.0, OHM_CLEAR_OFF, OHM_SOLVER_MG) == 0);
-    CHECK(scene_solve(&eff, &big, SCENE_SHELL, 30.0, 20.0, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_MG) == 0);
-    printf("CSF shell, mg: %lld iterations with clear=off (relative residual %.2g), %lld with clear=effective "
-           "(%.2g); conservation %.2g\n",
-           (long long)off.cg_iterations, off.cg_relres, (long long)eff.cg_iterations, eff.cg_relres,
-           ohm_solution_conservation_error(&eff));
-    CHECK(eff.clear.count == 1);
-    CHECK(ohm_solution_conservation_error(&eff) <= 1e-10);
-    CHECK(eff.cg_iterations <= 30);
-    ohm_solution_free(&off), ohm_solution_free(&eff);
+    check_effective(&big, SCENE_SHELL, 30.0, 20.0, "CSF shell");
     ohm_voxel_grid_free(&big);
 
     ohm_voxel_grid_free(&cube);

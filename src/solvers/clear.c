@@ -24,6 +24,14 @@ static int channel_present(const ohm_solver *s, int c)
 static void log_regions(const ohm_solver *s)
 {
     const ohm_clear_regions *r = &s->sol.clear;
+    if (r->count == 0) {
+        ohm_log_info(s->log,
+                     "clear regions (clear=%s): none (%lld cells with 1/sigma_t' above the %.4g mm cell, in no region "
+                     "with sigma_t' x mean chord 4V/S < %g)",
+                     ohm_clear_mode_name(s->params.op.clear), (long long)r->candidate_cells, s->grid->h,
+                     OHM_CLEAR_OPTICAL_THICKNESS);
+        return;
+    }
     ohm_log_info(s->log,
                  "clear regions (clear=%s): %d, %lld cells, %.4g mm^3, where 1/sigma_t' exceeds the %.4g mm cell "
                  "and sigma_t' x mean chord 4V/S < %g (%lld candidate cells)",

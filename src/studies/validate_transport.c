@@ -5,7 +5,10 @@
  * (sigma_s' 0.99, one transport mean free path 1/sigma_t' = 1.005 mm,
  * diffusion length 8.2 mm).  Every scene is a quarter of a box, cut by
  * symmetry planes through the beam's axis (both solvers mirror there), lit by
- * a pencil beam entering the face z = 0 at the corner x = y = 0. */
+ * a pencil beam entering the face z = 0 at the corner x = y = 0.  Scenes with
+ * a clear region (a void, a rod, an index-1.0 layer, the head slab's CSF)
+ * are solved at clear=off and clear=effective side by side (clear_regions.h),
+ * their rows reported, not judged. */
 #include "studies/validate.h"
 
 #include <math.h>
@@ -51,9 +54,10 @@ typedef struct transport_scene {
  * is a model of nothing. */
 static const double INC_SA = 0.02, INC_SS = 2.0, VOID_SA = 0.0001, VOID_SS = 0.01;
 
-/* The three-layer head slab of Okada & Delpy (Appl. Opt. 42:2906, 2003)
- * and Custo et al. (Appl. Opt. 45:4747, 2006), near-infrared: scalp and
- * skull lumped, the cerebrospinal fluid, the brain; 1/mm and mm. */
+/* A three-layer slab model of the adult head in the near infrared (the
+ * kind Okada & Delpy study, Appl. Opt. 42:2906, 2003): scalp and skull
+ * lumped, the cerebrospinal fluid, the brain; 1/mm and mm
+ * (docs/transport.md, "Clear regions"). */
 static const double HEAD_SCALP_SA = 0.019, HEAD_SCALP_SS = 0.86, HEAD_CSF_SA = 0.0004, HEAD_CSF_SS = 0.001,
                     HEAD_BRAIN_SA = 0.02, HEAD_BRAIN_SS = 1.0, HEAD_SCALP_MM = 10.0, HEAD_CSF_MM = 2.0;
 
