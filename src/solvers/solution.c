@@ -45,6 +45,7 @@ void ohm_solution_free(ohm_solution *sol)
     free(sol->curve_store);
     ohm_network_free(&sol->net);
     free(sol->band_active);
+    ohm_clear_regions_free(&sol->clear);
     free(sol->band_eta);
     free(sol->band_g);
     memset(sol, 0, sizeof *sol);

@@ -29,6 +29,7 @@ void ohm_solver_free(ohm_solver *s)
 {
     if (!s) return;
     for (int k = 0; k < OHM_MAX_CHANNELS; ++k) slot_release(s, &s->slot[k]);
+    for (int k = 0; k < OHM_MAX_CHANNELS; ++k) free(s->clear_owned[k]);
     if (s->cc_started) cholmod_l_finish(&s->cc);
     ohm_occluder_free(s->occ);
     free(s->petsc_options);
@@ -80,7 +81,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
     if (!s->backend && !s->transport)
         return ohm_fail(err, OHM_ERR_USAGE, "solve: unknown solver '%s'", ohm_solver_kind_name(kind));
     snprintf(s->rep.reason, sizeof s->rep.reason, "asked for");
-    return OHM_OK;
+    return ohm_solver_find_clear(s, err);
 }
 
 /* The solver's log is the caller's as it is now (callbacks, verbosity and
@@ -158,7 +159,7 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     if (rc) return rc;
     if (s->backend->release) s->backend->release(m->state); /* the last channel's set-up, before this assembly */
     ohm_channel_medium med;
-    ohm_medium_for(&med, &s->mat, &s->params, k);
+    ohm_diffusion_medium(&med, s, k);
     double t0 = ohm_now();
     /* the form the backend reads; a refilled A keeps its pattern (the
      * backend's setup sees the new values), a refilled stencil its offsets */
@@ -293,8 +294,11 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
     const ohm_light *lights = run->lights;
     size_t nlights = run->nlights;
     medium_slot *m = &s->slot[k];
-    ohm_channel_medium med;
-    ohm_medium_for(&med, &s->mat, params, k);
+    /* diffusion's operator (clear.c), and the medium light enters and
+     * photons fly through: the sources' and the traced parts' */
+    ohm_channel_medium med, traced;
+    ohm_diffusion_medium(&med, s, k);
+    ohm_medium_for(&traced, &s->mat, params, k);
     size_t n = (size_t)sol->n, frames = (size_t)sol->frames;
     int rc = OHM_OK;
     for (size_t f0 = 0; f0 < frames && !rc; f0 += run->batch) {
@@ -303,9 +307,9 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         if (bar) share_bar(s, bar, f0, nb, frames);
         double t0 = ohm_now();
         const face_powers *fp = &run->fp;
-        rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &med, &s->mat, lights, nlights,
+        rc = run->hybrid ? ohm_hybrid_sources(sol, t, w->B, &w->hy, f0, nb, c, &traced, &s->mat, lights, nlights,
                                               params, s->occ, err)
-                         : ohm_fill_sources(sol, t, w->B, f0, nb, c, &med, lights, nlights, &params->src,
+                         : ohm_fill_sources(sol, t, w->B, f0, nb, c, &traced, lights, nlights, &params->src,
                                             fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
                                             s->occ, err);
         t->t_source += ohm_now() - t0;
@@ -343,7 +347,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         ohm_book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
         if (run->hybrid) ohm_hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->src.total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */
-            rc = ohm_add_unscattered(sol, X, f0, nb, c, &med, &s->mat, lights, nlights, s->occ, err);
+            rc = ohm_add_unscattered(sol, X, f0, nb, c, &traced, &s->mat, lights, nlights, s->occ, err);
     }
     return rc;
 }

@@ -10,6 +10,7 @@
 #include "base/log.h"
 #include "physics/material.h"
 #include "physics/mc.h"
+#include "physics/clear_regions.h"
 #include "physics/network.h"
 #include "device/request.h"
 
@@ -48,6 +49,8 @@ typedef struct ohm_operator_params {
     double band_k;              /* depth band (band.h): keep cells within
                                    band_k / sigma_tr of the surface; 0: all */
     const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
+    ohm_clear_mode clear;       /* clear regions (clear_regions.h): found and
+                                   treated, or (0, off) diffusion everywhere */
 } ohm_operator_params;
 
 /* The medium cell by cell, and who owns its arrays. */
@@ -185,6 +188,11 @@ typedef struct ohm_solution {
     double band_depth;                  /* mm kept below the surface; 0: no band      */
     int64_t band_dropped;               /* interior cells below the band              */
     uint8_t *band_active;               /* the band's cells (net.active points here)  */
+    /* the clear regions found (clear_regions.h; none when clear=off or the
+     * solver transports photons) and what is done with them */
+    ohm_clear_regions clear;
+    ohm_clear_mode clear_action;        /* the treatment applied; off: none          */
+    double t_clear;                     /* finding them and making the treatment's media */
     double *band_eta, *band_g;          /* eta_v, g_v compacted to the band's unknowns, or NULL */
     double t_network;                   /* the network's topology: depth band (if any),
                                            unknowns, faces, pieces — once per grid    */

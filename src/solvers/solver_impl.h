@@ -18,6 +18,8 @@
  *                light did not change, warm starts, the scaled unknowns
  *   booking.c    power booked per solve, the constant-mode correction of
  *                nearly singular pieces, a channel's tally
+ *   clear.c      the clear regions (physics/clear_regions.h) found in the
+ *                media and their treatment: the medium diffusion reads
  *
  * Ownership: the solver owns its solution, its copies of the parameters'
  * strings, the occluder, every slot's matrix and backend state. */
@@ -99,6 +101,12 @@ struct ohm_solver {
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
     int held;                    /* keep = 0: the one slot holding resources, or -1 */
     int solved;                  /* the solution holds the last solve's fluence */
+    /* clear=effective (clear.c): per channel, sigma_s' per unknown with the
+     * clear regions' effective value, what diffusion's operator reads
+     * instead of the medium's (NULL: the medium's); channels with one
+     * medium share one array, listed once in clear_owned */
+    const ohm_coeff *clear_ss[OHM_MAX_CHANNELS];
+    ohm_coeff *clear_owned[OHM_MAX_CHANNELS];
 };
 
 /* Shadow rays and Fresnel do not depend on the channel: every frame's lights
@@ -150,6 +158,10 @@ int ohm_keep_media(ohm_solution *sol, ohm_media_params *p, ohm_coeff *compact[2 
                    ohm_error *err);
 int ohm_same_medium(const ohm_material *mat, const ohm_media_params *p, int c, int e);
 int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_media_params *p, ohm_error *err);
+
+/* clear.c */
+int ohm_solver_find_clear(ohm_solver *s, ohm_error *err);
+void ohm_diffusion_medium(ohm_channel_medium *med, const ohm_solver *s, int c);
 
 /* sources.c */
 int ohm_fill_sources(const ohm_solution *sol, channel_tally *t, double *B, size_t f0, size_t nb, int c,

@@ -696,6 +696,13 @@ static const ohm_opt_spec solve_opts[] = {
      "diffusion from where each photon is: right within a few mean free paths of a pencil beam, where diffusion "
      "alone is 15-22% off; 0: diffusion only; auto: 10 when a light is a pencil beam, else 0 (docs/transport.md)",
      NULL, 0, 0, 0},
+    {"clear", OHM_OPT_STRING, "auto",
+     "clear regions, where light crosses without diffusing (CSF, cavities, a clear inclusion: a connected region "
+     "whose 1/sigma_t' exceeds the cell and whose optical thickness sigma_t' x mean chord is below 2): auto (find "
+     "them and treat them as best ohm can: today effective) | off (diffusion everywhere) | effective (an effective "
+     "sigma_s' of 1/thickness there, Custo et al. 2006); the log and the statistics name what is found "
+     "(docs/transport.md)",
+     NULL, 0, 0, 0},
     {"petsc_options", OHM_OPT_STRING, NULL,
      "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
      "-pc_factor_mat_solver_type mumps\"; an option PETSc does not use is an error",
@@ -930,6 +937,11 @@ static int solve_params(ohm_solve_params *p, const ohm_state *s, const ohm_invoc
     }
     int rc_m = model_option(s, inv, p, err);
     if (rc_m) return rc_m;
+    if (ohm_clear_mode_parse(&p->op.clear, ohm_opt_str(inv, "clear"), NULL)) {
+        char choices[OHM_CLEAR_CHOICES_CHARS];
+        return ohm_fail(err, OHM_ERR_USAGE, "%s: -solve: clear=%s: expected %s", inv->where, ohm_opt_str(inv, "clear"),
+                        ohm_clear_mode_choices(choices, sizeof choices));
+    }
     int rc_h = hybrid_option(s, inv, p, &p->mc.handoff, err);
     if (rc_h) return rc_h;
     const char *sh = ohm_opt_str(inv, "shadows");
@@ -981,6 +993,25 @@ static int check_solution_finite(const ohm_solution *sol, const char *where, ohm
             return ohm_fail(err, OHM_ERR_NUMERIC, "%s: -solve: the %s is %g: the material or lights overflow double "
                                                   "precision", where, names[k], v[k]);
     return OHM_OK;
+}
+
+/* The clear regions found (physics/clear_regions.h) and what was done with
+ * them, in the statistics (the log names each: solvers/clear.c). */
+static void report_clear(ohm_stats *st, const ohm_solution *sol, const ohm_solve_params *p)
+{
+    const ohm_clear_regions *r = &sol->clear;
+    double thickness = 0, optical = 0; /* the thinnest region's, optically */
+    for (int32_t k = 0; k < r->count; ++k)
+        if (k == 0 || r->region[k].optical_thickness < optical)
+            optical = r->region[k].optical_thickness, thickness = r->region[k].thickness_mm;
+    ohm_stats_set_str(st, "clear", ohm_clear_mode_name(p->op.clear));
+    ohm_stats_set_str(st, "clear_action", ohm_clear_mode_name(sol->clear_action));
+    ohm_stats_set_int(st, "clear_regions", r->count);
+    ohm_stats_set_int(st, "clear_cells", (long long)r->clear_cells);
+    ohm_stats_set(st, "clear_volume_mm3", r->clear_volume_mm3);
+    ohm_stats_set(st, "clear_min_optical_thickness", optical);
+    ohm_stats_set(st, "clear_thickness_mm", thickness);
+    ohm_stats_add(st, "t_clear", sol->t_clear);
 }
 
 /* The solver's latest solve logged and booked in the statistics (-solve and
@@ -1075,6 +1106,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_int(st, "cg_iterations", (long long)sol->cg_iterations);
     ohm_stats_set(st, "cg_relres", sol->cg_relres);
     ohm_stats_set_int(st, "cg_stalled", (long long)sol->cg_stalled);
+    report_clear(st, sol, &p);
     ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
     ohm_stats_set_int(st, "mg_levels", sol->mg_levels);

@@ -23,7 +23,7 @@ typedef struct ohm_check_row {
     int pass;
 } ohm_check_row;
 
-enum { OHM_VALIDATION_MAX_ROWS = 96 };
+enum { OHM_VALIDATION_MAX_ROWS = 256 };
 
 typedef struct ohm_validation {
     ohm_check_row rows[OHM_VALIDATION_MAX_ROWS];

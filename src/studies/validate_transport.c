@@ -5,7 +5,10 @@
  * (sigma_s' 0.99, one transport mean free path 1/sigma_t' = 1.005 mm,
  * diffusion length 8.2 mm).  Every scene is a quarter of a box, cut by
  * symmetry planes through the beam's axis (both solvers mirror there), lit by
- * a pencil beam entering the face z = 0 at the corner x = y = 0. */
+ * a pencil beam entering the face z = 0 at the corner x = y = 0.  Scenes with
+ * a clear region (a void, a rod, an index-1.0 layer, the head slab's CSF)
+ * are solved at clear=off and clear=effective side by side (clear_regions.h),
+ * their rows reported, not judged. */
 #include "studies/validate.h"
 
 #include <math.h>
@@ -23,14 +26,27 @@ static const double TR_SA = 0.005, TR_SS = 0.99, TR_G = 0.01;
  * only where its own standard error is below this fraction. */
 static const double NEAR_MFP = 2.0, MC_NOISE = 0.01;
 
+/* What is embedded in the medium (every one on the beam's axis). */
+typedef enum inclusion_shape {
+    SHAPE_NONE = 0,
+    SHAPE_SPHERE,   /* centre depth a, radius b                               */
+    SHAPE_CYLINDER, /* a rod of radius b from the lit face down to depth a:
+                       a clear one pipes the beam down                        */
+    SHAPE_LAYER,    /* a layer from depth a, b thick                           */
+    SHAPE_HEAD      /* the three-layer head slab (HEAD_* below), a and b unused */
+} inclusion_shape;
+
 typedef struct transport_scene {
     const char *name;
     int nx, ny, nz;           /* cells of the quarter box             */
     double eta;
-    int inclusion;            /* a sphere of another medium on the axis */
-    double sphere_c, sphere_r;/* its centre's depth and radius (mm)   */
+    inclusion_shape shape;    /* another medium inside the box          */
+    double a, b;              /* its place and size (mm; above)       */
     double inc_sa, inc_ss;    /* its medium                           */
     int report_only;          /* a scene diffusion cannot model: rows without tolerances */
+    double inc_eta;           /* its index, 0: the scene's            */
+    int clear;                /* it holds a clear region: solved at clear=off and
+                                 clear=effective side by side (clear_regions.h) */
 } transport_scene;
 
 /* The inclusion: 4x absorption, 2x scattering; the void: almost clear
@@ -38,17 +54,50 @@ typedef struct transport_scene {
  * is a model of nothing. */
 static const double INC_SA = 0.02, INC_SS = 2.0, VOID_SA = 0.0001, VOID_SS = 0.01;
 
+/* A three-layer slab model of the adult head in the near infrared (the
+ * kind Okada & Delpy study, Appl. Opt. 42:2906, 2003): scalp and skull
+ * lumped, the cerebrospinal fluid, the brain; 1/mm and mm
+ * (docs/transport.md, "Clear regions"). */
+static const double HEAD_SCALP_SA = 0.019, HEAD_SCALP_SS = 0.86, HEAD_CSF_SA = 0.0004, HEAD_CSF_SS = 0.001,
+                    HEAD_BRAIN_SA = 0.02, HEAD_BRAIN_SS = 1.0, HEAD_SCALP_MM = 10.0, HEAD_CSF_MM = 2.0;
+
+/* The medium at the centre (x, y, z) of a cell: sigma_a, sigma_s', index. */
+static void scene_medium_at(const transport_scene *sc, double x, double y, double z, double *sa, double *ss,
+                            double *eta)
+{
+    int in = 0;
+    switch (sc->shape) {
+    case SHAPE_NONE: break;
+    case SHAPE_SPHERE: in = x * x + y * y + (z - sc->a) * (z - sc->a) < sc->b * sc->b; break;
+    case SHAPE_CYLINDER: in = x * x + y * y < sc->b * sc->b && z < sc->a; break;
+    case SHAPE_LAYER: in = z >= sc->a && z < sc->a + sc->b; break;
+    case SHAPE_HEAD:
+        *eta = sc->eta;
+        *sa = z < HEAD_SCALP_MM ? HEAD_SCALP_SA : z < HEAD_SCALP_MM + HEAD_CSF_MM ? HEAD_CSF_SA : HEAD_BRAIN_SA;
+        *ss = z < HEAD_SCALP_MM ? HEAD_SCALP_SS : z < HEAD_SCALP_MM + HEAD_CSF_MM ? HEAD_CSF_SS : HEAD_BRAIN_SS;
+        return;
+    }
+    *sa = in ? sc->inc_sa : TR_SA;
+    *ss = in ? sc->inc_ss : TR_SS;
+    *eta = in && sc->inc_eta > 0 ? sc->inc_eta : sc->eta;
+}
+
 /* Per-cell media for the inclusion (unknown order = interior cells in cell
- * order: the box has no band).  The arrays are given to ohm_solve. */
-static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, const ohm_voxel_grid *g, const transport_scene *sc,
-                           ohm_error *err)
+ * order: the box has no band); *eta_v only where the inclusion's index
+ * differs (else NULL).  The coefficients are given to ohm_solve, the index
+ * is the caller's to free. */
+static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, double **eta_v, const ohm_voxel_grid *g,
+                           const transport_scene *sc, ohm_error *err)
 {
     size_t n = g->interior_cells;
     *sa = malloc(n * sizeof **sa);
     *ss = malloc(n * sizeof **ss);
-    if (!*sa || !*ss) {
-        free(*sa), free(*ss);
+    int own_eta = sc->inc_eta > 0 && sc->inc_eta != sc->eta;
+    *eta_v = own_eta ? malloc(n * sizeof **eta_v) : NULL;
+    if (!*sa || !*ss || (own_eta && !*eta_v)) {
+        free(*sa), free(*ss), free(*eta_v);
         *sa = *ss = NULL;
+        *eta_v = NULL;
         return ohm_fail(err, OHM_ERR_NOMEM, "validate: out of memory for the inclusion");
     }
     size_t u = 0;
@@ -56,19 +105,23 @@ static int inclusion_media(ohm_coeff **sa, ohm_coeff **ss, const ohm_voxel_grid 
         for (int j = 0; j < g->dims[1]; ++j)
             for (int i = 0; i < g->dims[0]; ++i) {
                 if (!g->inside[ohm_voxel_index(g, i, j, k)]) continue;
-                double x = (i - 0.5) * g->h, y = (j - 0.5) * g->h, z = (k - 0.5) * g->h - sc->sphere_c;
-                int in = x * x + y * y + z * z < sc->sphere_r * sc->sphere_r;
-                (*sa)[u] = (ohm_coeff)(in ? sc->inc_sa : TR_SA);
-                (*ss)[u] = (ohm_coeff)(in ? sc->inc_ss : TR_SS);
+                double x = (i - 0.5) * g->h, y = (j - 0.5) * g->h, z = (k - 0.5) * g->h;
+                double a, s, e;
+                scene_medium_at(sc, x, y, z, &a, &s, &e);
+                (*sa)[u] = (ohm_coeff)a;
+                (*ss)[u] = (ohm_coeff)s;
+                if (*eta_v) (*eta_v)[u] = e;
                 ++u;
             }
     return OHM_OK;
 }
 
-/* One solve of the scene: diffusion at the given settings, or (mc != NULL)
- * Monte Carlo transport. */
+/* One solve of the scene: diffusion at the given settings with clear
+ * regions treated as `clear` asks (clear_regions.h), or (mc != NULL) Monte
+ * Carlo transport. */
 static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transport_scene *sc,
-                       const ohm_transport_config *cfg, const ohm_mc_params *mc, const ohm_log *log, ohm_error *err)
+                       const ohm_transport_config *cfg, const ohm_mc_params *mc, ohm_clear_mode clear,
+                       const ohm_log *log, ohm_error *err)
 {
     ohm_material m = ohm_scene_grey(TR_SA, TR_SS);
     m.eta = sc->eta;
@@ -79,6 +132,7 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
     memset(&p, 0, sizeof p);
     p.op.mirrors = &mirror;
     p.op.fresnel = cfg->fresnel;
+    p.op.clear = clear;
     p.src.deposit = cfg->deposit;
     p.num.solver = mc ? OHM_SOLVER_MC : OHM_SOLVER_AUTO;
     if (mc) p.mc = *mc;
@@ -89,15 +143,19 @@ static int scene_solve(ohm_solution *sol, const ohm_voxel_grid *g, const transpo
         p.mc.handoff = cfg->hybrid;
         p.mc.device = cfg->device;
     }
-    if (sc->inclusion) {
+    double *eta_v = NULL;
+    if (sc->shape != SHAPE_NONE) {
         ohm_coeff *sa, *ss;
-        int rc = inclusion_media(&sa, &ss, g, sc, err);
+        int rc = inclusion_media(&sa, &ss, &eta_v, g, sc, err);
         if (rc) return rc;
         p.media.sigma_a[0] = sa;
         p.media.sigma_s[0] = ss;
+        p.media.eta_v = eta_v;
         p.media.give_media = 1;
     }
-    return ohm_solve(sol, g, &m, &beam, 1, &p, log, err);
+    int rc = ohm_solve(sol, g, &m, &beam, 1, &p, log, err);
+    free(eta_v); /* not taken by give_media (solve.h) */
+    return rc;
 }
 
 /* The power leaving through the lit face z = 0, per unit incident. */
@@ -214,36 +272,125 @@ static double compare_rings(const ohm_solution *d, const ohm_solution *mc, const
     return *rings ? worst : NAN;
 }
 
-static void add_rows(ohm_validation *v, const transport_scene *sc, const ohm_solution *d, const ohm_solution *mc,
-                     const ohm_transport_config *given)
+/* The scene's rows for diffusion solve d against mc; label names the scene
+ * (and the clear= treatment, where it has a clear region). */
+static void add_rows(ohm_validation *v, const transport_scene *sc, const char *label, const ohm_solution *d,
+                     const ohm_solution *mc, const ohm_transport_config *given)
 {
     ohm_transport_config report = *given; /* a scene beyond the model: measured, not judged */
     report.tol_fluence_mean = report.tol_fluence_rms = report.tol_absorbed = report.tol_reflectance =
         report.tol_rings = -1;
     const ohm_transport_config *cfg = sc->report_only ? &report : given;
-    char name[80], ref[64];
+    char name[128], ref[64];
     snprintf(ref, sizeof ref, "ohm mc, %.3g photons", (double)mc->mc_photons);
     fluence_error fe = compare_fluence(d, mc, sc);
-    snprintf(name, sizeof name, "%s: fluence >2 mfp, mean |err| (%lld blocks)", sc->name, (long long)fe.blocks);
+    snprintf(name, sizeof name, "%s: fluence >2 mfp, mean |err| (%lld blocks)", label, (long long)fe.blocks);
     ohm_validation_add(v, name, ref, fe.mean_abs, 0, fe.mean_abs, cfg->tol_fluence_mean);
-    snprintf(name, sizeof name, "%s: fluence >2 mfp, rms err (bias %+.3f)", sc->name, fe.bias);
+    snprintf(name, sizeof name, "%s: fluence >2 mfp, rms err (bias %+.3f)", label, fe.bias);
     ohm_validation_add(v, name, ref, fe.rms, 0, fe.rms, cfg->tol_fluence_rms);
-    snprintf(name, sizeof name, "%s: mc noise there, rms se/phi", sc->name);
+    snprintf(name, sizeof name, "%s: mc noise there, rms se/phi", label);
     ohm_validation_add(v, name, "a small part of the tolerance", fe.mc_noise, 0, fe.mc_noise, -1);
     double ad = absorbed_fraction(d), am = absorbed_fraction(mc);
-    snprintf(name, sizeof name, "%s: absorbed fraction", sc->name);
+    snprintf(name, sizeof name, "%s: absorbed fraction", label);
     ohm_validation_add(v, name, ref, ad, am, fabs(ad / am - 1.0), cfg->tol_absorbed);
     double rd = reflectance(d), rm = reflectance(mc);
-    snprintf(name, sizeof name, "%s: total diffuse reflectance", sc->name);
+    snprintf(name, sizeof name, "%s: total diffuse reflectance", label);
     ohm_validation_add(v, name, ref, rd, rm, fabs(rd / rm - 1.0), cfg->tol_reflectance);
     double at;
     int rings;
     double beyond;
     double worst = compare_rings(d, mc, sc, given->tol_rings, &at, &rings, &beyond);
-    snprintf(name, sizeof name, "%s: R(r) beyond 2 mm, worst of %d (r=%.1f)", sc->name, rings, at);
+    snprintf(name, sizeof name, "%s: R(r) beyond 2 mm, worst of %d (r=%.1f)", label, rings, at);
     ohm_validation_add(v, name, ref, worst, 0, worst, cfg->tol_rings);
-    snprintf(name, sizeof name, "%s: R(r) within tolerance beyond r (mm)", sc->name);
+    snprintf(name, sizeof name, "%s: R(r) within tolerance beyond r (mm)", label);
     ohm_validation_add(v, name, "report", beyond, 2.0, beyond, -1);
+}
+
+/* The head slab's rows (the acceptance of docs/transport.md's clear-region
+ * study): reflectance R(r) in 5 mm rings from 20 to 40 mm of the beam, and
+ * the fluence in the brain in 5 mm shells from 10 to 30 mm of where it
+ * enters, each against the Monte Carlo (d / mc - 1; the Monte Carlo's own
+ * standard error in the name).  A ring or shell outside the box, or within
+ * 2 mm of its side, is left out. */
+static void head_rows(ohm_validation *v, const transport_scene *sc, const char *label, const ohm_solution *d,
+                      const ohm_solution *mc)
+{
+    enum { BINS = 4 };
+    const double BIN_MM = 5.0, R_FROM = 20.0, PHI_FROM = 10.0;
+    const ohm_voxel_grid *g = d->net.grid;
+    const double h = g->h, side = fmin(sc->nx, sc->ny) * h - 2.0;
+    double rd[BINS] = {0}, rm[BINS] = {0}, rv[BINS] = {0}, fd[BINS] = {0}, fm[BINS] = {0}, fv[BINS] = {0};
+    for (int64_t f = 0; f < d->net.nfaces; ++f) {
+        if (d->net.face_dir[f] != 4) continue;
+        int32_t c[3];
+        ohm_voxel_coords(g, (size_t)d->net.face_cell[f], c);
+        double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h;
+        int b = (int)floor((sqrt(x * x + y * y) - R_FROM) / BIN_MM);
+        if (b < 0 || b >= BINS) continue;
+        int64_t u = d->net.face_unknown[f];
+        rd[b] += d->face_exitance[0][f];
+        rm[b] += mc->face_exitance[0][f];
+        rv[b] += mc->exitance_se[0][u] * mc->exitance_se[0][u];
+    }
+    ohm_cell_cursor cur = ohm_network_cells(&d->net, 0);
+    for (int64_t u = 0; u < d->n; ++u) {
+        int32_t c[3];
+        ohm_voxel_coords(g, (size_t)ohm_cell_cursor_next(&cur), c);
+        double x = (c[0] - 0.5) * h, y = (c[1] - 0.5) * h, z = (c[2] - 0.5) * h;
+        if (z < HEAD_SCALP_MM + HEAD_CSF_MM) continue; /* the brain only */
+        int b = (int)floor((sqrt(x * x + y * y + z * z) - PHI_FROM) / BIN_MM);
+        if (b < 0 || b >= BINS || sqrt(x * x + y * y) >= side) continue;
+        fd[b] += d->fluence[0][u];
+        fm[b] += mc->fluence[0][u];
+        fv[b] += mc->fluence_se[0][u] * mc->fluence_se[0][u];
+    }
+    char name[128], ref[64];
+    snprintf(ref, sizeof ref, "ohm mc, %.3g photons", (double)mc->mc_photons);
+    for (int b = 0; b < BINS; ++b) {
+        double lo = R_FROM + b * BIN_MM;
+        if (lo + BIN_MM > side || !(rm[b] > 0)) continue;
+        snprintf(name, sizeof name, "%s: R(r) %g-%g mm, d/mc - 1 (mc se %.3f)", label, lo, lo + BIN_MM,
+                 sqrt(rv[b]) / rm[b]);
+        ohm_validation_add(v, name, ref, rd[b] / rm[b] - 1.0, 0, fabs(rd[b] / rm[b] - 1.0), -1);
+    }
+    for (int b = 0; b < BINS; ++b) {
+        double lo = PHI_FROM + b * BIN_MM;
+        if (!(fm[b] > 0)) continue;
+        snprintf(name, sizeof name, "%s: brain phi %g-%g mm, d/mc - 1 (mc se %.3f)", label, lo, lo + BIN_MM,
+                 sqrt(fv[b]) / fm[b]);
+        ohm_validation_add(v, name, ref, fd[b] / fm[b] - 1.0, 0, fabs(fd[b] / fm[b] - 1.0), -1);
+    }
+}
+
+/* A scene's rows for one diffusion solve against the Monte Carlo. */
+static void scene_rows(ohm_validation *v, const transport_scene *sc, const char *label, const ohm_solution *d,
+                       const ohm_solution *mc, const ohm_transport_config *cfg)
+{
+    add_rows(v, sc, label, d, mc, cfg);
+    if (sc->shape == SHAPE_HEAD) head_rows(v, sc, label, d, mc);
+}
+
+/* A scene with a clear region solved again at clear=effective, its rows
+ * beside clear=off's (report only, as the scene is), and the iterations
+ * the solver took at each (mg's, which solver=auto runs first). */
+static int clear_rows(ohm_validation *v, const transport_scene *sc, const ohm_voxel_grid *g, const ohm_solution *off,
+                      const ohm_solution *mc, const ohm_transport_config *cfg, const ohm_log *log, ohm_error *err)
+{
+    ohm_solution e;
+    int rc = scene_solve(&e, g, sc, cfg, NULL, OHM_CLEAR_EFFECTIVE, log, err);
+    if (rc) return rc;
+    char label[96], name[128];
+    snprintf(label, sizeof label, "%s [clear=effective]", sc->name);
+    scene_rows(v, sc, label, &e, mc, cfg);
+    snprintf(name, sizeof name, "%s: %s iterations, clear=off (effective: expected)", sc->name, off->solver);
+    ohm_validation_add(v, name, "report", (double)off->cg_iterations, (double)e.cg_iterations,
+                       (double)e.cg_iterations, -1);
+    snprintf(name, sizeof name, "%s: clear regions found, cells (thickness %.3g mm)", sc->name,
+             e.clear.count ? e.clear.region[0].thickness_mm : 0.0);
+    ohm_validation_add(v, name, "report", (double)e.clear.clear_cells, (double)e.clear.count,
+                       (double)e.clear.count, -1);
+    ohm_solution_free(&e);
+    return OHM_OK;
 }
 
 void ohm_transport_config_default(ohm_transport_config *cfg)
@@ -268,12 +415,22 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
 {
     const double h = cfg->h, L = cfg->size;
     int half = (int)lround(0.5 * L / h), full = (int)lround(L / h);
+    /* the head slab: its brain at least 18 mm deep, for the shells to 30 mm */
+    int head_depth = (int)lround(fmax(0.5 * L, HEAD_SCALP_MM + HEAD_CSF_MM + 18.0) / h);
     const transport_scene scenes[] = {
-        {"slab n1.0", full, full, half, 1.0, 0, 0, 0, 0, 0, 0},
-        {"slab n1.4", full, full, half, 1.4, 0, 0, 0, 0, 0, 0},
-        {"cube n1.37", half, half, full, 1.37, 0, 0, 0, 0, 0, 0},
-        {"cube n1.37 + sphere", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, INC_SA, INC_SS, 0},
-        {"cube n1.37 + clear void", half, half, full, 1.37, 1, 0.35 * L, L / 6.0, VOID_SA, VOID_SS, 1},
+        {"slab n1.0", full, full, half, 1.0, SHAPE_NONE, 0, 0, 0, 0, 0, 0, 0},
+        {"slab n1.4", full, full, half, 1.4, SHAPE_NONE, 0, 0, 0, 0, 0, 0, 0},
+        {"cube n1.37", half, half, full, 1.37, SHAPE_NONE, 0, 0, 0, 0, 0, 0, 0},
+        {"cube n1.37 + sphere", half, half, full, 1.37, SHAPE_SPHERE, 0.35 * L, L / 6.0, INC_SA, INC_SS, 0, 0, 0},
+        {"cube n1.37 + clear void", half, half, full, 1.37, SHAPE_SPHERE, 0.35 * L, L / 6.0, VOID_SA, VOID_SS, 1, 0,
+         1},
+        /* a clear rod down the beam's axis to half the depth: it pipes the beam */
+        {"cube n1.37 + clear rod", half, half, full, 1.37, SHAPE_CYLINDER, 0.5 * L, L / 20.0, VOID_SA, VOID_SS, 1,
+         0, 1},
+        /* a 2 mm clear gap of index 1.0 (air) at a sixth of the size's depth */
+        {"slab n1.37 + clear n1.0 layer", full, full, half, 1.37, SHAPE_LAYER, L / 6.0, 2.0, VOID_SA, VOID_SS, 1,
+         1.0, 1},
+        {"head slab", full, full, head_depth, 1.37, SHAPE_HEAD, 0, 0, 0, 0, 1, 0, 1},
     };
     ohm_mc_params mc = {
         .photons = cfg->photons, .seed = cfg->seed, .threads = cfg->threads, .log = log, .device = cfg->device};
@@ -284,12 +441,13 @@ int ohm_validate_transport(ohm_validation *v, const ohm_transport_config *cfg, c
         rc = ohm_scene_box(&g, sc->nx, sc->ny, sc->nz, h, err);
         if (rc) break;
         ohm_solution d, t;
-        rc = scene_solve(&d, &g, sc, cfg, NULL, log, err);
+        rc = scene_solve(&d, &g, sc, cfg, NULL, OHM_CLEAR_OFF, log, err);
         if (!rc) {
-            rc = scene_solve(&t, &g, sc, cfg, &mc, log, err);
+            rc = scene_solve(&t, &g, sc, cfg, &mc, OHM_CLEAR_OFF, log, err);
             if (!rc) {
-                add_rows(v, sc, &d, &t, cfg);
-                char name[80];
+                scene_rows(v, sc, sc->name, &d, &t, cfg);
+                if (sc->clear) rc = clear_rows(v, sc, &g, &d, &t, cfg, log, err);
+                char name[128];
                 snprintf(name, sizeof name, "%s: mc speed, photons/ms (%d threads)", sc->name, t.mc_threads);
                 double speed = t.t_solve > 0 ? 1e-3 * (double)t.mc_photons / t.t_solve : 0;
                 ohm_validation_add(v, name, "report", speed, 0, speed, -1);
