@@ -16,6 +16,7 @@ import tempfile
 import time
 
 import bpy
+import numpy as np
 
 from . import bridge, messages, session
 
@@ -125,7 +126,6 @@ def _exposure_note(s):
     lit = lit[lit > 0]
     if not lit.size:
         return None
-    import numpy as np
     shown = float(np.percentile(lit, 99)) * s.exposure
     if 0.02 <= shown <= 50.0:
         return None
