@@ -4,8 +4,11 @@
 # factorization, Esc (a real key press, by xdotool) while voxelizing, and
 # Live relight's rate with and without a 3D view.  Prints the figures
 # docs/blender.md quotes ("The add-on in a real window").  Needs xvfb-run
-# (Debian's xvfb) and xdotool.  About 2 minutes.
+# (Debian's xvfb) and xdotool.  About 2 minutes.  With "words": instead, the
+# add-on's messages and Live relight's exposure (scripts/addon-window-words.py),
+# its screenshots and render in OUT (default /tmp/ohm-window-words).
 #   scripts/addon-window.sh [build]        SOLVE_DIM=112 LIVE_DIM=60
+#   scripts/addon-window.sh build words [OUT]
 set -euo pipefail
 cd "$(dirname "$0")/.."
 BUILD=${1:-build}
@@ -18,6 +21,11 @@ bpy.ops.preferences.addon_install(filepath='$PWD/$BUILD/ohm_blender.zip', overwr
 bpy.ops.preferences.addon_enable(module='ohm_blender')
 bpy.context.preferences.view.show_splash = False
 bpy.ops.wm.save_userpref()" > "$T/install.log" 2>&1 || { tail "$T/install.log"; exit 1; }
+if [ "${2:-}" = words ]; then
+  xvfb-run -a -s "-screen 0 1280x800x24" blender -P scripts/addon-window-words.py -- "${3:-/tmp/ohm-window-words}" \
+    2>&1 | grep -E "^(WORDS|Traceback|Error)"
+  exit 0
+fi
 window() { xvfb-run -a -s "-screen 0 1280x800x24" blender -P scripts/addon-window.py -- "$@" 2>&1 \
   | grep -E "^(SOLVE|REDRAW|CANCEL|ESC|GAPS|MAIN THREAD|LIVE)"; }
 window solve "${SOLVE_DIM:-112}"

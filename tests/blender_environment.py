@@ -43,7 +43,7 @@ obj.ohm.shadows = True
 # written so that it reads back exactly
 local, tris = bridge.evaluated_mesh(obj, bpy.context.evaluated_depsgraph_get())
 with open(os.path.join(OUT, "mesh.obj"), "w") as f:
-    for v in bridge.world_mm(obj, local, bridge.mm_per_unit(sc)):
+    for v in bridge.world_mm(obj, local, bridge.mm_per_unit(sc, obj)):
         f.write("v %r %r %r\n" % tuple(float(x) for x in v))
     for t in tris:
         f.write("f %d %d %d\n" % tuple(int(i) + 1 for i in t))
@@ -63,7 +63,7 @@ assert refused and "World" in why, "Solve with no lamp and World.ohm_light off: 
 
 
 def solve(name):
-    lights = bridge.scene_lights(sc, bridge.mm_per_unit(sc))
+    lights = bridge.scene_lights(sc, bridge.mm_per_unit(sc, obj))
     assert len(lights) == 1 and lights[0]["type"] == "environment", lights
     assert bpy.ops.ohm.solve() == {"FINISHED"}, "Solve did not finish: %s" % session.get(obj).status
     s = session.get(obj)

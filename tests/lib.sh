@@ -52,6 +52,18 @@ require_blender() {
     exit 0
   fi
 }
+# require_blender_addon: Blender (require_blender), the build's
+# ohm_blender.zip in ZIP, and a fresh Blender user folder for the run (Blender
+# keeps installed add-ons there); skipped under the sanitizers (Blender's own
+# process is not ours to instrument; the library code it calls is covered
+# there by api_scene and api_python).
+require_blender_addon() {
+  if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
+  require_blender
+  ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
+  check "the build made ohm_blender.zip" test -s "$ZIP"
+  export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
+}
 finish() { echo "$passed passed, $failed failed"; [ "$failed" = 0 ]; }
 # require_test_hooks WHAT: the OHM_TEST_* hooks are compiled in (CMake's
 # OHM_TEST_HOOKS, which scripts/test.sh turns on), or WHAT is skipped with a

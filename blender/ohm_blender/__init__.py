@@ -18,11 +18,11 @@ bl_info = {
 
 if "bpy" in locals():  # re-registration from Blender's add-on reload
     import importlib
-    from . import settings, bridge, session, operators, ui
-    for m in (settings, bridge, session, operators, ui):
+    from . import settings, bridge, messages, session, operators, ui
+    for m in (settings, bridge, messages, session, operators, ui):
         importlib.reload(m)
 else:
-    from . import settings, bridge, session, operators, ui  # noqa: F401
+    from . import settings, bridge, messages, session, operators, ui  # noqa: F401
 
 import bpy  # noqa: E402
 

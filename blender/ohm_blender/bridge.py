@@ -10,9 +10,38 @@ except ImportError:  # running from a source tree with ohm on sys.path
     import ohm as ohmlib
 
 
-def mm_per_unit(scene):
-    """Millimetres per Blender unit (the scene's unit scale: 1 unit = scale_length m)."""
+# Scale Auto's millimetres per unit where the scene keeps Blender's default
+# units (docs/blender-addon.md, "Scale"): a new file's 1 unit = 1 m is the
+# size its primitives are made at (the cube 2 units, Suzanne 2.7), not a
+# measurement, and at 2.7 m every measured material is opaque (light spreads
+# 1-10 mm in them); 100 mm per unit makes those objects 20-27 cm, a head's
+# or a fruit's size, where light shows through an ear.
+DEFAULT_SCENE_UNIT_MM = 100.0
+
+
+def scene_keeps_default_units(scene):
+    """Blender's default units: Metric (or None), Unit Scale 1, Length in
+    metres or adaptive: nothing says what a unit is."""
+    us = scene.unit_settings
+    return us.scale_length == 1.0 and (us.system == "NONE" or (us.system == "METRIC" and
+                                                               us.length_unit in ("METERS", "ADAPTIVE")))
+
+
+def auto_mm_per_unit(scene):
+    """Scale Auto: the scene's unit (Unit Scale x 1000 mm) where its unit
+    settings were changed, DEFAULT_SCENE_UNIT_MM where they are Blender's
+    defaults."""
+    if scene_keeps_default_units(scene):
+        return DEFAULT_SCENE_UNIT_MM
     return scene.unit_settings.scale_length * 1000.0
+
+
+def mm_per_unit(scene, obj):
+    """Millimetres of material per Blender unit for obj: its Scale, or when
+    0 (Auto) auto_mm_per_unit.  Lights are placed with the same figure, so
+    the whole scene is solved at the object's scale."""
+    scale = obj.ohm.scale
+    return scale if scale > 0 else auto_mm_per_unit(scene)
 
 
 def evaluated_mesh(obj, depsgraph):
@@ -172,6 +201,14 @@ def _sky_file(image):
         raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the World's Environment Texture image '%s' is packed or generated: "
                                 "save it to a .hdr or .exr file first" % image.name)
     return bpy.path.abspath(path)
+
+
+def light_names(scene):
+    """The names of what scene_lights returns, in its order ("World" for
+    the World), for messages that name a light."""
+    names = [obj.name for obj in scene.objects
+             if obj.type == "LIGHT" and not obj.hide_render and obj.data.type in ("SUN", "POINT", "SPOT", "AREA")]
+    return names + (["World"] if world_light(scene) else [])
 
 
 def scene_lights(scene, mm):

@@ -5,8 +5,10 @@ invoked from the interface (a session.Job polled by a modal timer): the
 window stays responsive, the status bar, the cursor and the panel follow the
 library's progress, and Esc or the panel's Cancel stops the solve within
 about a second.  Called from a script (execute) they run on the caller's
-thread.  Every ohm warning of a run becomes a Blender report and stays in
-the panel until the next run."""
+thread.  Every failure and warning of a run becomes a Blender report (the
+status bar and the Info editor), worded for the artist (messages.py), and
+stays in the panel until the next run; the library's own text goes to the
+console."""
 import glob
 import os
 import re
@@ -14,8 +16,9 @@ import tempfile
 import time
 
 import bpy
+import numpy as np
 
-from . import bridge, session
+from . import bridge, messages, session
 
 try:
     from . import ohm as ohmlib
@@ -61,20 +64,73 @@ def _status_bar(context, text):
         context.workspace.status_text_set(text)
 
 
-def _report_warnings(op, s):
+def subject(obj, scene, s=None):
+    """What messages.py names: the object, its lights, the panel's
+    settings (only the session's name when the object is gone)."""
+    try:
+        st = obj.ohm
+        mm = bridge.mm_per_unit(scene, obj)
+        try:
+            lights = list(zip(bridge.light_names(scene), (o["type"] for o in bridge.scene_lights(scene, mm))))
+        except ohmlib.Error:  # a sky image ohm cannot read: said by the failure itself
+            lights = []
+        material = st.preset if st.material == "PRESET" else "this material"
+        return messages.Subject(obj.name, lights, st.dim, st.error, st.grid, st.max_memory, material, mm,
+                                st.scale <= 0, max(obj.dimensions))
+    except ReferenceError:
+        return messages.Subject(s.name if s is not None else "the object")
+
+
+def _report_notes(op, s, notes):
+    """Notes as Blender reports (at most MAX_REPORTED_WARNINGS) and in the
+    panel; the library's own words on the console."""
+    s.notes = list(notes)
+    s.warnings = [n.text for n in s.notes]
+    for note in s.notes[:MAX_REPORTED_WARNINGS]:
+        op.report({note.level}, "ohm: " + note.text)
+        if note.raw:
+            print("ohm: %s: %s" % (note.level.lower(), note.raw.replace("\n", "\nohm: ")))
+    if len(s.notes) > MAX_REPORTED_WARNINGS:
+        op.report({"WARNING"}, "ohm: %d more messages in the panel" % (len(s.notes) - MAX_REPORTED_WARNINGS))
+
+
+def _report_warnings(op, s, obj=None, scene=None):
     """The run's ohm warnings, as Blender reports and in the panel."""
-    s.warnings = s.run_warnings()
-    for text in s.warnings[:MAX_REPORTED_WARNINGS]:
-        op.report({"WARNING"}, "ohm: " + text)
-    if len(s.warnings) > MAX_REPORTED_WARNINGS:
-        op.report({"WARNING"}, "ohm: %d more warnings in the panel" % (len(s.warnings) - MAX_REPORTED_WARNINGS))
+    obj = obj if obj is not None else getattr(op, "obj", None) or bpy.context.active_object
+    scene = scene if scene is not None else bpy.context.scene
+    notes = messages.warnings(s.run_warnings(), subject(obj, scene, s))
+    exposure = _exposure_note(s)
+    _report_notes(op, s, notes + ([exposure] if exposure else []))
 
 
-def _report_failure(op, s, e):
-    s.status = ("cancelled" if isinstance(e, ohmlib.Cancelled) else "failed: %s" % e)
-    _report_warnings(op, s)
-    op.report({"WARNING"} if isinstance(e, ohmlib.Cancelled) else {"ERROR"}, "ohm: %s" % e)
+def _report_failure(op, s, e, obj=None):
+    """A failed run: its headline as the status and an ERROR report (a
+    cancel a WARNING), after the run's warnings."""
+    obj = obj if obj is not None else getattr(op, "obj", None) or bpy.context.active_object
+    about = subject(obj, bpy.context.scene, s)
+    failed = messages.failure(e, about)
+    notes = messages.warnings(s.run_warnings(), about)
+    if failed.kind == "dark":  # the failure names every light; the warnings' per-light notes say it again
+        notes = [n for n in notes if n.kind != "dark"]
+    s.status = failed.text
+    _report_notes(op, s, [failed] + notes)
     return {"CANCELLED"}
+
+
+def _exposure_note(s):
+    """A WARNING when the kept automatic exposure shows the result far too
+    dark or bright (a new material, Scale or light since it was chosen)."""
+    if s.scene is None or s.exposure is None:
+        return None
+    lit = s.mesh_exitance()
+    lit = lit[lit > 0]
+    if not lit.size:
+        return None
+    shown = float(np.percentile(lit, 99)) * s.exposure
+    if 0.02 <= shown <= 50.0:
+        return None
+    return messages.Note("WARNING", "The result is %.3g× %s than Exposure was chosen for: press Auto exposure" % (
+        1 / shown if shown < 1 else shown, "darker" if shown < 1 else "brighter"), kind="exposure")
 
 
 def output_directory(obj):
@@ -100,7 +156,7 @@ def add_volume(context, obj, s, path):
             bpy.data.volumes.remove(volume)
     bpy.ops.object.volume_import(filepath=path, align="WORLD", location=(0, 0, 0))
     vobj = context.active_object
-    mm = bridge.mm_per_unit(context.scene)
+    mm = s.mm_per_unit
     h = s.scene.grid["voxel"]
     vobj.scale = (1.0 / mm,) * 3
     vobj.location = (-0.5 * h / mm,) * 3
@@ -127,7 +183,8 @@ def _after_setup(context, obj, s):
 
 def _summary(s, seconds):
     r = s.result
-    return "%d cells, %s, %.2f s; power out %.4g W" % (r["unknowns"], s.solver or "solved", seconds, r["power_out"])
+    return "%d cells solved in %.2f s (%s); %.3g W of light leaves the object" % (
+        r["unknowns"], seconds, s.solver or "solved", r["power_out"])
 
 
 class _Background:
@@ -211,7 +268,7 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
         return _idle_mesh_poll(context)
 
     def execute(self, context):
-        obj = context.active_object
+        obj = self.obj = context.active_object
         s = session.get_or_create(obj)
         s.begin_run()
         try:
@@ -222,7 +279,7 @@ class OHM_OT_solve(bpy.types.Operator, _Background):
         return self._done(s, t["setup"])
 
     def invoke(self, context, event):
-        obj = context.active_object
+        obj = self.obj = context.active_object
         s = session.get_or_create(obj)
         try:
             self.start(context, obj, s)
@@ -274,6 +331,27 @@ class OHM_OT_cancel(bpy.types.Operator):
         s = session.get(context.active_object)
         s.job.cancel()
         s.status = "cancelling"
+        return {"FINISHED"}
+
+
+class OHM_OT_auto_exposure(bpy.types.Operator):
+    """Choose the exposure again from the current result (its brightest 1% white) and keep it: Live relight and
+    Bake then show the lights' power and colour as they change"""
+    bl_idname = "ohm.auto_exposure"
+    bl_label = "Auto exposure"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        s = session.get(context.active_object) if _mesh_poll(context) else None
+        return s is not None and s.scene is not None and s.job is None
+
+    def execute(self, context):
+        obj = context.active_object
+        s = session.get(obj)
+        exposure = s.choose_exposure()
+        obj.ohm.exposure = exposure  # shown and saved; its update recolours
+        self.report({"INFO"}, "ohm: Exposure %.4g" % exposure)
         return {"FINISHED"}
 
 
@@ -336,15 +414,26 @@ class OHM_OT_live(bpy.types.Operator, _Background):
                 job = self.poll_job(context, event)
                 if job is None:
                     return {"PASS_THROUGH"}
-                if job.error is not None:
+                if job.kind == "relight" and isinstance(job.error, session.DarkResult):
+                    # a light moved into the object: said, the last colours
+                    # kept, and Live waits for the next change of light
+                    s.lights = job.job["lights_signature"]
+                    failed = messages.failure(job.error, subject(self.obj, context.scene, s))
+                    s.status = failed.text
+                    _report_notes(self, s, [failed])
+                elif job.error is not None:
                     self.cancel(context)
                     return _report_failure(self, s, job.error)
-                if job.kind == "setup":
+                elif job.kind == "setup":
                     s.finish(self.obj, job.job)
                     _report_warnings(self, s)
                 else:
                     s.relight_finish(self.obj, job.job)
-                self.updates += 1
+                    if any(n.kind == "dark" for n in s.notes):  # lit again
+                        s.notes = [n for n in s.notes if n.kind != "dark"]
+                        s.warnings = [n.text for n in s.notes]
+                        self._live_status()
+                self.updates += job.error is None
                 _redraw(context, ("VIEW_3D",))
             # the next update starts in the same tick, so that its solve runs
             # while Blender redraws the last one
@@ -534,4 +623,4 @@ class OHM_OT_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (OHM_OT_solve, OHM_OT_cancel, OHM_OT_live, OHM_OT_bake)
+classes = (OHM_OT_solve, OHM_OT_cancel, OHM_OT_auto_exposure, OHM_OT_live, OHM_OT_bake)

@@ -77,7 +77,7 @@ def _settings_signature(obj, bscene):
     """What a change of the object's setup is: the settings that shape the
     network (not exposure, attribute or output folder: they need no solve)."""
     st = obj.ohm
-    return (bscene.unit_settings.scale_length, st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s),
+    return (bridge.mm_per_unit(bscene, obj), st.material, st.preset, tuple(st.sigma_a), tuple(st.sigma_s),
             st.eta, st.volume_path, st.transfer_path, st.grid, st.dim, st.error, st.boundary, st.solver,
             st.device, st.shadows)
 
@@ -87,6 +87,20 @@ def _channels(st):
     if st.material == "COEFFICIENTS":
         return len(set(zip(tuple(st.sigma_a), tuple(st.sigma_s))))
     return 3
+
+
+class DarkResult(ohmlib.Error):
+    """A solve whose light reaches no part of the object (0 W leave it):
+    a failure, not a black object (messages.py words it)."""
+
+    def __init__(self, name):
+        super().__init__(ohmlib.ERR_INVALID, "no light reaches %s: power out 0 W" % name)
+
+
+def check_lit(sc, name):
+    """DarkResult when no light leaves the scene's object."""
+    if not sc.result()["power_out"] > 0:
+        raise DarkResult(name)
 
 
 def geometry_hash(verts, tris):
@@ -117,9 +131,12 @@ class Session:
         self.solver = ""          # the backend that solved last
         self.solver_note = ""     # why, when the panel said Auto
         self.status = ""          # one line for the panel
-        self.warnings = []        # the last run's warnings, for the panel
+        self.warnings = []        # the last run's warnings' headlines
+        self.notes = []           # the last run's messages (messages.Note), for the panel
         self.updates_per_second = 0.0
         self.exposure = None      # the exposure the colours were written with
+        self.auto_exposure = None  # Exposure 0's: chosen from the first result, kept (choose_exposure)
+        self.mm_per_unit = None   # the Scale the solver was set up at (relights place the lights with it)
         self.to_original = None   # the evaluated vertex each of the mesh's own vertices shows
         self.geometry_reported = True  # Blender reported the geometry or placement changed
         self.result = None
@@ -154,7 +171,7 @@ class Session:
         """Everything a setup needs from Blender, read now (main thread)."""
         import bpy
         st = obj.ohm
-        mm = bridge.mm_per_unit(bscene)
+        mm = bridge.mm_per_unit(bscene, obj)
         lights = bridge.scene_lights(bscene, mm)
         if not lights:
             raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light, and its World does not light it")
@@ -180,7 +197,7 @@ class Session:
                 raise ohmlib.UsageError(ohmlib.ERR_USAGE, "no grid with solver %s fits the %s Memory allows" % (
                     limit_solver, estimate.gib(budget_mb * 2 ** 20)))
         job = {"verts": verts, "tris": tris, "to_original": bridge.to_original(obj, local), "name": obj.name,
-               "lights": lights,
+               "lights": lights, "mm_per_unit": mm,
                "material": st.material, "preset": st.preset, "sigma_a": tuple(st.sigma_a),
                "sigma_s": tuple(st.sigma_s), "eta": st.eta, "grid": st.grid, "dim": st.dim, "error": st.error,
                "boundary": st.boundary, "solver": solver, "shadows": st.shadows, "device": st.device,
@@ -232,6 +249,7 @@ class Session:
         device = {"device": job["device"]} if job["solver"] == "mg" and job["device"] != "host" else {}
         sc.solve(boundary=job["boundary"], solver=job["solver"], shadows="mesh" if job["shadows"] else "none",
                  **memory, **device)
+        check_lit(sc, job["name"])
         job["exitance"] = sc.vertex_exitance()
 
     def finish(self, obj, job):
@@ -245,6 +263,7 @@ class Session:
         self.setups += 1
         self.last = {"setup": job["seconds"]}
         self.to_original = job["to_original"]
+        self.mm_per_unit = job["mm_per_unit"]
         self._write(obj, job["exitance"])
         return self.last
 
@@ -258,7 +277,7 @@ class Session:
 
     def relight_gather(self, bscene):
         """A relight's inputs from Blender (main thread): the lights as they are now."""
-        lights = bridge.scene_lights(bscene, bridge.mm_per_unit(bscene))
+        lights = bridge.scene_lights(bscene, self.mm_per_unit)
         if not lights:
             raise ohmlib.UsageError(ohmlib.ERR_USAGE, "the scene has no point, sun, spot or area light, and its World does not light it")
         return {"lights": lights, "lights_signature": bridge.lights_signature(bscene)}
@@ -274,6 +293,7 @@ class Session:
             sc.add_light(**opts)
         _go_on(job)
         sc.relight()
+        check_lit(sc, self.name)
         t1 = time.perf_counter()
         job["exitance"] = sc.vertex_exitance()
         job["last"] = {"source_and_shadows": sc.stat("t_source") - t_source0, "solve": sc.stat("t_solve") - t_solve0,
@@ -313,7 +333,7 @@ class Session:
             return False
         self.geometry_reported = False
         local, tris = bridge.evaluated_mesh(obj, depsgraph)
-        return geometry_hash(bridge.world_mm(obj, local, bridge.mm_per_unit(bscene)), tris) != self.signature[1]
+        return geometry_hash(bridge.world_mm(obj, local, bridge.mm_per_unit(bscene, obj)), tris) != self.signature[1]
 
     def update(self, obj, bscene, depsgraph):
         """What changed since the last solve: 'setup' (geometry or material:
@@ -332,6 +352,14 @@ class Session:
         if self.scene is None or self.job is not None:
             return
         self._write(obj, self.scene.vertex_exitance())
+
+    def choose_exposure(self):
+        """Exposure 0's anew from the current result (the Auto exposure
+        button): its brightest 1% white.  None without a result."""
+        if self.scene is None or self.job is not None:
+            return None
+        self.auto_exposure = bridge.exposure_for(self.mesh_exitance(), 0.0)
+        return self.auto_exposure
 
     def mesh_exitance(self, exitance=None):
         """The exitance (vertices, channels) at the mesh's own vertices: the
@@ -353,7 +381,9 @@ class Session:
         exitance = self.mesh_exitance(exitance)
         bpy.context.evaluated_depsgraph_get()
         reported = self.geometry_reported
-        self.exposure = bridge.write_colours(obj, obj.ohm.attribute, exitance, obj.ohm.exposure)
+        if self.auto_exposure is None:  # the first result chooses Exposure 0's, for every update after it
+            self.auto_exposure = bridge.exposure_for(exitance, 0.0)
+        self.exposure = bridge.write_colours(obj, obj.ohm.attribute, exitance, obj.ohm.exposure or self.auto_exposure)
         bpy.context.evaluated_depsgraph_get()
         self.geometry_reported = reported
         self.last["attribute_write"] = time.perf_counter() - t0

@@ -63,14 +63,25 @@ class OhmSettings(bpy.types.PropertyGroup):
                ("gpu", "GPU", "the first OpenCL GPU with double precision; refused when there is none"),
                ("cpu", "OpenCL CPU", "an OpenCL CPU device (PoCL): the same kernels as a GPU's")])
     shadows: bpy.props.BoolProperty(name="Shadows", default=True, description="shadow rays against the mesh")
-    max_memory_fraction: bpy.props.FloatProperty(
-        name="Memory", min=0.05, max=0.9, default=0.5, subtype="FACTOR",
+    max_memory: bpy.props.IntProperty(
+        name="Memory", min=5, max=90, default=50, subtype="PERCENTAGE",
         description="the share of the memory available when a solve starts that it may take; a larger setting is "
                     "refused before anything large is allocated, leaving Blender the rest")
+    # Memory as a fraction, for the code that computes with it (not stored, not shown)
+    max_memory_fraction: bpy.props.FloatProperty(
+        min=0.05, max=0.9, get=lambda self: self.max_memory / 100.0,
+        set=lambda self, value: setattr(self, "max_memory", round(100.0 * value)))
+    scale: bpy.props.FloatProperty(
+        name="Scale", min=0.0, default=0.0, precision=4, step=10,
+        description="millimetres of material per scene unit, as Cycles' Subsurface Scale sets how far light "
+                    "spreads: a smaller Scale makes the object smaller to the light, so more translucent.  0: Auto, "
+                    "the scene's Unit Scale where it was changed (0.001: 1 unit = 1 mm), else 100 mm per unit "
+                    "(Blender's default units, where a new Suzanne is 2.7 units across: a 27 cm head)")
     exposure: bpy.props.FloatProperty(
         name="Exposure", min=0.0, default=0.0, update=_recolour,
-        description="colour = exitance (W/mm² leaving the surface per W of light) × exposure; 0: automatic (the "
-                    "99th percentile is 1), chosen once for a whole bake.  Recolours at once")
+        description="brightness of the result: colour = light leaving the surface (W/mm² per W of light) × "
+                    "Exposure.  0: automatic, chosen from the first result (its brightest 1% white) and then kept, "
+                    "so a dimmer light shows dimmer; Auto exposure chooses again.  Recolours at once")
     attribute: bpy.props.StringProperty(name="Attribute", default="ohm_exitance", update=_recolour)
     show_result: bpy.props.BoolProperty(
         name="Show result", default=True,

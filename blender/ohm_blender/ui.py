@@ -3,7 +3,7 @@ import textwrap
 
 import bpy
 
-from . import operators, session
+from . import bridge, messages, operators, session
 
 
 # Characters per line of a warning in the panel.
@@ -38,6 +38,13 @@ class OHM_PT_object(bpy.types.Panel):
         else:
             col.prop(st, "volume_path")
             col.prop(st, "transfer_path")
+        col.prop(st, "scale")
+        mm = bridge.mm_per_unit(context.scene, obj)
+        split = col.split(factor=0.4)  # under the field, as use_property_split places it
+        split.label(text="")
+        split.label(text="%s1 unit = %s: %s is %s across" % (
+            "Auto: " if st.scale <= 0 else "", messages.length_text(mm), obj.name,
+            messages.length_text(mm * max(obj.dimensions))))
         col.separator()
         col.prop(st, "grid")
         col.prop(st, "dim" if st.grid == "DIM" else "error")
@@ -48,9 +55,11 @@ class OHM_PT_object(bpy.types.Panel):
         col.prop(st, "shadows")
         if context.scene.world is not None:
             col.prop(context.scene.world, "ohm_light")
-        col.prop(st, "max_memory_fraction")
+        col.prop(st, "max_memory")
         col.separator()
-        col.prop(st, "exposure")
+        row = col.row(align=True)
+        row.prop(st, "exposure")
+        row.operator("ohm.auto_exposure", text="Auto")
         col.prop(st, "attribute")
         col.prop(st, "show_result")
         col.prop(st, "make_volume")
@@ -68,16 +77,22 @@ class OHM_PT_object(bpy.types.Panel):
         if s is None:
             return
         box = layout.box()
-        if s.status:
+        if s.status and not any(note.text == s.status for note in s.notes):  # a failure's is its first note
             box.label(text=s.status)
         if s.solver_note and s.job is None:
             box.label(text=s.solver_note)
-        if s.result is not None and s.job is None:
-            box.label(text="exitance × %.4g = colour (W/mm² per W of light)" % (s.exposure or 0))
-        for text in s.warnings:  # wrapped: Blender's labels cut long lines in the middle
+        if s.result is not None and s.job is None and not st.exposure and s.auto_exposure:
+            box.label(text="Exposure %.4g (automatic, chosen at the first result)" % s.auto_exposure)
+        for note in s.notes:  # wrapped: Blender's labels cut long lines in the middle
             col = box.column(align=True)
-            for i, line in enumerate(textwrap.wrap(text, WRAP_CHARACTERS)):
-                col.label(text=line, icon="ERROR" if i == 0 else "BLANK1")
+            icon = {"ERROR": "CANCEL", "WARNING": "ERROR"}.get(note.level, "INFO")
+            for i, line in enumerate(textwrap.wrap(note.text, WRAP_CHARACTERS)):
+                col.label(text=line, icon=icon if i == 0 else "BLANK1")
+            if note.details:  # the figures, in physics terms, greyed
+                sub = col.column(align=True)
+                sub.enabled = False
+                for line in textwrap.wrap("details: " + note.details, WRAP_CHARACTERS):
+                    sub.label(text=line, icon="BLANK1")
 
 
 classes = (OHM_PT_object,)
