@@ -247,12 +247,14 @@ if MODE == "live":
     what2 = operators.live_step(bpy.context, obj)
     if what != "setup" or what2 is not None or s.setups != 2:
         problem("a new material gave %r then %r (%d setups), expected one setup" % (what, what2, s.setups))
-    # what Solve shows without wiring: the material emitting the attribute,
-    # the attribute active for the viewport
+    # what Solve shows without wiring, on an object without a material: ohm's
+    # own material, its node group emitting the attribute; the attribute
+    # active for the viewport
     mat = obj.material_slots[0].material if obj.material_slots else None
-    attr_nodes = [n for n in mat.node_tree.nodes if n.type == "ATTRIBUTE"] if mat and mat.use_nodes else []
+    groups = [n.node_tree for n in mat.node_tree.nodes if bridge._is_result_node(n)] if mat and mat.use_nodes else []
+    attr_nodes = [n for n in groups[0].nodes if n.type == "ATTRIBUTE" and n.attribute_type == "GEOMETRY"] if groups else []
     if not attr_nodes or attr_nodes[0].attribute_name != obj.ohm.attribute or \
-            not any(n.type == "EMISSION" for n in mat.node_tree.nodes):
+            not any(n.type == "EMISSION" for n in groups[0].nodes) or not mat.get(bridge.OWN_MATERIAL):
         problem("Solve left no material emitting %s: %s" % (obj.ohm.attribute, mat))
     if me.color_attributes.active_color is None or me.color_attributes.active_color.name != obj.ohm.attribute:
         problem("the colour attribute is not the active one")
