@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
 # addon-window.sh — the Blender add-on in a real window under Xvfb (docs/blender.md):
 # a Solve's main-thread gaps, Blender's own redraw time, a cancel inside the
-# factorization, and Live relight's rate with and without a 3D view.  Prints
+# factorization, Live relight's rate with and without a 3D view, and the
+# artist's material through Solve, Ctrl-Z, Bake, renders and Remove.  Prints
 # the figures docs/blender.md quotes ("The add-on in a real window").  Needs
-# xvfb-run (Debian's xvfb).  About 2 minutes.
+# xvfb-run (Debian's xvfb), xdotool and ImageMagick.  About 3 minutes.
 #   scripts/addon-window.sh [build]        SOLVE_DIM=112 LIVE_DIM=60
 set -euo pipefail
 cd "$(dirname "$0")/.."
@@ -18,7 +19,8 @@ bpy.ops.preferences.addon_enable(module='ohm_blender')
 bpy.context.preferences.view.show_splash = False
 bpy.ops.wm.save_userpref()" > "$T/install.log" 2>&1 || { tail "$T/install.log"; exit 1; }
 window() { xvfb-run -a -s "-screen 0 1280x800x24" blender -P scripts/addon-window.py -- "$@" 2>&1 \
-  | grep -E "^(SOLVE|REDRAW|CANCEL|GAPS|MAIN THREAD|LIVE)"; }
+  | grep -E "^(SOLVE|REDRAW|CANCEL|GAPS|MAIN THREAD|LIVE|MATERIAL|SHOT|PROBLEM|Error)"; }
 window solve "${SOLVE_DIM:-112}"
 window live "${LIVE_DIM:-60}"
 NO3D=1 window live "${LIVE_DIM:-60}"
+window material 0   # screenshots and renders in ${OHM_WINDOW_OUT:-/tmp/ohm-window}

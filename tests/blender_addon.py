@@ -40,7 +40,7 @@ MOVES = int(args[6]) if len(args) > 6 else 24
 BIG_DIM = 120
 report = {"mode": MODE, "dim": DIM, "problems": []}
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_scene import install_addon, read_obj, scene_with_mesh  # noqa: E402
+from blender_scene import install_addon, read_obj, scene_with_mesh, small_cycles  # noqa: E402
 
 
 def problem(text):
@@ -138,14 +138,7 @@ def cycles_halves(path):
     cam.data.type, cam.data.ortho_scale, cam.data.clip_end = "ORTHO", 70.0, 1000.0
     cam.location, cam.rotation_euler = (0.0, -200.0, 0.0), (math.pi / 2, 0.0, 0.0)
     sc.camera = cam
-    if sc.world is None:
-        sc.world = bpy.data.worlds.new("black")
-    sc.world.use_nodes, sc.world.color = False, (0.0, 0.0, 0.0)
-    sc.render.engine = "CYCLES"
-    sc.cycles.samples, sc.cycles.use_denoising = 8, False
-    sc.render.resolution_x = sc.render.resolution_y = 64
-    sc.render.resolution_percentage = 100
-    sc.render.image_settings.file_format = "PNG"
+    small_cycles(sc, 64, 8, "PNG")
     sc.render.filepath = path
     bpy.ops.render.render(write_still=True)
     img = bpy.data.images.load(path)

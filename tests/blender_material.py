@@ -40,7 +40,7 @@ ARTIST, ARTIST_NODE = "MyHandmadeSkin", "my skin"
 ARTIST_SAMPLES = 256
 report = {"mode": MODE, "problems": []}
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_scene import install_addon, read_obj, scene_with_mesh  # noqa: E402
+from blender_scene import differences, install_addon, small_cycles, spot_with_lamp, state  # noqa: E402
 
 
 def problem(text):
@@ -95,15 +95,9 @@ if MODE == "reopen":
 install_addon(ZIP)
 from ohm_blender import bridge, operators, session  # noqa: E402  (installed just now)
 
-verts, faces = read_obj(MESH)
-verts = np.array(verts)
-verts = (verts - verts.mean(axis=0)) * (50.0 / np.ptp(verts, axis=0).max())
-sc, obj = scene_with_mesh("spot", verts, faces)
-lamp_data = bpy.data.lights.new("lamp", "POINT")
-lamp_data.energy = 2.0e4
-lamp = bpy.data.objects.new("lamp", lamp_data)
+sc, obj, lamp = spot_with_lamp(MESH)
+lamp_data = lamp.data
 lamp.location = (110.0, 30.0, 0.0)
-sc.collection.objects.link(lamp)
 obj.ohm.preset, obj.ohm.dim, obj.ohm.solver = "marble", DIM, "direct"
 obj.ohm.directory = os.path.join(OUT, "ohm", "")
 
@@ -126,13 +120,8 @@ cam = bpy.data.objects.new("camera", bpy.data.cameras.new("camera"))
 sc.collection.objects.link(cam)
 cam.data.type, cam.data.ortho_scale, cam.data.clip_end = "ORTHO", 70.0, 1000.0
 sc.camera = cam
-sc.world = bpy.data.worlds.new("black")
-sc.world.use_nodes, sc.world.color = False, (0.0, 0.0, 0.0)
-sc.render.engine = "CYCLES"
-sc.cycles.samples, sc.cycles.use_denoising = 4, False
-sc.render.resolution_x = sc.render.resolution_y = 32
-sc.render.resolution_percentage = 100
-sc.render.image_settings.file_format, sc.render.image_settings.color_depth = "OPEN_EXR", "32"
+small_cycles(sc, 32, 4, "OPEN_EXR")
+sc.render.image_settings.color_depth = "32"
 
 
 def aim(target):
@@ -151,30 +140,6 @@ def render(name, samples=4):
     sc.cycles.samples = samples
     bpy.ops.render.render(write_still=True)
     return exr_mean(path)
-
-
-def state():
-    """What the .blend holds that ohm might touch: every material (users,
-    nodes, links), every object's slots, modifiers, custom properties and
-    attributes, the node groups."""
-    def tree(nt):
-        if nt is None:
-            return None
-        return (sorted((n.name, n.bl_idname) for n in nt.nodes),
-                sorted((k.from_node.name, k.from_socket.identifier, k.to_node.name, k.to_socket.identifier)
-                       for k in nt.links))
-    return {"materials": {m.name: (m.users, m.use_nodes, tree(m.node_tree)) for m in bpy.data.materials},
-            "objects": {o.name: ([s.material and s.material.name for s in o.material_slots],
-                                 [m.name for m in o.modifiers], sorted(o.keys()),
-                                 sorted(a.name for a in o.data.attributes) if o.type == "MESH" else None)
-                        for o in bpy.data.objects},
-            "node_groups": sorted(g.name for g in bpy.data.node_groups)}
-
-
-def differences(a, b):
-    return ["%s %s: %s -> %s" % (k, name, a[k].get(name), b[k].get(name))
-            for k in ("materials", "objects") for name in sorted(set(a[k]) | set(b[k])) if a[k].get(name) != b[k].get(name)] + \
-        (["node groups: %s -> %s" % (a["node_groups"], b["node_groups"])] if a["node_groups"] != b["node_groups"] else [])
 
 
 def status():

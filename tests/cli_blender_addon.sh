@@ -8,12 +8,7 @@
 # code it calls is covered there by api_scene and api_python).
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
-ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
-if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
-require_blender
-check "the build made ohm_blender.zip" test -s "$ZIP"
-# Blender keeps installed add-ons in its user folder: a fresh one per run
-export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
+require_addon
 # live and bake with the factor, then live with the multigrid (on the host,
 # and on an OpenCL CPU device: PoCL) and with Auto (the panel's Solver and
 # Device, OHM_ADDON_SOLVER and OHM_ADDON_DEVICE in the script)

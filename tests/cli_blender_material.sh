@@ -10,11 +10,7 @@
 # is not ours to instrument).
 set -eu
 source "$(dirname "$0")/lib.sh" "$1"
-ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
-if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
-require_blender
-check "the build made ohm_blender.zip" test -s "$ZIP"
-export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
+require_addon
 mkdir -p "$T/out"
 show() {  # the report's figures and problems, or the log's end
   if [ -s "$1" ]; then

@@ -62,3 +62,14 @@ require_test_hooks() {
   echo "SKIP: $1 (no test hooks in this build: configure with -DOHM_TEST_HOOKS=ON, as scripts/test.sh does)"
   return 1
 }
+# require_addon: the build's ohm_blender.zip (ZIP) in a Blender (BLENDER)
+# whose user folders are fresh for this run (Blender keeps installed add-ons
+# there); skipped under the sanitizers (Blender's own process is not ours to
+# instrument) and without Blender (require_blender).
+require_addon() {
+  ZIP="$(dirname "$(realpath "$OHM")")/ohm_blender.zip"
+  if [ "$SANITIZED" = 1 ]; then echo "SKIP: the Blender add-on under the sanitizers"; exit 0; fi
+  require_blender
+  check "the build made ohm_blender.zip" test -s "$ZIP"
+  export BLENDER_USER_CONFIG="$T/config" BLENDER_USER_SCRIPTS="$T/scripts"
+}

@@ -525,6 +525,7 @@ class OHM_OT_bake(bpy.types.Operator):
         except OSError as e:
             return _report_failure(self, session.get_or_create(context.active_object), e)
         self.job = None
+        self.run.session.status = self.run.progress()
         wm = context.window_manager
         wm.progress_begin(0, len(self.run.frames))
         self._timer = wm.event_timer_add(JOB_TICK_S, window=context.window)
