@@ -296,7 +296,7 @@ def material_steps():
     sc.render.engine = "CYCLES"
     sc.cycles.preview_samples = 8
     shading("RENDERED")
-    yield 8.0
+    yield 25.0  # Cycles compiles its shaders and renders in the window, on a shared CPU
     shot("5-frame10-rendered")
     shading("MATERIAL")
     # F12 at frames 1, 10, 20 in a black world (the background would add to

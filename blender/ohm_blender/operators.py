@@ -1,4 +1,5 @@
-"""bpy.ops.ohm.solve, bpy.ops.ohm.cancel, bpy.ops.ohm.live, bpy.ops.ohm.bake.
+"""bpy.ops.ohm.solve, bpy.ops.ohm.cancel, bpy.ops.ohm.live, bpy.ops.ohm.bake,
+bpy.ops.ohm.remove.
 
 Solve and Live relight's first setup run off Blender's UI thread when
 invoked from the interface (a session.Job polled by a modal timer): the
@@ -103,6 +104,11 @@ def add_volume(context, obj, s, path, frames=None, exposure=None):
         bridge.remove_volume(old)
     volume = bpy.data.volumes.new(bridge.volume_name(obj))
     volume.filepath = path
+    if bpy.data.filepath:  # relative to a saved file: the folder may move with it
+        try:
+            volume.filepath = bpy.path.relpath(path)
+        except ValueError:  # (another drive)
+            pass
     if frames is not None:
         volume.is_sequence = True
         volume.frame_start, volume.frame_duration = frames
@@ -324,6 +330,7 @@ class OHM_OT_live(bpy.types.Operator, _Background):
         self.obj = context.active_object
         self.session = session.get_or_create(self.obj)
         self.job = None
+        bridge.drop_frames(self.obj)  # Live shows its own result, not a bake's frames
         self.updates, self.t0 = 0, time.perf_counter()
         self.attach(context, LIVE_TICK_S)
         self._live_status()
@@ -490,8 +497,9 @@ class _BakeRun:
 class OHM_OT_bake(bpy.types.Operator):
     """Bake the animation over the frame range: frames where a light, the object or its material changed are solved
     (one setup for all of them while the geometry stays), each written as a .vdb and a colour attribute named by its
-    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence.  Runs frame by
-    frame in the background: Esc stops it, keeping the frames written"""
+    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence.  Renders then
+    show each frame's result (with Volume object, a sequence volume too).  Runs frame by frame in the background: Esc
+    stops it, keeping the frames written"""
     bl_idname = "ohm.bake"
     bl_label = "Bake sequence"
     bl_options = {"UNDO"}
