@@ -13,8 +13,8 @@ otherwise; NO3D=1 turns the 3D views into text editors (live: the rate
 without Blender's viewport redraw).  material: the default scene's Cube
 replaced by Suzanne with a Subdivision modifier and the artist's material
 "MyHandmadeSkin" (a node named "my skin"), the panel's defaults, the
-default light; clicks through the operators as the buttons run them, Ctrl-Z
-as a real key press (xdotool); screenshots of the window (ImageMagick's
+default light; clicks through the operators as the buttons run them (Solve,
+Live relight, Bake, Remove), Ctrl-Z and Esc as real key presses (xdotool); screenshots of the window (ImageMagick's
 import) and Cycles renders (.png to look at, .exr measured) in
 OHM_WINDOW_OUT (default /tmp/ohm-window)."""
 import math
@@ -319,6 +319,19 @@ def material_steps():
             what, {f: round(m, 6) for f, m in means.items()}, {f: round(m / means[1], 4) for f, m in means.items()},
             {f: p / power[1] for f, p in power.items()}))
         yield 0.5
+    # Live relight from its button, the light moved, stopped by a real Esc (after the bake:
+    # an Esc that lands between two relights leaves the library's cancel pending for the next run)
+    light_obj = bpy.data.objects["Light"]
+    run(lambda: bpy.ops.ohm.live("INVOKE_DEFAULT"), "PROPERTIES")
+    home = tuple(light_obj.location)
+    for k in range(60):
+        light_obj.location = (home[0], home[1] + 0.05 * k, home[2])
+        yield 0.05
+    key("Escape")
+    yield 1.0
+    light_obj.location = home
+    print("MATERIAL LIVE: %s" % session.get(obj).status)
+    kept("after Live")
     sc.frame_set(1)
     run(lambda: bpy.ops.ohm.remove(), "PROPERTIES")
     yield 2.0

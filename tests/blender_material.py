@@ -17,7 +17,9 @@ Then Live relight and a 20-frame Bake of the light's power keyframed
 Cycles renders of frames 1, 10 and 20, the test wiring nothing (a black
 world, ohm's emission alone), have mean brightness ratios equal to the
 power's within 2%, of the object and of the volume object alone (and,
-as a CONTROL, alike without ohm's frames modifier).  Saves
+as a CONTROL, alike without ohm's frames modifier).  Then a bake of frames
+21-24 where nothing changes: one file, linked for the other frames, and a
+sequence volume that renders them.  Saves
 OUTDIR/material.blend, to render frames 1, 10, 20 as OUTDIR/frame_FFFF.exr.
 
 MODE reopen: in that file, reopened by a Blender without the add-on (the
@@ -268,6 +270,31 @@ if vol is not None:
 sc.frame_set(1)
 sc.render.filepath = os.path.join(OUT, "frame_####")
 bpy.ops.wm.save_as_mainfile(filepath=os.path.join(OUT, "material.blend"))
+
+# --- a bake of frames 21-24 where nothing changes after the first (the
+# power holds at its last key): one solve; frames 22-24 are links to frame
+# 21's file, so Blender's sequence volume (which drops gaps) has every frame,
+# and frame 23 renders as frame 21 does
+sc.frame_start, sc.frame_end = 21, 24
+if bpy.ops.ohm.bake() != {"FINISHED"}:
+    raise SystemExit("ohm.bake (21-24) did not finish: " + status())
+directory = operators.output_directory(obj)
+files = {f: os.path.join(directory, "spot_%04d.vdb" % f) for f in range(21, 25)}
+inodes = {f: os.stat(p).st_ino if os.path.exists(p) else None for f, p in files.items()}
+vol = bpy.data.objects.get(bridge.volume_name(obj))
+report["gap_bake"] = {"inodes_same_as_21": [inodes[f] == inodes[21] for f in range(21, 25)],
+                      "volume": vol and [vol.data.frame_start, vol.data.frame_duration, vol.data.frame_offset]}
+if None in inodes.values() or len(set(inodes.values())) != 1 or report["gap_bake"]["volume"] != [21, 4, 20]:
+    problem("a bake of 21-24 with one solve left files %s and a volume %s" % (inodes, report["gap_bake"]["volume"]))
+else:
+    vol.hide_render, obj.hide_render = False, True
+    means = {}
+    for f in (21, 23):
+        sc.frame_set(f)
+        means[f] = render("gap_volume_%04d" % f)
+    report["gap_bake"]["volume_means"] = means
+    if not means[21] > 0 or abs(means[23] / means[21] - 1.0) > 1e-3:
+        problem("the volume rendered frames 21 and 23 as %s" % means)
 
 json.dump(report, open(REPORT, "w"), indent=1)
 if report["problems"]:
