@@ -243,7 +243,7 @@ def material_steps():
     s = yield from waiting()
     print("MATERIAL SOLVE: " + s.status)
     kept("after Solve")
-    yield 8.0  # EEVEE compiles the material's shader anew
+    yield 20.0  # EEVEE compiles the material's shader anew (8 s was not always enough on a busy machine)
     shot("1-solved-material-preview")
     w, a = next(areas("VIEW_3D"))  # the material's nodes, ohm's group among them
     a.type = "NODE_EDITOR"
