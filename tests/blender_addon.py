@@ -40,7 +40,7 @@ MOVES = int(args[6]) if len(args) > 6 else 24
 BIG_DIM = 120
 report = {"mode": MODE, "dim": DIM, "problems": []}
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from blender_scene import install_addon, read_obj, scene_with_mesh  # noqa: E402
+from blender_scene import install_addon, read_obj, scene_with_mesh, small_cycles  # noqa: E402
 
 
 def problem(text):
@@ -138,14 +138,7 @@ def cycles_halves(path):
     cam.data.type, cam.data.ortho_scale, cam.data.clip_end = "ORTHO", 70.0, 1000.0
     cam.location, cam.rotation_euler = (0.0, -200.0, 0.0), (math.pi / 2, 0.0, 0.0)
     sc.camera = cam
-    if sc.world is None:
-        sc.world = bpy.data.worlds.new("black")
-    sc.world.use_nodes, sc.world.color = False, (0.0, 0.0, 0.0)
-    sc.render.engine = "CYCLES"
-    sc.cycles.samples, sc.cycles.use_denoising = 8, False
-    sc.render.resolution_x = sc.render.resolution_y = 64
-    sc.render.resolution_percentage = 100
-    sc.render.image_settings.file_format = "PNG"
+    small_cycles(sc, 64, 8, "PNG")
     sc.render.filepath = path
     bpy.ops.render.render(write_still=True)
     img = bpy.data.images.load(path)
@@ -247,12 +240,14 @@ if MODE == "live":
     what2 = operators.live_step(bpy.context, obj)
     if what != "setup" or what2 is not None or s.setups != 2:
         problem("a new material gave %r then %r (%d setups), expected one setup" % (what, what2, s.setups))
-    # what Solve shows without wiring: the material emitting the attribute,
-    # the attribute active for the viewport
+    # what Solve shows without wiring, on an object without a material: ohm's
+    # own material, its node group emitting the attribute; the attribute
+    # active for the viewport
     mat = obj.material_slots[0].material if obj.material_slots else None
-    attr_nodes = [n for n in mat.node_tree.nodes if n.type == "ATTRIBUTE"] if mat and mat.use_nodes else []
+    groups = [n.node_tree for n in mat.node_tree.nodes if bridge._is_result_node(n)] if mat and mat.use_nodes else []
+    attr_nodes = [n for n in groups[0].nodes if n.type == "ATTRIBUTE" and n.attribute_type == "GEOMETRY"] if groups else []
     if not attr_nodes or attr_nodes[0].attribute_name != obj.ohm.attribute or \
-            not any(n.type == "EMISSION" for n in mat.node_tree.nodes):
+            not any(n.type == "EMISSION" for n in groups[0].nodes) or not mat.get(bridge.OWN_MATERIAL):
         problem("Solve left no material emitting %s: %s" % (obj.ohm.attribute, mat))
     if me.color_attributes.active_color is None or me.color_attributes.active_color.name != obj.ohm.attribute:
         problem("the colour attribute is not the active one")

@@ -3,8 +3,9 @@
 attribute, relit live from one solver set-up, baked over an animation.
 
 Operators (bpy.ops.ohm.*): solve (in the background when invoked from the
-panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake.  The
-panel is Properties > Object > ohm.  See docs/blender-addon.md.
+panel: Esc or Cancel stops it), cancel, live (a modal relight loop), bake,
+remove (what ohm added to the object's materials and data).  The panel is
+Properties > Object > ohm.  See docs/blender-addon.md.
 """
 bl_info = {
     "name": "ohm subsurface scattering",

@@ -1,6 +1,7 @@
 """Blender's scene in ohm's terms: units, the mesh as placed, the lights,
 and the colour attribute written back.  No state of its own."""
 import math
+import re
 
 import numpy as np
 
@@ -269,32 +270,137 @@ def write_colours(obj, name, exitance, exposure):
     return used
 
 
-def show_result(obj, attribute):
-    """Make the colour attribute visible without wiring: a material (its
-    first slot) whose surface emits the attribute's colour, which is the
-    light leaving the surface (exitance x exposure), in Cycles and EEVEE;
-    the attribute active, so the viewport's Attribute colouring shows it;
-    and the 3D views' solid shading coloured by it."""
+# The object's custom property that ohm's node group reads (an Object
+# attribute): 1 shows ohm's result on this object, 0 shows the artist's shader.
+# Another object sharing the material has no such property, reads 0, and keeps
+# its look (Cycles and EEVEE give a missing Object attribute 0).
+RESULT_SHOWN = "ohm_result"
+# The name prefix of ohm's shader node group, of its geometry node group that
+# picks a bake's frame, and the name of the modifier that holds the latter.
+RESULT_GROUP = "ohm result"
+FRAMES_GROUP = "ohm frames"
+FRAMES_MODIFIER = "ohm frames"
+# Custom properties on ohm's own datablocks: its material (given to an
+# object with none), a slot ohm added for it, and a material whose nodes ohm
+# turned on to add its group.
+OWN_MATERIAL = "ohm_own"
+ADDED_SLOT = "ohm_added_slot"
+ENABLED_NODES = "ohm_enabled_nodes"
+
+
+def _result_group(attribute):
+    """ohm's shader node group (one per attribute name): its Shader input
+    (the artist's surface, passed through) mixed with an emission of the
+    colour attribute, which is the light leaving the surface (exitance x
+    exposure), by the object's RESULT_SHOWN property."""
     import bpy
-    name = "ohm " + obj.name
-    mat = bpy.data.materials.get(name) or bpy.data.materials.new(name)
+    name = "%s: %s" % (RESULT_GROUP, attribute)
+    tree = bpy.data.node_groups.get(name)
+    if tree is not None and tree.bl_idname == "ShaderNodeTree":
+        return tree
+    tree = bpy.data.node_groups.new(name, "ShaderNodeTree")
+    tree.inputs.new("NodeSocketShader", "Shader")
+    tree.outputs.new("NodeSocketShader", "Shader")
+    nodes, links = tree.nodes, tree.links
+    given, result = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput")
+    colour = nodes.new("ShaderNodeAttribute")
+    colour.attribute_type, colour.attribute_name = "GEOMETRY", attribute
+    shown = nodes.new("ShaderNodeAttribute")
+    shown.attribute_type, shown.attribute_name = "OBJECT", RESULT_SHOWN
+    emit, mix = nodes.new("ShaderNodeEmission"), nodes.new("ShaderNodeMixShader")
+    emit.inputs["Strength"].default_value = 1.0
+    links.new(colour.outputs["Color"], emit.inputs["Color"])
+    links.new(shown.outputs["Fac"], mix.inputs["Fac"])
+    links.new(given.outputs["Shader"], mix.inputs[1])
+    links.new(emit.outputs["Emission"], mix.inputs[2])
+    links.new(mix.outputs["Shader"], result.inputs["Shader"])
+    for node, x, y in ((given, -500, 0), (colour, -500, -150), (shown, -500, 200), (emit, -250, -150), (mix, 0, 0),
+                       (result, 200, 0)):
+        node.location = (x, y)
+    return tree
+
+
+def _is_result_node(node):
+    return node.type == "GROUP" and node.node_tree is not None and node.node_tree.name.startswith(RESULT_GROUP + ":")
+
+
+def _install(mat, group):
+    """ohm's group between each Material Output's Surface and what fed it
+    (nothing else of the material changes; a material without nodes gets
+    them turned on, which removal turns off again)."""
+    enabled = not mat.use_nodes
+    mat.use_nodes = True
+    nt = mat.node_tree
+    for out in [n for n in nt.nodes if n.type == "OUTPUT_MATERIAL"]:
+        surface = out.inputs["Surface"]
+        fed = surface.links[0].from_node if surface.is_linked else None
+        if fed is not None and _is_result_node(fed):
+            fed.node_tree = group
+            continue
+        node = nt.nodes.new("ShaderNodeGroup")
+        node.node_tree, node.label = group, RESULT_GROUP
+        node[ENABLED_NODES] = int(enabled)
+        node.location = (out.location.x, out.location.y + 180)
+        if fed is not None:
+            nt.links.new(surface.links[0].from_socket, node.inputs["Shader"])
+        nt.links.new(node.outputs["Shader"], surface)
+
+
+def _uninstall(mat):
+    """ohm's group nodes out of the material, their input linked back to
+    the output they fed: the material as it was."""
+    if mat.node_tree is None:
+        return
+    nt = mat.node_tree
+    for node in [n for n in nt.nodes if _is_result_node(n)]:
+        given = node.inputs["Shader"].links[0].from_socket if node.inputs["Shader"].is_linked else None
+        fed = [link.to_socket for link in node.outputs["Shader"].links]
+        enabled = node.get(ENABLED_NODES, 0)
+        nt.nodes.remove(node)
+        for socket in fed:
+            if given is not None:
+                nt.links.new(given, socket)
+        if enabled:
+            mat.use_nodes = False
+
+
+def _own_material(obj, group, added_slot):
+    """ohm's material for an object (or slot) with none: the group over a
+    grey diffuse surface, Blender's look for a face without material, which
+    shows when the result is hidden."""
+    import bpy
+    mat = bpy.data.materials.new("ohm " + obj.name)
+    mat[OWN_MATERIAL], mat[ADDED_SLOT] = 1, int(added_slot)
     mat.use_nodes = True
     nt = mat.node_tree
     nt.nodes.clear()
-    out = nt.nodes.new("ShaderNodeOutputMaterial")
-    emit = nt.nodes.new("ShaderNodeEmission")
-    attr = nt.nodes.new("ShaderNodeAttribute")
-    attr.attribute_type = "GEOMETRY"
-    attr.attribute_name = attribute
-    attr.location, emit.location, out.location = (-400, 0), (-150, 0), (100, 0)
-    nt.links.new(attr.outputs["Color"], emit.inputs["Color"])
-    emit.inputs["Strength"].default_value = 1.0
-    nt.links.new(emit.outputs["Emission"], out.inputs["Surface"])
+    out, diffuse = nt.nodes.new("ShaderNodeOutputMaterial"), nt.nodes.new("ShaderNodeBsdfDiffuse")
+    diffuse.inputs["Color"].default_value = (0.8, 0.8, 0.8, 1.0)
+    diffuse.location, out.location = (-300, 0), (200, 0)
+    nt.links.new(diffuse.outputs["BSDF"], out.inputs["Surface"])
+    _install(mat, group)
+    return mat
+
+
+def show_result(obj, attribute):
+    """Make the colour attribute visible without wiring and without
+    replacing anything: ohm's node group enters each of the object's
+    materials between its output and the artist's surface shader; an object
+    or slot with no material gets ohm's own; the object's RESULT_SHOWN is 1.
+    The attribute is made active, and the 3D views' solid shading coloured
+    by it."""
+    import bpy
+    group = _result_group(attribute)
+    slots = obj.material_slots
+    if not slots:
+        obj.data.materials.append(_own_material(obj, group, True))
+    for slot in slots:
+        if slot.material is None:
+            slot.material = _own_material(obj, group, False)
+        else:
+            _install(slot.material, group)
+    set_result_shown(obj, True)
     me = obj.data
-    if not me.materials:
-        me.materials.append(mat)
-    elif me.materials[0] is not mat:
-        me.materials[0] = mat
     if attribute in me.color_attributes:
         me.color_attributes.active_color = me.color_attributes[attribute]
     for screen in bpy.data.screens:
@@ -304,7 +410,135 @@ def show_result(obj, attribute):
                     if space.type == "VIEW_3D":  # "Attribute" in the menu; "VERTEX" to the API in 3.x
                         items = space.shading.bl_rna.properties["color_type"].enum_items.keys()
                         space.shading.color_type = "ATTRIBUTE" if "ATTRIBUTE" in items else "VERTEX"
-    return mat
+
+
+def set_result_shown(obj, shown):
+    """Show result on or off: the property ohm's group reads (renders and
+    the viewport follow at once)."""
+    obj[RESULT_SHOWN] = 1.0 if shown else 0.0
+    obj.update_tag()
+
+
+def has_result(obj, attribute):
+    """Whether ohm's result is in the object: shown, its frames, or its attribute."""
+    return RESULT_SHOWN in obj.keys() or obj.modifiers.get(FRAMES_MODIFIER) is not None or \
+        attribute in obj.data.attributes
+
+
+def remove_result(obj, attribute):
+    """Everything Show result and Bake put into the .blend for this object,
+    removed: ohm's group from the materials (their links as before), ohm's
+    own material and the slot it added, the frames modifier and its node
+    group, the colour attribute and a bake's per-frame ones, the volume
+    object and its material, RESULT_SHOWN.  Files on disk stay."""
+    import bpy
+    slots = obj.material_slots
+    for index in reversed(range(len(slots))):
+        mat = slots[index].material
+        if mat is not None and mat.get(OWN_MATERIAL):
+            if mat.get(ADDED_SLOT) and index == len(slots) - 1 and slots[index].link == "DATA":
+                obj.data.materials.pop(index=index)
+            else:
+                slots[index].material = None
+            if mat.users == 0:
+                bpy.data.materials.remove(mat)
+        elif mat is not None:
+            _uninstall(mat)
+    drop_frames(obj)
+    me = obj.data
+    frame_attribute = re.compile(re.escape(attribute) + r"(_\d{4})?$")
+    for name in [a.name for a in me.attributes if frame_attribute.match(a.name)]:
+        me.attributes.remove(me.attributes[name])
+    volume = bpy.data.objects.get(volume_name(obj))
+    if volume is not None and volume.type == "VOLUME":
+        remove_volume(volume)
+    mat = bpy.data.materials.get(volume_name(obj))
+    if mat is not None and mat.users == 0:
+        bpy.data.materials.remove(mat)
+    if RESULT_SHOWN in obj.keys():
+        del obj[RESULT_SHOWN]
+    for tree in [t for t in bpy.data.node_groups if t.name.startswith(RESULT_GROUP + ":") and t.users == 0]:
+        bpy.data.node_groups.remove(tree)
+    obj.update_tag()
+
+
+def remove_volume(vobj):
+    """A volume object ohm added, with its volume data when nothing else uses it."""
+    import bpy
+    volume = vobj.data
+    bpy.data.objects.remove(vobj)
+    if volume.users == 0:
+        bpy.data.volumes.remove(volume)
+
+
+def frame_attribute(attribute, frame):
+    """The name of a baked frame's colour attribute."""
+    return "%s_%04d" % (attribute, frame)
+
+
+def show_frames(obj, attribute, frames):
+    """A bake renders as it plays: a geometry nodes modifier (the object's
+    last) stores, as the colour attribute ohm's group reads, the per-frame
+    attribute of the last solved frame at or before the scene's frame (the
+    first before it).  Geometry nodes read the frame themselves (Scene
+    Time), so F12, an animation render, `blender -b file.blend -a` (without
+    the add-on: no Python runs) and the viewport all show the frame's
+    result.  frames: the solved frames, ascending."""
+    import bpy
+    drop_frames(obj)
+    tree = bpy.data.node_groups.new("%s: %s" % (FRAMES_GROUP, obj.name), "GeometryNodeTree")
+    tree.inputs.new("NodeSocketGeometry", "Geometry")
+    tree.outputs.new("NodeSocketGeometry", "Geometry")
+    nodes, links = tree.nodes, tree.links
+    given, result, time = nodes.new("NodeGroupInput"), nodes.new("NodeGroupOutput"), nodes.new("GeometryNodeInputSceneTime")
+    time.location = (-400, 300)
+
+    def enabled(sockets, kind=None):
+        return next(s for s in sockets if s.enabled and (kind is None or s.type == kind))
+
+    shown = None
+    for k, f in enumerate(frames):
+        read = nodes.new("GeometryNodeInputNamedAttribute")
+        read.data_type = "FLOAT_COLOR"
+        read.inputs["Name"].default_value = frame_attribute(attribute, f)
+        read.location = (200 * k - 200, -200)
+        if shown is None:
+            shown = enabled(read.outputs)
+            continue
+        reached = nodes.new("FunctionNodeCompare")
+        reached.data_type, reached.operation = "FLOAT", "GREATER_EQUAL"
+        links.new(time.outputs["Frame"], reached.inputs[0])
+        reached.inputs[1].default_value = f - 1e-3  # a subframe before f still shows the frame before
+        pick = nodes.new("GeometryNodeSwitch")
+        pick.input_type = "RGBA"
+        links.new(reached.outputs[0], enabled(pick.inputs, "BOOLEAN"))
+        falses, trues = [s for s in pick.inputs if s.enabled and s.type == "RGBA"]
+        links.new(shown, falses)
+        links.new(enabled(read.outputs), trues)
+        reached.location, pick.location = (200 * k, 150), (200 * k, 0)
+        shown = enabled(pick.outputs)
+    store = nodes.new("GeometryNodeStoreNamedAttribute")
+    store.data_type, store.domain = "FLOAT_COLOR", "POINT"
+    store.inputs["Name"].default_value = attribute
+    links.new(given.outputs["Geometry"], store.inputs["Geometry"])
+    links.new(shown, enabled(store.inputs, "RGBA"))
+    links.new(store.outputs["Geometry"], result.inputs["Geometry"])
+    given.location, store.location, result.location = (-400, 0), (200 * len(frames), 0), (200 * len(frames) + 200, 0)
+    mod = obj.modifiers.new(FRAMES_MODIFIER, "NODES")
+    mod.node_group = tree
+
+
+def drop_frames(obj):
+    """A bake's frames modifier and its node group, removed (a Solve or Live
+    shows its own result; the per-frame attributes stay)."""
+    import bpy
+    mod = obj.modifiers.get(FRAMES_MODIFIER)
+    if mod is None or mod.type != "NODES":
+        return
+    tree = mod.node_group
+    obj.modifiers.remove(mod)
+    if tree is not None and tree.name.startswith(FRAMES_GROUP + ":") and tree.users == 0:
+        bpy.data.node_groups.remove(tree)
 
 
 def volume_name(obj):

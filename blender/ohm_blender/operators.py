@@ -1,4 +1,5 @@
-"""bpy.ops.ohm.solve, bpy.ops.ohm.cancel, bpy.ops.ohm.live, bpy.ops.ohm.bake.
+"""bpy.ops.ohm.solve, bpy.ops.ohm.cancel, bpy.ops.ohm.live, bpy.ops.ohm.bake,
+bpy.ops.ohm.remove.
 
 Solve and Live relight's first setup run off Blender's UI thread when
 invoked from the interface (a session.Job polled by a modal timer): the
@@ -12,6 +13,7 @@ console."""
 import glob
 import os
 import re
+import shutil
 import tempfile
 import time
 
@@ -143,42 +145,63 @@ def output_directory(obj):
     return os.path.abspath(bpy.path.abspath(d))
 
 
-def add_volume(context, obj, s, path):
-    """The solution as a volume object over the mesh: ohm writes world
-    millimetres with voxel centres at index points, Blender draws voxel
-    (i, j, k) over [i, i+1]: scaled to scene units and moved back half a voxel."""
-    s.scene.run("write", file=path)
+def add_volume(context, obj, s, path, frames=None, exposure=None):
+    """The solution as a volume object over the mesh, from the .vdb at path
+    (written already): ohm writes world millimetres with voxel centres at
+    index points, Blender draws voxel (i, j, k) over [i, i+1]: scaled to
+    scene units and moved back half a voxel.  frames: a bake's (first,
+    count), its files NAME_FFFF.vdb one per frame: Blender's sequence
+    volume loads frame f's file at scene frame f (frame_offset makes the
+    number in the name the scene's frame) and holds the first and last
+    beyond the range, as the surface does.  exposure: the emission's
+    (default: the session's last)."""
     old = bpy.data.objects.get(bridge.volume_name(obj))
-    if old is not None and old.type == "VOLUME":  # the last Solve's: replaced
-        volume = old.data
-        bpy.data.objects.remove(old)
-        if volume.users == 0:
-            bpy.data.volumes.remove(volume)
-    bpy.ops.object.volume_import(filepath=path, align="WORLD", location=(0, 0, 0))
-    vobj = context.active_object
+    if old is not None and old.type == "VOLUME":  # the last Solve's or Bake's: replaced
+        bridge.remove_volume(old)
+    volume = bpy.data.volumes.new(bridge.volume_name(obj))
+    volume.filepath = path
+    if bpy.data.filepath:  # relative to a saved file: the folder may move with it
+        try:
+            volume.filepath = bpy.path.relpath(path)
+        except ValueError:  # (another drive)
+            pass
+    if frames is not None:
+        volume.is_sequence = True
+        volume.frame_start, volume.frame_duration = frames
+        volume.frame_offset = frames[0] - 1
+        volume.sequence_mode = "EXTEND"
+    vobj = bpy.data.objects.new(bridge.volume_name(obj), volume)
+    (obj.users_collection[0] if obj.users_collection else context.scene.collection).objects.link(vobj)
     mm = s.mm_per_unit
     h = s.scene.grid["voxel"]
     vobj.scale = (1.0 / mm,) * 3
     vobj.location = (-0.5 * h / mm,) * 3
-    vobj.name = bridge.volume_name(obj)
     channels = int(s.scene.stat("channels"))
     sfx = ("_r", "_g", "_b") if channels == 3 else ("",)
     uniform = None if s.scene.stat("medium_varies") else \
         {name + x: s.scene.stat(name + x) for name in ("sigma_a", "sigma_s") for x in sfx}
-    vobj.data.materials.append(bridge.volume_material(bridge.volume_name(obj), channels, uniform, mm, s.exposure))
-    context.view_layer.objects.active = obj
+    volume.materials.append(bridge.volume_material(bridge.volume_name(obj), channels, uniform, mm,
+                                                   s.exposure if exposure is None else exposure))
     return vobj
 
 
-def _after_setup(context, obj, s):
-    """What Solve adds to a finished setup: the material that shows it, the
-    volume object."""
+def _show(obj):
+    """A Solve's or Live's result shown in the object's materials (a bake's
+    frames give way to it)."""
+    bridge.drop_frames(obj)
     if obj.ohm.show_result:
         bridge.show_result(obj, obj.ohm.attribute)
+
+
+def _after_setup(context, obj, s):
+    """What Solve adds to a finished setup: its result shown, the volume object."""
+    _show(obj)
     if obj.ohm.make_volume:
         d = output_directory(obj)
         os.makedirs(d, exist_ok=True)
-        add_volume(context, obj, s, os.path.join(d, obj.name + ".vdb"))
+        path = os.path.join(d, obj.name + ".vdb")
+        s.scene.run("write", file=path)
+        add_volume(context, obj, s, path)
 
 
 def _summary(s, seconds):
@@ -385,6 +408,7 @@ class OHM_OT_live(bpy.types.Operator, _Background):
         self.obj = context.active_object
         self.session = session.get_or_create(self.obj)
         self.job = None
+        bridge.drop_frames(self.obj)  # Live shows its own result, not a bake's frames
         self.updates, self.t0 = 0, time.perf_counter()
         self.attach(context, LIVE_TICK_S)
         self._live_status()
@@ -426,6 +450,7 @@ class OHM_OT_live(bpy.types.Operator, _Background):
                     return _report_failure(self, s, job.error)
                 elif job.kind == "setup":
                     s.finish(self.obj, job.job)
+                    _show(self.obj)
                     _report_warnings(self, s)
                 else:
                     s.relight_finish(self.obj, job.job)
@@ -459,8 +484,9 @@ class OHM_OT_live(bpy.types.Operator, _Background):
 
 
 def remove_bake(obj, directory):
-    """What an earlier bake of obj left: its .vdb files in directory and its
-    per-frame attributes."""
+    """What an earlier bake of obj left: its .vdb files in directory, its
+    per-frame attributes and the modifier that shows them."""
+    bridge.drop_frames(obj)
     for path in glob.glob(os.path.join(glob.escape(directory), glob.escape(obj.name) + "_[0-9][0-9][0-9][0-9].vdb")):
         os.remove(path)
     pattern = re.compile(re.escape(obj.ohm.attribute) + r"_\d{4}$")
@@ -470,8 +496,9 @@ def remove_bake(obj, directory):
 
 
 class _BakeRun:
-    """A bake's state, frame by frame: the frames solved so far, and what
-    to put back when it ends (the frame shown, an automatic exposure)."""
+    """A bake's state, frame by frame: the frames solved so far, the
+    exposure they share, and what to put back when it ends (the frame
+    shown, an automatic exposure)."""
 
     def __init__(self, context, obj):
         sc = context.scene
@@ -480,7 +507,7 @@ class _BakeRun:
         self.session = session.get_or_create(obj)
         self.session.begin_run()
         self.frames = list(range(sc.frame_start, sc.frame_end + 1))
-        self.index, self.solved = 0, []
+        self.index, self.solved, self.exposure = 0, [], None
         self.keep_frame, self.keep_exposure = sc.frame_current, obj.ohm.exposure
         os.makedirs(self.directory, exist_ok=True)
         remove_bake(obj, self.directory)
@@ -501,9 +528,13 @@ class _BakeRun:
             return  # nothing changed: the last frame's result stands
         if not self.solved and obj.ohm.exposure == 0:
             obj.ohm.exposure = s.exposure  # chosen once, for the whole sequence
-        s.scene.run("write", file=os.path.join(self.directory, "%s_%04d.vdb" % (obj.name, f)))
-        bridge.write_colours(obj, "%s_%04d" % (obj.ohm.attribute, f), s.mesh_exitance(), obj.ohm.exposure)
+        s.scene.run("write", file=self.file(f))
+        self.exposure = bridge.write_colours(obj, bridge.frame_attribute(obj.ohm.attribute, f), s.mesh_exitance(),
+                                             obj.ohm.exposure)
         self.solved.append(f)
+
+    def file(self, frame):
+        return os.path.join(self.directory, "%s_%04d.vdb" % (self.obj.name, frame))
 
     def step(self, context):
         """One frame on this thread."""
@@ -513,6 +544,37 @@ class _BakeRun:
     def restore(self):
         self.obj.ohm.exposure = self.keep_exposure
         self.scene.frame_set(self.keep_frame)
+
+    def show(self, context):
+        """The frames baked so far render as they play (after restore, whose
+        automatic exposure would recolour): the frames modifier and ohm's
+        group in the materials (bridge.show_frames), and with Volume object
+        a sequence volume over one file per frame, a frame that kept the
+        last result a link to its file (Blender drops a gap in a sequence)."""
+        obj = self.obj
+        if not self.solved:
+            return
+        bridge.show_frames(obj, obj.ohm.attribute, self.solved)
+        if obj.ohm.show_result:
+            bridge.show_result(obj, obj.ohm.attribute)
+        if obj.ohm.make_volume:
+            baked = self.frames[:self.index]
+            for f in baked:
+                if not os.path.exists(self.file(f)):
+                    self._link(self.file(max(g for g in self.solved if g <= f)), self.file(f))
+            add_volume(context, obj, self.session, self.file(baked[0]), (baked[0], len(baked)), self.exposure)
+
+    @staticmethod
+    def _link(source, path):
+        try:
+            os.link(source, path)
+        except OSError:  # a file system without hard links
+            shutil.copyfile(source, path)
+
+    def progress(self):
+        """The status while it bakes: the frame being solved, counted from 1."""
+        k = min(self.index + 1, len(self.frames))
+        return "baking frame %d (%d of %d; Esc to stop)" % (self.frames[k - 1], k, len(self.frames))
 
     def summary(self, ended="baked"):
         solved = ", ".join(str(f) for f in self.solved[:6]) + (", ..." if len(self.solved) > 6 else "")
@@ -524,10 +586,12 @@ class _BakeRun:
 class OHM_OT_bake(bpy.types.Operator):
     """Bake the animation over the frame range: frames where a light, the object or its material changed are solved
     (one setup for all of them while the geometry stays), each written as a .vdb and a colour attribute named by its
-    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence.  Runs frame by
-    frame in the background: Esc stops it, keeping the frames written"""
+    first frame; a frame where nothing changed keeps the last.  One exposure for the whole sequence.  Renders then
+    show each frame's result (with Volume object, a sequence volume too).  Runs frame by frame in the background: Esc
+    stops it, keeping the frames written"""
     bl_idname = "ohm.bake"
     bl_label = "Bake sequence"
+    bl_options = {"UNDO"}
 
     @classmethod
     def poll(cls, context):
@@ -549,6 +613,7 @@ class OHM_OT_bake(bpy.types.Operator):
         finally:
             wm.progress_end()
             run.restore()
+            run.show(context)
         return self._done(run)
 
     def invoke(self, context, event):
@@ -557,6 +622,7 @@ class OHM_OT_bake(bpy.types.Operator):
         except OSError as e:
             return _report_failure(self, session.get_or_create(context.active_object), e)
         self.job = None
+        self.run.session.status = self.run.progress()
         wm = context.window_manager
         wm.progress_begin(0, len(self.run.frames))
         self._timer = wm.event_timer_add(JOB_TICK_S, window=context.window)
@@ -594,7 +660,7 @@ class OHM_OT_bake(bpy.types.Operator):
             self._stop(context, cancelled=True)
             return _report_failure(self, s, e)
         context.window_manager.progress_update(run.index)
-        status = "baking frame %d of %d (Esc to stop)" % (run.index + 1, len(run.frames))
+        status = run.progress()
         if status != s.status:
             s.status = status
             _status_bar(context, "ohm: " + status)
@@ -608,6 +674,7 @@ class OHM_OT_bake(bpy.types.Operator):
         _status_bar(context, None)
         try:
             self.run.restore()
+            self.run.show(context)
         except ReferenceError:
             return {"CANCELLED"}
         if cancelled:
@@ -623,4 +690,28 @@ class OHM_OT_bake(bpy.types.Operator):
         return {"FINISHED"}
 
 
-classes = (OHM_OT_solve, OHM_OT_cancel, OHM_OT_auto_exposure, OHM_OT_live, OHM_OT_bake)
+class OHM_OT_remove(bpy.types.Operator):
+    """Remove what ohm added to the object: its node group from the materials (their links as they were), its own
+    material, a bake's frames, the colour attributes and the volume object.  The .vdb files stay.  Ctrl-Z brings
+    it back"""
+    bl_idname = "ohm.remove"
+    bl_label = "Remove ohm result"
+    bl_options = {"REGISTER", "UNDO"}
+
+    @classmethod
+    def poll(cls, context):
+        return _idle_mesh_poll(context) and bridge.has_result(context.active_object, context.active_object.ohm.attribute)
+
+    def execute(self, context):
+        obj = context.active_object
+        bridge.remove_result(obj, obj.ohm.attribute)
+        s = session.get(obj)
+        if s is not None:
+            s.lights = None  # Live's next update writes the result again
+            s.status = "ohm's result removed"
+        self.report({"INFO"}, "ohm: result removed from %s" % obj.name)
+        _redraw(context)
+        return {"FINISHED"}
+
+
+classes = (OHM_OT_solve, OHM_OT_cancel, OHM_OT_auto_exposure, OHM_OT_live, OHM_OT_bake, OHM_OT_remove)

@@ -18,6 +18,17 @@ def _recolour(self, context):
         bridge.set_volume_exposure(bpy.data.materials.get(bridge.volume_name(obj)), s.exposure)
 
 
+def _show_result(self, context):
+    """Show result on: ohm's group in the materials (when there is a result
+    to show); off: the artist's shaders render, ohm's group stays, passing
+    them through."""
+    obj = self.id_data
+    if self.show_result and self.attribute in obj.data.attributes:
+        bridge.show_result(obj, self.attribute)
+    elif not self.show_result and bridge.RESULT_SHOWN in obj.keys():
+        bridge.set_result_shown(obj, False)
+
+
 class OhmSettings(bpy.types.PropertyGroup):
     material: bpy.props.EnumProperty(
         name="Material", default="PRESET",
@@ -84,9 +95,10 @@ class OhmSettings(bpy.types.PropertyGroup):
                     "so a dimmer light shows dimmer; Auto exposure chooses again.  Recolours at once")
     attribute: bpy.props.StringProperty(name="Attribute", default="ohm_exitance", update=_recolour)
     show_result: bpy.props.BoolProperty(
-        name="Show result", default=True,
-        description="give the object a material that emits the colour attribute (Cycles and EEVEE) and colour the "
-                    "viewport by it")
+        name="Show result", default=True, update=_show_result,
+        description="show the colour attribute in renders (Cycles and EEVEE) through ohm's node group, which enters "
+                    "the object's own materials (an object without one gets ohm's), and colour the viewport by it; "
+                    "off: the materials render as the artist made them")
     make_volume: bpy.props.BoolProperty(name="Volume object", default=False,
                                         description="also write a .vdb and add it as an emitting volume")
     directory: bpy.props.StringProperty(name="Output", subtype="DIR_PATH", default="//ohm/")

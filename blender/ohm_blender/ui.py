@@ -74,6 +74,8 @@ class OHM_PT_object(bpy.types.Panel):
             row.operator("ohm.solve")
             row.operator("ohm.live")
             row.operator("ohm.bake")
+            if bridge.has_result(obj, st.attribute):
+                layout.operator("ohm.remove", icon="X")
         if s is None:
             return
         box = layout.box()
