@@ -48,6 +48,12 @@ typedef struct ohm_operator_params {
     double band_k;              /* depth band (band.h): keep cells within
                                    band_k / sigma_tr of the surface; 0: all */
     const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
+    /* clear regions (physics/clear_exchange.h): per unknown, 1 where light
+     * crosses as transport (the radiosity–diffusion coupling), or NULL:
+     * diffusion everywhere.  Kept by pointer: must outlive the solver. */
+    const uint8_t *clear;
+    double clear_reach;         /* mm: the coupling's face pairs farther apart are
+                                   not linked (clear_exchange.h); 0: every visible pair */
 } ohm_operator_params;
 
 /* The medium cell by cell, and who owns its arrays. */
