@@ -230,57 +230,156 @@ static int find_faces(ohm_clear_exchange *ce, const clear_geometry *g, int32_t *
     return 0;
 }
 
+/* Faces sorted into cubic buckets of the distance cut's size, so that a
+ * face meets only the faces within reach: the set-up grows with the
+ * region's surface times the faces within reach of each, not with the
+ * surface squared.  Without a cut: one bucket. */
+typedef struct buckets {
+    double size;        /* cells */
+    double lo[3];       /* the faces' low corner */
+    int32_t dims[3];
+    int64_t *start;     /* dims product + 1 */
+    int64_t *face;      /* faces, bucket by bucket */
+} buckets;
+
+static int64_t bucket_coord(const buckets *b, const double x[3], int a)
+{
+    int64_t c = (int64_t)floor((x[a] - b->lo[a]) / b->size);
+    return c < 0 ? 0 : c >= b->dims[a] ? b->dims[a] - 1 : c;
+}
+
+static int buckets_make(buckets *b, const wall_face *faces, int64_t nf, double size)
+{
+    double hi[3];
+    for (int a = 0; a < 3; ++a) b->lo[a] = INFINITY, hi[a] = -INFINITY;
+    for (int64_t f = 0; f < nf; ++f)
+        for (int a = 0; a < 3; ++a) b->lo[a] = fmin(b->lo[a], faces[f].x[a]), hi[a] = fmax(hi[a], faces[f].x[a]);
+    double widest = 0;
+    for (int a = 0; a < 3; ++a) widest = fmax(widest, hi[a] - b->lo[a]);
+    b->size = size > 0 ? size : widest + 1.0;
+    int64_t total = 1;
+    for (int a = 0; a < 3; ++a) {
+        b->dims[a] = (int32_t)((hi[a] - b->lo[a]) / b->size) + 1;
+        total *= b->dims[a];
+    }
+    b->start = calloc((size_t)total + 1, sizeof *b->start);
+    b->face = malloc((size_t)(nf ? nf : 1) * sizeof *b->face);
+    if (!b->start || !b->face) return -1;
+    int64_t *id = malloc((size_t)(nf ? nf : 1) * sizeof *id);
+    if (!id) return -1;
+    for (int64_t f = 0; f < nf; ++f) {
+        id[f] = (bucket_coord(b, faces[f].x, 2) * b->dims[1] + bucket_coord(b, faces[f].x, 1)) * b->dims[0] +
+                bucket_coord(b, faces[f].x, 0);
+        b->start[id[f] + 1]++;
+    }
+    for (int64_t k = 0; k < total; ++k) b->start[k + 1] += b->start[k];
+    int64_t *fill = malloc((size_t)total * sizeof *fill);
+    if (!fill) {
+        free(id);
+        return -1;
+    }
+    memcpy(fill, b->start, (size_t)total * sizeof *fill);
+    for (int64_t f = 0; f < nf; ++f) b->face[fill[id[f]]++] = f; /* in face order within a bucket */
+    free(fill);
+    free(id);
+    return 0;
+}
+
+static void buckets_free(buckets *b)
+{
+    free(b->start);
+    free(b->face);
+}
+
+/* What one node's faces gather: a dense row over the nodes, and the nodes
+ * it touched. */
+typedef struct gather {
+    double *w, *r;
+    int64_t *touched, ntouched;
+} gather;
+
+/* Face p against image k of face q (p's node u <= q's node): a ray for
+ * visibility when they face each other within reach, and their a_p F_pq
+ * into u's row (or u's own sum). */
+static void pair_term(ohm_clear_exchange *ce, const clear_geometry *g, const wall_face *fp, const double P[3],
+                      const wall_face *fq, int k, double max_cells, gather *row, int64_t u)
+{
+    const double eps = 1e-6;
+    double xq[3], nq[3];
+    image_of(g, k, fq, xq, nq);
+    double d[3] = {xq[0] - fp->x[0], xq[1] - fp->x[1], xq[2] - fp->x[2]};
+    double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+    if (max_cells > 0 && r > max_cells) return;
+    /* facing each other (their centres), before any ray */
+    double cp = d[fp->axis] * fp->sign;
+    double cq = -(nq[0] * d[0] + nq[1] * d[1] + nq[2] * d[2]);
+    if (!(cp > 0 && cq > 0)) return;
+    double Q[3] = {xq[0] + eps * nq[0], xq[1] + eps * nq[1], xq[2] + eps * nq[2]};
+    ce->rays++;
+    if (!visible(g, P, Q)) return;
+    double w = face_exchange(fp, xq, nq, r);
+    int64_t v = fq->node;
+    if (v == u) {
+        ce->self_w[u] += w;
+        ce->self_r[u] += w * r;
+        return;
+    }
+    if (row->w[v] == 0) row->touched[row->ntouched++] = v;
+    row->w[v] += w;
+    row->r[v] += w * r;
+}
+
 /* Step 2: every pair of faces that see each other (directly or by their
  * mirror images) through clear cells, summed per pair of nodes: node u's
- * faces against those of every node v >= u, into dense scratch rows. */
+ * faces against those of every node v >= u, into a dense scratch row.  An
+ * image of q near p is q near the same image of p (reflections are
+ * isometries and their own inverses): the buckets are searched around p's
+ * images. */
 static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const wall_face *faces,
                           const int64_t *first, double max_cells)
 {
     int64_t nn = ce->nnodes, cap = 0;
-    double *acc_w = calloc((size_t)(nn ? nn : 1), sizeof *acc_w);
-    double *acc_r = calloc((size_t)(nn ? nn : 1), sizeof *acc_r);
-    int64_t *touched = malloc((size_t)(nn ? nn : 1) * sizeof *touched);
+    gather row = {calloc((size_t)(nn ? nn : 1), sizeof(double)), calloc((size_t)(nn ? nn : 1), sizeof(double)),
+                  malloc((size_t)(nn ? nn : 1) * sizeof(int64_t)), 0};
     ce->self_w = calloc((size_t)(nn ? nn : 1), sizeof *ce->self_w);
     ce->self_r = calloc((size_t)(nn ? nn : 1), sizeof *ce->self_r);
-    if (!acc_w || !acc_r || !touched || !ce->self_w || !ce->self_r) goto nomem;
-    const double eps = 1e-6;
+    buckets b = {0};
+    if (!row.w || !row.r || !row.touched || !ce->self_w || !ce->self_r ||
+        buckets_make(&b, faces, first[nn], max_cells))
+        goto nomem;
     for (int64_t u = 0; u < nn; ++u) {
-        int64_t ntouched = 0;
+        row.ntouched = 0;
         for (int64_t p = first[u]; p < first[u + 1]; ++p) {
             const wall_face *fp = &faces[p];
             double P[3] = {fp->x[0], fp->x[1], fp->x[2]};
-            P[fp->axis] += eps * fp->sign;
-            for (int64_t q = first[u]; q < first[nn]; ++q) {
-                const wall_face *fq = &faces[q];
-                for (int k = 0; k < g->nimages; ++k) {
-                    if (q == p && k == 0) continue;
-                    double xq[3], nq[3];
-                    image_of(g, k, fq, xq, nq);
-                    double d[3] = {xq[0] - fp->x[0], xq[1] - fp->x[1], xq[2] - fp->x[2]};
-                    double r = sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
-                    if (max_cells > 0 && r > max_cells) continue;
-                    /* facing each other (their centres), before any ray */
-                    double cp = d[fp->axis] * fp->sign;
-                    double cq = -(nq[0] * d[0] + nq[1] * d[1] + nq[2] * d[2]);
-                    if (!(cp > 0 && cq > 0)) continue;
-                    double Q[3] = {xq[0] + eps * nq[0], xq[1] + eps * nq[1], xq[2] + eps * nq[2]};
-                    ce->rays++;
-                    if (!visible(g, P, Q)) continue;
-                    double w = face_exchange(fp, xq, nq, r);
-                    int64_t v = fq->node;
-                    if (v == u) {
-                        ce->self_w[u] += w;
-                        ce->self_r[u] += w * r;
-                        continue;
-                    }
-                    if (acc_w[v] == 0) touched[ntouched++] = v;
-                    acc_w[v] += w;
-                    acc_r[v] += w * r;
+            P[fp->axis] += 1e-6 * fp->sign;
+            for (int k = 0; k < g->nimages; ++k) {
+                wall_face ip = *fp; /* p's image k: where q's image k must lie */
+                double n_unused[3];
+                image_of(g, k, fp, ip.x, n_unused);
+                int64_t lo[3], hi[3];
+                for (int a = 0; a < 3; ++a) {
+                    double reach = max_cells > 0 ? max_cells : INFINITY;
+                    double xl[3] = {ip.x[0], ip.x[1], ip.x[2]}, xh[3] = {ip.x[0], ip.x[1], ip.x[2]};
+                    xl[a] -= reach;
+                    xh[a] += reach;
+                    lo[a] = isfinite(reach) ? bucket_coord(&b, xl, a) : 0;
+                    hi[a] = isfinite(reach) ? bucket_coord(&b, xh, a) : b.dims[a] - 1;
                 }
+                for (int64_t bz = lo[2]; bz <= hi[2]; ++bz)
+                    for (int64_t by = lo[1]; by <= hi[1]; ++by)
+                        for (int64_t bx = lo[0]; bx <= hi[0]; ++bx) {
+                            int64_t id = (bz * b.dims[1] + by) * b.dims[0] + bx;
+                            for (int64_t s = b.start[id]; s < b.start[id + 1]; ++s) {
+                                int64_t q = b.face[s];
+                                if (q < first[u] || (q == p && k == 0)) continue;
+                                pair_term(ce, g, fp, P, &faces[q], k, max_cells, &row, u);
+                            }
+                        }
             }
         }
-        for (int64_t t = 0; t < ntouched; ++t) {
-            int64_t v = touched[t];
+        for (int64_t t = 0; t < row.ntouched; ++t) {
+            int64_t v = row.touched[t];
             if (grow((void **)&ce->pair_u, &cap, ce->npairs + 1, sizeof(int64_t))) goto nomem;
             int64_t *pv = realloc(ce->pair_v, (size_t)cap * sizeof *pv);
             double *pw = pv ? realloc(ce->pair_w, (size_t)cap * sizeof *pw) : NULL;
@@ -291,17 +390,19 @@ static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const
             ce->pair_r = pr;
             ce->pair_u[ce->npairs] = u; /* node numbers; unknowns after the renormalisation */
             ce->pair_v[ce->npairs] = v;
-            ce->pair_w[ce->npairs] = acc_w[v];
-            ce->pair_r[ce->npairs] = acc_r[v] / acc_w[v];
+            ce->pair_w[ce->npairs] = row.w[v];
+            ce->pair_r[ce->npairs] = row.r[v] / row.w[v];
             ce->npairs++;
-            acc_w[v] = acc_r[v] = 0;
+            row.w[v] = row.r[v] = 0;
         }
         if (ce->self_w[u] > 0) ce->self_r[u] /= ce->self_w[u];
     }
-    free(acc_w), free(acc_r), free(touched);
+    free(row.w), free(row.r), free(row.touched);
+    buckets_free(&b);
     return 0;
 nomem:
-    free(acc_w), free(acc_r), free(touched);
+    free(row.w), free(row.r), free(row.touched);
+    buckets_free(&b);
     return -1;
 }
 
