@@ -97,8 +97,8 @@ static void clear_scene_free(clear_scene *sc)
  * or Monte Carlo transport (mc given), with the transport study's
  * defaults: the hybrid for the beam (its 10 first reduced scatterings as
  * transport, from another stream than the reference's). */
-static int clear_scene_solve(ohm_solution *sol, const clear_scene *sc, const uint8_t *clear, const ohm_mc_params *mc,
-                             int64_t hybrid_photons, ohm_error *err)
+static int clear_scene_solve_with(ohm_solution *sol, const clear_scene *sc, const uint8_t *clear,
+                                  const ohm_mc_params *mc, int64_t hybrid_photons, ohm_solver_kind kind, ohm_error *err)
 {
     ohm_material m = ohm_scene_grey(0.005, 0.99);
     m.eta = sc->eta;
@@ -110,7 +110,8 @@ static int clear_scene_solve(ohm_solution *sol, const clear_scene *sc, const uin
     p.op.mirrors = &mirror;
     p.op.clear = clear;
     p.op.clear_reach = sc->reach;
-    p.num.solver = mc ? OHM_SOLVER_MC : OHM_SOLVER_DIRECT;
+    p.num.solver = mc ? OHM_SOLVER_MC : kind;
+    p.num.cg_tol = 1e-12;
     if (mc) p.mc = *mc;
     else if (hybrid_photons > 0) {
         p.mc.photons = hybrid_photons;
@@ -120,6 +121,12 @@ static int clear_scene_solve(ohm_solution *sol, const clear_scene *sc, const uin
     p.media.sigma_a[0] = sc->sa;
     p.media.sigma_s[0] = sc->ss;
     return ohm_solve(sol, &sc->grid, &m, &beam, 1, &p, NULL, err);
+}
+
+static int clear_scene_solve(ohm_solution *sol, const clear_scene *sc, const uint8_t *clear, const ohm_mc_params *mc,
+                             int64_t hybrid_photons, ohm_error *err)
+{
+    return clear_scene_solve_with(sol, sc, clear, mc, hybrid_photons, OHM_SOLVER_DIRECT, err);
 }
 
 /* The bulk fluence's error against Monte Carlo as the transport study
