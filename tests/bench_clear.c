@@ -49,7 +49,9 @@ static int run_void(int64_t photons)
     double t0 = ohm_now();
     if (clear_scene_solve(&ref, &sc, NULL, &mc, 0, &err)) return fail(&err);
     double t_mc = ohm_now() - t0;
+    t0 = ohm_now();
     if (clear_scene_solve(&off, &sc, NULL, NULL, photons, &err)) return fail(&err);
+    double t_off = ohm_now() - t0;
     t0 = ohm_now();
     if (clear_scene_solve(&on, &sc, sc.clear, NULL, photons, &err)) return fail(&err);
     double t_on = ohm_now() - t0;
@@ -59,14 +61,17 @@ static int run_void(int64_t photons)
     const char *name[2] = {"diffusion (clear=off)", "radiosity-diffusion"};
     for (int q = 0; q < 2; ++q) {
         bulk_error all = clear_scene_bulk(&sc, d[q], &ref, 0), tissue = clear_scene_bulk(&sc, d[q], &ref, 1);
+        bulk_error away = clear_scene_bulk(&sc, d[q], &ref, 2);
         double ad = (d[q]->power_absorbed + d[q]->power_entered - d[q]->power_in) / d[q]->power_incident;
         double am = (ref.power_absorbed + ref.power_entered - ref.power_in) / ref.power_incident;
         printf("  %-22s bulk mean %.2f%% rms %.2f%% bias %+.2f%% (%d blocks); outside clear cells mean %.2f%% bias "
-               "%+.2f%% (%d); absorbed %+.2f%%; conservation %.2g\n",
+               "%+.2f%% (%d); beyond 2 mfp of the void mean %.2f%% rms %.2f%% bias %+.2f%% (%d); absorbed %+.2f%%; "
+               "conservation %.2g\n",
                name[q], 100 * all.mean_abs, 100 * all.rms, 100 * all.bias, all.blocks, 100 * tissue.mean_abs,
-               100 * tissue.bias, tissue.blocks, 100 * (ad / am - 1), ohm_solution_conservation_error(d[q]));
+               100 * tissue.bias, tissue.blocks, 100 * away.mean_abs, 100 * away.rms, 100 * away.bias, away.blocks,
+               100 * (ad / am - 1), ohm_solution_conservation_error(d[q]));
     }
-    printf("  coupled solve %.2f s (set-up included)\n", t_on);
+    printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);
     coupling_report(&sc);
     ohm_solution_free(&ref), ohm_solution_free(&off), ohm_solution_free(&on);
     clear_scene_free(&sc);
@@ -80,6 +85,7 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
     enum { RINGS = 40 };
     double rd[RINGS] = {0}, rm[RINGS] = {0}, rv[RINGS] = {0};
     double bd[RINGS] = {0}, bm[RINGS] = {0}, bv[RINGS] = {0};
+    double ld[RINGS] = {0}, lm[RINGS] = {0}, lv[RINGS] = {0}; /* the brain's top 8 mm by distance from the axis */
     const ohm_voxel_grid *g = &sc->grid;
     for (int64_t f = 0; f < d->net.nfaces; ++f) {
         if (d->net.face_dir[f] != 4) continue;
@@ -100,8 +106,14 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
                 clear_scene_centre(sc, i, j, k, c);
                 if (c[2] < 12.0) continue; /* brain only */
                 int r = (int)(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / 2.0);
-                if (r >= RINGS) continue;
                 int64_t v = ohm_network_unknown(&d->net, ohm_voxel_index(g, i, j, k));
+                int l = (int)(sqrt(c[0] * c[0] + c[1] * c[1]) / 2.0);
+                if (l < RINGS && c[2] < 20.0) {
+                    ld[l] += d->fluence[0][v];
+                    lm[l] += mc->fluence[0][v];
+                    lv[l] += mc->fluence_se[0][v] * mc->fluence_se[0][v];
+                }
+                if (r >= RINGS) continue;
                 bd[r] += d->fluence[0][v];
                 bm[r] += mc->fluence[0][v];
                 bv[r] += mc->fluence_se[0][v] * mc->fluence_se[0][v];
@@ -119,8 +131,16 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
         printf(" %d:%+.1f%%(se %.1f%%)", 2 * r + 1, 100 * e, 100 * sqrt(bv[r]) / bm[r]);
         worst_b = fmax(worst_b, fabs(e));
     }
-    printf("\n    worst R(20-40 mm) %.1f%%, worst brain phi (10-30 mm) %.1f%%, conservation %.2g\n", 100 * worst_r,
-           100 * worst_b, ohm_solution_conservation_error(d));
+    double worst_l = 0;
+    printf("\n    brain (12-20 mm deep) phi by distance from the axis d/mc:");
+    for (int r = 5; r < 15; ++r) {
+        double e = ld[r] / lm[r] - 1;
+        printf(" %d:%+.1f%%(se %.1f%%)", 2 * r + 1, 100 * e, 100 * sqrt(lv[r]) / lm[r]);
+        worst_l = fmax(worst_l, fabs(e));
+    }
+    printf("\n    worst R(20-40 mm) %.1f%%, worst brain phi (10-30 mm from the entry) %.1f%%, (10-30 mm from the "
+           "axis) %.1f%%, conservation %.2g\n",
+           100 * worst_r, 100 * worst_b, 100 * worst_l, ohm_solution_conservation_error(d));
 }
 
 static int run_head(int64_t photons, double reach)
@@ -134,7 +154,9 @@ static int run_head(int64_t photons, double reach)
     double t0 = ohm_now();
     if (clear_scene_solve(&ref, &sc, NULL, &mc, 0, &err)) return fail(&err);
     double t_mc = ohm_now() - t0;
+    t0 = ohm_now();
     if (clear_scene_solve(&off, &sc, NULL, NULL, photons / 4, &err)) return fail(&err);
+    double t_off = ohm_now() - t0;
     t0 = ohm_now();
     if (clear_scene_solve(&on, &sc, sc.clear, NULL, photons / 4, &err)) return fail(&err);
     double t_on = ohm_now() - t0;
@@ -142,7 +164,7 @@ static int run_head(int64_t photons, double reach)
            (double)photons, t_mc);
     head_rows(&sc, &off, &ref, "diffusion (clear=off)");
     head_rows(&sc, &on, &ref, "radiosity-diffusion");
-    printf("  coupled solve %.2f s (set-up included)\n", t_on);
+    printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);
     coupling_report(&sc);
     ohm_solution_free(&ref), ohm_solution_free(&off), ohm_solution_free(&on);
     clear_scene_free(&sc);
@@ -151,7 +173,7 @@ static int run_head(int64_t photons, double reach)
 
 static int run_growth(void)
 {
-    printf("growth: the void sphere's radius (h 1 mm), then the CSF layer's width\n");
+    printf("growth: the void sphere's radius (h 1 mm, every pair), then the CSF layer's width (reach 10 mm)\n");
     for (double r = 5; r <= 20; r += 5) {
         ohm_error err;
         int side = (int)(2 * r + 12);
@@ -162,9 +184,10 @@ static int run_growth(void)
         coupling_report(&sc);
         clear_scene_free(&sc);
     }
-    for (int w = 15; w <= 60; w *= 2) {
+    for (int w = 15; w <= 120; w *= 2) {
         ohm_error err;
-        clear_scene sc = {.nx = w, .ny = w, .nz = 16, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = head_medium};
+        clear_scene sc = {.nx = w, .ny = w, .nz = 16, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = head_medium,
+                          .reach = 10.0};
         if (clear_scene_make(&sc, &err)) return fail(&err);
         printf(" CSF layer %d x %d mm (quarter):", w, w);
         coupling_report(&sc);
