@@ -38,23 +38,33 @@ static void coupling_report(const clear_scene *sc)
     ohm_network_free(&net);
 }
 
+/* The Monte Carlo reference (seed 1), diffusion alone and coupled (the
+ * hybrid's photons given), each timed. */
+static int solve_three(const clear_scene *sc, int64_t photons, int64_t hybrid, ohm_solution *ref, ohm_solution *off,
+                       ohm_solution *on, double *t_mc, double *t_off, double *t_on, ohm_error *err)
+{
+    ohm_mc_params mc = {.photons = photons, .seed = 1};
+    double t0 = ohm_now();
+    int rc = clear_scene_solve(ref, sc, NULL, &mc, 0, err);
+    *t_mc = ohm_now() - t0;
+    t0 = ohm_now();
+    if (!rc) rc = clear_scene_solve(off, sc, NULL, NULL, hybrid, err);
+    *t_off = ohm_now() - t0;
+    t0 = ohm_now();
+    if (!rc) rc = clear_scene_solve(on, sc, sc->clear, NULL, hybrid, err);
+    *t_on = ohm_now() - t0;
+    return rc;
+}
+
 static int run_void(int64_t photons)
 {
     ohm_error err;
     clear_scene sc = {.nx = 30, .ny = 30, .nz = 60, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = void_medium,
                       .sphere_c = 21.0, .sphere_r = 10.0};
     if (clear_scene_make(&sc, &err)) return fail(&err);
-    ohm_mc_params mc = {.photons = photons, .seed = 1};
     ohm_solution ref, off, on;
-    double t0 = ohm_now();
-    if (clear_scene_solve(&ref, &sc, NULL, &mc, 0, &err)) return fail(&err);
-    double t_mc = ohm_now() - t0;
-    t0 = ohm_now();
-    if (clear_scene_solve(&off, &sc, NULL, NULL, photons, &err)) return fail(&err);
-    double t_off = ohm_now() - t0;
-    t0 = ohm_now();
-    if (clear_scene_solve(&on, &sc, sc.clear, NULL, photons, &err)) return fail(&err);
-    double t_on = ohm_now() - t0;
+    double t_mc, t_off, t_on;
+    if (solve_three(&sc, photons, photons, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
     printf("void scene (cube n1.37 60 mm, sphere r 10 mm sigma_s' 0.01, h 1 mm; mc %.3g photons, %.1f s)\n",
            (double)photons, t_mc);
     const ohm_solution *d[2] = {&off, &on};
@@ -149,17 +159,9 @@ static int run_head(int64_t photons, double reach)
     clear_scene sc = {.nx = 60, .ny = 60, .nz = 40, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = head_medium,
                       .reach = reach};
     if (clear_scene_make(&sc, &err)) return fail(&err);
-    ohm_mc_params mc = {.photons = photons, .seed = 1};
     ohm_solution ref, off, on;
-    double t0 = ohm_now();
-    if (clear_scene_solve(&ref, &sc, NULL, &mc, 0, &err)) return fail(&err);
-    double t_mc = ohm_now() - t0;
-    t0 = ohm_now();
-    if (clear_scene_solve(&off, &sc, NULL, NULL, photons / 4, &err)) return fail(&err);
-    double t_off = ohm_now() - t0;
-    t0 = ohm_now();
-    if (clear_scene_solve(&on, &sc, sc.clear, NULL, photons / 4, &err)) return fail(&err);
-    double t_on = ohm_now() - t0;
+    double t_mc, t_off, t_on;
+    if (solve_three(&sc, photons, photons / 4, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
     printf("head slab (quarter 60 x 60 x 40 mm, h 1 mm, n 1.37, reach %g mm; mc %.3g photons, %.1f s)\n", reach,
            (double)photons, t_mc);
     head_rows(&sc, &off, &ref, "diffusion (clear=off)");
