@@ -6,8 +6,7 @@
  *   bench_clear void [photons]   the transport study's cube with a clear void
  *   bench_clear head [photons [reach]]  the three-layer head slab (CSF),
  *                                the coupling's distance cut (mm, 10)
- *   bench_clear growth           links and set-up time against the surface
- * OHM_CLEAR_FORM=1 in the environment: the coupling's radiosity nodes. */
+ *   bench_clear growth           links and set-up time against the surface */
 #include <stdio.h>
 
 #include "base/log.h"
@@ -57,17 +56,17 @@ static int solve_three(const clear_scene *sc, int64_t photons, int64_t hybrid, o
     return rc;
 }
 
-static int run_void(int64_t photons, int form)
+static int run_void(int64_t photons)
 {
     ohm_error err;
     clear_scene sc = {.nx = 30, .ny = 30, .nz = 60, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = void_medium,
-                      .sphere_c = 21.0, .sphere_r = 10.0, .form = form};
+                      .sphere_c = 21.0, .sphere_r = 10.0};
     if (clear_scene_make(&sc, &err)) return fail(&err);
     ohm_solution ref, off, on;
     double t_mc, t_off, t_on;
     if (solve_three(&sc, photons, photons, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
-    printf("form %d: void scene (cube n1.37 60 mm, sphere r 10 mm sigma_s' 0.01, h 1 mm; mc %.3g photons, %.1f s)\n",
-           form, (double)photons, t_mc);
+    printf("void scene (cube n1.37 60 mm, sphere r 10 mm sigma_s' 0.01, h 1 mm; mc %.3g photons, %.1f s)\n",
+           (double)photons, t_mc);
     const ohm_solution *d[2] = {&off, &on};
     const char *name[2] = {"diffusion (clear=off)", "radiosity-diffusion"};
     for (int q = 0; q < 2; ++q) {
@@ -154,17 +153,17 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
            100 * worst_r, 100 * worst_b, 100 * worst_l, ohm_solution_conservation_error(d));
 }
 
-static int run_head(int64_t photons, double reach, int form)
+static int run_head(int64_t photons, double reach)
 {
     ohm_error err;
     clear_scene sc = {.nx = 60, .ny = 60, .nz = 40, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = head_medium,
-                      .reach = reach, .form = form};
+                      .reach = reach};
     if (clear_scene_make(&sc, &err)) return fail(&err);
     ohm_solution ref, off, on;
     double t_mc, t_off, t_on;
     if (solve_three(&sc, photons, photons / 4, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
-    printf("form %d: head slab (quarter 60 x 60 x 40 mm, h 1 mm, n 1.37, reach %g mm; mc %.3g photons, %.1f s)\n",
-           form, reach, (double)photons, t_mc);
+    printf("head slab (quarter 60 x 60 x 40 mm, h 1 mm, n 1.37, reach %g mm; mc %.3g photons, %.1f s)\n", reach,
+           (double)photons, t_mc);
     head_rows(&sc, &off, &ref, "diffusion (clear=off)");
     head_rows(&sc, &on, &ref, "radiosity-diffusion");
     printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);
@@ -203,9 +202,8 @@ int main(int argc, char **argv)
 {
     const char *what = argc > 1 ? argv[1] : "void";
     int64_t photons = argc > 2 ? atoll(argv[2]) : 1000000;
-    int form = getenv("OHM_CLEAR_FORM") ? atoi(getenv("OHM_CLEAR_FORM")) : 0; /* radiosity_nodes */
-    if (!strcmp(what, "void")) return run_void(photons, form);
-    if (!strcmp(what, "head")) return run_head(photons, argc > 3 ? atof(argv[3]) : 10.0, form);
+    if (!strcmp(what, "void")) return run_void(photons);
+    if (!strcmp(what, "head")) return run_head(photons, argc > 3 ? atof(argv[3]) : 10.0);
     if (!strcmp(what, "growth")) return run_growth();
     fprintf(stderr, "bench_clear: void | head | growth\n");
     return 2;

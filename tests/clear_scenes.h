@@ -26,7 +26,6 @@ typedef struct clear_scene {
     void (*medium)(const struct clear_scene *sc, double x, double y, double z, double *sa, double *ss);
     double sphere_c, sphere_r; /* the void scene's sphere */
     double reach;              /* the coupling's distance cut (mm), 0: none */
-    int form;                  /* the coupling's radiosity_nodes (clear_exchange.h) */
     ohm_voxel_grid grid;
     size_t n;
     ohm_coeff *sa, *ss;
@@ -111,7 +110,6 @@ static int clear_scene_solve_with(ohm_solution *sol, const clear_scene *sc, cons
     p.op.mirrors = &mirror;
     p.op.clear = clear;
     p.op.clear_reach = sc->reach;
-    p.op.clear_radiosity_nodes = sc->form;
     p.num.solver = mc ? OHM_SOLVER_MC : kind;
     p.num.cg_tol = 1e-12;
     if (mc) p.mc = *mc;

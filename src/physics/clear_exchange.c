@@ -501,7 +501,6 @@ int ohm_clear_exchange_build(ohm_clear_exchange *ce, const ohm_network *net, con
     memset(ce, 0, sizeof *ce);
     ce->net = net;
     ce->clear = clear;
-    ce->radiosity_nodes = params ? params->radiosity_nodes : 0;
     double t0 = ohm_now();
     for (int64_t v = 0; v < net->n; ++v) ce->nclear += clear[v] != 0;
     if (!ce->nclear) return OHM_OK;
@@ -618,27 +617,22 @@ static void step_at(step_cache *c, double m)
  * in the scaled unknowns s_v (psi_f - psi_c); in series with half a cell of
  * diffusion.  A >= m^2 always (A's denominator is the hemispherical
  * transmittance, reciprocity); equal (no resistance) without a step. */
-static double wall_conductance(step_cache *sc, double h, double D, double s_v, double eta_v, double eta_c,
-                               int radiosity_nodes)
+static double wall_conductance(step_cache *sc, double h, double D, double s_v, double eta_v, double eta_c)
 {
-    double m = eta_v / eta_c, A = 1.0;
+    double m = eta_v / eta_c;
+    double extra = 0.0;
     if (m != 1.0) {
         step_at(sc, m);
-        A = sc->A;
+        extra = 2.0 * (sc->A - m * m);
+        if (extra < 0) extra = 0; /* round-off of the quadrature */
     }
-    double extra = 2.0 * (A - m * m);
-    if (extra < 0) extra = 0; /* round-off of the quadrature */
-    double r = h / (2.0 * D) + extra;
-    /* radiosity nodes (W = 4B = phi_c + 2J): the series resistance falls by
-     * 2 m^2, negative on grids finer than about 4D; kept positive */
-    if (radiosity_nodes) r = fmax(r - 2.0 * m * m, 0.1 * h / (2.0 * D));
-    return s_v * h * h / r;
+    return s_v * h * h / (h / (2.0 * D) + extra);
 }
 
 double ohm_clear_wall_conductance(double h, double D, double s_v, double eta_v, double eta_c)
 {
     step_cache sc = {0};
-    return wall_conductance(&sc, h, D, s_v, eta_v, eta_c, 0);
+    return wall_conductance(&sc, h, D, s_v, eta_v, eta_c);
 }
 
 /* An escape face (a node's boundary face): light of the clear side's
@@ -646,16 +640,13 @@ double ohm_clear_wall_conductance(double h, double D, double s_v, double eta_v, 
  * transmittance 1 - 2 C_1 and the rest returns as B = 2 C_1 G; with phi_c =
  * 2 (B + G) the power out per area is (1 - 2 C_1) / (2 (1 + 2 C_1)) phi_c
  * (index-matched: phi_c / 2, robin's A = 1). */
-static double escape_conductance(step_cache *sc, double h, double eta_c, int radiosity_nodes)
+static double escape_conductance(step_cache *sc, double h, double eta_c)
 {
     double c1 = 0.0;
     if (eta_c != 1.0) {
         step_at(sc, eta_c);
         c1 = sc->c1;
     }
-    /* radiosity nodes: J = (1 - 2 C_1) / (8 C_1) W, infinite without
-     * reflection (W = 0 there), kept finite */
-    if (radiosity_nodes) return h * h * fmin((1.0 - 2.0 * c1) / (8.0 * fmax(c1, 1e-12)), 10.0);
     return h * h * (1.0 - 2.0 * c1) / (2.0 * (1.0 + 2.0 * c1));
 }
 
@@ -694,7 +685,6 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
         return ohm_fail(err, OHM_ERR_NOMEM, "clear regions: out of memory for the coupled matrix");
     }
     step_cache sc = {0};
-    const double half = ce->radiosity_nodes ? 0.25 : 0.5; /* the exchange's (1/2) a F, or (1/4) a F */
     /* the diffusive cells' diagonals without their links to clear cells;
      * the clear cells' start from nothing */
     for (int64_t j = 0; j < n; ++j)
@@ -713,7 +703,7 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
     for (int64_t w = 0; w < ce->nwall; ++w) {
         int64_t v = ce->wall_diffusive[w], c = ce->wall_node[w];
         double g = wall_conductance(&sc, h, cell_D(med, v), ohm_network_unknown_scale(med, v), cell_eta(med, v),
-                                    cell_eta(med, c), ce->radiosity_nodes);
+                                    cell_eta(med, c));
         diag[v] += g;
         diag[c] += g;
         t[nt++] = (triple){v > c ? v : c, v > c ? c : v, -g};
@@ -725,8 +715,8 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
         double sa = 0.5 * (ohm_medium_sigma_a(med, u) + ohm_medium_sigma_a(med, v));
         double tau = exp(-sa * ce->pair_r[k]);
         double su = ohm_network_unknown_scale(med, u), sv = ohm_network_unknown_scale(med, v);
-        double g = half * ce->pair_w[k] * tau * 0.5 * (su + sv);
-        double lost = half * ce->pair_w[k] * (1.0 - tau); /* at each end, of phi (absorbed) */
+        double g = 0.5 * ce->pair_w[k] * tau * 0.5 * (su + sv);
+        double lost = 0.5 * ce->pair_w[k] * (1.0 - tau); /* at each end, of phi (absorbed) */
         ga[u] += lost;
         ga[v] += lost;
         diag[u] += g;
@@ -736,12 +726,11 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
     for (int64_t q = 0; q < ce->nnodes; ++q) {
         int64_t u = ce->node_unknown[q];
         double tau = exp(-ohm_medium_sigma_a(med, u) * ce->self_r[q]);
-        ga[u] += half * ce->self_w[q] * (1.0 - tau);
+        ga[u] += 0.5 * ce->self_w[q] * (1.0 - tau);
     }
     for (int64_t e = 0; e < ce->nescape; ++e) {
         int64_t f = ce->escape_face[e];
-        if (boundary == OHM_BOUNDARY_ROBIN)
-            gb[f] = escape_conductance(&sc, h, cell_eta(med, net->face_unknown[f]), ce->radiosity_nodes);
+        if (boundary == OHM_BOUNDARY_ROBIN) gb[f] = escape_conductance(&sc, h, cell_eta(med, net->face_unknown[f]));
     }
     /* every clear cell's own terms: a node's sinks (scaled); a cell that is
      * no node has no link and no sink: the identity (its sources are moved,

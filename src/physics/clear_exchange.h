@@ -41,11 +41,6 @@ typedef struct ohm_clear_exchange_params {
      * visible pair.  The renormalisation gives what they would have carried
      * to the pairs kept. */
     double max_distance;
-    /* the node's unknown: 0, the clear medium's fluence at the wall
-     * (Firbank's exchange (1/2) a F, exact for a sphere); 1, four times the
-     * radiosity (Oppenheim's nodes: the exchange (1/4) a F is exact, the
-     * wall's negative surface resistance of fine grids clamped) */
-    int radiosity_nodes;
 } ohm_clear_exchange_params;
 
 /* The geometry of the coupling (medium independent): built once per
@@ -73,7 +68,6 @@ typedef struct ohm_clear_exchange {
     int64_t rays;             /* visibility rays traced */
     double renorm_min, renorm_max; /* the renormalisation's range of row factors */
     double seconds;           /* set-up time */
-    int radiosity_nodes;      /* the params' */
 } ohm_clear_exchange;
 
 /* The coupling's geometry for the network's unknowns with clear[v] set (n

@@ -61,8 +61,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         rc = ohm_keep_media(sol, &s->params.media, compact, err);
     }
     if (!rc && params->op.clear) {
-        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach,
-                                        .radiosity_nodes = params->op.clear_radiosity_nodes};
+        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach};
         rc = ohm_clear_exchange_build(&s->clear, &sol->net, params->op.clear, &cp, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);

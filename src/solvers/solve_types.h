@@ -54,7 +54,6 @@ typedef struct ohm_operator_params {
     const uint8_t *clear;
     double clear_reach;         /* mm: the coupling's face pairs farther apart are
                                    not linked (clear_exchange.h); 0: every visible pair */
-    int clear_radiosity_nodes;  /* the coupling's form (clear_exchange.h); 0: Firbank's */
 } ohm_operator_params;
 
 /* The medium cell by cell, and who owns its arrays. */
