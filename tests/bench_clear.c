@@ -6,6 +6,7 @@
  *   bench_clear void [photons]   the transport study's cube with a clear void
  *   bench_clear head [photons [reach]]  the three-layer head slab (CSF),
  *                                the coupling's distance cut (mm, 10)
+ *   bench_clear gap [photons [reach]]   an air gap of index 1.0 under 6 mm of tissue
  *   bench_clear growth           links and set-up time against the surface */
 #include <stdio.h>
 
@@ -90,7 +91,8 @@ static int run_void(int64_t photons)
 
 /* R(rho) on the lit face in 2 mm rings, and the brain's fluence in 2 mm
  * shells of distance from the entry point, diffusion over Monte Carlo. */
-static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_solution *mc, const char *name)
+static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_solution *mc, const char *name,
+                      double deep)
 {
     enum { RINGS = 40 };
     double rd[RINGS] = {0}, rm[RINGS] = {0}, rv[RINGS] = {0};
@@ -114,11 +116,11 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
             for (int i = 1; i <= sc->nx; ++i) {
                 double c[3];
                 clear_scene_centre(sc, i, j, k, c);
-                if (c[2] < 12.0) continue; /* brain only */
+                if (c[2] < deep) continue; /* the layer under the clear one only */
                 int r = (int)(sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) / 2.0);
                 int64_t v = ohm_network_unknown(&d->net, ohm_voxel_index(g, i, j, k));
                 int l = (int)(sqrt(c[0] * c[0] + c[1] * c[1]) / 2.0);
-                if (l < RINGS && c[2] < 20.0) {
+                if (l < RINGS && c[2] < deep + 8.0) {
                     ld[l] += d->fluence[0][v];
                     lm[l] += mc->fluence[0][v];
                     lv[l] += mc->fluence_se[0][v] * mc->fluence_se[0][v];
@@ -135,14 +137,14 @@ static void head_rows(const clear_scene *sc, const ohm_solution *d, const ohm_so
         printf(" %d:%+.1f%%(se %.1f%%)", 2 * r + 1, 100 * e, 100 * sqrt(rv[r]) / rm[r]);
         worst_r = fmax(worst_r, fabs(e));
     }
-    printf("\n    brain phi d/mc:");
+    printf("\n    below the clear layer, phi by distance from the entry d/mc:");
     for (int r = 5; r < 15; ++r) {
         double e = bd[r] / bm[r] - 1;
         printf(" %d:%+.1f%%(se %.1f%%)", 2 * r + 1, 100 * e, 100 * sqrt(bv[r]) / bm[r]);
         worst_b = fmax(worst_b, fabs(e));
     }
     double worst_l = 0;
-    printf("\n    brain (12-20 mm deep) phi by distance from the axis d/mc:");
+    printf("\n    below, %g-%g mm deep, phi by distance from the axis d/mc:", deep, deep + 8.0);
     for (int r = 5; r < 15; ++r) {
         double e = ld[r] / lm[r] - 1;
         printf(" %d:%+.1f%%(se %.1f%%)", 2 * r + 1, 100 * e, 100 * sqrt(lv[r]) / lm[r]);
@@ -164,8 +166,29 @@ static int run_head(int64_t photons, double reach)
     if (solve_three(&sc, photons, photons / 4, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
     printf("head slab (quarter 60 x 60 x 40 mm, h 1 mm, n 1.37, reach %g mm; mc %.3g photons, %.1f s)\n", reach,
            (double)photons, t_mc);
-    head_rows(&sc, &off, &ref, "diffusion (clear=off)");
-    head_rows(&sc, &on, &ref, "radiosity-diffusion");
+    head_rows(&sc, &off, &ref, "diffusion (clear=off)", 12.0);
+    head_rows(&sc, &on, &ref, "radiosity-diffusion", 12.0);
+    printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);
+    coupling_report(&sc);
+    ohm_solution_free(&ref), ohm_solution_free(&off), ohm_solution_free(&on);
+    clear_scene_free(&sc);
+    return 0;
+}
+
+static int run_gap(int64_t photons, double reach)
+{
+    ohm_error err;
+    clear_scene sc = {.nx = 40, .ny = 40, .nz = 30, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = gap_medium,
+                      .reach = reach, .clear_eta = 1.0};
+    if (clear_scene_make(&sc, &err)) return fail(&err);
+    ohm_solution ref, off, on;
+    double t_mc, t_off, t_on;
+    if (solve_three(&sc, photons, photons / 4, &ref, &off, &on, &t_mc, &t_off, &t_on, &err)) return fail(&err);
+    printf("air gap (quarter 40 x 40 x 30 mm, tissue n 1.37 sigma_a 0.01 sigma_s' 1, 2 mm of n 1.0 6 mm deep, reach "
+           "%g mm; mc %.3g photons, %.1f s)\n",
+           reach, (double)photons, t_mc);
+    head_rows(&sc, &off, &ref, "diffusion (clear=off)", 8.0);
+    head_rows(&sc, &on, &ref, "radiosity-diffusion", 8.0);
     printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);
     coupling_report(&sc);
     ohm_solution_free(&ref), ohm_solution_free(&off), ohm_solution_free(&on);
@@ -205,6 +228,7 @@ int main(int argc, char **argv)
     if (!strcmp(what, "void")) return run_void(photons);
     if (!strcmp(what, "head")) return run_head(photons, argc > 3 ? atof(argv[3]) : 10.0);
     if (!strcmp(what, "growth")) return run_growth();
-    fprintf(stderr, "bench_clear: void | head | growth\n");
+    if (!strcmp(what, "gap")) return run_gap(photons, argc > 3 ? atof(argv[3]) : 15.0);
+    fprintf(stderr, "bench_clear: void | head | gap | growth\n");
     return 2;
 }

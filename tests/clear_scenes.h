@@ -29,6 +29,8 @@ typedef struct clear_scene {
     ohm_voxel_grid grid;
     size_t n;
     ohm_coeff *sa, *ss;
+    double *eta_v; /* per cell when the medium gives the clear cells their own index, else NULL */
+    double clear_eta; /* > 0: the clear cells' index */
     uint8_t *clear;
 } clear_scene;
 
@@ -51,6 +53,16 @@ static void head_medium(const clear_scene *sc, double x, double y, double z, dou
     else *sa = 0.02, *ss = 1.0;
 }
 
+/* A clear layer of index 1.0 (an air gap) 6-8 mm deep in tissue of sigma_a
+ * 0.01, sigma_s' 1.0 /mm (the scene's clear_eta 1.0 gives it its index). */
+static void gap_medium(const clear_scene *sc, double x, double y, double z, double *sa, double *ss)
+{
+    (void)sc, (void)x, (void)y;
+    int gap = z > 6.0 && z < 8.0;
+    *sa = gap ? 0.0 : 0.01;
+    *ss = gap ? 0.001 : 1.0;
+}
+
 /* Cell (i, j, k) of the box's centre in the beam's frame (ohm_scene_box:
  * inside cells 1-based, beam at the world origin entering z = 0 going +z;
  * the box's z grows away from the lit face). */
@@ -69,7 +81,9 @@ static int clear_scene_make(clear_scene *sc, ohm_error *err)
     sc->sa = malloc(sc->n * sizeof *sc->sa);
     sc->ss = malloc(sc->n * sizeof *sc->ss);
     sc->clear = malloc(sc->n);
-    if (!sc->sa || !sc->ss || !sc->clear) return ohm_fail(err, OHM_ERR_NOMEM, "clear scene: out of memory");
+    sc->eta_v = sc->clear_eta > 0 ? malloc(sc->n * sizeof *sc->eta_v) : NULL;
+    if (!sc->sa || !sc->ss || !sc->clear || (sc->clear_eta > 0 && !sc->eta_v))
+        return ohm_fail(err, OHM_ERR_NOMEM, "clear scene: out of memory");
     size_t u = 0;
     const ohm_voxel_grid *g = &sc->grid;
     for (int k = 0; k < g->dims[2]; ++k)
@@ -82,6 +96,7 @@ static int clear_scene_make(clear_scene *sc, ohm_error *err)
                 sc->sa[u] = (ohm_coeff)sa;
                 sc->ss[u] = (ohm_coeff)ss;
                 sc->clear[u] = ss < CLEAR_SS;
+                if (sc->eta_v) sc->eta_v[u] = sc->clear[u] ? sc->clear_eta : sc->eta;
                 ++u;
             }
     return OHM_OK;
@@ -90,7 +105,7 @@ static int clear_scene_make(clear_scene *sc, ohm_error *err)
 static void clear_scene_free(clear_scene *sc)
 {
     ohm_voxel_grid_free(&sc->grid);
-    free(sc->sa), free(sc->ss), free(sc->clear);
+    free(sc->sa), free(sc->ss), free(sc->clear), free(sc->eta_v);
 }
 
 /* Diffusion (mc NULL; clear: the mask, or NULL for diffusion everywhere)
@@ -120,6 +135,7 @@ static int clear_scene_solve_with(ohm_solution *sol, const clear_scene *sc, cons
     }
     p.media.sigma_a[0] = sc->sa;
     p.media.sigma_s[0] = sc->ss;
+    p.media.eta_v = sc->eta_v;
     return ohm_solve(sol, &sc->grid, &m, &beam, 1, &p, NULL, err);
 }
 

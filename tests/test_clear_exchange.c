@@ -256,6 +256,32 @@ static void test_solves(void)
     clear_scene_free(&sc);
 }
 
+/* An air gap (index 1.0) in tissue of index 1.37: with the walls' index
+ * step (the partial-current condition's A(m) - m^2) the books close and the
+ * fluence is positive; a step makes the wall resist more than half a cell. */
+static void test_index_gap(void)
+{
+    ohm_error err;
+    clear_scene sc = {.nx = 16, .ny = 16, .nz = 14, .h = 1.0, .eta = 1.37, .g = 0.01, .medium = gap_medium,
+                      .clear_eta = 1.0};
+    CHECK(clear_scene_make(&sc, &err) == 0);
+    ohm_solution on;
+    CHECK_MSG(clear_scene_solve(&on, &sc, sc.clear, NULL, 0, &err) == 0, "%s", err.msg);
+    double ce = ohm_solution_conservation_error(&on);
+    CHECK_MSG(ce <= 1e-10, "conservation %.3g with an index step at the walls", ce);
+    int positive = 1;
+    for (size_t v = 0; v < sc.n; ++v) positive &= on.fluence[0][v] > 0;
+    CHECK(positive);
+    /* without a step the wall is half a cell of diffusion; with one it
+     * resists more (A(1.37) > 1.37^2) */
+    double D = 1.0 / (3.0 * 1.01);
+    CHECK(ohm_clear_wall_conductance(1.0, D, 1.0, 1.37, 1.37) == 2.0 * D);
+    CHECK(ohm_clear_wall_conductance(1.0, D, 1.0, 1.37, 1.0) < 2.0 * D);
+    CHECK(ohm_clear_wall_conductance(1.0, D, 1.0, 1.0, 1.37) < 2.0 * D);
+    ohm_solution_free(&on);
+    clear_scene_free(&sc);
+}
+
 /* The transport study's cube with a clear void, at 2/3 of its size: the bulk
  * fluence against ohm's tracer (fixed seed), diffusion alone and coupled. */
 static void test_void_against_mc(void)
@@ -285,6 +311,7 @@ int main(void)
     test_reciprocity();
     test_matrix();
     test_solves();
+    test_index_gap();
     test_void_against_mc();
     return check_summary();
 }
