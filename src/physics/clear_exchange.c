@@ -39,21 +39,7 @@ typedef struct wall_face {
     double x[3];
     int axis, sign;
     int32_t node;
-    double beta; /* the emission's anisotropy (below): a diffusive wall's, 0 at an escape */
 } wall_face;
-
-/* The radiance a diffusive wall sends into the clear region is diffusion's
- * own at its face: phi/(4 pi) + 3 J mu/(4 pi) with phi = 2 J there (no light
- * coming back, index matched), so L(mu) ~ 1 + (3/2) mu, not Lambertian; by
- * reciprocity (the light it takes in from direction mu counts as much) the
- * same factor weighs what arrives.  Normalised over the hemisphere's cos
- * (1 + 2 beta / 3).  An escape face reflects diffusely: beta 0. */
-static const double WALL_BETA = 1.5;
-
-static inline double emission(double beta, double mu)
-{
-    return (1.0 + beta * mu) / (1.0 + 2.0 * beta / 3.0);
-}
 
 /* What the visibility rays read: a byte per grid cell (1: a clear unknown),
  * and the mirror planes that fold an unfolded ray back into the grid. */
@@ -131,9 +117,8 @@ enum { SUB = 4 };
 static const double NEAR_CELLS = 3.0;
 
 /* a_p F_pq (in cell areas) between face p and the image (x, n) of a face,
- * differential cos_p cos_q / (pi r^2) a_q weighed by both faces'
- * emission, subdivided when near. */
-static double face_exchange(const wall_face *p, const double xq[3], const double nq[3], double q_beta, double r)
+ * differential cos_p cos_q / (pi r^2) a_q, subdivided when near. */
+static double face_exchange(const wall_face *p, const double xq[3], const double nq[3], double r)
 {
     double np[3] = {0, 0, 0};
     np[p->axis] = p->sign;
@@ -141,7 +126,7 @@ static double face_exchange(const wall_face *p, const double xq[3], const double
         double d[3] = {xq[0] - p->x[0], xq[1] - p->x[1], xq[2] - p->x[2]};
         double cp = (np[0] * d[0] + np[1] * d[1] + np[2] * d[2]) / r;
         double cq = -(nq[0] * d[0] + nq[1] * d[1] + nq[2] * d[2]) / r;
-        return cp > 0 && cq > 0 ? cp * cq * emission(p->beta, cp) * emission(q_beta, cq) / (M_PI * r * r) : 0.0;
+        return cp > 0 && cq > 0 ? cp * cq / (M_PI * r * r) : 0.0;
     }
     int qa = nq[0] != 0 ? 0 : nq[1] != 0 ? 1 : 2;
     int pt[2] = {(p->axis + 1) % 3, (p->axis + 2) % 3}, qt[2] = {(qa + 1) % 3, (qa + 2) % 3};
@@ -158,9 +143,7 @@ static double face_exchange(const wall_face *p, const double xq[3], const double
             double r2 = d[0] * d[0] + d[1] * d[1] + d[2] * d[2];
             double cp = np[0] * d[0] + np[1] * d[1] + np[2] * d[2];
             double cq = -(nq[0] * d[0] + nq[1] * d[1] + nq[2] * d[2]);
-            double rr = sqrt(r2);
-            if (cp > 0 && cq > 0 && r2 > 0)
-                sum += cp * cq * emission(p->beta, cp / rr) * emission(q_beta, cq / rr) / (M_PI * r2 * r2);
+            if (cp > 0 && cq > 0 && r2 > 0) sum += cp * cq / (M_PI * r2 * r2);
         }
     }
     return sum / (double)(SUB * SUB * SUB * SUB);
@@ -218,7 +201,6 @@ static int find_faces(ohm_clear_exchange *ce, const clear_geometry *g, int32_t *
             w->axis = a;
             w->sign = (d & 1) ? -1 : 1; /* into the clear cell: away from the wall */
             w->node = (int32_t)ce->nnodes;
-            w->beta = outside ? 0.0 : WALL_BETA;
             if (outside) {
                 int64_t f = ohm_network_face(net, v, d);
                 if (f < 0) return -2; /* not a boundary face: a band's closure */
@@ -335,7 +317,7 @@ static void pair_term(ohm_clear_exchange *ce, const clear_geometry *g, const wal
     double Q[3] = {xq[0] + eps * nq[0], xq[1] + eps * nq[1], xq[2] + eps * nq[2]};
     ce->rays++;
     if (!visible(g, P, Q)) return;
-    double w = face_exchange(fp, xq, nq, fq->beta, r);
+    double w = face_exchange(fp, xq, nq, r);
     int64_t v = fq->node;
     if (v == u) {
         ce->self_w[u] += w;
