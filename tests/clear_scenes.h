@@ -123,7 +123,7 @@ static int clear_scene_solve_with(ohm_solution *sol, const clear_scene *sc, cons
     ohm_solve_params p;
     memset(&p, 0, sizeof p);
     p.op.mirrors = &mirror;
-    p.op.clear = clear;
+    p.op.clear_cells = clear;
     p.op.clear_reach = sc->reach;
     p.num.solver = mc ? OHM_SOLVER_MC : kind;
     p.num.cg_tol = 1e-12;

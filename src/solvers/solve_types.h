@@ -51,7 +51,7 @@ typedef struct ohm_operator_params {
     /* clear regions (physics/clear_exchange.h): per unknown, 1 where light
      * crosses as transport (the radiosity–diffusion coupling), or NULL:
      * diffusion everywhere.  Kept by pointer: must outlive the solver. */
-    const uint8_t *clear;
+    const uint8_t *clear_cells;
     double clear_reach;         /* mm: the coupling's face pairs farther apart are
                                    not linked (clear_exchange.h); 0: every visible pair */
 } ohm_operator_params;
