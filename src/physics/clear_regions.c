@@ -12,6 +12,9 @@ const ohm_clear_mode_info ohm_clear_modes[OHM_CLEAR_MODES] = {
     {OHM_CLEAR_OFF, "off", "diffusion everywhere, as if no region were clear"},
     {OHM_CLEAR_EFFECTIVE, "effective",
      "an effective sigma_s' in each clear region, 1/L for its mean chord L (Custo et al. 2006)"},
+    {OHM_CLEAR_RADIOSITY, "radiosity",
+     "transport across each clear region: its walls exchange light by view factors (radiosity-diffusion, Firbank "
+     "et al. 1996); solver=direct or cg"},
 };
 
 const char *ohm_clear_mode_name(ohm_clear_mode m)
@@ -56,6 +59,11 @@ ohm_clear_mode ohm_clear_region_action(ohm_clear_mode m, const ohm_clear_region 
 double ohm_clear_effective_sigma_t(double thickness_mm)
 {
     return 1.0 / thickness_mm;
+}
+
+double ohm_clear_reach(double thickness_mm)
+{
+    return OHM_CLEAR_REACH_CHORDS * thickness_mm;
 }
 
 void ohm_clear_regions_free(ohm_clear_regions *r)

@@ -55,6 +55,10 @@ typedef enum ohm_clear_mode {
                             (ohm_clear_mode_settle): today, effective      */
     OHM_CLEAR_EFFECTIVE, /* an effective sigma_s' in each clear region from
                             its thickness (ohm_clear_effective_sigma_t)     */
+    OHM_CLEAR_RADIOSITY, /* transport across each clear region: its walls
+                            exchange light by view factors (the
+                            radiosity-diffusion coupling, clear_exchange.h),
+                            face pairs within ohm_clear_reach of it         */
     OHM_CLEAR_MODES
 } ohm_clear_mode;
 
@@ -128,5 +132,14 @@ static inline int ohm_clear_is_clear(const ohm_clear_regions *r, int64_t unknown
  * (0.25 /mm for a 2 mm layer, their 0.3 /mm); the cells' own sigma_s' is
  * kept where it is larger (docs/transport.md). */
 double ohm_clear_effective_sigma_t(double thickness_mm);
+
+/* clear=radiosity: how far apart (mm) two wall faces of a region of this
+ * mean chord may be and still be linked: OHM_CLEAR_REACH_CHORDS chords.  A
+ * layer t thick has a mean chord of 2t, and a face's view factor to the far
+ * wall beyond a distance r falls as (t/r)^2: ten thicknesses keep all but
+ * about 1% of it, and the renormalisation hands that on to the pairs kept
+ * (docs/transport.md measures 10, 15 and 20 mm on a 2 mm layer). */
+#define OHM_CLEAR_REACH_CHORDS 5.0
+double ohm_clear_reach(double thickness_mm);
 
 #endif

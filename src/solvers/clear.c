@@ -1,7 +1,8 @@
 /* solvers/clear.c — the clear regions of a solve (physics/clear_regions.h)
  * found in its media after the network is built, named in the log, and
  * treated: clear=effective gives diffusion's operator an effective sigma_s'
- * there (docs/transport.md, "Clear regions"). */
+ * there, clear=radiosity couples their walls by view factors
+ * (physics/clear_exchange.h) (docs/transport.md, "Clear regions"). */
 #include "solvers/solver_impl.h"
 
 #include <math.h>
@@ -45,8 +46,9 @@ static void log_regions(const ohm_solver *s)
                      (int)k, (long long)g->cells, g->volume_mm3, g->thickness_mm, g->sigma_t, g->optical_thickness,
                      g->exposed_faces ? 100.0 * (double)g->surface_faces / (double)g->exposed_faces : 0.0,
                      ohm_clear_mode_name(g->action),
-                     g->action == OHM_CLEAR_EFFECTIVE ? " (diffusion with sigma_t' = 1/thickness there)"
-                     : g->action != OHM_CLEAR_OFF     ? ""
+                     g->action == OHM_CLEAR_EFFECTIVE   ? " (diffusion with sigma_t' = 1/thickness there)"
+                     : g->action == OHM_CLEAR_RADIOSITY ? " (its walls exchange light by view factors)"
+                     : g->action != OHM_CLEAR_OFF       ? ""
                      : s->params.op.clear == OHM_CLEAR_AUTO
                          ? " (diffusion as given: mostly the object's surface layer, which no treatment here models; "
                            "solver=mc does)"
@@ -102,6 +104,37 @@ static int apply_effective(ohm_solver *s, ohm_error *err)
     return OHM_OK;
 }
 
+/* clear=radiosity: the coupling of the regions so treated, face pairs within
+ * the reach of the thickest (ohm_clear_reach). */
+static int apply_radiosity(ohm_solver *s, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    if (s->backend && (s->backend->caps & OHM_BACKEND_STENCIL))
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "solve: clear=radiosity couples the clear regions' walls by links the multigrid's stencil does "
+                        "not have: use solver=direct or cg, or clear=effective with mg");
+    if (!(s->clear_mask = calloc((size_t)(sol->n ? sol->n : 1), 1)))
+        return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the clear regions' mask");
+    double thickest = 0;
+    for (int64_t v = 0; v < sol->n; ++v) {
+        int32_t k = sol->clear.region_of_cell[v];
+        if (k < 0 || sol->clear.region[k].action != OHM_CLEAR_RADIOSITY) continue;
+        s->clear_mask[v] = 1;
+        thickest = fmax(thickest, sol->clear.region[k].thickness_mm);
+    }
+    ohm_clear_exchange_params cp = {.max_distance = ohm_clear_reach(thickest)};
+    int rc = ohm_clear_exchange_build(&s->exchange, &sol->net, s->clear_mask, &cp, err);
+    sol->clear_nodes = s->exchange.nnodes;
+    sol->clear_pairs = s->exchange.npairs;
+    if (!rc)
+        ohm_log_info(s->log,
+                     "clear regions' coupling: %lld wall nodes, %lld wall faces, %lld node pairs within %.3g mm "
+                     "(%lld rays), set up in %.2f s",
+                     (long long)s->exchange.nnodes, (long long)s->exchange.faces, (long long)s->exchange.npairs,
+                     cp.max_distance, (long long)s->exchange.rays, s->exchange.seconds);
+    return rc;
+}
+
 int ohm_solver_find_clear(ohm_solver *s, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
@@ -121,6 +154,7 @@ int ohm_solver_find_clear(ohm_solver *s, ohm_error *err)
         if (g->action != OHM_CLEAR_OFF) sol->clear_action = g->action;
     }
     if (sol->clear_action == OHM_CLEAR_EFFECTIVE) rc = apply_effective(s, err);
+    else if (sol->clear_action == OHM_CLEAR_RADIOSITY && s->exchange.nclear == 0) rc = apply_radiosity(s, err);
     sol->t_clear = ohm_now() - t0;
     if (!rc) log_regions(s);
     return rc;

@@ -32,6 +32,8 @@ void ohm_solver_free(ohm_solver *s)
     for (int k = 0; k < OHM_MAX_CHANNELS; ++k) free(s->clear_owned[k]);
     if (s->cc_started) cholmod_l_finish(&s->cc);
     ohm_occluder_free(s->occ);
+    ohm_clear_exchange_free(&s->exchange);
+    free(s->clear_mask);
     free(s->petsc_options);
     ohm_solution_free(&s->sol);
     free(s);
@@ -59,6 +61,10 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         sol->t_network = ohm_now() - t0;
         s->layout = ohm_grid_layout_of(&sol->net);
         rc = ohm_keep_media(sol, &s->params.media, compact, err);
+    }
+    if (!rc && params->op.clear_cells) {
+        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach};
+        rc = ohm_clear_exchange_build(&s->exchange, &sol->net, params->op.clear_cells, &cp, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
     /* (the stages below take seconds only at 10^7 cells and more: a
@@ -150,9 +156,10 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     const ohm_network *net = &s->sol.net;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
     /* ga only where closure faces add to the ground (ground_of) */
-    if (!m->ga && net->nclosure > 0) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
+    int need_ga = net->nclosure > 0 || s->exchange.nclear > 0;
+    if (!m->ga && need_ga) m->ga = malloc((size_t)(net->n ? net->n : 1) * sizeof *m->ga);
     if (!m->gb) m->gb = malloc(nf * sizeof *m->gb);
-    if ((!m->ga && net->nclosure > 0) || !m->gb)
+    if ((!m->ga && need_ga) || !m->gb)
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the network's conductances");
     if (ohm_log_cancelled(s->log)) return ohm_fail_cancelled(err, "solve");
     int rc = m->state ? OHM_OK : s->backend->create(&m->state, bcfg, err);
@@ -163,17 +170,28 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     double t0 = ohm_now();
     /* the form the backend reads; a refilled A keeps its pattern (the
      * backend's setup sees the new values), a refilled stencil its offsets */
-    if (s->backend->caps & OHM_BACKEND_STENCIL) {
+    if ((s->backend->caps & OHM_BACKEND_STENCIL) && s->exchange.nclear > 0) {
+        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: solver=%s cannot take the clear regions' coupling (its "
+                      "matrix-free stencil has no links beyond the grid's); use solver=direct or cg",
+                      s->backend->name);
+    } else if (s->backend->caps & OHM_BACKEND_STENCIL) {
         rc = ohm_network_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.op.boundary, err);
         m->op = (ohm_operator){.n = net->n, .stencil = &m->stencil};
     } else {
+        /* the coupled matrix's pattern is not the network's: assembled
+         * afresh, then coupled (the same pattern for every medium) */
+        if (s->exchange.nclear > 0) cholmod_l_free_sparse(&m->A, &s->cc);
         rc = m->A ? ohm_network_assemble_into(m->A, m->ga, m->gb, net, &med, s->params.op.boundary, err)
                   : ohm_network_assemble(&m->A, m->ga, m->gb, net, &med, s->params.op.boundary, &s->cc, err);
+        if (!rc && s->exchange.nclear > 0)
+            rc = ohm_clear_exchange_apply(&m->A, m->ga, m->gb, &s->exchange, &med, s->params.op.boundary, &s->cc, err);
         ohm_stencil_free(&m->stencil); /* a refill: a stencil made before is of the medium before */
         m->net = net;
         m->med = med;
         m->boundary = s->params.op.boundary;
-        m->op = (ohm_operator){.n = net->n, .A = m->A, .make_stencil = slot_make_stencil, .maker = m};
+        /* (no stencil of the coupled matrix: the network's would be another operator) */
+        m->op = (ohm_operator){.n = net->n, .A = m->A, .make_stencil = s->exchange.nclear > 0 ? NULL : slot_make_stencil,
+                               .maker = m};
     }
     s->sol.t_assemble += ohm_now() - t0;
     if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");
@@ -312,6 +330,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
                          : ohm_fill_sources(sol, t, w->B, f0, nb, c, &traced, lights, nlights, &params->src,
                                             fp->cached ? fp->enter : NULL, fp->enter_mu, fp->cached ? fp->arrive : NULL,
                                             s->occ, err);
+        if (!rc && s->exchange.nclear > 0) ohm_clear_exchange_move_sources(&s->exchange, w->B, nb);
         t->t_source += ohm_now() - t0;
         if (rc) break;
         double *X = sol->fluence[c] + f0 * n;
@@ -344,6 +363,7 @@ static int solve_channel(const diffusion_run *run, batch_work *w, channel_tally 
         if (berr > t->residual) t->residual = berr;
         t->solves += (int64_t)nu;
         ohm_expand_columns(X, w->B, sol, w->col_of, nb, f0, c, w->prev_b, n);
+        if (s->exchange.nclear > 0) ohm_clear_exchange_fill(&s->exchange, X, nb); /* no sink there: the books unchanged */
         ohm_book_power(sol, t, X, w->B, m->ga, m->gb, &med, f0, nb, c);
         if (run->hybrid) ohm_hybrid_add(sol, t, X, &w->hy, f0, nb, c);
         else if (params->src.total_fluence && lights) /* after the booking: absorption is G_a phi of the diffuse part */

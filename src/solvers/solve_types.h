@@ -51,6 +51,12 @@ typedef struct ohm_operator_params {
     const ohm_mirrors *mirrors; /* validation scenes only; NULL for none */
     ohm_clear_mode clear;       /* clear regions (clear_regions.h): found and
                                    treated, or (0, off) diffusion everywhere */
+    /* clear regions (physics/clear_exchange.h): per unknown, 1 where light
+     * crosses as transport (the radiosity–diffusion coupling), or NULL:
+     * diffusion everywhere.  Kept by pointer: must outlive the solver. */
+    const uint8_t *clear_cells;
+    double clear_reach;         /* mm: the coupling's face pairs farther apart are
+                                   not linked (clear_exchange.h); 0: every visible pair */
 } ohm_operator_params;
 
 /* The medium cell by cell, and who owns its arrays. */
@@ -193,6 +199,8 @@ typedef struct ohm_solution {
     ohm_clear_regions clear;
     ohm_clear_mode clear_action;        /* the treatment applied; off: none          */
     double t_clear;                     /* finding them and making the treatment's media */
+    int64_t clear_nodes, clear_pairs;   /* clear=radiosity: the coupling's wall nodes
+                                           and linked node pairs                      */
     double *band_eta, *band_g;          /* eta_v, g_v compacted to the band's unknowns, or NULL */
     double t_network;                   /* the network's topology: depth band (if any),
                                            unknowns, faces, pieces — once per grid    */

@@ -31,6 +31,7 @@
 
 #include <cholmod.h>
 
+#include "physics/clear_exchange.h"
 #include "solvers/backend.h"
 #include "solvers/solve_types.h"
 
@@ -97,6 +98,10 @@ struct ohm_solver {
     const ohm_backend_ops *backend; /* the linear solver, or NULL with a transport */
     const struct ohm_transport_ops *transport; /* solver=mc (transport.h), or NULL   */
     ohm_grid_layout layout;      /* the unknowns' cells, for ordering=grid    */
+    ohm_clear_exchange exchange; /* clear regions' coupling (params.op.clear_cells, or
+                                    clear=radiosity's regions), or empty      */
+    uint8_t *clear_mask;         /* clear=radiosity: its regions' unknowns (the
+                                    exchange reads it)                         */
     ohm_backend_report rep;      /* summed over the solver's life             */
     medium_slot slot[OHM_MAX_CHANNELS]; /* by the first channel of each medium */
     int held;                    /* keep = 0: the one slot holding resources, or -1 */

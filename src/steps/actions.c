@@ -1012,6 +1012,10 @@ static void report_clear(ohm_stats *st, const ohm_solution *sol, const ohm_solve
     ohm_stats_set(st, "clear_min_optical_thickness", optical);
     ohm_stats_set(st, "clear_thickness_mm", thickness);
     ohm_stats_add(st, "t_clear", sol->t_clear);
+    if (sol->clear_action == OHM_CLEAR_RADIOSITY) {
+        ohm_stats_set_int(st, "clear_nodes", sol->clear_nodes);
+        ohm_stats_set_int(st, "clear_pairs", sol->clear_pairs);
+    }
 }
 
 /* The solver's latest solve logged and booked in the statistics (-solve and
