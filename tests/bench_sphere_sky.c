@@ -100,7 +100,7 @@ static void measure(const char *solver, int dim)
             cone_dir(k, d);
             if (in_cone(p, d, cmin)) {
                 out[k] += ohm_solution_face_power(sol, 0, 0, f);
-                area[k] += ohm_network_face_area(net, f);
+                area[k] += g->h * g->h;
                 face[k] += sol->face_exitance[0][f];
                 ++nface[k];
             }

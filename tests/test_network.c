@@ -74,10 +74,7 @@ static void check_matrix(const ohm_voxel_grid *g, ohm_boundary bnd, const ohm_co
         for (int64_t f = 0; f < net.nfaces; ++f) {
             int64_t v = net.face_unknown[f];
             double D = 1.0 / (3 * ((double)sa[v] + ss[v]));
-            /* robin: the true area a_f over the cell's depth and the
-             * condition (network.h) */
-            double gbf = bnd == OHM_BOUNDARY_ROBIN
-                             ? ohm_network_face_area(&net, f) / (ohm_network_face_depth(&net, f) / D + 2 * Aeta)
+            double gbf = bnd == OHM_BOUNDARY_ROBIN ? h * h / (h / (2 * D) + 2 * Aeta)
                          : bnd == OHM_BOUNDARY_DIRICHLET ? 2 * D * h
                                                          : 0.0;
             CHECK(fabs(gb[f] - gbf) <= 1e-15 * fabs(gbf));

@@ -86,19 +86,13 @@ void ohm_mc_write_result(ohm_mc_result *res, const ohm_mc_sums *t, const ohm_net
         res->fluence[v] = k * t->phi_sum[v] / B;
         res->fluence_se[v] = batch_stderr(t->phi_sum[v], t->phi_sq[v], k);
     }
-    /* per unit of the true area each face stands for (network.h), as the
-     * diffusion solvers' exitance is */
-    for (int64_t f = 0; f < net->nfaces; ++f)
-        res->face_exitance[f] = k * t->face_sum[f] / B * (h * h / ohm_network_face_area(net, f));
+    for (int64_t f = 0; f < net->nfaces; ++f) res->face_exitance[f] = k * t->face_sum[f] / B;
     for (int64_t f = 0, end; f < net->nfaces; f = end) {
         end = ohm_network_face_run_end(net, f);
         int64_t v = net->face_unknown[f];
-        double sum = 0, area = 0;
-        for (int64_t q = f; q < end; ++q) sum += t->face_sum[q], area += ohm_network_face_area(net, q);
-        /* the cell's exitance, its faces' power over their area (the mean of
-         * its faces' batch means times nfaces h^2 / area) */
-        double scale = net->face_area ? (double)(end - f) * h * h / area : 1.0;
-        res->exitance_se[v] = scale * batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
+        double sum = 0;
+        for (int64_t q = f; q < end; ++q) sum += t->face_sum[q];
+        res->exitance_se[v] = batch_stderr(sum / (double)(end - f), t->exit_sq[v], k);
     }
     double photons = (double)per_batch * B;
     res->power_in = P;

@@ -28,8 +28,6 @@ void ohm_network_free(ohm_network *net)
     free(net->face_unknown);
     free(net->face_cell);
     free(net->face_dir);
-    free(net->face_area);
-    free(net->face_depth);
     free(net->pieces.start);
     free(net->pieces.piece);
     memset(net, 0, sizeof *net);
@@ -176,56 +174,6 @@ int64_t ohm_network_face(const ohm_network *net, int64_t v, int d)
     return -1;
 }
 
-/* Where a distance is within the band's float rounding (6e-8 relative) of
- * the staircase's own value it is taken as that value: a flat face on a cell
- * boundary (a box's) keeps h^2 at depth h/2 bit for bit. */
-static double snap(double x, double to)
-{
-    return fabs(x - to) <= 1e-6 * to ? to : x;
-}
-
-/* The true surface of each boundary face (network.h: face_area,
- * face_depth), from the distance band of the grid.  Across face f the
- * signed distance goes from -d_in (its cell, inside) to +d_out (the cell
- * outside); for a plane of outward normal n it changes by exactly h n.e_f,
- * so h (d_in + d_out) is h^2 n.e_f, the face's share of the plane's area
- * (over a planar staircase these add up to the true area exactly: the faces
- * project onto the plane without overlap).  At a box's edge or corner each
- * face's own plane is nearest, so each face keeps h^2.  A face whose
- * outside cell is off the grid or beyond the band keeps the staircase's. */
-static int boundary_geometry(ohm_network *net)
-{
-    const ohm_voxel_grid *g = net->grid;
-    if (!g->near.bits || !net->nfaces) return 0;
-    const double h = g->h;
-    net->face_area = malloc((size_t)net->nfaces * sizeof *net->face_area);
-    net->face_depth = malloc((size_t)net->nfaces * sizeof *net->face_depth);
-    if (!net->face_area || !net->face_depth) return -1;
-    for (int64_t f = 0; f < net->nfaces; ++f) {
-        int32_t c[3];
-        ohm_voxel_coords(g, net->face_cell[f], c);
-        int out = 1;
-        for (int a = 0; a < 3; ++a) {
-            c[a] += ohm_face_offset[net->face_dir[f]][a];
-            out &= c[a] >= 0 && c[a] < g->dims[a];
-        }
-        double d_in = ohm_voxel_dist(g, (size_t)net->face_cell[f]);
-        double d_out = out ? ohm_voxel_dist(g, ohm_voxel_index(g, c[0], c[1], c[2])) : NAN;
-        double cosine = snap((d_in + d_out) / h, 1.0);
-        if (!isfinite(cosine) || !isfinite(d_in)) {
-            net->face_area[f] = h * h;
-            net->face_depth[f] = 0.5 * h;
-            continue;
-        }
-        /* a cosine within [0.05, 1] (the distances are exact to the band's
-         * rounding, so their sum is at most h; a face at a grazing angle,
-         * or on a sliver, keeps a little conductance) and at most h deep */
-        net->face_area[f] = h * h * fmin(fmax(cosine, 0.05), 1.0);
-        net->face_depth[f] = snap(fmin(fmax(d_in, 0.0), h), 0.5 * h);
-    }
-    return 0;
-}
-
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err)
 {
     return ohm_network_build_band(net, grid, mirrors, NULL, err);
@@ -321,7 +269,6 @@ int ohm_network_build_band(ohm_network *net, const ohm_voxel_grid *grid, const o
         uint8_t *fd = realloc(net->face_dir, (size_t)keep);
         if (fd) net->face_dir = fd;
     }
-    if (boundary_geometry(net)) goto nomem;
     return OHM_OK;
 
 nomem:
@@ -340,7 +287,6 @@ typedef struct coeffs {
     const ohm_fresnel_table *tab; /* per-cell index (eta_v): interfaces' moments */
     int uniform; /* no per-cell array: every conductance is one constant  */
     double g_edge, g_ground, g_bound, g_closure;
-    double D0; /* uniform: the one D */
     const double *D; /* a scan's D per unknown, evaluated once (each is a
                         neighbour's six times), or NULL: med_D */
 } coeffs;
@@ -413,11 +359,8 @@ double ohm_network_ground_conductance(const ohm_channel_medium *m, double h, int
     return ground_conductance(m, h, v);
 }
 
-/* Face conductance to the outside, the face standing for true area `area`
- * with its cell's centre `depth` below the surface (network.h; h^2 and h/2
- * for the staircase's own face). */
 static inline double boundary_conductance(const ohm_channel_medium *m, double h, int64_t v, double dv, ohm_boundary b,
-                                          double A, double area, double depth)
+                                          double A)
 {
     switch (b) {
     case OHM_BOUNDARY_NEUMANN: return 0.0;
@@ -426,16 +369,9 @@ static inline double boundary_conductance(const ohm_channel_medium *m, double h,
         if (m->resistance_mode) return 2.0 / (m->resistance_v ? m->resistance_v[v] : m->resistance);
         return 2.0 * dv * h;
     case OHM_BOUNDARY_ROBIN:
-        /* the partial-current condition phi_s = 2 A J on the true surface
-         * (Jensen et al. 2001, Eq. 5-6) in series with diffusion from the
-         * cell's centre to it along the normal, depth / D per unit area
-         * (the one-sided normal flux of embedded-boundary methods: Gibou,
-         * Fedkiw, Cheng & Kang, J. Comput. Phys. 176, 2002; Johansen &
-         * Colella, J. Comput. Phys. 147, 1998), over the area the face
-         * stands for.  Exact for a linear fluence below a plane at any
-         * orientation (docs/physics.md); a staircase face, h^2 at h/2, is
-         * half a cell of diffusion and the condition, h^2/(h/(2D) + 2A). */
-        return area / (depth / dv + 2.0 * A);
+        /* half a cell of diffusion in series with the partial-current
+         * condition phi_face = 2 A J (Jensen et al. 2001, Eq. 5-6) */
+        return h * h / (h / (2.0 * dv) + 2.0 * A);
     }
     return 0.0;
 }
@@ -465,8 +401,7 @@ static void coeffs_init(coeffs *k, const ohm_channel_medium *m, double h, ohm_bo
         double D = med_D(m, 0); /* unused in paper mode but by the closure, as per cell */
         k->g_edge = edge_conductance(m, h, 0, 0, D, D);
         k->g_ground = ground_conductance(m, h, 0);
-        k->D0 = D;
-        k->g_bound = boundary_conductance(m, h, 0, D, b, k->A, h * h, 0.5 * h);
+        k->g_bound = boundary_conductance(m, h, 0, D, b, k->A);
         k->g_closure = closure_conductance(m, h, 0, D);
     }
 }
@@ -511,11 +446,11 @@ typedef struct assembly {
  * conductance (the depth band's closure faces added), the boundary
  * conductance of each of its nfaces boundary faces, and the scale of the
  * unknown (network.h; 1 without eta_v).  The diagonal is
- * sum ge + (ga + sum gb) sv, summed in that order by the CSC writer. */
+ * sum ge + (ga + nfaces gb) sv, summed in that order by the CSC writer. */
 typedef struct assembly_row {
     int64_t nb[6];
     double ge[6];
-    double ga, gb[6], sv; /* gb: per boundary face, in face order */
+    double ga, gb, sv;
     int nfaces;
 } assembly_row;
 
@@ -589,9 +524,8 @@ static inline double link_single(double g)
 }
 
 /* Row v, visited in increasing order by the walk w (the assembly's own, or
- * one thread's), its sinks booked to its piece in sink[]; f: its first
- * boundary face (they come in unknown order, as built). */
-static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, int64_t f, assembly_row *r)
+ * one thread's), its sinks booked to its piece in sink[]. */
+static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, assembly_row *r)
 {
     const coeffs *co = &as->co;
     const ohm_channel_medium *med = as->med;
@@ -618,15 +552,11 @@ static void assembly_next(const assembly *as, walk *w, double *sink, int64_t v, 
     for (int d = 0; d < 6; ++d)
         if (r->nb[d] == -3) gav += gcl;
     r->ga = gav;
-    const ohm_network *net = as->net;
-    double A = r->nfaces && !co->uniform ? cell_A(co, med, v) : co->A;
-    for (int q = 0; q < r->nfaces; ++q)
-        r->gb[q] = co->uniform && !net->face_area
-                       ? co->g_bound
-                       : boundary_conductance(med, h, v, co->uniform ? co->D0 : dv, as->boundary, A,
-                                              ohm_network_face_area(net, f + q), ohm_network_face_depth(net, f + q));
+    r->gb = !r->nfaces ? 0.0
+            : co->uniform ? co->g_bound
+                          : boundary_conductance(med, h, v, dv, as->boundary, cell_A(co, med, v));
     double sinkv = gav;
-    for (int q = 0; q < r->nfaces; ++q) sinkv += r->gb[q];
+    for (int q = 0; q < r->nfaces; ++q) sinkv += r->gb;
     sink[ohm_piece_runs_next(&as->net->pieces, &w->piece_run, v)] += sinkv;
 }
 
@@ -669,7 +599,7 @@ static inline void assembly_sinks(const assembly_row *r, int64_t v, double *ga, 
 {
     if (ga) ga[v] = r->ga;
     for (int q = 0; q < r->nfaces; ++q, ++*f)
-        if (gb) gb[*f] = r->gb[q];
+        if (gb) gb[*f] = r->gb;
 }
 
 int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const ohm_network *net,
@@ -687,7 +617,7 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
     int64_t pos = 0, f = 0;
     for (int64_t v = 0; v < n; ++v) {
         assembly_row r;
-        assembly_next(&as, &as.w, as.sink, v, f, &r);
+        assembly_next(&as, &as.w, as.sink, v, &r);
         Ap[v] = pos;
         /* lower neighbours in the order -z, -y, -x give ascending rows */
         static const int lower[3] = {4, 2, 0};
@@ -702,7 +632,7 @@ int ohm_network_assemble_into(cholmod_sparse *M, double *ga, double *gb, const o
         for (int d = 0; d < 6; ++d)
             if (r.nb[d] >= 0) diag += r.ge[d];
         diag += r.ga * r.sv; /* the scaled unknown's (network.h); sv = 1 without eta_v */
-        for (int q = 0; q < r.nfaces; ++q) diag += r.gb[q] * r.sv;
+        for (int q = 0; q < r.nfaces; ++q) diag += r.gb * r.sv;
         assembly_sinks(&r, v, ga, gb, &f);
         Ai[pos] = v;
         Ax[pos] = diag;
@@ -738,7 +668,7 @@ static void stencil_rows(void *user, int64_t i)
     int64_t f = first_face_from(net, sh->v0);
     for (int64_t v = sh->v0; v < sh->v1; ++v) {
         assembly_row r;
-        assembly_next(as, &w, sh->sink, v, f, &r);
+        assembly_next(as, &w, sh->sink, v, &r);
         int32_t off[4];
         for (int d = 2; d < 6; ++d) {
             int64_t delta = r.nb[d] >= 0 ? r.nb[d] - v : 0;
@@ -755,7 +685,7 @@ static void stencil_rows(void *user, int64_t i)
         st->gy[v] = (float)r.ge[3];
         st->gz[v] = (float)r.ge[5];
         double sink = r.ga * r.sv; /* the diagonal's terms beyond the links, in its order */
-        for (int q = 0; q < r.nfaces; ++q) sink += r.gb[q] * r.sv;
+        for (int q = 0; q < r.nfaces; ++q) sink += r.gb * r.sv;
         st->sink[v] = sink;
         assembly_sinks(&r, v, sh->ga, sh->gb, &f);
     }

@@ -4,12 +4,8 @@
  *
  *   G_cd  = h * D_f, D_f the harmonic mean of D_c and D_d (exact for layers)
  *   G_a,c = sigma_a,c * h^3
- *   G_b,f = 0 (neumann, the paper's Eq. 11) | a_f/(d_c/D_c + 2A) (robin,
+ *   G_b,f = 0 (neumann, the paper's Eq. 11) | h^2/(h/(2D_c) + 2A) (robin,
  *           partial current) | 2 D_c h (dirichlet, phi = 0 on the face)
- *
- * with a_f the area of the true surface face f stands for and d_c the depth
- * of its cell's centre below that surface (face_area, face_depth below;
- * h^2 and h/2, the staircase's own, where the grid has no distance band).
  *
  * Every solver's G_cd is held in single precision (rounded once, the same
  * bits in both its rows): a relative 6e-8 of D, far below anything a
@@ -102,26 +98,7 @@ typedef struct ohm_network {
     const uint8_t *active;        /* depth band: the cells that are unknowns
                                      (not owned), or NULL: every interior cell */
     int64_t nclosure;             /* faces between the band and the dropped core */
-    /* The true surface each boundary face stands for (docs/physics.md, "The
-     * boundary on a curved surface"), from the grid's distance band: its
-     * area a_f = h (d_in + d_out), h^2 times the cosine between the face's
-     * axis and the surface's normal (exact for a plane: the signed distance
-     * changes by h n.e_f across the face), and the depth d_in of its cell's
-     * centre below the surface.  nfaces each; NULL where the grid has no
-     * band (a grid made cell by cell): then every face is the staircase's
-     * own, h^2 at depth h/2. */
-    double *face_area, *face_depth;
 } ohm_network;
-
-/* Face f's true area (mm^2) and its cell's depth below the surface (mm). */
-static inline double ohm_network_face_area(const ohm_network *net, int64_t f)
-{
-    return net->face_area ? net->face_area[f] : net->grid->h * net->grid->h;
-}
-static inline double ohm_network_face_depth(const ohm_network *net, int64_t f)
-{
-    return net->face_depth ? net->face_depth[f] : 0.5 * net->grid->h;
-}
 
 /* mirrors: NULL for none. */
 int ohm_network_build(ohm_network *net, const ohm_voxel_grid *grid, const ohm_mirrors *mirrors, ohm_error *err);

@@ -108,8 +108,7 @@ static int correct_constant_modes(channel_tally *t, const ohm_network *net, doub
 
 /* Book the power of frames f0..f0+nb of channel c (X: their fluence, solved
  * in place in sol->fluence[c]): in (deposited) = absorbed (sum G_a phi) + out
- * (sum G_b phi), docs/design.md §3; and store the exitance per face, per
- * unit of the true area it stands for (network.h; a cell's is
+ * (sum G_b phi), docs/design.md §3; and store the exitance per face (a cell's is
  * derived from its faces' when read: ohm_solution_exitance_frame). */
 void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const double *B, const double *ga,
                     const double *gb, const ohm_channel_medium *med, size_t f0, size_t nb, int c)
@@ -129,7 +128,7 @@ void ohm_book_power(ohm_solution *sol, channel_tally *t, const double *X, const 
         for (int64_t f = 0; f < net->nfaces; ++f) {
             double p = gb[f] * x[net->face_unknown[f]];
             out += p;
-            fx[f] = p / (net->face_area ? net->face_area[f] : area); /* per true area (network.h) */
+            fx[f] = p / area;
         }
     }
     t->power_in += in;

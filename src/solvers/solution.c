@@ -11,20 +11,12 @@
 #include <stdlib.h>
 #include <string.h>
 
-/* The exitance of faces [f, end) (one cell's run) together: their power
- * over their true area (network.h), the mean where every face is h^2. */
-static double run_mean(const ohm_network *net, const double *fx, int64_t f, int64_t end)
+/* The mean of face_exitance over faces [f, end) (one cell's run). */
+static double run_mean(const double *fx, int64_t f, int64_t end)
 {
-    double sum = 0, area = 0;
-    if (!net->face_area) {
-        for (int64_t q = f; q < end; ++q) sum += fx[q];
-        return end > f ? sum / (double)(end - f) : 0.0;
-    }
-    for (int64_t q = f; q < end; ++q) {
-        sum += fx[q] * net->face_area[q];
-        area += net->face_area[q];
-    }
-    return area > 0 ? sum / area : 0.0;
+    double sum = 0;
+    for (int64_t q = f; q < end; ++q) sum += fx[q];
+    return end > f ? sum / (double)(end - f) : 0.0;
 }
 
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame)
@@ -35,7 +27,7 @@ void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int chann
     memset(out, 0, (size_t)sol->n * sizeof *out);
     for (int64_t f = 0, end; f < net->nfaces; f = end) {
         end = ohm_network_face_run_end(net, f);
-        out[net->face_unknown[f]] = run_mean(net, fx, f, end);
+        out[net->face_unknown[f]] = run_mean(fx, f, end);
     }
 }
 
@@ -43,7 +35,7 @@ double ohm_solution_face_power(const ohm_solution *sol, int channel, int frame, 
 {
     const ohm_network *net = &sol->net;
     size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
-    return sol->face_exitance[channel][(size_t)frame * nf + (size_t)f] * ohm_network_face_area(net, f);
+    return sol->face_exitance[channel][(size_t)frame * nf + (size_t)f] * net->grid->h * net->grid->h;
 }
 
 void ohm_solution_free(ohm_solution *sol)

@@ -79,15 +79,14 @@ const ohm_solve_params *ohm_solver_params(const ohm_solver *s);
 void ohm_solver_free(ohm_solver *s); /* NULL is fine */
 
 /* Every cell's exitance in one channel and frame, into out[n]: the power
- * leaving through its boundary faces per unit of the true area they stand
- * for (network.h; the mean of their face_exitance where each is h^2); 0 for
- * a cell with none.  It is derived when an output asks,
+ * leaving through its boundary faces per unit area, the mean of their
+ * face_exitance; 0 for a cell with none.  It is derived when an output asks,
  * not stored: a stored copy was 8 B per cell per channel and frame, held
  * through the solve, for values that are nonzero only on the surface. */
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
 
 /* The power (W) leaving through boundary face f in one channel and frame:
- * its face_exitance times the true area it stands for (network.h). */
+ * its face_exitance times its area. */
 double ohm_solution_face_power(const ohm_solution *sol, int channel, int frame, int64_t f);
 
 /* Channel c's sigma_a (ss = 0) or reduced scattering sigma_s' (ss = 1), 1/mm,

@@ -141,9 +141,8 @@ typedef struct ohm_solution {
      * frame-major like fluence; NULL for the diffusion solvers */
     double *fluence_se[OHM_MAX_CHANNELS], *exitance_se[OHM_MAX_CHANNELS];
     double *face_exitance[OHM_MAX_CHANNELS]; /* frame-major, nfaces per frame:
-                                           G_b phi / a_f per face, a_f the true area
-                                           it stands for (network.h); a cell's is its
-                                           faces' power over their area (solve.h)     */
+                                           G_b phi / h^2 per face; a cell's exitance
+                                           is the mean of its faces' (below)          */
     /* The medium when it varies cell by cell, in unknown order (NULL when
      * homogeneous), for the sigma_a / sigma_s output grids: the params'
      * arrays themselves when given (give_media), the depth band's compacted
