@@ -13,7 +13,9 @@
  * faces' area per unit of true area (diagonals over axes).  A measuring tool, not a test: it asserts
  * nothing.  Usage: bench_sphere_sky [solver] [dim ...] (run from the
  * repository root; default: mg 32 40 48 64 96); OHM_SPHERE_SOLVE: more
- * options of -solve (deposit=surface, ...). */
+ * options of -solve (deposit=surface, ...); OHM_SPHERE_SCENE and
+ * OHM_SPHERE_MATERIAL: another mesh ("file=cube.off size=20") and material
+ * ("sigma_a=0.05 sigma_s=2"), whose centre the cones are about. */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -70,10 +72,13 @@ static void measure(const char *solver, int dim)
 {
     const double r = 10.0, cmin = cos(25.0 * M_PI / 180.0), cone_area = 2 * M_PI * (1 - cmin) * r * r;
     char lines[1024];
+    const char *scene = getenv("OHM_SPHERE_SCENE"), *more = getenv("OHM_SPHERE_SOLVE");
     snprintf(lines, sizeof lines,
-             "read file=samples/larger_sphere.off size=20\nvoxelize dim=%d\nmaterial sigma_a=0.01 sigma_s=1\n"
+             "read file=%s\nvoxelize dim=%d\nmaterial %s\n"
              "light type=environment intensity=0.001\nsolve shadows=grid solver=%s %s\n",
-             dim, solver, getenv("OHM_SPHERE_SOLVE") ? getenv("OHM_SPHERE_SOLVE") : "");
+             scene ? scene : "samples/larger_sphere.off size=20", dim,
+             getenv("OHM_SPHERE_MATERIAL") ? getenv("OHM_SPHERE_MATERIAL") : "sigma_a=0.01 sigma_s=1", solver,
+             more ? more : "");
     ohm_state s;
     if (run_lines(&s, lines)) {
         ohm_state_free(&s);
