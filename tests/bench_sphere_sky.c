@@ -15,7 +15,10 @@
  * repository root; default: mg 32 40 48 64 96); OHM_SPHERE_SOLVE: more
  * options of -solve (deposit=surface, ...); OHM_SPHERE_SCENE and
  * OHM_SPHERE_MATERIAL: another mesh ("file=cube.off size=20") and material
- * ("sigma_a=0.05 sigma_s=2"), whose centre the cones are about. */
+ * ("sigma_a=0.05 sigma_s=2"), whose centre the cones are about;
+ * OHM_SPHERE_CONE: the cones' half angle in degrees (25); OHM_SPHERE_RAW:
+ * also print the power leaving and the face exitance about +x and about
+ * (1,1,1) (a cube's face centre, an octahedron's). */
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -70,7 +73,7 @@ static double spread(const double v[CONES])
 
 static void measure(const char *solver, int dim)
 {
-    const double r = 10.0, cmin = cos(25.0 * M_PI / 180.0), cone_area = 2 * M_PI * (1 - cmin) * r * r;
+    const double r = 10.0, cmin = cos((getenv("OHM_SPHERE_CONE") ? atof(getenv("OHM_SPHERE_CONE")) : 25.0) * M_PI / 180.0), cone_area = 2 * M_PI * (1 - cmin) * r * r;
     char lines[1024];
     const char *scene = getenv("OHM_SPHERE_SCENE"), *more = getenv("OHM_SPHERE_SOLVE");
     snprintf(lines, sizeof lines,
@@ -137,6 +140,9 @@ static void measure(const char *solver, int dim)
         vert[k] /= nvert[k];
         flu[k] /= ncell[k];
     }
+    if (getenv("OHM_SPHERE_RAW"))
+        printf("axes: leaving %.6g face %.6g; diagonals: leaving %.6g face %.6g\n", (out[0] + out[1]) / 2,
+               (face[0] + face[1]) / 2, (out[6] + out[13]) / 2, (face[6] + face[13]) / 2);
     printf("%4d | %+6.2f%% | %+6.2f%% | %+6.2f%% | %+6.2f%% | %5.2f%% | %5.2f%% | %5.2f%% | %.4f | %.2e | %+.2f%%\n", dim,
            diag_axes(out), diag_axes(face), diag_axes(vert), diag_axes(flu), spread(face), spread(vert), spread(out),
            sol->power_absorbed / sol->power_in, ohm_solution_conservation_error(sol), diag_axes(area));
