@@ -44,7 +44,7 @@ double *ohm_exitance_binned(const ohm_exitance_lattice *L, const ohm_solution *s
         }
         for (int c = 0; c < 3; ++c) {
             int sc = sol->channels == 1 ? 0 : c;
-            double p = sol->face_exitance[sc][f] * h * h;
+            double p = ohm_solution_face_power(sol, sc, 0, f);
             for (int corner = 0; corner < 8; ++corner) {
                 double w = 1;
                 size_t idx = 0, stride = 1;

@@ -31,6 +31,13 @@ void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int chann
     }
 }
 
+double ohm_solution_face_power(const ohm_solution *sol, int channel, int frame, int64_t f)
+{
+    const ohm_network *net = &sol->net;
+    size_t nf = (size_t)(net->nfaces ? net->nfaces : 1);
+    return sol->face_exitance[channel][(size_t)frame * nf + (size_t)f] * (net->grid->h * net->grid->h);
+}
+
 void ohm_solution_free(ohm_solution *sol)
 {
     if (!sol) return;

@@ -85,6 +85,10 @@ void ohm_solver_free(ohm_solver *s); /* NULL is fine */
  * through the solve, for values that are nonzero only on the surface. */
 void ohm_solution_exitance_frame(double *out, const ohm_solution *sol, int channel, int frame);
 
+/* The power (W) leaving through boundary face f in one channel and frame:
+ * its face_exitance times its area. */
+double ohm_solution_face_power(const ohm_solution *sol, int channel, int frame, int64_t f);
+
 /* Channel c's sigma_a (ss = 0) or reduced scattering sigma_s' (ss = 1), 1/mm,
  * per unknown into out[n], when it varies cell by cell (returns 1; for the
  * sigma_a / sigma_s output grids); 0, out untouched, when it is the

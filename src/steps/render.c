@@ -215,12 +215,11 @@ static void lambert_albedo(const render_ctx *r, double albedo[3])
     const ohm_solution *sol = ohm_state_solution(s);
     const ohm_mesh *m = &s->mesh;
     double out_power[3] = {0, 0, 0}, in_power[3] = {0, 0, 0};
-    double h2 = s->grid.h * s->grid.h;
     int64_t nf = sol->net.nfaces;
     for (int c = 0; c < 3; ++c) {
         int cc = r->channels == 1 ? 0 : c;
         if (sol->face_exitance[cc])
-            for (int64_t f = 0; f < nf; ++f) out_power[c] += sol->face_exitance[cc][(int64_t)r->frame * nf + f] * h2;
+            for (int64_t f = 0; f < nf; ++f) out_power[c] += ohm_solution_face_power(sol, cc, r->frame, f);
         else out_power[c] = sol->power_out_channel[cc] / sol->frames;
     }
     double orient = s->mesh_flipped ? -1.0 : 1.0;
