@@ -72,11 +72,15 @@ int ohm_family_medium_of(const char *name)
 }
 
 /* Random 8^3 blocks of `levels` levels, as ohm_block_medium_grid draws its
- * two (the same seed and draws: level levels-1 where it draws 1e6). */
+ * two (the same seed and draws: level levels-1 where it draws 1e6), moved
+ * by SHIFT cells so that their faces cut the hierarchy's blocks at every
+ * level (block_medium.h). */
+static int imax(int a, int b) { return a > b ? a : b; }
+
 static void family_blocks(int nx, int levels, int spread_sigma_a, ohm_coeff *ss, ohm_coeff *sa)
 {
-    enum { BLOCK = 8 };
-    int nb = (nx + BLOCK - 1) / BLOCK;
+    enum { BLOCK = 8, SHIFT = 3 };
+    int nb = (nx + SHIFT + BLOCK - 1) / BLOCK;
     uint64_t seed = 12;
     int64_t nblocks = (int64_t)nb * nb * nb;
     for (int64_t q = 0; q < nblocks; ++q) {
@@ -84,9 +88,9 @@ static void family_blocks(int nx, int levels, int spread_sigma_a, ohm_coeff *ss,
         double t = (double)level / (levels - 1);
         double s = pow(10.0, 6.0 * t), a = spread_sigma_a ? 1e-3 * pow(10.0, 3.0 * t) : 1e-3;
         int bi = (int)(q % nb), bj = (int)(q / nb % nb), bk = (int)(q / nb / nb);
-        for (int k = bk * BLOCK; k < nx && k < (bk + 1) * BLOCK; ++k)
-            for (int j = bj * BLOCK; j < nx && j < (bj + 1) * BLOCK; ++j)
-                for (int i = bi * BLOCK; i < nx && i < (bi + 1) * BLOCK; ++i) {
+        for (int k = imax(bk * BLOCK - SHIFT, 0); k < nx && k < (bk + 1) * BLOCK - SHIFT; ++k)
+            for (int j = imax(bj * BLOCK - SHIFT, 0); j < nx && j < (bj + 1) * BLOCK - SHIFT; ++j)
+                for (int i = imax(bi * BLOCK - SHIFT, 0); i < nx && i < (bi + 1) * BLOCK - SHIFT; ++i) {
                     int64_t v = i + (int64_t)nx * (j + (int64_t)nx * k);
                     ss[v] = (ohm_coeff)s;
                     sa[v] = (ohm_coeff)a;

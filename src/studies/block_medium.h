@@ -38,9 +38,13 @@ void ohm_block_medium(ohm_channel_medium *med, const ohm_coeff *ss, double sigma
  * 0.001 /mm unless said otherwise, made deterministically (ohm_lcg):
  *  - BLOCKS2/4/9/16: random 8^3 blocks whose sigma_s' takes 2, 4, 9 or 16
  *    levels spread evenly in the logarithm over 1 .. 1e6, each level equally
- *    likely (BLOCKS2 is ohm_block_medium_grid's, cell for cell); BLOCKS9's
- *    sigma_a rises with its level over 1e-3 .. 1 (a transfer function
- *    through random densities: 1e3 in sigma_a);
+ *    likely; BLOCKS9's sigma_a rises with its level over 1e-3 .. 1 (a
+ *    transfer function through random densities: 1e3 in sigma_a).  The
+ *    blocks are ohm_block_medium_grid's draws moved by 3 cells along each
+ *    axis (their faces between cells 8m + 2 and 8m + 3): a face then cuts
+ *    a 2x2x2 block of mg's hierarchy at every level, as a medium made
+ *    without the hierarchy in mind does (block_medium's own faces fall
+ *    between 8-cell blocks, which the first three levels never straddle);
  *  - GRADIENT: sigma_s' 10^(6 t), t = (i + j + k) / (3 (nx - 1)): smooth,
  *    1e6 from corner to corner;
  *  - SHELLS: three concentric spherical shells of sigma_s' 1e6, one, two and
