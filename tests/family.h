@@ -25,6 +25,7 @@ typedef struct family_result {
     int64_t n, iterations, level_cells;
     int levels;
     double t_setup;      /* seconds, the hierarchy's set-up (a busy machine's) */
+    double t_solve;      /* seconds, the solve after it (likewise) */
     double relres;       /* the final relative residual */
     double conservation; /* |sum b - sum sink x| / sum b: the power the books miss */
     double vs_direct;    /* max |x - x_direct| / max |x_direct|; -1: not solved by direct */
@@ -78,7 +79,9 @@ static inline int family_mg(family_result *res, const ohm_stencil *st, const ohm
     if (ohm_mg_setup(&mg, st, &layout, threads, err)) return -1;
     res->t_setup = ohm_now() - t0;
     res->levels = ohm_mg_levels(mg, &res->level_cells);
+    t0 = ohm_now();
     int rc = ohm_mg_solve(mg, x, b, tol, 1000, NULL, &res->iterations, &res->relres, err);
+    res->t_solve = ohm_now() - t0;
     ohm_mg_free(mg);
     if (rc) return -1;
     double in = 0, sunk = 0;
