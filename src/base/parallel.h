@@ -14,12 +14,14 @@
  * threads a step may keep busy. */
 int ohm_usable_cores(void);
 
-/* Of the cores this process may use, how many the rest of the machine left
- * idle over the last `sample_seconds` (the kernel's counts in /proc/stat,
- * read before and after a sleep), at least 1; the usable cores where the
- * counts cannot be read.  For a step whose threads wait for each other
- * (the BLAS's): on a core another process keeps busy such a thread is
- * descheduled while its partners spin. */
+/* Of the cores this process may use, how many the rest of the machine
+ * leaves idle: the online cores less the runnable tasks that are not this
+ * process's threads (the kernel's counts in /proc/loadavg and
+ * /proc/self/task), the fewest over a few looks spread across
+ * `sample_seconds`; at least 1; the usable cores where it cannot be read.
+ * For a step whose threads wait for each other (the BLAS's): on a core
+ * another process keeps busy such a thread is descheduled while its
+ * partners spin. */
 int ohm_idle_cores(double sample_seconds);
 
 /* job(user, i) for every i in 0 .. count-1, on up to `threads` threads

@@ -222,8 +222,8 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
 }
 
 /* A factorization of more flops than this first looks whether the machine
- * is busy (ohm_idle_cores, 30 ms): about a tenth of its own time. */
-static const double BUSY_CHECK_FLOPS = 2e9;
+ * is busy (ohm_idle_cores over 4 ms: a few percent of its own time). */
+static const double BUSY_CHECK_FLOPS = 2e8;
 
 /* OpenBLAS's thread count (its own calls, found by name: another BLAS has
  * none and keeps its threads); 0 where there is none to set.  OpenBLAS's
@@ -258,7 +258,7 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     /* on a busy machine, the BLAS's threads only on the cores left idle */
     int threads_were = 0;
     if (s->flops > BUSY_CHECK_FLOPS) {
-        int idle = ohm_idle_cores(0.03), have = blas_threads(0);
+        int idle = ohm_idle_cores(0.004), have = blas_threads(0);
         if (have > idle) {
             threads_were = blas_threads(idle);
             ohm_log_info(log, "solve: factorize: %d of %d cores idle: the BLAS on %d thread(s)", idle,
