@@ -14,6 +14,16 @@
  * threads a step may keep busy. */
 int ohm_usable_cores(void);
 
+/* Of the cores this process may use, how many the rest of the machine
+ * leaves idle: the online cores less the runnable tasks that are not this
+ * process's threads (the kernel's counts in /proc/loadavg and
+ * /proc/self/task), the fewest over a few looks spread across
+ * `sample_seconds`; at least 1; the usable cores where it cannot be read.
+ * For a step whose threads wait for each other (the BLAS's): on a core
+ * another process keeps busy such a thread is descheduled while its
+ * partners spin. */
+int ohm_idle_cores(double sample_seconds);
+
 /* job(user, i) for every i in 0 .. count-1, on up to `threads` threads
  * (the caller's among them).  Each index is run whole by one thread; the
  * threads take the next index from a shared counter, so uneven jobs

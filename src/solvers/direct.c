@@ -1,7 +1,9 @@
 /* solvers/direct.c — CHOLMOD's analysis, factor and solves (direct.h) and
  * the `direct` backend over them (backend.h). */
+#define _GNU_SOURCE /* RTLD_DEFAULT */
 #include "solvers/direct.h"
 
+#include <dlfcn.h>
 #include <math.h>
 #include <stdio.h>
 #include <stdlib.h>
@@ -10,6 +12,7 @@
 #include "base/log.h"
 #include "solvers/factor_watch.h"
 #include "base/memory.h"
+#include "base/parallel.h"
 #include "solvers/cg.h"
 #include "solvers/substitute.h"
 
@@ -218,6 +221,30 @@ int ohm_cholesky_analyze(ohm_cholesky *s, cholmod_sparse *A, const char *orderin
     return OHM_OK;
 }
 
+/* A factorization of more flops than this first looks whether the machine
+ * is busy (ohm_idle_cores over 4 ms: a few percent of its own time). */
+static const double BUSY_CHECK_FLOPS = 2e8;
+
+/* OpenBLAS's thread count (its own calls, found by name: another BLAS has
+ * none and keeps its threads); 0 where there is none to set.  OpenBLAS's
+ * threads spin, then yield, while they wait for each other, so on cores
+ * another process keeps busy (even at nice 19) each of its calls waits for
+ * threads the scheduler has put behind that process: a factorization of
+ * the cow took 12.8 times its quiet time that way (docs/performance.md). */
+static int blas_threads(int set)
+{
+    typedef int (*get_fn)(void);
+    typedef void (*set_fn)(int);
+    get_fn get;
+    set_fn put;
+    *(void **)&get = dlsym(RTLD_DEFAULT, "openblas_get_num_threads");
+    *(void **)&put = dlsym(RTLD_DEFAULT, "openblas_set_num_threads");
+    if (!get || !put) return 0;
+    int was = get();
+    if (set > 0 && set != was) put(set);
+    return was;
+}
+
 int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *A, double *t, const ohm_log *log,
                            ohm_error *err)
 {
@@ -228,10 +255,21 @@ int ohm_cholesky_factorize(cholmod_factor **L, ohm_cholesky *s, cholmod_sparse *
     if (!F) return ohm_fail(err, OHM_ERR_NOMEM, "out of memory copying the symbolic factor");
     s->norm_A = cholmod_l_norm_sparse(A, 0, cc); /* for every solve's backward error */
     double t0 = ohm_now();
+    /* on a busy machine, the BLAS's threads only on the cores left idle */
+    int threads_were = 0;
+    if (s->flops > BUSY_CHECK_FLOPS) {
+        int idle = ohm_idle_cores(0.004), have = blas_threads(0);
+        if (have > idle) {
+            threads_were = blas_threads(idle);
+            ohm_log_info(log, "solve: factorize: %d of %d cores idle: the BLAS on %d thread(s)", idle,
+                         ohm_usable_cores(), idle);
+        }
+    }
     ohm_factor_watch watch;
     ohm_factor_watch_begin(&watch, s->flops, log, "solve: factorize");
     int ok = cholmod_l_factorize(A, F, cc);
     ohm_factor_watch_end(&watch);
+    if (threads_were > 0) blas_threads(threads_were);
     if (t) *t = ohm_now() - t0;
     /* a supernodal factorization whose BLAS and LAPACK calls never reached
      * the watch: the host program's LAPACK came first and libohm could not
