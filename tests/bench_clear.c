@@ -71,15 +71,15 @@ static int run_void(int64_t photons)
     const ohm_solution *d[2] = {&off, &on};
     const char *name[2] = {"diffusion (clear=off)", "radiosity-diffusion"};
     for (int q = 0; q < 2; ++q) {
-        bulk_error all = clear_scene_bulk(&sc, d[q], &ref, 0), tissue = clear_scene_bulk(&sc, d[q], &ref, 1);
-        bulk_error away = clear_scene_bulk(&sc, d[q], &ref, 2);
+        ohm_block_error all = clear_scene_bulk(&sc, d[q], &ref, 0), tissue = clear_scene_bulk(&sc, d[q], &ref, 1);
+        ohm_block_error away = clear_scene_bulk(&sc, d[q], &ref, 2);
         double ad = (d[q]->power_absorbed + d[q]->power_entered - d[q]->power_in) / d[q]->power_incident;
         double am = (ref.power_absorbed + ref.power_entered - ref.power_in) / ref.power_incident;
-        printf("  %-22s bulk mean %.2f%% rms %.2f%% bias %+.2f%% (%d blocks); outside clear cells mean %.2f%% bias "
-               "%+.2f%% (%d); beyond 2 mfp of the void mean %.2f%% rms %.2f%% bias %+.2f%% (%d); absorbed %+.2f%%; "
+        printf("  %-22s bulk mean %.2f%% rms %.2f%% bias %+.2f%% (%lld blocks); outside clear cells mean %.2f%% bias "
+               "%+.2f%% (%lld); beyond 2 mfp of the void mean %.2f%% rms %.2f%% bias %+.2f%% (%lld); absorbed %+.2f%%; "
                "conservation %.2g\n",
-               name[q], 100 * all.mean_abs, 100 * all.rms, 100 * all.bias, all.blocks, 100 * tissue.mean_abs,
-               100 * tissue.bias, tissue.blocks, 100 * away.mean_abs, 100 * away.rms, 100 * away.bias, away.blocks,
+               name[q], 100 * all.mean_abs, 100 * all.rms, 100 * all.bias, (long long)all.blocks, 100 * tissue.mean_abs,
+               100 * tissue.bias, (long long)tissue.blocks, 100 * away.mean_abs, 100 * away.rms, 100 * away.bias, (long long)away.blocks,
                100 * (ad / am - 1), ohm_solution_conservation_error(d[q]));
     }
     printf("  solve (hybrid, set-up included): diffusion alone %.2f s, coupled %.2f s\n", t_off, t_on);

@@ -14,6 +14,7 @@
 
 #include "physics/network.h"
 #include "solvers/solve.h"
+#include "studies/block_error.h"
 #include "studies/scene.h"
 
 static const double CLEAR_SS = 0.1; /* 1/mm: a cell of less reduced scattering is clear */
@@ -149,52 +150,31 @@ static int clear_scene_solve(ohm_solution *sol, const clear_scene *sc, const uin
  * measures it (validate_transport.c): 3 mm blocks every cell of which is
  * more than 2 mfp from the source and every face (skip_clear: and no clear
  * cell; 2: and none within 2 mfp of the void scene's sphere), where the Monte Carlo block mean is precise to 1%: mean |err|, bias. */
-typedef struct bulk_error {
-    double mean_abs, bias, rms;
-    int blocks;
-} bulk_error;
+typedef struct clear_bulk_cells {
+    const clear_scene *sc;
+    int skip_clear;
+} clear_bulk_cells;
 
-static bulk_error clear_scene_bulk(const clear_scene *sc, const ohm_solution *d, const ohm_solution *mc, int skip_clear)
+static int clear_bulk_keep(const void *user, int i, int j, int k, int64_t v)
 {
-    const ohm_voxel_grid *g = &sc->grid;
+    const clear_bulk_cells *c = user;
+    const clear_scene *sc = c->sc;
     const double h = sc->h, near = 2.0 / (0.005 + 0.99);
-    const double wx = sc->nx * h, wy = sc->ny * h, wz = sc->nz * h;
-    int b = (int)lround(3.0 / h);
-    if (b < 1) b = 1;
-    bulk_error e = {0, 0, 0, 0};
-    for (int k0 = 1; k0 + b - 1 <= sc->nz; k0 += b)
-        for (int j0 = 1; j0 + b - 1 <= sc->ny; j0 += b)
-            for (int i0 = 1; i0 + b - 1 <= sc->nx; i0 += b) {
-                double sd = 0, sm = 0, var = 0;
-                int ok = 1;
-                for (int k = k0; k < k0 + b && ok; ++k)
-                    for (int j = j0; j < j0 + b && ok; ++j)
-                        for (int i = i0; i < i0 + b && ok; ++i) {
-                            double c[3];
-                            clear_scene_centre(sc, i, j, k, c);
-                            double to_face = fmin(fmin(wx - c[0], wy - c[1]), fmin(c[2], wz - c[2]));
-                            int64_t v = ohm_network_unknown(&d->net, ohm_voxel_index(g, i, j, k));
-                            double dz = c[2] - sc->sphere_c;
-                            double to_void = fabs(sqrt(c[0] * c[0] + c[1] * c[1] + dz * dz) - sc->sphere_r);
-                            ok = sqrt(c[0] * c[0] + c[1] * c[1] + c[2] * c[2]) > near && to_face > near &&
-                                 !(skip_clear && sc->clear[v]) && !(skip_clear > 1 && to_void <= near);
-                            sd += d->fluence[0][v];
-                            sm += mc->fluence[0][v];
-                            var += mc->fluence_se[0][v] * mc->fluence_se[0][v];
-                        }
-                if (!ok || !(sm > 0) || !(sqrt(var) < 0.01 * sm)) continue;
-                double r = sd / sm - 1.0;
-                e.mean_abs += fabs(r);
-                e.bias += r;
-                e.rms += r * r;
-                e.blocks++;
-            }
-    if (e.blocks) {
-        e.mean_abs /= e.blocks;
-        e.bias /= e.blocks;
-        e.rms = sqrt(e.rms / e.blocks);
-    }
-    return e;
+    double p[3];
+    clear_scene_centre(sc, i, j, k, p);
+    double to_face = fmin(fmin(sc->nx * h - p[0], sc->ny * h - p[1]), fmin(p[2], sc->nz * h - p[2]));
+    double dz = p[2] - sc->sphere_c;
+    double to_void = fabs(sqrt(p[0] * p[0] + p[1] * p[1] + dz * dz) - sc->sphere_r);
+    return sqrt(p[0] * p[0] + p[1] * p[1] + p[2] * p[2]) > near && to_face > near &&
+           !(c->skip_clear && sc->clear[v]) && !(c->skip_clear > 1 && to_void <= near);
+}
+
+static ohm_block_error clear_scene_bulk(const clear_scene *sc, const ohm_solution *d, const ohm_solution *mc,
+                                        int skip_clear)
+{
+    const clear_bulk_cells cells = {sc, skip_clear};
+    const int dims[3] = {sc->nx, sc->ny, sc->nz};
+    return ohm_block_error_of(d, mc, dims, (int)lround(3.0 / sc->h), 0.01, clear_bulk_keep, &cells);
 }
 
 #endif

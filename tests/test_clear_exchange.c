@@ -295,9 +295,9 @@ static void test_void_against_mc(void)
     CHECK_MSG(clear_scene_solve(&ref, &sc, NULL, &mc, 0, &err) == 0, "%s", err.msg);
     CHECK(clear_scene_solve(&off, &sc, NULL, NULL, 200000, &err) == 0);
     CHECK(clear_scene_solve(&on, &sc, sc.clear, NULL, 200000, &err) == 0);
-    bulk_error eo = clear_scene_bulk(&sc, &off, &ref, 0), ec = clear_scene_bulk(&sc, &on, &ref, 0);
-    printf("void scene: bulk bias diffusion alone %+.2f%% (mean |err| %.2f%%), coupled %+.2f%% (%.2f%%), %d blocks\n",
-           100 * eo.bias, 100 * eo.mean_abs, 100 * ec.bias, 100 * ec.mean_abs, ec.blocks);
+    ohm_block_error eo = clear_scene_bulk(&sc, &off, &ref, 0), ec = clear_scene_bulk(&sc, &on, &ref, 0);
+    printf("void scene: bulk bias diffusion alone %+.2f%% (mean |err| %.2f%%), coupled %+.2f%% (%.2f%%), %lld blocks\n",
+           100 * eo.bias, 100 * eo.mean_abs, 100 * ec.bias, 100 * ec.mean_abs, (long long)ec.blocks);
     CHECK(ec.blocks > 20);
     CHECK_MSG(fabs(ec.bias) <= 0.02, "coupled bulk bias %+.3f", ec.bias);
     CHECK_MSG(ec.mean_abs < eo.mean_abs, "coupled %.4f, diffusion alone %.4f", ec.mean_abs, eo.mean_abs);

@@ -17,6 +17,7 @@
 
 #include "physics/mc_trace.h"
 #include "physics/network.h"
+#include "studies/block_error.h"
 #include "studies/scene.h"
 #include "solvers/solve.h"
 
@@ -175,62 +176,33 @@ static double absorbed_fraction(const ohm_solution *s)
     return (s->power_absorbed + s->power_entered - s->power_in) / s->power_incident;
 }
 
-typedef struct fluence_error {
-    double mean_abs, rms, bias, mc_noise;
-    int64_t blocks;
-} fluence_error;
-
-/* Cells are compared in blocks of about BLOCK_MM on a side (both fields
- * averaged over the block): per cell, a Monte Carlo estimate precise to 1%
- * would take ~10^8 photons, and diffusion varies on the scale of 1/sigma_tr
- * = 8 mm, not of a cell. */
+/* Cells are compared in blocks of about BLOCK_MM on a side (block_error.h:
+ * diffusion varies on the scale of 1/sigma_tr = 8 mm, not of a cell). */
 static const double BLOCK_MM = 3.0;
 
-/* The fluence away from the source and the faces (NEAR_MFP: a block counts
- * when every cell in it is that far), where the Monte Carlo block mean is
- * precise (MC_NOISE; its error from the cells', taken as independent). */
-static fluence_error compare_fluence(const ohm_solution *d, const ohm_solution *mc, const transport_scene *sc)
+/* A cell away from the source and the faces (NEAR_MFP), where the Monte
+ * Carlo block mean is precise (MC_NOISE). */
+typedef struct scene_cells {
+    const transport_scene *sc;
+    double h;
+} scene_cells;
+
+static int away_from_source_and_faces(const void *user, int i, int j, int k, int64_t v)
 {
-    const ohm_voxel_grid *g = d->net.grid;
-    const double h = g->h, near = NEAR_MFP / (TR_SA + TR_SS);
-    const double wx = sc->nx * h, wy = sc->ny * h, wz = sc->nz * h;
-    int b = (int)lround(BLOCK_MM / h);
-    if (b < 1) b = 1;
-    fluence_error e = {0};
-    double sum_abs = 0, sum2 = 0, sum = 0, noise2 = 0;
-    for (int k0 = 1; k0 + b - 1 <= sc->nz; k0 += b)
-        for (int j0 = 1; j0 + b - 1 <= sc->ny; j0 += b)
-            for (int i0 = 1; i0 + b - 1 <= sc->nx; i0 += b) {
-                double sd = 0, sm = 0, var = 0;
-                int ok = 1;
-                for (int k = k0; k < k0 + b && ok; ++k)
-                    for (int j = j0; j < j0 + b && ok; ++j)
-                        for (int i = i0; i < i0 + b && ok; ++i) {
-                            double x = (i - 0.5) * h, y = (j - 0.5) * h, z = (k - 0.5) * h;
-                            double to_face = fmin(fmin(wx - x, wy - y), fmin(z, wz - z));
-                            ok = sqrt(x * x + y * y + z * z) > near && to_face > near;
-                            int64_t v = ohm_network_unknown(&d->net, ohm_voxel_index(g, i, j, k));
-                            sd += d->fluence[0][v];
-                            sm += mc->fluence[0][v];
-                            var += mc->fluence_se[0][v] * mc->fluence_se[0][v];
-                        }
-                if (!ok || !(sm > 0) || !(sqrt(var) < MC_NOISE * sm)) continue;
-                double r = sd / sm - 1.0;
-                sum_abs += fabs(r);
-                sum2 += r * r;
-                sum += r;
-                noise2 += var / (sm * sm);
-                e.blocks++;
-            }
-    if (e.blocks) {
-        e.mean_abs = sum_abs / (double)e.blocks;
-        e.rms = sqrt(sum2 / (double)e.blocks);
-        e.bias = sum / (double)e.blocks;
-        e.mc_noise = sqrt(noise2 / (double)e.blocks);
-    } else {
-        e.mean_abs = e.rms = e.bias = e.mc_noise = NAN;
-    }
-    return e;
+    (void)v;
+    const scene_cells *c = user;
+    const double h = c->h, near = NEAR_MFP / (TR_SA + TR_SS);
+    double x = (i - 0.5) * h, y = (j - 0.5) * h, z = (k - 0.5) * h;
+    double to_face = fmin(fmin(c->sc->nx * h - x, c->sc->ny * h - y), fmin(z, c->sc->nz * h - z));
+    return sqrt(x * x + y * y + z * z) > near && to_face > near;
+}
+
+static ohm_block_error compare_fluence(const ohm_solution *d, const ohm_solution *mc, const transport_scene *sc)
+{
+    const scene_cells cells = {sc, d->net.grid->h};
+    const int dims[3] = {sc->nx, sc->ny, sc->nz};
+    return ohm_block_error_of(d, mc, dims, (int)lround(BLOCK_MM / cells.h), MC_NOISE, away_from_source_and_faces,
+                              &cells);
 }
 
 /* Reflectance against radius on the lit face in 1 mm rings from 2 mm out to
@@ -283,7 +255,7 @@ static void add_rows(ohm_validation *v, const transport_scene *sc, const char *l
     const ohm_transport_config *cfg = sc->report_only ? &report : given;
     char name[128], ref[64];
     snprintf(ref, sizeof ref, "ohm mc, %.3g photons", (double)mc->mc_photons);
-    fluence_error fe = compare_fluence(d, mc, sc);
+    ohm_block_error fe = compare_fluence(d, mc, sc);
     snprintf(name, sizeof name, "%s: fluence >2 mfp, mean |err| (%lld blocks)", label, (long long)fe.blocks);
     ohm_validation_add(v, name, ref, fe.mean_abs, 0, fe.mean_abs, cfg->tol_fluence_mean);
     snprintf(name, sizeof name, "%s: fluence >2 mfp, rms err (bias %+.3f)", label, fe.bias);
