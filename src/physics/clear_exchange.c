@@ -9,6 +9,7 @@
 
 #include "base/log.h"
 #include "physics/fresnel.h"
+#include "physics/stencil.h"
 
 #ifndef M_PI
 #define M_PI 3.14159265358979323846
@@ -662,17 +663,96 @@ static int triple_cmp(const void *a, const void *b)
     return (x->row > y->row) - (x->row < y->row);
 }
 
+/* The coupling's values for one medium, what both forms of the coupled
+ * operator (the assembled matrix, the stencil) are written from: each wall
+ * face's conductance, each node pair's, and ga, gb rewritten where the
+ * coupling changes them (a node's ground: absorption on the way; an escape
+ * face's conductance; a cell that is no node: none). */
+typedef struct coupling_values {
+    double *wall_g; /* nwall */
+    double *pair_g; /* npairs */
+} coupling_values;
+
+static void coupling_values_free(coupling_values *cv)
+{
+    free(cv->wall_g);
+    free(cv->pair_g);
+}
+
+static int coupling_values_of(coupling_values *cv, double *ga, double *gb, const ohm_clear_exchange *ce,
+                              const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
+    if (med->resistance_mode)
+        return ohm_fail(err, OHM_ERR_USAGE, "clear regions: the coupling needs optical coefficients, not resistance=");
+    const ohm_network *net = ce->net;
+    const double h = net->grid->h;
+    cv->wall_g = malloc((size_t)(ce->nwall ? ce->nwall : 1) * sizeof *cv->wall_g);
+    cv->pair_g = malloc((size_t)(ce->npairs ? ce->npairs : 1) * sizeof *cv->pair_g);
+    if (!cv->wall_g || !cv->pair_g) {
+        coupling_values_free(cv);
+        return ohm_fail(err, OHM_ERR_NOMEM, "clear regions: out of memory for the coupling's values");
+    }
+    step_cache sc = {0};
+    for (int64_t w = 0; w < ce->nwall; ++w) {
+        int64_t v = ce->wall_diffusive[w], c = ce->wall_node[w];
+        cv->wall_g[w] = wall_conductance(&sc, h, cell_D(med, v), ohm_network_unknown_scale(med, v), cell_eta(med, v),
+                                         cell_eta(med, c));
+    }
+    /* the nodes' own sinks: absorption on the way (a ground) and escape */
+    for (int64_t u = 0; u < ce->nnodes; ++u) ga[ce->node_unknown[u]] = 0.0;
+    for (int64_t k = 0; k < ce->npairs; ++k) {
+        int64_t u = ce->pair_u[k], v = ce->pair_v[k];
+        double sa = 0.5 * (ohm_medium_sigma_a(med, u) + ohm_medium_sigma_a(med, v));
+        double tau = exp(-sa * ce->pair_r[k]);
+        double su = ohm_network_unknown_scale(med, u), sv = ohm_network_unknown_scale(med, v);
+        cv->pair_g[k] = 0.5 * ce->pair_w[k] * tau * 0.5 * (su + sv);
+        double lost = 0.5 * ce->pair_w[k] * (1.0 - tau); /* at each end, of phi (absorbed) */
+        ga[u] += lost;
+        ga[v] += lost;
+    }
+    for (int64_t q = 0; q < ce->nnodes; ++q) {
+        int64_t u = ce->node_unknown[q];
+        double tau = exp(-ohm_medium_sigma_a(med, u) * ce->self_r[q]);
+        ga[u] += 0.5 * ce->self_w[q] * (1.0 - tau);
+    }
+    for (int64_t e = 0; e < ce->nescape; ++e) {
+        int64_t f = ce->escape_face[e];
+        if (boundary == OHM_BOUNDARY_ROBIN) gb[f] = escape_conductance(&sc, h, cell_eta(med, net->face_unknown[f]));
+    }
+    for (int64_t f = 0; f < ce->nfill; ++f) ga[ce->fill_unknown[f]] = 0.0;
+    return OHM_OK;
+}
+
+/* A clear cell's diagonal before its links: a node's sinks (scaled); a cell
+ * that is no node has no link and no sink: the identity (its sources are
+ * moved, ohm_clear_exchange_move_sources).  sink[] of the clear cells,
+ * from ga and gb as coupling_values_of left them. */
+static void clear_cells_sinks(const ohm_clear_exchange *ce, const ohm_channel_medium *med, const double *ga,
+                              const double *gb, double *sink)
+{
+    const ohm_network *net = ce->net;
+    for (int64_t f = 0; f < ce->nfill; ++f) sink[ce->fill_unknown[f]] = 1.0;
+    for (int64_t u = 0; u < ce->nnodes; ++u) {
+        int64_t v = ce->node_unknown[u];
+        sink[v] = ga[v] * ohm_network_unknown_scale(med, v);
+    }
+    for (int64_t e = 0; e < ce->nescape; ++e) {
+        int64_t f = ce->escape_face[e], v = net->face_unknown[f];
+        sink[v] += gb[f] * ohm_network_unknown_scale(med, v);
+    }
+}
+
 int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, const ohm_clear_exchange *ce,
                              const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc,
                              ohm_error *err)
 {
     if (!ce->nclear) return OHM_OK;
-    if (med->resistance_mode)
-        return ohm_fail(err, OHM_ERR_USAGE, "clear regions: the coupling needs optical coefficients, not resistance=");
+    coupling_values cv = {0};
+    int rc = coupling_values_of(&cv, ga, gb, ce, med, boundary, err);
+    if (rc) return rc;
     const ohm_network *net = ce->net;
     const cholmod_sparse *A = *Aptr;
     const int64_t n = net->n;
-    const double h = net->grid->h;
     const int64_t *Ap = A->p, *Ai = A->i;
     const double *Ax = A->x;
     const uint8_t *clear = ce->clear;
@@ -681,12 +761,12 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
     triple *t = malloc((size_t)(nnew ? nnew : 1) * sizeof *t);
     int64_t *count = calloc((size_t)n + 1, sizeof *count);
     if (!diag || !t || !count) {
-        free(diag), free(t), free(count);
+        free(diag), free(t), free(count), coupling_values_free(&cv);
         return ohm_fail(err, OHM_ERR_NOMEM, "clear regions: out of memory for the coupled matrix");
     }
-    step_cache sc = {0};
-    /* the diffusive cells' diagonals without their links to clear cells;
-     * the clear cells' start from nothing */
+    /* the clear cells' sinks; the diffusive cells' diagonals without their
+     * links to clear cells */
+    clear_cells_sinks(ce, med, ga, gb, diag);
     for (int64_t j = 0; j < n; ++j)
         for (int64_t k = Ap[j]; k < Ap[j + 1]; ++k) {
             int64_t i = Ai[k];
@@ -698,55 +778,23 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
                 count[j]++;
             }
         }
-    /* the walls: a diffusive unknown and its clear neighbour */
+    /* the walls (a diffusive unknown and its clear neighbour) and the pairs */
     int64_t nt = 0;
     for (int64_t w = 0; w < ce->nwall; ++w) {
         int64_t v = ce->wall_diffusive[w], c = ce->wall_node[w];
-        double g = wall_conductance(&sc, h, cell_D(med, v), ohm_network_unknown_scale(med, v), cell_eta(med, v),
-                                    cell_eta(med, c));
+        double g = cv.wall_g[w];
         diag[v] += g;
         diag[c] += g;
         t[nt++] = (triple){v > c ? v : c, v > c ? c : v, -g};
     }
-    /* the nodes' own sinks: absorption on the way (a ground) and escape */
-    for (int64_t u = 0; u < ce->nnodes; ++u) ga[ce->node_unknown[u]] = 0.0;
     for (int64_t k = 0; k < ce->npairs; ++k) {
         int64_t u = ce->pair_u[k], v = ce->pair_v[k];
-        double sa = 0.5 * (ohm_medium_sigma_a(med, u) + ohm_medium_sigma_a(med, v));
-        double tau = exp(-sa * ce->pair_r[k]);
-        double su = ohm_network_unknown_scale(med, u), sv = ohm_network_unknown_scale(med, v);
-        double g = 0.5 * ce->pair_w[k] * tau * 0.5 * (su + sv);
-        double lost = 0.5 * ce->pair_w[k] * (1.0 - tau); /* at each end, of phi (absorbed) */
-        ga[u] += lost;
-        ga[v] += lost;
+        double g = cv.pair_g[k];
         diag[u] += g;
         diag[v] += g;
         t[nt++] = (triple){v, u, -g};
     }
-    for (int64_t q = 0; q < ce->nnodes; ++q) {
-        int64_t u = ce->node_unknown[q];
-        double tau = exp(-ohm_medium_sigma_a(med, u) * ce->self_r[q]);
-        ga[u] += 0.5 * ce->self_w[q] * (1.0 - tau);
-    }
-    for (int64_t e = 0; e < ce->nescape; ++e) {
-        int64_t f = ce->escape_face[e];
-        if (boundary == OHM_BOUNDARY_ROBIN) gb[f] = escape_conductance(&sc, h, cell_eta(med, net->face_unknown[f]));
-    }
-    /* every clear cell's own terms: a node's sinks (scaled); a cell that is
-     * no node has no link and no sink: the identity (its sources are moved,
-     * ohm_clear_exchange_move_sources) */
-    for (int64_t f = 0; f < ce->nfill; ++f) {
-        ga[ce->fill_unknown[f]] = 0.0;
-        diag[ce->fill_unknown[f]] = 1.0;
-    }
-    for (int64_t u = 0; u < ce->nnodes; ++u) {
-        int64_t v = ce->node_unknown[u];
-        diag[v] += ga[v] * ohm_network_unknown_scale(med, v);
-    }
-    for (int64_t e = 0; e < ce->nescape; ++e) {
-        int64_t f = ce->escape_face[e], v = net->face_unknown[f];
-        diag[v] += gb[f] * ohm_network_unknown_scale(med, v);
-    }
+    coupling_values_free(&cv);
     qsort(t, (size_t)nt, sizeof *t, triple_cmp);
     for (int64_t k = 0; k < nt; ++k) count[t[k].col]++;
     int64_t nnz = 0;
@@ -788,6 +836,77 @@ int ohm_clear_exchange_apply(cholmod_sparse **Aptr, double *ga, double *gb, cons
     cholmod_l_free_sparse(Aptr, cc);
     *Aptr = M;
     return OHM_OK;
+}
+
+/* The stencil's slot of the link between face neighbours u < w: gx, gy or
+ * gz at u (stencil_form.h: each link stored by its lower unknown); NULL
+ * when they are no face neighbours. */
+static float *link_slot(ohm_stencil *st, int64_t u, int64_t w)
+{
+    const int32_t *o = st->run_off[ohm_stencil_run_of(st, u)];
+    if (o[1] && w == u + o[1]) return &st->gy[u];
+    if (o[3] && w == u + o[3]) return &st->gz[u];
+    return w == u + 1 ? &st->gx[u] : NULL; /* the next unknown that is neither: its +x neighbour */
+}
+
+/* The pairs as the stencil's links beyond the grid (stencil_form.h's
+ * extra rows: each pair in both its rows, the same float in both). */
+static int stencil_pairs(ohm_stencil *st, const ohm_clear_exchange *ce, const double *pair_g, ohm_error *err)
+{
+    const int64_t n = st->n;
+    ohm_stencil_drop_extra(st);
+    st->xstart = calloc((size_t)n + 1, sizeof *st->xstart);
+    st->xcol = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xcol);
+    st->xg = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xg);
+    int64_t *fill = calloc((size_t)n + 1, sizeof *fill);
+    if (!st->xstart || !st->xcol || !st->xg || !fill) {
+        free(fill);
+        return ohm_fail(err, OHM_ERR_NOMEM, "clear regions: out of memory for the coupling's %lld links",
+                        (long long)ce->npairs);
+    }
+    for (int64_t k = 0; k < ce->npairs; ++k) st->xstart[ce->pair_u[k] + 1]++, st->xstart[ce->pair_v[k] + 1]++;
+    for (int64_t v = 0; v < n; ++v) st->xstart[v + 1] += st->xstart[v];
+    for (int64_t k = 0; k < ce->npairs; ++k) {
+        int64_t u = ce->pair_u[k], v = ce->pair_v[k];
+        float g = (float)pair_g[k];
+        int64_t pu = st->xstart[u] + fill[u]++, pv = st->xstart[v] + fill[v]++;
+        st->xcol[pu] = v, st->xg[pu] = g;
+        st->xcol[pv] = u, st->xg[pv] = g;
+    }
+    free(fill);
+    return OHM_OK;
+}
+
+int ohm_clear_exchange_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_clear_exchange *ce,
+                               const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err)
+{
+    if (!ce->nclear) return OHM_OK;
+    coupling_values cv = {0};
+    int rc = coupling_values_of(&cv, ga, gb, ce, med, boundary, err);
+    if (rc) return rc;
+    const uint8_t *clear = ce->clear;
+    /* no link touches a clear cell but the walls' (below) */
+    int64_t cursor = 0;
+    for (int64_t v = 0; v < st->n; ++v) {
+        const int32_t *o = st->run_off[ohm_stencil_run(st, v, &cursor)];
+        if (v + 1 < st->n && (clear[v] || clear[v + 1])) st->gx[v] = 0;
+        if (o[1] && (clear[v] || clear[v + o[1]])) st->gy[v] = 0;
+        if (o[3] && (clear[v] || clear[v + o[3]])) st->gz[v] = 0;
+    }
+    clear_cells_sinks(ce, med, ga, gb, st->sink);
+    for (int64_t w = 0; w < ce->nwall; ++w) {
+        int64_t v = ce->wall_diffusive[w], c = ce->wall_node[w];
+        float *slot = link_slot(st, v < c ? v : c, v < c ? c : v);
+        if (!slot) {
+            coupling_values_free(&cv);
+            return ohm_fail(err, OHM_ERR_INTERNAL, "clear regions: wall %lld joins unknowns %lld and %lld, which are "
+                            "no face neighbours", (long long)w, (long long)v, (long long)c);
+        }
+        *slot = (float)cv.wall_g[w];
+    }
+    rc = stencil_pairs(st, ce, cv.pair_g, err);
+    coupling_values_free(&cv);
+    return rc;
 }
 
 void ohm_clear_exchange_move_sources(const ohm_clear_exchange *ce, double *b, size_t ncols)

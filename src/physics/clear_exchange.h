@@ -35,6 +35,7 @@
 
 #include "base/ohm_error.h"
 #include "physics/network.h"
+#include "physics/stencil_form.h"
 
 typedef struct ohm_clear_exchange_params {
     /* face pairs farther apart than this (mm) are not linked; 0: every
@@ -89,6 +90,15 @@ void ohm_clear_exchange_free(ohm_clear_exchange *ce);
 int ohm_clear_exchange_apply(cholmod_sparse **A, double *ga, double *gb, const ohm_clear_exchange *ce,
                              const ohm_channel_medium *med, ohm_boundary boundary, cholmod_common *cc,
                              ohm_error *err);
+
+/* The same coupled operator in the network's stencil form (*st: the
+ * network's, ohm_network_stencil's, for this medium, with ga and gb):
+ * links touching clear cells become the walls' conductances or none, the
+ * clear cells' sinks the coupling's, and the node pairs the stencil's links
+ * beyond the grid (stencil_form.h's extra rows).  A multigrid reads it as
+ * it reads any network's stencil.  Empty coupling: nothing changes. */
+int ohm_clear_exchange_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_clear_exchange *ce,
+                               const ohm_channel_medium *med, ohm_boundary boundary, ohm_error *err);
 
 /* The wall conductance of a face between diffusive unknown v (index eta_v,
  * diffusion coefficient D) and clear cell of index eta_c, in the network's

@@ -709,6 +709,7 @@ int ohm_network_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_netwo
                             (long long)n, (double)n * 20 / 1e6);
         }
     }
+    ohm_stencil_drop_extra(st); /* a refill's: the network's own links only */
     assembly as;
     int rc = assembly_begin(&as, net, med, boundary, err);
     if (rc) return rc;

@@ -17,7 +17,17 @@ void ohm_stencil_free(ohm_stencil *st)
     free(st->gy);
     free(st->gz);
     free(st->sink);
+    ohm_stencil_drop_extra(st);
     memset(st, 0, sizeof *st);
+}
+
+void ohm_stencil_drop_extra(ohm_stencil *st)
+{
+    free(st->xstart);
+    free(st->xcol);
+    free(st->xg);
+    st->xstart = st->xcol = NULL;
+    st->xg = NULL;
 }
 
 void ohm_stencil_runs_push(ohm_stencil_runs *rl, int64_t v, const int32_t off[4])
@@ -79,8 +89,11 @@ int ohm_stencil_adopt_runs(ohm_stencil *st, const ohm_stencil_runs *lists, int c
 
 double ohm_stencil_bytes(const ohm_stencil *st)
 {
+    double extra = st->xstart ? (double)(st->n + 1) * sizeof *st->xstart +
+                                    (double)st->xstart[st->n] * (sizeof *st->xcol + sizeof *st->xg)
+                              : 0.0;
     return (double)st->n * (3 * sizeof(float) + sizeof(double)) +
-           (double)st->nruns * (sizeof *st->run_start + sizeof *st->run_off) + sizeof *st->run_start;
+           (double)st->nruns * (sizeof *st->run_start + sizeof *st->run_off) + sizeof *st->run_start + extra;
 }
 
 int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *err)
@@ -95,7 +108,7 @@ int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *er
 double ohm_stencil_diag(const ohm_stencil *st, int64_t v)
 {
     const int32_t *o = st->run_off[ohm_stencil_run_of(st, v)];
-    return row_diag(st, v, o[0], o[1], o[2], o[3], o[0] != 0, o[2] != 0, 1);
+    return row_diag(st, v, o[0], o[1], o[2], o[3], o[0] != 0, o[2] != 0, 1) + extra_diag(st, v);
 }
 
 double ohm_stencil_norm_inf(const ohm_stencil *st)
@@ -103,7 +116,7 @@ double ohm_stencil_norm_inf(const ohm_stencil *st)
     /* an M-matrix's row: |diag| + sum of |links| = sink + 2 sum of links */
     double norm = 0;
     FOR_ROWS(st, 0, st->n, {
-        double row = 2.0 * row_diag(S, ROW_ARGS) - S->sink[v];
+        double row = 2.0 * (row_diag(S, ROW_ARGS) + extra_diag(S, v)) - S->sink[v];
         if (row > norm) norm = row; /* not fmax: a library call per row */
     })
     return norm;
@@ -124,6 +137,8 @@ static void apply_rows(void *user, int64_t lo, int64_t hi, int chunk)
     const double *x = p->x;
     double *out = p->y;
     FOR_ROWS_EACH(p->st, lo, hi, out[v] = net_apply(S, x, ROW_ARGS);)
+    if (p->st->xstart)
+        for (int64_t v = lo; v < hi; ++v) out[v] += extra_apply(p->st, x, v);
 }
 
 void ohm_stencil_apply(const ohm_stencil *st, const double *x, double *y, int threads)
@@ -139,7 +154,7 @@ static void residual_inf_rows(void *user, int64_t lo, int64_t hi, int chunk)
     double worst = 0, nx = 0, nb = 0;
     const double *x = p->x, *b = p->b;
     FOR_ROWS(p->st, lo, hi, {
-        double r = fabs(b[v] - net_apply(S, x, ROW_ARGS));
+        double r = fabs(b[v] - net_apply(S, x, ROW_ARGS) - (S->xstart ? extra_apply(S, x, v) : 0.0));
         if (!(r <= worst)) worst = r; /* NaN propagates */
         if (fabs(x[v]) > nx) nx = fabs(x[v]);
         if (fabs(b[v]) > nb) nb = fabs(b[v]);
@@ -171,6 +186,8 @@ static void rows_sums(const ohm_stencil *st, int64_t lo, int64_t hi, double *sin
         s += S->sink[v];
         d += row_diag(S, ROW_ARGS);
     })
+    if (st->xstart)
+        for (int64_t v = lo; v < hi; ++v) d += extra_diag(st, v);
     *sink += s;
     *diag += d;
 }

@@ -23,6 +23,9 @@ int ohm_stencil_set_runs(ohm_stencil *st, const int32_t (*off)[4], ohm_error *er
 
 void ohm_stencil_free(ohm_stencil *st); /* NULL or zeroed is fine */
 
+/* Drop st's links beyond the grid (stencil_form.h), if any. */
+void ohm_stencil_drop_extra(ohm_stencil *st);
+
 /* A stencil's runs as they are found, in increasing unknowns: a new run
  * where the offsets change (a builder's, one per thread's share of the
  * rows). */

@@ -36,6 +36,12 @@ typedef struct ohm_stencil {
     float *gx, *gy, *gz;   /* conductance of v's +x, +y, +z link; 0: none  */
     double *sink;          /* ground + boundary (+ closure) conductance, scaled
                               as the diagonal (network.h: s_v with eta_v)   */
+    /* Links beyond the grid (NULL: none), as rows: v's are xcol[k], xg[k]
+     * for k in xstart[v] .. xstart[v + 1] - 1, each link in both its rows
+     * with the same float; row v gains sum g (x_v - x_w).  What the clear
+     * regions' coupling adds (physics/clear_exchange.h). */
+    int64_t *xstart, *xcol;
+    float *xg;
 } ohm_stencil;
 
 /* The run holding unknown v, from *cursor (a run at or before v's; 0 to

@@ -146,6 +146,23 @@ static inline int next_stretch(stretch *it)
 DEFINE_NET_APPLY(net_apply, double)       /* the residual's, of the double iterate */
 DEFINE_NET_APPLY(net_apply_single, float) /* the outer direction's, kept in floats */
 
+/* Row v's terms of the links beyond the grid (stencil_form.h), in flux
+ * form, and their sum (the diagonal's share); 0 for a stencil with none. */
+static inline double extra_apply(const ohm_stencil *st, const double *x, int64_t v)
+{
+    double s = 0;
+    for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) s += st->xg[k] * (x[v] - x[st->xcol[k]]);
+    return s;
+}
+
+static inline double extra_diag(const ohm_stencil *st, int64_t v)
+{
+    double d = 0;
+    if (st->xstart)
+        for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) d += st->xg[k];
+    return d;
+}
+
 /* Row v's diagonal, sink + its links, in double. */
 static inline double row_diag(const ohm_stencil *st, ROW_PARAMS)
 {
