@@ -195,7 +195,10 @@ static void conservation(void)
     CHECK_MSG(fabs(sunk - 1.0) <= 1e-10, "1 W in, %.15g W sunk", sunk);
     int64_t cells = 0;
     int levels = mg ? ohm_mg_levels(mg, &cells) : 0;
-    CHECK_MSG(levels >= 3 && cells < n + n / 6, "%d levels, %lld cells for %lld", levels, (long long)cells,
+    /* the coarse levels together: an eighth, a 64th ... of n where blocks
+     * are whole (n/7); the parts of blocks that the medium's jumps cut
+     * make it about n/5 here (mg_coarsen.h) */
+    CHECK_MSG(levels >= 3 && cells < n + n / 4, "%d levels, %lld cells for %lld", levels, (long long)cells,
               (long long)n);
     ohm_mg_free(mg);
     block_case_close(&c);

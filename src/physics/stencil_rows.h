@@ -148,12 +148,16 @@ DEFINE_NET_APPLY(net_apply_single, float) /* the outer direction's, kept in floa
 
 /* Row v's terms of the links beyond the grid (stencil_form.h), in flux
  * form, and their sum (the diagonal's share); 0 for a stencil with none. */
-static inline double extra_apply(const ohm_stencil *st, const double *x, int64_t v)
-{
-    double s = 0;
-    for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) s += st->xg[k] * (x[v] - x[st->xcol[k]]);
-    return s;
-}
+#define DEFINE_EXTRA_APPLY(NAME, XTYPE)                                                                         \
+    static inline double NAME(const ohm_stencil *st, const XTYPE *x, int64_t v)                                 \
+    {                                                                                                           \
+        double s = 0;                                                                                           \
+        for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k)                                             \
+            s += st->xg[k] * ((double)x[v] - (double)x[st->xcol[k]]);                                           \
+        return s;                                                                                               \
+    }
+DEFINE_EXTRA_APPLY(extra_apply, double)
+DEFINE_EXTRA_APPLY(extra_apply_single, float)
 
 static inline double extra_diag(const ohm_stencil *st, int64_t v)
 {

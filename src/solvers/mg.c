@@ -14,6 +14,7 @@
 #include "physics/stencil.h"
 #include "physics/stencil_rows.h"
 #include "solvers/backend.h"
+#include "solvers/mg_coarsen.h"
 #include "solvers/mg_cycle.h"
 
 /* Levels stop coarsening at this many cells, solved by a dense Cholesky
@@ -25,14 +26,18 @@ enum { COARSEST_MAX = 500, LEVELS_MAX = OHM_MG_LEVELS_MAX };
  * (docs/multigrid.md): every level with AGMG's early exit (one step when it
  * cut the residual to 0.25) took 20 iterations and 6.2-6.4 s, two steps at
  * levels 1-2 only 19 and 5.7-6.0 s; level 1 alone 32 iterations, none (a
- * V-cycle) 71. */
-enum { KCYCLE_LEVELS = 2 };
+ * V-cycle) 71.  Level 3 too since the coarsening follows the coefficients
+ * (mg_coarsen.h): on the family's clear medium at 108^3 its level 3 keeps
+ * 0.28 of level 2's cells, and 22 iterations became 16, the others
+ * unchanged. */
+enum { KCYCLE_LEVELS = 3 };
 
 /* A coarse level is solved by the K-cycle's two inner steps only when it
  * has at most this fraction of its finer level's cells: two recursive
- * cycles cost twice one, which only a coarsening by 4 or more keeps a
- * bounded share of the whole (a thin sheet or line coarsens by 4 or 2). */
-static const double KCYCLE_MAX_RATIO = 0.25;
+ * cycles cost twice one, which only a strong coarsening keeps a bounded
+ * share of the whole (a thin sheet or line coarsens by 4 or 2, and a block
+ * cut by the medium's jumps into parts by less than 8). */
+static const double KCYCLE_MAX_RATIO = 0.35;
 
 /* A level: its operator, an ohm_stencil (physics/stencil_form.h; level 0: the network's
  * own, shared with the outer iteration, whose links are single precision
@@ -43,8 +48,9 @@ static const double KCYCLE_MAX_RATIO = 0.25;
  * residual and steps stay in double (so the solution and the books are as
  * exact as with a double cycle). */
 typedef struct mg_level {
-    ohm_stencil st;
-    int owns_st; /* a coarse level's: freed with the level */
+    ohm_stencil st;   /* level 0's: the network's                      */
+    ohm_mg_sparse sp; /* a coarse level's rows (mg_coarsen.h), owned    */
+    int sparse;       /* this level is sp's                            */
     float *invd; /* 1 / the diagonal (the smoother's, so that it divides nothing) */
     int64_t n;
     /* n: the next level's cell holding this one; NULL at the coarsest.  32
@@ -132,20 +138,71 @@ static inline float cyc_sum(const ohm_stencil *st, const float *x, ROW_PARAMS)
     return s;
 }
 
-/* (A x)_v in the cycle's precision, its diagonal from the sink and links */
-static inline float cyc_apply(const ohm_stencil *st, const float *x, ROW_PARAMS)
+/* row v's diagonal in the cycle's precision, from the sink and links */
+static inline float cyc_diag(const ohm_stencil *st, ROW_PARAMS)
 {
+    (void)yp, (void)zp;
     const float *gx = st->gx, *gy = st->gy, *gz = st->gz;
     float d = (float)st->sink[v] + gx[v] + gy[v] + gz[v] + my * gy[v + ym] + mz * gz[v + zm];
     if (!edge || v > 0) d += gx[v - 1];
-    return d * x[v] - cyc_sum(st, x, ROW_ARGS);
+    return d;
 }
 
-/* D^-1 (b - A x) in row v, from the stored inverse diagonal (no division) */
-static inline float cyc_jacobi(const ohm_stencil *st, const float *invd, const float *x, const float *b, ROW_PARAMS)
+/* row v's links beyond the grid (stencil_form.h): their sum g x_w, and
+ * their share of the diagonal */
+static inline float cyc_extra_sum(const ohm_stencil *st, const float *x, int64_t v)
 {
-    return (b[v] + cyc_sum(st, x, ROW_ARGS)) * invd[v] - x[v];
+    float s = 0;
+    for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) s += st->xg[k] * x[st->xcol[k]];
+    return s;
 }
+
+static inline float cyc_extra_diag(const ohm_stencil *st, int64_t v)
+{
+    float d = 0;
+    for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) d += st->xg[k];
+    return d;
+}
+
+/* The statements ... for every row v in lo .. hi-1 of level L, with sum_
+ * = sum_w g_vw x_w over the row's links and diag_ its diagonal in scope
+ * (so (A x)_v is diag_ x_v - sum_, the Jacobi step (b_v + sum_) / diag_):
+ * a coarse level's sparse rows (mg_coarsen.h), level 0's stencil with its
+ * links beyond the grid (a loop that does not vectorise), or without them
+ * (one that does: SIMD is FOR_ROWS_SUM's pragma).  diag_ is computed only
+ * where the statements read it. */
+#define LEVEL_ROWS(SIMD, L, X, LO, HI, ...)                                                                     \
+    do {                                                                                                        \
+        if ((L)->sparse) {                                                                                      \
+            const int64_t *rp_ = (L)->sp.rp;                                                                    \
+            const int32_t *col_ = (L)->sp.col;                                                                  \
+            const float *g_ = (L)->sp.g;                                                                        \
+            const double *sink_ = (L)->sp.sink;                                                                 \
+            for (int64_t v = (LO); v < (HI); ++v) {                                                             \
+                float sum_ = 0, diag_ = (float)sink_[v];                                                        \
+                for (int64_t k_ = rp_[v]; k_ < rp_[v + 1]; ++k_) {                                              \
+                    sum_ += g_[k_] * (X)[col_[k_]];                                                             \
+                    diag_ += g_[k_];                                                                            \
+                }                                                                                               \
+                (void)diag_;                                                                                    \
+                __VA_ARGS__                                                                                     \
+            }                                                                                                   \
+        } else if ((L)->st.xstart) {                                                                            \
+            FOR_ROWS(&(L)->st, LO, HI, {                                                                        \
+                float sum_ = cyc_sum(S, X, ROW_ARGS) + cyc_extra_sum(S, X, v);                                  \
+                float diag_ = cyc_diag(S, ROW_ARGS) + cyc_extra_diag(S, v);                                     \
+                (void)diag_;                                                                                    \
+                __VA_ARGS__                                                                                     \
+            })                                                                                                  \
+        } else {                                                                                                \
+            FOR_ROWS_SUM(SIMD, &(L)->st, LO, HI, {                                                              \
+                float sum_ = cyc_sum(S, X, ROW_ARGS);                                                           \
+                float diag_ = cyc_diag(S, ROW_ARGS);                                                            \
+                (void)diag_;                                                                                    \
+                __VA_ARGS__                                                                                     \
+            })                                                                                                  \
+        }                                                                                                       \
+    } while (0)
 
 /* out = b - A x (b in y); returns ||out||^2, and its sum in k.sum2 */
 static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
@@ -153,12 +210,19 @@ static void residual_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     double s = 0, sr = 0;
     const double *x = k->x, *b = k->y;
     double *out = k->out;
-    FOR_ROWS_SUM("omp simd reduction(+ : s, sr)", k->st, lo, hi, {
-        double r = b[v] - net_apply(S, x, ROW_ARGS);
-        out[v] = r;
-        s += r * r;
-        sr += r;
-    })
+    if (k->st->xstart)
+        FOR_ROWS(k->st, lo, hi, {
+            double r = b[v] - net_apply(S, x, ROW_ARGS) - extra_apply(S, x, v);
+            out[v] = r;
+            s += r * r;
+            sr += r;
+        })
+    else FOR_ROWS_SUM("omp simd reduction(+ : s, sr)", k->st, lo, hi, {
+            double r = b[v] - net_apply(S, x, ROW_ARGS);
+            out[v] = r;
+            s += r * r;
+            sr += r;
+        })
     k->partial[chunk] = s;
     k->partial2[chunk] = sr;
 }
@@ -171,12 +235,19 @@ static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     const float *p = k->xf;
     const double *r = k->z;
     double *out = k->out;
-    FOR_ROWS_SUM("omp simd reduction(+ : pq, pr)", k->st, lo, hi, {
-        double q = a * net_apply_single(S, p, ROW_ARGS);
-        out[v] = q;
-        pq += p[v] * q;
-        pr += p[v] * r[v];
-    })
+    if (k->st->xstart)
+        FOR_ROWS(k->st, lo, hi, {
+            double q = a * (net_apply_single(S, p, ROW_ARGS) + extra_apply_single(S, p, v));
+            out[v] = q;
+            pq += p[v] * q;
+            pr += p[v] * r[v];
+        })
+    else FOR_ROWS_SUM("omp simd reduction(+ : pq, pr)", k->st, lo, hi, {
+            double q = a * net_apply_single(S, p, ROW_ARGS);
+            out[v] = q;
+            pq += p[v] * q;
+            pr += p[v] * r[v];
+        })
     k->partial[chunk] = pq;
     k->partial2[chunk] = pr;
 }
@@ -244,14 +315,12 @@ static void cycle_apply_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     double s = 0;
     const float *x = k->xf, *q = k->yf;
     float *out = k->outf;
-    if (!out)
-        FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi,
-                     s += x[v] * (double)cyc_apply(S, x, ROW_ARGS);)
-    else FOR_ROWS_SUM("omp simd reduction(+ : s)", &k->L->st, lo, hi, {
-            float y = cyc_apply(S, x, ROW_ARGS);
+    if (!out) LEVEL_ROWS("omp simd reduction(+ : s)", k->L, x, lo, hi, s += x[v] * (double)(diag_ * x[v] - sum_););
+    else LEVEL_ROWS("omp simd reduction(+ : s)", k->L, x, lo, hi, {
+            float y = diag_ * x[v] - sum_;
             out[v] = y;
             s += x[v] * (q ? (double)q[v] : (double)y);
-        })
+        });
     k->partial[chunk] = s;
 }
 
@@ -298,7 +367,7 @@ static void jacobi_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     float *out = k->outf;
     if (!x)
         for (int64_t v = lo; v < hi; ++v) out[v] = w * b[v] * invd[v];
-    else FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + w * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
+    else LEVEL_ROWS("omp simd", L, x, lo, hi, out[v] = x[v] + w * ((b[v] + sum_) * invd[v] - x[v]););
 }
 
 /* out = x + a (x - y) + c D^-1 (b - A x), y NULL: 0 (Chebyshev's second step) */
@@ -308,8 +377,9 @@ static void cheb_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     const mg_level *L = k->L;
     const float a = (float)k->a, a2 = (float)k->a2, *x = k->xf, *y = k->yf, *b = k->bf, *invd = L->invd;
     float *out = k->outf;
-    if (!y) FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + a * x[v] + a2 * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
-    else FOR_ROWS_EACH(&L->st, lo, hi, out[v] = x[v] + a * (x[v] - y[v]) + a2 * cyc_jacobi(S, invd, x, b, ROW_ARGS);)
+    if (!y) LEVEL_ROWS("omp simd", L, x, lo, hi, out[v] = x[v] + a * x[v] + a2 * ((b[v] + sum_) * invd[v] - x[v]););
+    else LEVEL_ROWS("omp simd", L, x, lo, hi,
+                    out[v] = x[v] + a * (x[v] - y[v]) + a2 * ((b[v] + sum_) * invd[v] - x[v]););
 }
 
 /* out may be y: the second step reads y in its own row only (an update in
@@ -338,7 +408,7 @@ static void restrict_job(void *user, int64_t K)
     const float *x = k->xf, *b = k->bf;
     const int32_t *agg = L->agg;
     float *rc = k->outf, *r = k->out_tmp;
-    FOR_ROWS_EACH(&L->st, f0, f1, r[v] = b[v] - cyc_apply(S, x, ROW_ARGS);)
+    LEVEL_ROWS("omp simd", L, x, f0, f1, r[v] = b[v] - (diag_ * x[v] - sum_););
     memset(rc + L->coarse_at[K], 0, (size_t)(L->coarse_at[K + 1] - L->coarse_at[K]) * sizeof *rc);
     /* consecutive cells in x share their coarse cell: summed in a register
      * before it is added, not through memory (a chain of stores and loads) */
@@ -405,7 +475,7 @@ static void host_machine(ohm_mg *m);
 
 static void level_free(mg_level *L)
 {
-    if (L->owns_st) ohm_stencil_free(&L->st);
+    ohm_mg_sparse_free(&L->sp);
     free(L->invd);
     free(L->agg);
     free(L->fine_at);
@@ -434,71 +504,27 @@ static void *array(ohm_mg *m, int64_t n, size_t size)
     return malloc((size_t)(n ? n : 1) * size);
 }
 
-/* Level l's cells aggregated into level l + 1's (mg.h): its cells (the
- * members of cells, in a grid of dims) in cell order; the coarse cells into
- * ccells, their grid's dims into cdims.  Slab by slab: a coarse slab's fine
- * cells are consecutive, and its cells are numbered in its (J, I) order,
- * which is the coarse grid's cell order. */
-static int aggregate(ohm_mg *m, int l, const ohm_cell_index *cells, const int64_t dims[3], ohm_cell_index *ccells,
-                     int64_t cdims[3], ohm_error *err)
-{
-    mg_level *L = &m->lev[l];
-    for (int a = 0; a < 3; ++a) cdims[a] = (dims[a] + 1) / 2;
-    int64_t n = L->n, plane = dims[0] * dims[1], cplane = cdims[0] * cdims[1];
-    L->nslabs = cdims[2];
-    L->agg = malloc((size_t)(n ? n : 1) * sizeof *L->agg);
-    L->fine_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->fine_at);
-    L->coarse_at = malloc((size_t)(cdims[2] + 1) * sizeof *L->coarse_at);
-    int64_t *mark = malloc((size_t)cplane * sizeof *mark);
-    size_t cbox = (size_t)(cplane * cdims[2]);
-    int ccells_failed = ohm_cell_index_alloc(ccells, cbox);
-    m->bytes += (double)n * sizeof *L->agg;
-    if (!L->agg || !L->fine_at || !L->coarse_at || !mark || ccells_failed) {
-        free(mark);
-        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
-    }
-    for (int64_t q = 0; q < cplane; ++q) mark[q] = -1;
-    ohm_cell_cursor next = ohm_cell_index_cursor(cells, 0);
-    int64_t v = 0, nc = 0, c = n ? ohm_cell_cursor_next(&next) : 0; /* c: v's cell */
-    for (int64_t K = 0; K < cdims[2]; ++K) {
-        L->fine_at[K] = v;
-        L->coarse_at[K] = nc;
-        int64_t v0 = v;
-        for (; v < n && c / plane / 2 == K; ++v) { /* the slab's cells: their places in the coarse plane */
-            int64_t i = c % dims[0], j = c / dims[0] % dims[1], q = i / 2 + cdims[0] * (j / 2);
-            mark[q] = 0;
-            L->agg[v] = (int32_t)q; /* < cplane, inside a grid below 2^31 cells */
-            if (v + 1 < n) c = ohm_cell_cursor_next(&next);
-        }
-        for (int64_t q = 0; q < cplane; ++q) /* the slab's coarse cells, numbered in order */
-            if (mark[q] == 0) {
-                ohm_cell_index_add(ccells, (size_t)(q + cplane * K));
-                mark[q] = nc++;
-            }
-        for (int64_t u = v0; u < v; ++u) L->agg[u] = (int32_t)mark[L->agg[u]];
-        for (int64_t q = 0; q < cplane; ++q) mark[q] = -1;
-    }
-    L->fine_at[cdims[2]] = v;
-    L->coarse_at[cdims[2]] = nc;
-    free(mark);
-    ohm_cell_index_finish(ccells, cbox);
-    if (nc > INT32_MAX) return ohm_fail(err, OHM_ERR_USAGE, "mg: %lld coarse cells are more than 2^31", (long long)nc);
-    m->lev[l + 1].n = nc;
-    return OHM_OK;
-}
-
+/* Row v's diagonal in double: sink + links (+ links beyond the grid) */
 static void inverse_diagonal_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     (void)chunk;
     const mg_level *L = k->L;
+    if (L->sparse) {
+        const ohm_mg_sparse *sp = &L->sp;
+        for (int64_t v = lo; v < hi; ++v) {
+            double d = sp->sink[v];
+            for (int64_t j = sp->rp[v]; j < sp->rp[v + 1]; ++j) d += sp->g[j];
+            L->invd[v] = d > 0 ? (float)(1.0 / d) : 0.0f;
+        }
+        return;
+    }
     FOR_ROWS(&L->st, lo, hi, {
-        double d = row_diag(&L->st, ROW_ARGS);
+        double d = row_diag(&L->st, ROW_ARGS) + extra_diag(&L->st, v);
         L->invd[v] = d > 0 ? (float)(1.0 / d) : 0.0f;
     })
 }
 
-/* The smoother's inverse diagonal of level l's stencil, once its links are
- * summed. */
+/* The smoother's inverse diagonal of level l's operator. */
 static int inverse_diagonal(ohm_mg *m, int l, ohm_error *err)
 {
     mg_level *L = &m->lev[l];
@@ -509,63 +535,56 @@ static int inverse_diagonal(ohm_mg *m, int l, ohm_error *err)
     return OHM_OK;
 }
 
-/* Level 0's operator: the network's stencil itself, and its inverse
- * diagonal. */
-static int fine_stencil(ohm_mg *m, ohm_error *err)
+/* Level l + 1 from level l (mg_coarsen.h), whose unknowns sit at places:
+ * level l's map and slabs, level l + 1's rows and inverse diagonal; the
+ * coarse cells into *cells (the caller's, for the next step). */
+static int coarsen(ohm_mg *m, int l, const ohm_mg_places *places, int64_t **cells, int64_t cdims[3], ohm_error *err)
 {
-    m->lev[0].st = *m->fine;
-    return inverse_diagonal(m, 0, err);
+    mg_level *L = &m->lev[l], *C = &m->lev[l + 1];
+    ohm_mg_operator op = {.st = L->sparse ? NULL : &L->st, .sp = L->sparse ? &L->sp : NULL};
+    ohm_mg_coarse c;
+    int rc = ohm_mg_coarsen(&op, L->n, places, OHM_MG_THETA, &c, err);
+    if (rc) return rc;
+    L->agg = c.agg, L->fine_at = c.fine_at, L->coarse_at = c.coarse_at, L->nslabs = c.nslabs;
+    *cells = c.cell;
+    memcpy(cdims, c.cdims, sizeof c.cdims);
+    C->n = c.nc;
+    C->sp = c.sp;
+    C->sparse = 1;
+    int64_t nnz = c.sp.rp[c.nc];
+    m->bytes += (double)L->n * sizeof *L->agg + (double)(c.nslabs + 1) * 16 +
+                (double)(c.nc + 1) * 8 + (double)c.nc * 8 + (double)nnz * (4 + 4);
+    m->nlevels++;
+    return inverse_diagonal(m, l + 1, err);
 }
 
-/* Level l + 1's stencil, the Galerkin product P^T A P of level l's with
- * piecewise-constant P: exactly sums of conductances (mg.h).  Its offsets
- * are found cell by cell, then kept as runs (network.h). */
-static int galerkin(ohm_mg *m, int l, ohm_error *err)
+/* The coarsest level's dense matrix, row-major (its rows are sparse). */
+static void dense_matrix(const mg_level *L, double *A)
 {
-    const mg_level *L = &m->lev[l];
-    mg_level *C = &m->lev[l + 1];
-    int64_t nc = C->n;
-    size_t mc = (size_t)(nc ? nc : 1);
-    ohm_stencil *cs = &C->st;
-    cs->n = nc;
-    C->owns_st = 1;
-    cs->gx = calloc(mc, sizeof *cs->gx);
-    cs->gy = calloc(mc, sizeof *cs->gy);
-    cs->gz = calloc(mc, sizeof *cs->gz);
-    cs->sink = calloc(mc, sizeof *cs->sink);
-    int32_t(*off)[4] = calloc(mc, sizeof *off);
-    if (!cs->gx || !cs->gy || !cs->gz || !cs->sink || !off) {
-        free(off);
-        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level of %lld cells", (long long)nc);
+    int64_t n = L->n;
+    if (L->sparse) {
+        const ohm_mg_sparse *sp = &L->sp;
+        for (int64_t v = 0; v < n; ++v) {
+            double d = sp->sink[v];
+            for (int64_t j = sp->rp[v]; j < sp->rp[v + 1]; ++j) {
+                d += sp->g[j];
+                A[v * n + sp->col[j]] -= sp->g[j];
+            }
+            A[v * n + v] += d;
+        }
+        return;
     }
     const ohm_stencil *st = &L->st;
-    const float *g[3] = {st->gx, st->gy, st->gz};
-    float *cg[3] = {cs->gx, cs->gy, cs->gz};
-    int overflow = 0;
-    FOR_ROWS(st, 0, L->n, {
-        int64_t I = L->agg[v];
-        cs->sink[I] += st->sink[v];
-        int64_t up[3] = {g[0][v] > 0 ? v + 1 : -1, yp ? v + yp : -1, zp ? v + zp : -1};
-        for (int a = 0; a < 3; ++a) {
-            if (up[a] < 0) continue;
-            int64_t J = L->agg[up[a]];
-            if (J == I) continue; /* inside the block: neither a link nor a sink */
-            /* the blocks are neighbours across their +a face: J is I's +a
-             * neighbour (I + 1 for +x, coarse cells being in cell order too) */
-            cg[a][I] += g[a][v];
-            if (a == 0) continue;
-            int64_t delta = J - I;
-            if (delta > INT32_MAX) overflow = 1;
-            off[I][2 * a - 1] = (int32_t)delta;
-            off[J][2 * a - 2] = (int32_t)-delta;
-        }
+    FOR_ROWS(st, 0, n, {
+        A[v * n + v] = row_diag(st, ROW_ARGS) + extra_diag(st, v);
+        int64_t up[3] = {st->gx[v] > 0 ? v + 1 : -1, yp ? v + yp : -1, zp ? v + zp : -1};
+        const float g[3] = {st->gx[v], st->gy[v], st->gz[v]};
+        for (int a = 0; a < 3; ++a)
+            if (up[a] >= 0) A[v * n + up[a]] = A[up[a] * n + v] = -(double)g[a];
     })
-    int rc = overflow ? ohm_fail(err, OHM_ERR_INTERNAL, "mg: a coarse offset overflows")
-                      : ohm_stencil_set_runs(cs, (const int32_t(*)[4])off, err);
-    free(off);
-    m->bytes += (double)nc * (3 * sizeof(float) + sizeof(double)) +
-                (double)cs->nruns * (sizeof *cs->run_start + sizeof *cs->run_off);
-    return rc ? rc : inverse_diagonal(m, l + 1, err);
+    if (st->xstart)
+        for (int64_t v = 0; v < n; ++v)
+            for (int64_t k = st->xstart[v]; k < st->xstart[v + 1]; ++k) A[v * n + st->xcol[k]] -= st->xg[k];
 }
 
 /* The coarsest level's dense Cholesky factor. */
@@ -579,14 +598,7 @@ static int dense_factor(ohm_mg *m, ohm_error *err)
     if (!m->dense || !(m->dense_x = array(m, n, sizeof(double))))
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the coarsest level");
     double *A = m->dense;
-    const ohm_stencil *st = &L->st;
-    FOR_ROWS(st, 0, n, {
-        A[v * n + v] = row_diag(st, ROW_ARGS);
-        int64_t up[3] = {st->gx[v] > 0 ? v + 1 : -1, yp ? v + yp : -1, zp ? v + zp : -1};
-        const float g[3] = {st->gx[v], st->gy[v], st->gz[v]};
-        for (int a = 0; a < 3; ++a)
-            if (up[a] >= 0) A[v * n + up[a]] = A[up[a] * n + v] = -(double)g[a];
-    })
+    dense_matrix(L, A);
     for (int64_t j = 0; j < n; ++j) { /* lower factor in place, row-major */
         double s = A[j * n + j];
         for (int64_t k = 0; k < j; ++k) s -= A[j * n + k] * A[j * n + k];
@@ -623,6 +635,28 @@ nomem:
     return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's vectors (%lld cells)", l, (long long)n);
 }
 
+/* The levels below the finest, until one is small enough to factor. */
+static int coarse_levels(ohm_mg *m, const ohm_grid_layout *layout, ohm_error *err)
+{
+    ohm_mg_places places = {.cells = layout->cells};
+    memcpy(places.dims, layout->dims, sizeof places.dims);
+    int64_t *cells = NULL; /* the last coarse level's */
+    int rc = OHM_OK;
+    while (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX && m->nlevels < LEVELS_MAX) {
+        int64_t *ccells = NULL, cdims[3];
+        rc = coarsen(m, m->nlevels - 1, &places, &ccells, cdims, err);
+        free(cells);
+        cells = ccells;
+        places = (ohm_mg_places){.cell = cells};
+        memcpy(places.dims, cdims, sizeof places.dims);
+    }
+    free(cells);
+    if (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX)
+        rc = ohm_fail(err, OHM_ERR_INTERNAL, "mg: %d levels leave %lld cells", m->nlevels,
+                      (long long)m->lev[m->nlevels - 1].n);
+    return rc;
+}
+
 int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *layout, int threads, ohm_error *err)
 {
     *out = NULL;
@@ -632,29 +666,10 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
     m->fine = st;
     m->norm_A = ohm_stencil_norm_inf(st);
     m->lev[0].n = st->n;
+    m->lev[0].st = *st; /* level 0's operator: the network's stencil itself */
     m->nlevels = 1;
-    int rc = fine_stencil(m, err);
-    const ohm_cell_index *cells = layout->cells;
-    int64_t dims[3] = {layout->dims[0], layout->dims[1], layout->dims[2]};
-    ohm_cell_index owned[2] = {{0}}; /* two coarse levels' cells: the last, and the next being made */
-    while (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX && m->nlevels < LEVELS_MAX) {
-        int l = m->nlevels - 1;
-        int64_t cdims[3];
-        ohm_cell_index *ccells = &owned[l % 2];
-        ohm_cell_index_free(ccells);
-        rc = aggregate(m, l, cells, dims, ccells, cdims, err);
-        if (!rc) {
-            m->nlevels++;
-            rc = galerkin(m, l, err);
-        }
-        cells = ccells;
-        memcpy(dims, cdims, sizeof dims);
-    }
-    ohm_cell_index_free(&owned[0]);
-    ohm_cell_index_free(&owned[1]);
-    if (!rc && m->lev[m->nlevels - 1].n > COARSEST_MAX)
-        rc = ohm_fail(err, OHM_ERR_INTERNAL, "mg: %d levels leave %lld cells", m->nlevels,
-                      (long long)m->lev[m->nlevels - 1].n);
+    int rc = inverse_diagonal(m, 0, err);
+    if (!rc) rc = coarse_levels(m, layout, err);
     if (!rc) rc = dense_factor(m, err);
     for (int l = 0; l < m->nlevels && !rc; ++l) rc = level_vectors(m, l, err);
     int64_t n = st->n;
@@ -689,7 +704,8 @@ void ohm_mg_view_of(const ohm_mg *mg, ohm_mg_view *view)
     for (int l = 0; l < mg->nlevels; ++l) {
         const mg_level *L = &mg->lev[l];
         view->lev[l] = (ohm_mg_level_view){.n = L->n,
-                                           .st = &L->st,
+                                           .st = L->sparse ? NULL : &L->st,
+                                           .sp = L->sparse ? &L->sp : NULL,
                                            .invd = L->invd,
                                            .agg = L->agg,
                                            .kcycle = L->kcycle};
@@ -704,9 +720,12 @@ double ohm_mg_bytes_estimate(int64_t n)
      * per cell: runs of 6 cells on average, where a solid's rows are one
      * run each and a voxelized surface's a few), the inverse diagonal 4,
      * the aggregate map 4, the outer r and q in double and p in float 20,
-     * the cycle's b x t 12; the coarse levels together about n/7 cells of
-     * stencil 24 and inverse diagonal 4, map 4 and up to seven vectors of 4 */
-    double fine = 20 + 4 + 4 + 4 + 20 + 12, coarse = (28 + 4 + 28) / 7.0;
+     * the cycle's b x t 12; the coarse levels together about n/4 unknowns
+     * (where the medium's jumps cut blocks into parts: mg_coarsen.h) of
+     * rows of about eight links (8 B each: column and conductance), a row
+     * start and sink 16, inverse diagonal 4, map 4 and up to seven vectors
+     * of 4 */
+    double fine = 20 + 4 + 4 + 4 + 20 + 12, coarse = (64 + 16 + 4 + 4 + 28) / 4.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
@@ -931,11 +950,11 @@ void ohm_mg_precondition(ohm_mg *m, const double *r, double *z)
 
 /* Bytes one cycle at level l streams, each array counted once per pass as
  * STREAM counts them (gathered neighbours hit the cache; a write's
- * allocating read is not counted), per level visit: the stencil's links
- * 12 and sinks 8 (read only where the diagonal is: residuals and
- * products; its runs are a few bytes per row of cells), the inverse
- * diagonal 4, the aggregate map 4, a vector 4 per cell. */
+ * allocating read is not counted), per level visit: a row's operator
+ * (level_op_bytes), the inverse diagonal 4, the aggregate map 4, a vector
+ * 4 per cell. */
 static double cycle_bytes(const ohm_mg *m, int l);
+static double level_op_bytes(const ohm_mg *m, int l);
 
 static double coarse_solve_bytes(const ohm_mg *m, int l)
 {
@@ -943,20 +962,31 @@ static double coarse_solve_bytes(const ohm_mg *m, int l)
     double n = (double)L->n;
     if (l == m->nlevels - 1) return 8.0 * n * n + 8.0 * n; /* the dense factor's two sweeps */
     if (!L->kcycle) return cycle_bytes(m, l);
-    /* two cycles, two applications with a dot (g, sink, x, out: 28),
-     * three dots (8) and two combinations (12) */
-    return 2.0 * cycle_bytes(m, l) + (2.0 * 28 + 3.0 * 8 + 2.0 * 12) * n;
+    /* two cycles, two applications with a dot (the operator, x, out: op +
+     * 8), three dots (8) and two combinations (12) */
+    return 2.0 * cycle_bytes(m, l) + (2.0 * (level_op_bytes(m, l) + 8) + 3.0 * 8 + 2.0 * 12) * n;
+}
+
+/* A pass over level l's operator, per row: the stencil's links 12 and
+ * sink 8 (its runs are a few bytes per row of cells), or a coarse level's
+ * row start 8, sink 8 and links 8 each (column and conductance). */
+static double level_op_bytes(const ohm_mg *m, int l)
+{
+    const mg_level *L = &m->lev[l];
+    if (!L->sparse) return 20.0;
+    return 16.0 + 8.0 * (double)L->sp.rp[L->n] / (double)(L->n ? L->n : 1);
 }
 
 static double cycle_bytes(const ohm_mg *m, int l)
 {
-    double n = (double)m->lev[l].n, nc = (double)m->lev[l + 1].n;
-    /* pre-smoothing: from zero (b, invd, out: 12), a Chebyshev step (g, x,
-     * b, invd, out: 28); the residual restricted (g, sink, x, b, agg, and the
-     * slab's residuals written: 36, the coarse sums 4 nc); the correction
+    double n = (double)m->lev[l].n, nc = (double)m->lev[l + 1].n, op = level_op_bytes(m, l);
+    /* pre-smoothing: from zero (b, invd, out: 12), a Chebyshev step (the
+     * operator without the sink, x, b, invd, out: op - 8 + 16); the
+     * residual restricted (the operator, x, b, agg, and the slab's
+     * residuals written: op + 16, the coarse sums 4 nc); the correction
      * prolonged (x, agg, out: 12, the coarse values 4 nc); post-smoothing:
-     * two steps (28, and 32 with the previous iterate) */
-    return (12 + 28 + 36 + 12 + 28 + 32) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
+     * two steps (op + 8, and op + 12 with the previous iterate) */
+    return (12 + (op + 8) + (op + 16) + 12 + (op + 8) + (op + 12)) * n + 8.0 * nc + coarse_solve_bytes(m, l + 1);
 }
 
 double ohm_mg_cycle_bytes(const ohm_mg *m)

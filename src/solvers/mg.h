@@ -3,16 +3,18 @@
  * and the outer iteration are mg_cycle.c's, over the host's operations
  * (mg.c) or an OpenCL device's (mg_device.h).
  *
- * The unknowns are cells of a regular grid, so the grid is the hierarchy:
- * a coarse cell is a 2x2x2 block of the finer grid's cells (those of the
- * block that are unknowns: an object's irregular edge, its holes, thin
- * parts and separate pieces need nothing special), numbered, like the
- * fine ones, in the coarse grid's cell order.  Interpolation is piecewise
- * constant, so the Galerkin product P^T A P is exactly a sum of
- * conductances: a coarse link's is the sum of the fine links that cross
- * the blocks' shared face, a coarse cell's sink the sum of its cells'
- * sinks; each coarse level is again a 7-point stencil (ohm_stencil) and
- * conserves power as the fine one does.  Piecewise-constant (unsmoothed)
+ * The unknowns are cells of a regular grid, so the grid shapes the
+ * hierarchy: a coarse unknown is a part of a 2x2x2 block of the finer
+ * level's grid (those of the block's unknowns that strong links join:
+ * mg_coarsen.h, so that no coarse unknown straddles a jump in the medium;
+ * an object's irregular edge, its holes, thin parts and separate pieces
+ * need nothing special), numbered by the coarse grid's cell order.
+ * Interpolation is piecewise constant, so the Galerkin product P^T A P is
+ * exactly a sum of conductances: a coarse link's is the sum of the fine
+ * links between the two groups, a coarse unknown's sink the sum of its
+ * cells' sinks; each coarse level is a sparse matrix by rows (parts of one
+ * block and of the blocks beside it are its neighbours) and conserves
+ * power as the fine one does.  Piecewise-constant (unsmoothed)
  * aggregation alone loses its grip as grids grow (17 iterations at 8.8e5
  * cells, 79 at 1e8 in a prototype: docs/multigrid.md); the K-cycle of Notay and
  * Vassilevski ("Recursive Krylov-based multigrid cycles", Numer. Linear
@@ -37,8 +39,9 @@
  * residual and A p in double and its direction in single (20 B), three of
  * the cycle's vectors in single (12 B: its right-hand side, its result, and
  * one temporary, the post-smoothing done in place), and the coarse levels
- * (an eighth as many cells each, with their stencil, map and up to seven
- * vectors): about 69 B per unknown in all at 1e7 cells (docs/multigrid.md). */
+ * (a fifth to an eighth as many unknowns each, with their rows of about
+ * eight links, 8 B each, their map and up to seven vectors): about 78 B per
+ * unknown in all at 1e7 cells (docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
@@ -48,6 +51,7 @@
 #include "base/ohm_error.h"
 #include "physics/network.h"
 #include "solvers/grid_order.h"
+#include "solvers/mg_coarsen.h"
 #include "solvers/mg_ops.h"
 
 typedef struct ohm_mg ohm_mg;
@@ -101,7 +105,8 @@ void ohm_mg_free(ohm_mg *mg); /* NULL is fine */
  * level's dense lower Cholesky factor (ndense x ndense, row-major). */
 typedef struct ohm_mg_level_view {
     int64_t n;
-    const ohm_stencil *st;
+    const ohm_stencil *st;   /* level 0's, or NULL */
+    const ohm_mg_sparse *sp; /* a coarse level's rows (mg_coarsen.h), or NULL */
     const float *invd;
     const int32_t *agg;
     int kcycle;

@@ -45,16 +45,22 @@ enum kernel_id {
     K_COMBINE,
     K_FILL_ZERO,
     K_DENSE_SOLVE,
+    K_JACOBI_SP, /* a coarse level's (sparse rows) */
+    K_CHEB_SP,
+    K_CYC_RESIDUAL_SP,
+    K_CYC_APPLY_DOT_SP,
     K_COUNT
 };
 static const char *const kernel_names[K_COUNT] = {
     "net_residual", "net_apply_dots", "outer_step", "to_single", "mixed_dot",    "direction", "clamp_negative",
     "jacobi0",      "jacobi",         "cheb", "cyc_residual", "gather",   "prolong",   "cyc_apply_dot",
-    "cycle_dot",    "combine",        "fill_zero",   "dense_solve"};
+    "cycle_dot",    "combine",        "fill_zero",   "dense_solve", "jacobi_sp", "cheb_sp", "cyc_residual_sp",
+    "cyc_apply_dot_sp"};
 
 typedef struct dev_level {
     int64_t n, nc; /* its cells, the next level's (0 at the coarsest) */
     int kcycle;
+    int sparse;                          /* a coarse level's rows: off holds rp, c (column, g) */
     cl_mem off, c, invd;                 /* the stencil                          */
     cl_mem agg, start, children;         /* into the next level, and back        */
     cl_mem b, x, t;                      /* right-hand side, correction, temporary */
@@ -142,10 +148,16 @@ static void reduce(ohm_mg_device *d, enum kernel_id k, int64_t n, cl_uint partia
 
 /* ---- a level's operations (mg_ops.h) ------------------------------------------------------ */
 
-static void set_stencil(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
+/* kernel k of level L's form (a coarse level's sparse rows have their
+ * own), its operator set as its first two arguments */
+static enum kernel_id set_stencil(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
 {
+    if (L->sparse)
+        k = k == K_JACOBI ? K_JACOBI_SP : k == K_CHEB ? K_CHEB_SP : k == K_CYC_RESIDUAL ? K_CYC_RESIDUAL_SP
+                                                                                         : K_CYC_APPLY_DOT_SP;
     ARG_MEM(k, 0, L->off);
     ARG_MEM(k, 1, L->c);
+    return k;
 }
 
 /* two Chebyshev steps for A out = b from y (NULL: zero), the first into tmp */
@@ -161,40 +173,40 @@ static void smooth(ohm_mg_device *d, const dev_level *L, const cl_mem *y, cl_mem
         ARG_VAL(K_JACOBI0, 4, cl_long, L->n);
         launch(d, K_JACOBI0, L->n, 0);
     } else {
-        set_stencil(d, K_JACOBI, L);
-        ARG_MEM(K_JACOBI, 2, L->invd);
-        ARG_MEM(K_JACOBI, 3, *y);
-        ARG_MEM(K_JACOBI, 4, b);
-        ARG_MEM(K_JACOBI, 5, tmp);
-        ARG_VAL(K_JACOBI, 6, float, (float)w0);
-        ARG_VAL(K_JACOBI, 7, cl_long, L->n);
-        launch(d, K_JACOBI, L->n, 0);
+        enum kernel_id kj = set_stencil(d, K_JACOBI, L);
+        ARG_MEM(kj, 2, L->invd);
+        ARG_MEM(kj, 3, *y);
+        ARG_MEM(kj, 4, b);
+        ARG_MEM(kj, 5, tmp);
+        ARG_VAL(kj, 6, float, (float)w0);
+        ARG_VAL(kj, 7, cl_long, L->n);
+        launch(d, kj, L->n, 0);
     }
-    set_stencil(d, K_CHEB, L);
-    ARG_MEM(K_CHEB, 2, L->invd);
-    ARG_MEM(K_CHEB, 3, tmp);
+    enum kernel_id kc = set_stencil(d, K_CHEB, L);
+    ARG_MEM(kc, 2, L->invd);
+    ARG_MEM(kc, 3, tmp);
     cl_mem prev = y ? *y : tmp; /* unread without has_y */
-    ARG_MEM(K_CHEB, 4, prev);
-    ARG_VAL(K_CHEB, 5, cl_int, y != NULL);
-    ARG_MEM(K_CHEB, 6, b);
-    ARG_MEM(K_CHEB, 7, out);
-    ARG_VAL(K_CHEB, 8, float, (float)a);
-    ARG_VAL(K_CHEB, 9, float, (float)a2);
-    ARG_VAL(K_CHEB, 10, cl_long, L->n);
-    launch(d, K_CHEB, L->n, 0);
+    ARG_MEM(kc, 4, prev);
+    ARG_VAL(kc, 5, cl_int, y != NULL);
+    ARG_MEM(kc, 6, b);
+    ARG_MEM(kc, 7, out);
+    ARG_VAL(kc, 8, float, (float)a);
+    ARG_VAL(kc, 9, float, (float)a2);
+    ARG_VAL(kc, 10, cl_long, L->n);
+    launch(d, kc, L->n, 0);
 }
 
 static double level_apply_dot(ohm_mg_device *d, const dev_level *L, cl_mem x, cl_mem y, const cl_mem *q)
 {
-    set_stencil(d, K_CYC_APPLY_DOT, L);
-    ARG_MEM(K_CYC_APPLY_DOT, 2, x);
-    ARG_MEM(K_CYC_APPLY_DOT, 3, y);
+    enum kernel_id k = set_stencil(d, K_CYC_APPLY_DOT, L);
+    ARG_MEM(k, 2, x);
+    ARG_MEM(k, 3, y);
     cl_mem other = q ? *q : x; /* unread without has_q */
-    ARG_MEM(K_CYC_APPLY_DOT, 4, other);
-    ARG_VAL(K_CYC_APPLY_DOT, 5, cl_int, q != NULL);
-    ARG_VAL(K_CYC_APPLY_DOT, 6, cl_long, L->n);
+    ARG_MEM(k, 4, other);
+    ARG_VAL(k, 5, cl_int, q != NULL);
+    ARG_VAL(k, 6, cl_long, L->n);
     double s[2];
-    reduce(d, K_CYC_APPLY_DOT, L->n, 7, s);
+    reduce(d, k, L->n, 7, s);
     return s[0];
 }
 
@@ -245,9 +257,10 @@ static void dev_restrict(void *self, int l, ohm_mg_vec x, ohm_mg_vec b, ohm_mg_v
 {
     ohm_mg_device *d = self;
     const dev_level *L = &d->lev[l];
-    mem_args(d, K_CYC_RESIDUAL, 0, 5, (cl_mem[]){L->off, L->c, x, b, scratch});
-    ARG_VAL(K_CYC_RESIDUAL, 5, cl_long, L->n);
-    launch(d, K_CYC_RESIDUAL, L->n, 0);
+    enum kernel_id k = set_stencil(d, K_CYC_RESIDUAL, L);
+    mem_args(d, k, 2, 3, (cl_mem[]){x, b, scratch});
+    ARG_VAL(k, 5, cl_long, L->n);
+    launch(d, k, L->n, 0);
     mem_args(d, K_GATHER, 0, 4, (cl_mem[]){scratch, L->start, L->children, rc});
     ARG_VAL(K_GATHER, 4, cl_long, L->nc);
     launch(d, K_GATHER, L->nc, 0);
@@ -317,7 +330,9 @@ static double device_bytes(const ohm_mg_view *v)
     double bytes = (double)v->fine->n * (3 * 4 + 8 + 5 * 8); /* g, sink; x b r p q */
     for (int l = 0; l < v->nlevels; ++l) {
         double n = (double)v->lev[l].n;
-        bytes += n * (16 + 16 + 4); /* off, c, invd */
+        const ohm_mg_sparse *sp = v->lev[l].sp;
+        bytes += sp ? 8 * (n + 1) + 8 * ((double)sp->rp[sp->n] + n) + 4 * n /* rp, (column, g), invd */
+                    : n * (16 + 16 + 4);                                     /* off, c, invd */
         if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 3 * 4; /* agg, children, start; b x t */
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
     }
@@ -353,6 +368,49 @@ static float *cell_links(const ohm_stencil *st, int with_sink)
     return c;
 }
 
+/* A coarse level's rows as mg_device.cl's sp_row reads them: each row's
+ * sink first (column -1), then its links; into L's off (rp) and c. */
+static int upload_rows(ohm_mg_device *d, dev_level *L, const ohm_mg_sparse *sp, ohm_error *err)
+{
+    int64_t n = sp->n, entries = sp->rp[n] + n;
+    int64_t *rp = malloc((size_t)(n + 1) * sizeof *rp);
+    cl_float2 *cv = malloc((size_t)(entries ? entries : 1) * sizeof *cv);
+    int rc = !rp || !cv ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level's copy") : OHM_OK;
+    for (int64_t v = 0; !rc && v < n; ++v) {
+        int64_t e = rp[v] = sp->rp[v] + v;
+        int32_t none = -1;
+        memcpy(&cv[e].s[0], &none, sizeof none);
+        cv[e].s[1] = (float)sp->sink[v];
+        for (int64_t k = sp->rp[v]; k < sp->rp[v + 1]; ++k) {
+            ++e;
+            memcpy(&cv[e].s[0], &sp->col[k], sizeof sp->col[k]);
+            cv[e].s[1] = sp->g[k];
+        }
+    }
+    if (!rc) {
+        rp[n] = entries;
+        L->sparse = 1;
+        rc = buffer(d, &L->off, (size_t)(n + 1) * sizeof *rp, rp, err);
+    }
+    if (!rc) rc = buffer(d, &L->c, (size_t)(entries ? entries : 1) * sizeof *cv, cv, err);
+    free(rp);
+    free(cv);
+    return rc;
+}
+
+/* Level 0's stencil, as the kernels read it cell by cell, into L's off and c. */
+static int upload_stencil(ohm_mg_device *d, dev_level *L, const ohm_stencil *st, int l, ohm_error *err)
+{
+    float *c = cell_links(st, 1);
+    int32_t(*off)[4] = cell_offsets(st);
+    int rc = !c || !off ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's copy", l)
+                        : buffer(d, &L->off, (size_t)st->n * sizeof *off, off, err);
+    if (!rc) rc = buffer(d, &L->c, (size_t)st->n * 4 * sizeof(float), c, err);
+    free(c);
+    free(off);
+    return rc;
+}
+
 static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error *err)
 {
     const ohm_mg_level_view *lv = &v->lev[l];
@@ -362,14 +420,8 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
     L->n = n;
     L->kcycle = lv->kcycle;
     L->nc = l < v->nlevels - 1 ? v->lev[l + 1].n : 0;
-    float *c = cell_links(lv->st, 1);
-    int32_t(*off)[4] = cell_offsets(lv->st);
-    int rc = !c || !off ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for level %d's copy", l)
-                        : buffer(d, &L->off, (size_t)n * sizeof *off, off, err);
-    if (!rc) rc = buffer(d, &L->c, (size_t)n * 4 * f, c, err);
+    int rc = lv->sp ? upload_rows(d, L, lv->sp, err) : upload_stencil(d, L, lv->st, l, err);
     if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);
-    free(c);
-    free(off);
     if (!rc) rc = buffer(d, &L->b, (size_t)n * f, NULL, err);
     if (!rc) rc = buffer(d, &L->x, (size_t)n * f, NULL, err);
     if (!rc && L->nc) {
@@ -435,6 +487,14 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const ohm_device_r
     if (!req || req->kind == OHM_DEVICE_HOST) return OHM_OK;
     ohm_mg_view view;
     ohm_mg_view_of(mg, &view);
+    if (view.fine->xstart && req->kind == OHM_DEVICE_AUTO) {
+        ohm_log_info(log, "solve: device=auto: the clear regions' coupling runs on the host");
+        return OHM_OK;
+    }
+    if (view.fine->xstart)
+        return ohm_fail(err, OHM_ERR_USAGE,
+                        "mg: the clear regions' coupling (clear=radiosity) has links beyond the grid, which the "
+                        "device's kernels do not read yet: use device=host, or clear=effective");
     if (req->kind == OHM_DEVICE_AUTO && view.fine->n < AUTO_MIN_CELLS) {
         ohm_log_info(log, "solve: device=auto: %lld cells, fewer than %d: the cycle runs on the host",
                      (long long)view.fine->n, AUTO_MIN_CELLS);

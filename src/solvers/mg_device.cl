@@ -55,6 +55,24 @@ inline float cyc_diag(__global const int4 *off, __global const float4 *c, long v
     return d;
 }
 
+/* a coarse level's row (sparse: solvers/mg_coarsen.h): entries rp[v] ..
+ * rp[v + 1] - 1 of cv, (column, g) pairs with the column's bits in a
+ * float's, the first the row's sink (column -1).  Its links' sum g x_w,
+ * its diagonal into *diag, summed in the host's order (solvers/mg.c's
+ * LEVEL_ROWS). */
+inline float sp_row(__global const long *rp, __global const float2 *cv, __global const float *x, long v, float *diag)
+{
+    float s = 0, d = 0;
+    for (long k = rp[v]; k < rp[v + 1]; ++k) {
+        float2 e = cv[k];
+        int c = as_int(e.x);
+        d += e.y;
+        if (c >= 0) s += e.y * x[c];
+    }
+    *diag = d;
+    return s;
+}
+
 /* ---- reductions: one or two sums per work-group ---- */
 
 inline void group_sum2(double a, double b, __local double *sa, __local double *sb, __global double *partial)
@@ -226,6 +244,55 @@ __kernel void cyc_apply_dot(__global const int4 *off, __global const float4 *c, 
     GRID_LOOP(v, n)
     {
         float yv = cyc_diag(off, c, v, n) * x[v] - cyc_row(off, c, x, v, n);
+        y[v] = yv;
+        s += (double)x[v] * (has_q ? (double)q[v] : (double)yv);
+    }
+    group_sum2(s, 0, sa, sb, partial);
+}
+
+/* The same four on a coarse level's sparse rows (rp, cv: sp_row) */
+__kernel void jacobi_sp(__global const long *rp, __global const float2 *cv, __global const float *invd,
+                        __global const float *x, __global const float *b, __global float *out, float w, long n)
+{
+    GRID_LOOP(v, n)
+    {
+        float d;
+        out[v] = x[v] + w * ((b[v] + sp_row(rp, cv, x, v, &d)) * invd[v] - x[v]);
+    }
+}
+
+__kernel void cheb_sp(__global const long *rp, __global const float2 *cv, __global const float *invd,
+                      __global const float *x, __global const float *y, int has_y, __global const float *b,
+                      __global float *out, float a, float a2, long n)
+{
+    GRID_LOOP(v, n)
+    {
+        float d, xv = x[v], yv = has_y ? y[v] : 0.0f;
+        float jac = (b[v] + sp_row(rp, cv, x, v, &d)) * invd[v] - xv;
+        out[v] = xv + a * (xv - yv) + a2 * jac;
+    }
+}
+
+__kernel void cyc_residual_sp(__global const long *rp, __global const float2 *cv, __global const float *x,
+                              __global const float *b, __global float *t, long n)
+{
+    GRID_LOOP(v, n)
+    {
+        float d, s = sp_row(rp, cv, x, v, &d);
+        t[v] = b[v] - (d * x[v] - s);
+    }
+}
+
+__kernel void cyc_apply_dot_sp(__global const long *rp, __global const float2 *cv, __global const float *x,
+                               __global float *y, __global const float *q, int has_q, long n,
+                               __global double *partial)
+{
+    __local double sa[WG], sb[WG];
+    double s = 0;
+    GRID_LOOP(v, n)
+    {
+        float d, row = sp_row(rp, cv, x, v, &d);
+        float yv = d * x[v] - row;
         y[v] = yv;
         s += (double)x[v] * (has_q ? (double)q[v] : (double)yv);
     }
