@@ -109,10 +109,6 @@ static int apply_effective(ohm_solver *s, ohm_error *err)
 static int apply_radiosity(ohm_solver *s, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
-    if (s->backend && (s->backend->caps & OHM_BACKEND_STENCIL))
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "solve: clear=radiosity couples the clear regions' walls by links the multigrid's stencil does "
-                        "not have: use solver=direct or cg, or clear=effective with mg");
     if (!(s->clear_mask = calloc((size_t)(sol->n ? sol->n : 1), 1)))
         return ohm_fail(err, OHM_ERR_NOMEM, "solve: out of memory for the clear regions' mask");
     double thickest = 0;

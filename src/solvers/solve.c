@@ -131,11 +131,24 @@ int ohm_solver_create(ohm_solver **out, const ohm_voxel_grid *grid, const ohm_ma
     return OHM_OK;
 }
 
+/* The network's stencil for medium med, with the clear regions' coupling
+ * where there is one (its links beyond the grid: clear_exchange.h); ga and
+ * gb as ohm_network_stencil's (ga needed with a coupling). */
+static int coupled_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_network *net,
+                           const ohm_channel_medium *med, ohm_boundary boundary, const ohm_clear_exchange *ce,
+                           ohm_error *err)
+{
+    int rc = ohm_network_stencil(st, ga, gb, net, med, boundary, err);
+    if (!rc && ce && ce->nclear > 0) rc = ohm_clear_exchange_stencil(st, ga, gb, ce, med, boundary, err);
+    return rc;
+}
+
 /* ohm_operator.make_stencil: the slot's stencil, made once. */
 static int slot_make_stencil(void *maker, const ohm_stencil **out, ohm_error *err)
 {
     medium_slot *m = maker;
-    int rc = m->stencil.gx ? OHM_OK : ohm_network_stencil(&m->stencil, NULL, NULL, m->net, &m->med, m->boundary, err);
+    int rc = m->stencil.gx ? OHM_OK
+                           : coupled_stencil(&m->stencil, m->ga, m->gb, m->net, &m->med, m->boundary, m->exchange, err);
     *out = rc ? NULL : &m->stencil;
     return rc;
 }
@@ -170,12 +183,8 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
     double t0 = ohm_now();
     /* the form the backend reads; a refilled A keeps its pattern (the
      * backend's setup sees the new values), a refilled stencil its offsets */
-    if ((s->backend->caps & OHM_BACKEND_STENCIL) && s->exchange.nclear > 0) {
-        rc = ohm_fail(err, OHM_ERR_USAGE, "solve: solver=%s cannot take the clear regions' coupling (its "
-                      "matrix-free stencil has no links beyond the grid's); use solver=direct or cg",
-                      s->backend->name);
-    } else if (s->backend->caps & OHM_BACKEND_STENCIL) {
-        rc = ohm_network_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.op.boundary, err);
+    if (s->backend->caps & OHM_BACKEND_STENCIL) {
+        rc = coupled_stencil(&m->stencil, m->ga, m->gb, net, &med, s->params.op.boundary, &s->exchange, err);
         m->op = (ohm_operator){.n = net->n, .stencil = &m->stencil};
     } else {
         /* the coupled matrix's pattern is not the network's: assembled
@@ -189,9 +198,8 @@ static int slot_acquire(ohm_solver *s, int k, const ohm_backend_config *bcfg, oh
         m->net = net;
         m->med = med;
         m->boundary = s->params.op.boundary;
-        /* (no stencil of the coupled matrix: the network's would be another operator) */
-        m->op = (ohm_operator){.n = net->n, .A = m->A, .make_stencil = s->exchange.nclear > 0 ? NULL : slot_make_stencil,
-                               .maker = m};
+        m->exchange = s->exchange.nclear > 0 ? &s->exchange : NULL; /* the stencil coupled as A is */
+        m->op = (ohm_operator){.n = net->n, .A = m->A, .make_stencil = slot_make_stencil, .maker = m};
     }
     s->sol.t_assemble += ohm_now() - t0;
     if (!rc && ohm_log_cancelled(s->log)) rc = ohm_fail_cancelled(err, "solve");

@@ -73,6 +73,7 @@ typedef struct medium_slot {
     const ohm_network *net;
     ohm_channel_medium med;
     ohm_boundary boundary;
+    const ohm_clear_exchange *exchange; /* the clear regions' coupling, or NULL */
     double *ga, *gb;        /* ground per unknown (NULL: ground_of), boundary per face */
     int ready;              /* A holds this medium's values, set up        */
 } medium_slot;
