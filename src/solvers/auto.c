@@ -86,18 +86,12 @@ static int auto_setup(void *state, const ohm_operator *op, ohm_backend_report *r
 {
     auto_state *s = state;
     if (s->chosen) return s->chosen->setup(s->chosen_state, op, rep, err);
-    /* an operator with no stencil (the clear regions' coupled matrix,
-     * physics/clear_exchange.h): mg cannot run, cg probes */
-    int no_stencil = s->probe_ops == &ohm_backend_mg && !op->stencil && !op->make_stencil;
-    int rc = no_stencil ? OHM_ERR_USAGE : s->probe_ops->setup(s->probe, op, rep, err);
-    if ((rc != OHM_ERR_NOMEM && !no_stencil) || s->probe_ops == &ohm_backend_cg) return rc;
-    if (no_stencil) {
-        snprintf(s->probe_note, sizeof s->probe_note, "mg skipped (the clear regions' coupling); ");
-    } else { /* mg's hierarchy does not fit (it takes about twice cg's memory): cg probes */
-        const char *need = strstr(err->msg, "needs about ");
-        snprintf(s->probe_note, sizeof s->probe_note, "mg skipped (%.*s); ", need ? (int)strcspn(need, ",") : 12,
-                 need ? need : "memory");
-    }
+    int rc = s->probe_ops->setup(s->probe, op, rep, err);
+    if (rc != OHM_ERR_NOMEM || s->probe_ops == &ohm_backend_cg) return rc;
+    /* mg's hierarchy does not fit (it takes about twice cg's memory): cg probes */
+    const char *need = strstr(err->msg, "needs about ");
+    snprintf(s->probe_note, sizeof s->probe_note, "mg skipped (%.*s); ", need ? (int)strcspn(need, ",") : 12,
+             need ? need : "memory");
     ohm_error_clear(err);
     s->probe_ops->destroy(s->probe);
     s->probe = NULL;

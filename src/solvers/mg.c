@@ -48,9 +48,10 @@ static const double KCYCLE_MAX_RATIO = 0.35;
  * residual and steps stay in double (so the solution and the books are as
  * exact as with a double cycle). */
 typedef struct mg_level {
-    ohm_stencil st;   /* level 0's: the network's                      */
-    ohm_mg_sparse sp; /* a coarse level's rows (mg_coarsen.h), owned    */
-    int sparse;       /* this level is sp's                            */
+    ohm_stencil st;   /* level 0's (the network's), or a whole-block level's */
+    int owns_st;      /* a coarse level's stencil: freed with the level      */
+    ohm_mg_sparse sp; /* a coarse level's rows (mg_coarsen.h), owned          */
+    int sparse;       /* this level is sp's                                  */
     float *invd; /* 1 / the diagonal (the smoother's, so that it divides nothing) */
     int64_t n;
     /* n: the next level's cell holding this one; NULL at the coarsest.  32
@@ -475,6 +476,7 @@ static void host_machine(ohm_mg *m);
 
 static void level_free(mg_level *L)
 {
+    if (L->owns_st) ohm_stencil_free(&L->st);
     ohm_mg_sparse_free(&L->sp);
     free(L->invd);
     free(L->agg);
@@ -549,12 +551,24 @@ static int coarsen(ohm_mg *m, int l, const ohm_mg_places *places, int64_t **cell
     *cells = c.cell;
     memcpy(cdims, c.cdims, sizeof c.cdims);
     C->n = c.nc;
-    C->sp = c.sp;
-    C->sparse = 1;
-    int64_t nnz = c.sp.rp[c.nc];
-    m->bytes += (double)L->n * sizeof *L->agg + (double)(c.nslabs + 1) * 16 +
-                (double)(c.nc + 1) * 8 + (double)c.nc * 8 + (double)nnz * (4 + 4);
     m->nlevels++;
+    m->bytes += (double)L->n * sizeof *L->agg + (double)(c.nslabs + 1) * 16;
+    int is_stencil = 0;
+    rc = ohm_mg_sparse_as_stencil(&c.sp, c.cell, c.cdims, &C->st, &is_stencil, err);
+    if (rc) {
+        ohm_mg_sparse_free(&c.sp);
+        return rc;
+    }
+    if (is_stencil) { /* whole blocks: the stencil's loops */
+        C->owns_st = 1;
+        ohm_mg_sparse_free(&c.sp);
+        m->bytes += (double)c.nc * (3 * sizeof(float) + sizeof(double)) +
+                    (double)C->st.nruns * (sizeof *C->st.run_start + sizeof *C->st.run_off);
+    } else {
+        C->sp = c.sp;
+        C->sparse = 1;
+        m->bytes += (double)(c.nc + 1) * 8 + (double)c.nc * 8 + (double)c.sp.rp[c.nc] * (4 + 4);
+    }
     return inverse_diagonal(m, l + 1, err);
 }
 

@@ -7,6 +7,8 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "physics/stencil.h"
+
 void ohm_mg_sparse_free(ohm_mg_sparse *sp)
 {
     free(sp->rp);
@@ -422,4 +424,51 @@ int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *pl
         return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
     }
     return OHM_OK;
+}
+
+/* ---- a whole-block level as a stencil ------------------------------------------------- */
+
+int ohm_mg_sparse_as_stencil(const ohm_mg_sparse *sp, const int64_t *cell, const int64_t cdims[3], ohm_stencil *st,
+                             int *is_stencil, ohm_error *err)
+{
+    memset(st, 0, sizeof *st);
+    *is_stencil = 0;
+    int64_t n = sp->n, row = cdims[0], plane = cdims[0] * cdims[1];
+    for (int64_t v = 1; v < n; ++v)
+        if (cell[v] == cell[v - 1]) return OHM_OK; /* parts share a cell: rows */
+    size_t m = (size_t)(n ? n : 1);
+    st->n = n;
+    st->gx = calloc(m, sizeof *st->gx);
+    st->gy = calloc(m, sizeof *st->gy);
+    st->gz = calloc(m, sizeof *st->gz);
+    st->sink = malloc(m * sizeof *st->sink);
+    int32_t(*off)[4] = calloc(m, sizeof *off);
+    if (!st->gx || !st->gy || !st->gz || !st->sink || !off) {
+        free(off);
+        ohm_stencil_free(st);
+        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level of %lld cells", (long long)n);
+    }
+    memcpy(st->sink, sp->sink, m * sizeof *st->sink);
+    /* each link's conductance by its lower unknown and axis; the y and z
+     * neighbours' offsets (the unknowns are in cell order, so a +x
+     * neighbour is the next unknown) */
+    for (int64_t v = 0; v < n; ++v)
+        for (int64_t k = sp->rp[v]; k < sp->rp[v + 1]; ++k) {
+            int64_t w = sp->col[k], d = cell[w] - cell[v];
+            if (d == 1) st->gx[v] = sp->g[k];
+            else if (d == row) st->gy[v] = sp->g[k], off[v][1] = (int32_t)(w - v);
+            else if (d == -row) off[v][0] = (int32_t)(w - v);
+            else if (d == plane) st->gz[v] = sp->g[k], off[v][3] = (int32_t)(w - v);
+            else if (d == -plane) off[v][2] = (int32_t)(w - v);
+            else if (d != -1) { /* not a face neighbour: no stencil */
+                free(off);
+                ohm_stencil_free(st);
+                return OHM_OK;
+            }
+        }
+    int rc = ohm_stencil_set_runs(st, (const int32_t(*)[4])off, err);
+    free(off);
+    if (rc) ohm_stencil_free(st);
+    else *is_stencil = 1;
+    return rc;
 }

@@ -89,6 +89,14 @@ typedef struct ohm_mg_coarse {
 int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *places, double theta,
                    ohm_mg_coarse *out, ohm_error *err);
 
+/* A coarse level whose blocks all stayed whole (one unknown per coarse
+ * cell) is a 7-point stencil on the coarse grid, whose loops vectorise and
+ * stream 20 B a row against a sparse row's 16 and 8 a link: the same
+ * operator as *st (physics/stencil_form.h, its arrays owned), *is_stencil
+ * 1; else *is_stencil 0 and nothing made. */
+int ohm_mg_sparse_as_stencil(const ohm_mg_sparse *sp, const int64_t *cell, const int64_t cdims[3], ohm_stencil *st,
+                             int *is_stencil, ohm_error *err);
+
 /* Frees what ohm_mg_coarsen allocated and the caller has not taken
  * (pointers the caller set to NULL are skipped). */
 void ohm_mg_coarse_free(ohm_mg_coarse *c);
