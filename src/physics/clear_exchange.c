@@ -336,9 +336,13 @@ static void pair_term(ohm_clear_exchange *ce, const clear_geometry *g, const wal
  * image of q near p is q near the same image of p (reflections are
  * isometries and their own inverses): the buckets are searched around p's
  * images. */
+enum { CANCELLED = -3 }; /* exchange_pairs: the log's cancel flag was set */
+
 static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const wall_face *faces,
-                          const int64_t *first, double max_cells)
+                          const int64_t *first, double max_cells, const ohm_log *log)
 {
+    ohm_progress progress;
+    ohm_progress_begin(&progress, log, "clear regions' coupling");
     int64_t nn = ce->nnodes, cap = 0;
     gather row = {calloc((size_t)(nn ? nn : 1), sizeof(double)), calloc((size_t)(nn ? nn : 1), sizeof(double)),
                   malloc((size_t)(nn ? nn : 1) * sizeof(int64_t)), 0};
@@ -349,6 +353,11 @@ static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const
         buckets_make(&b, faces, first[nn], max_cells))
         goto nomem;
     for (int64_t u = 0; u < nn; ++u) {
+        if (u % 256 == 0 && ohm_progress_update(&progress, (double)u / (double)nn)) {
+            free(row.w), free(row.r), free(row.touched);
+            buckets_free(&b);
+            return CANCELLED;
+        }
         row.ntouched = 0;
         for (int64_t p = first[u]; p < first[u + 1]; ++p) {
             const wall_face *fp = &faces[p];
@@ -400,6 +409,7 @@ static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const
     }
     free(row.w), free(row.r), free(row.touched);
     buckets_free(&b);
+    ohm_progress_end(&progress);
     return 0;
 nomem:
     free(row.w), free(row.r), free(row.touched);
@@ -544,7 +554,7 @@ int ohm_clear_exchange_build(ohm_clear_exchange *ce, const ohm_network *net, con
         rc = find_faces(ce, &g, node_of, &faces, &first);
     }
     double max_cells = params && params->max_distance > 0 ? params->max_distance / grid->h : 0;
-    if (!rc) rc = exchange_pairs(ce, &g, faces, first, max_cells);
+    if (!rc) rc = exchange_pairs(ce, &g, faces, first, max_cells, params ? params->log : NULL);
     if (!rc) rc = renormalise(ce, first);
     if (!rc) rc = nearest_nodes(ce, &g, node_of);
     if (!rc) { /* node numbers to unknowns, the cell areas to mm^2 */
@@ -565,6 +575,10 @@ int ohm_clear_exchange_build(ohm_clear_exchange *ce, const ohm_network *net, con
     free(faces);
     free(first);
     ce->seconds = ohm_now() - t0;
+    if (rc == CANCELLED) {
+        ohm_clear_exchange_free(ce);
+        return ohm_fail_cancelled(err, "clear regions' coupling");
+    }
     if (rc == -2) {
         ohm_clear_exchange_free(ce);
         return ohm_fail(err, OHM_ERR_INTERNAL, "clear regions: a clear cell's outer face is no boundary face");

@@ -33,6 +33,7 @@
 
 #include <cholmod.h>
 
+#include "base/log.h"
 #include "base/ohm_error.h"
 #include "physics/network.h"
 #include "physics/stencil_form.h"
@@ -42,6 +43,9 @@ typedef struct ohm_clear_exchange_params {
      * visible pair.  The renormalisation gives what they would have carried
      * to the pairs kept. */
     double max_distance;
+    /* progress of the pairs' search (its longest step: the pairs grow with
+     * the wall's area within reach) and its cancel flag; NULL: none */
+    const ohm_log *log;
 } ohm_clear_exchange_params;
 
 /* The geometry of the coupling (medium independent): built once per

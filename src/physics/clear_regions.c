@@ -14,7 +14,7 @@ const ohm_clear_mode_info ohm_clear_modes[OHM_CLEAR_MODES] = {
      "an effective sigma_s' in each clear region, 1/L for its mean chord L (Custo et al. 2006)"},
     {OHM_CLEAR_RADIOSITY, "radiosity",
      "transport across each clear region: its walls exchange light by view factors (radiosity-diffusion, Firbank "
-     "et al. 1996); solver=direct or cg"},
+     "et al. 1996); solver=direct, cg or mg"},
 };
 
 const char *ohm_clear_mode_name(ohm_clear_mode m)

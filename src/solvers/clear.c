@@ -118,7 +118,7 @@ static int apply_radiosity(ohm_solver *s, ohm_error *err)
         s->clear_mask[v] = 1;
         thickest = fmax(thickest, sol->clear.region[k].thickness_mm);
     }
-    ohm_clear_exchange_params cp = {.max_distance = ohm_clear_reach(thickest)};
+    ohm_clear_exchange_params cp = {.max_distance = ohm_clear_reach(thickest), .log = s->log};
     int rc = ohm_clear_exchange_build(&s->exchange, &sol->net, s->clear_mask, &cp, err);
     sol->clear_nodes = s->exchange.nnodes;
     sol->clear_pairs = s->exchange.npairs;

@@ -63,7 +63,7 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         rc = ohm_keep_media(sol, &s->params.media, compact, err);
     }
     if (!rc && params->op.clear_cells) {
-        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach};
+        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach, .log = s->log};
         rc = ohm_clear_exchange_build(&s->exchange, &sol->net, params->op.clear_cells, &cp, err);
     }
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
