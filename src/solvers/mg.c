@@ -928,6 +928,8 @@ int ohm_mg_solve(ohm_mg *m, double *x, const double *b, double tol, int64_t max_
 
 double ohm_mg_norm_inf(const ohm_mg *mg) { return mg->norm_A; }
 
+void ohm_mg_set_threads(ohm_mg *mg, int threads) { mg->threads = threads > 0 ? threads : ohm_usable_cores(); }
+
 /* ---- the outer iteration --------------------------------------------------------------- */
 
 /* the largest |x| of the rows, into partial[chunk] */

@@ -73,6 +73,11 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
 int ohm_mg_solve(ohm_mg *mg, double *x, const double *b, double tol, int64_t max_iter, const ohm_log *log,
                  int64_t *iters, double *relres, ohm_error *err);
 
+/* The cores the cycle and the outer iteration use from now on (<= 0: all
+ * usable).  The sums go in a fixed order on any number of cores, so a
+ * solve's bits do not depend on it (stencil_rows.h). */
+void ohm_mg_set_threads(ohm_mg *mg, int threads);
+
 /* z = M r, one application of the preconditioner (one cycle, in single
  * precision), scaled to approximate A^-1 r: what each outer iteration
  * does, for measuring it (tests/bench_mg.c). */

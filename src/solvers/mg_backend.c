@@ -4,6 +4,8 @@
 #include <stdio.h>
 #include <stdlib.h>
 
+#include "base/parallel.h"
+#include "physics/stencil_rows.h"
 #include "solvers/backend.h"
 #include "solvers/mg.h"
 #include "solvers/mg_device.h"
@@ -12,6 +14,8 @@ typedef struct mg_state {
     ohm_mg *mg;
     ohm_mg_device *device; /* the hierarchy on an OpenCL device (device=), or NULL: the host */
     ohm_backend_config cfg;
+    double idle_checked; /* when the machine was last looked at (ohm_now)   */
+    int idle_cores;      /* what that look found (0: none yet: every core) */
 } mg_state;
 
 static void mg_release(void *state)
@@ -71,10 +75,29 @@ static int mg_setup(void *state, const ohm_operator *op, ohm_backend_report *rep
     return OHM_OK;
 }
 
+/* A column of at least this many cells first looks whether the machine is
+ * busy (ohm_idle_cores over 4 ms: 2% of a relight of 3e5 cells' channel);
+ * below, the cycle's loops run on one core anyway (stencil_rows.h). */
+enum { BUSY_CHECK_CELLS = OHM_ROWS_PARALLEL_MIN };
+
+/* ... and at most this often (s): the channels and lights of one relight
+ * share a look */
+static const double BUSY_CHECK_EVERY = 0.25;
+
 static int mg_column(void *solver, double *x, const double *b, int64_t *iters, double *relres, ohm_error *err)
 {
     mg_state *s = solver;
     if (s->device) return ohm_mg_device_solve(s->device, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
+    /* on a busy machine the cycle's threads only on the cores left idle,
+     * as the factor's BLAS (direct.c): every kernel ends when its last
+     * piece does, and a thread the scheduler has put behind another
+     * process (even at nice 19) holds that end up */
+    double now = ohm_now();
+    if (s->cfg.layout && s->cfg.layout->n >= BUSY_CHECK_CELLS && now - s->idle_checked > BUSY_CHECK_EVERY) {
+        s->idle_cores = ohm_idle_cores(0.004);
+        s->idle_checked = now;
+    }
+    ohm_mg_set_threads(s->mg, s->idle_cores); /* a hierarchy set up since takes the last look too */
     return ohm_mg_solve(s->mg, x, b, s->cfg.tol, s->cfg.max_iter, s->cfg.log, iters, relres, err);
 }
 
