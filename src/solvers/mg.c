@@ -695,9 +695,6 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
         return rc;
     }
     host_machine(m);
-    if (getenv("OHM_MG_DEBUG"))
-        for (int l = 0; l < m->nlevels; ++l)
-            fprintf(stderr, "level %d: %lld sparse %d nnz %lld kcycle %d\n", l, (long long)m->lev[l].n, m->lev[l].sparse, m->lev[l].sparse ? (long long)m->lev[l].sp.rp[m->lev[l].n] : 0LL, m->lev[l].kcycle);
     *out = m;
     return OHM_OK;
 }

@@ -13,7 +13,9 @@
  * every level, and the coarse operator keeps the jump where it is
  * (docs/multigrid.md, "Any medium").  Unknowns with no link at all (a
  * clear region's cells, whose light goes by links beyond the grid) join
- * one part per block.  Where strength would keep more than
+ * one part per block, and so do parts of alike media in a block that no
+ * weak link cuts (parts only because an object's edge or hole cuts the
+ * block: whole blocks keep the level a stencil, mg.c).  Where strength would keep more than
  * OHM_MG_KEEP_MAX of the unknowns (a cell-scale checkerboard, where no
  * link is strong), the level falls back to whole blocks (every unknown of
  * a block in one group, connected or not), so that coarsening always
