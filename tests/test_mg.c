@@ -217,20 +217,27 @@ static void same_bits_on_any_cores(void)
     ohm_error_clear(&err);
     int64_t n = c.net.n, its[2] = {-1, -1};
     CHECK_MSG(n > 65536, "%lld cells: too few to share work", (long long)n);
-    double *b = malloc((size_t)n * 8), *x[2] = {calloc((size_t)n, 8), calloc((size_t)n, 8)}, relres = 0;
+    double *b = malloc((size_t)n * 8), *x[3] = {calloc((size_t)n, 8), calloc((size_t)n, 8), calloc((size_t)n, 8)};
+    double relres = 0;
+    int64_t its2 = -1;
     uint64_t seed = 5;
     for (int64_t v = 0; v < n; ++v) b[v] = ohm_lcg(&seed);
-    for (int t = 0; t < 2; ++t) {
+    /* set up and solved on one core, on two, and set up on two then solved
+     * on one (ohm_mg_set_threads: a busy machine's idle cores) */
+    for (int t = 0; t < 3; ++t) {
         ohm_mg *mg = NULL;
-        CHECK_MSG(ohm_mg_setup(&mg, &c.st, &c.layout, t + 1, &err) == 0, "%s", err.msg);
-        CHECK_MSG(mg && ohm_mg_solve(mg, x[t], b, 1e-10, 500, NULL, &its[t], &relres, &err) == 0, "%s", err.msg);
+        CHECK_MSG(ohm_mg_setup(&mg, &c.st, &c.layout, t == 0 ? 1 : 2, &err) == 0, "%s", err.msg);
+        if (mg && t == 2) ohm_mg_set_threads(mg, 1);
+        CHECK_MSG(mg && ohm_mg_solve(mg, x[t], b, 1e-10, 500, NULL, t < 2 ? &its[t] : &its2, &relres, &err) == 0,
+                  "%s", err.msg);
         ohm_mg_free(mg);
     }
-    CHECK_MSG(its[0] > 0 && its[0] == its[1], "%lld iterations on one core, %lld on two", (long long)its[0],
-              (long long)its[1]);
+    CHECK_MSG(its[0] > 0 && its[0] == its[1] && its2 == its[0], "%lld iterations on one core, %lld on two, %lld",
+              (long long)its[0], (long long)its[1], (long long)its2);
     CHECK_MSG(memcmp(x[0], x[1], (size_t)n * sizeof *x[0]) == 0, "the solutions on one and two cores differ");
+    CHECK_MSG(memcmp(x[0], x[2], (size_t)n * sizeof *x[0]) == 0, "set up on two cores, solved on one: differs");
     block_case_close(&c);
-    free(b), free(x[0]), free(x[1]);
+    free(b), free(x[0]), free(x[1]), free(x[2]);
 }
 
 /* Iterations on the block medium (blocks of 8 cells, 1e6 contrast) of

@@ -545,7 +545,7 @@ static int coarsen(ohm_mg *m, int l, const ohm_mg_places *places, int64_t **cell
     mg_level *L = &m->lev[l], *C = &m->lev[l + 1];
     ohm_mg_operator op = {.st = L->sparse ? NULL : &L->st, .sp = L->sparse ? &L->sp : NULL};
     ohm_mg_coarse c;
-    int rc = ohm_mg_coarsen(&op, L->n, places, OHM_MG_THETA, &c, err);
+    int rc = ohm_mg_coarsen(&op, L->n, places, OHM_MG_THETA, m->threads, &c, err);
     if (rc) return rc;
     L->agg = c.agg, L->fine_at = c.fine_at, L->coarse_at = c.coarse_at, L->nslabs = c.nslabs;
     *cells = c.cell;

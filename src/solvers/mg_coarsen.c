@@ -7,6 +7,7 @@
 #include <stdlib.h>
 #include <string.h>
 
+#include "base/parallel.h"
 #include "physics/stencil.h"
 
 void ohm_mg_sparse_free(ohm_mg_sparse *sp)
@@ -87,16 +88,34 @@ static row_links links_of(row_walk *r, int64_t v)
 
 static inline int64_t link_to(const row_links *l, int64_t k) { return l->w ? l->w[k] : (int64_t)l->col[k]; }
 
-/* Each row's largest link (0: none), for the strength test. */
-static void largest_links(const ohm_mg_operator *op, int64_t n, float *rowmax)
+/* Pieces a pass over a level's rows is cut into, whatever the cores (so
+ * that the work balances), and the fewest rows worth a thread. */
+enum { PIECES = 64, PARALLEL_MIN = 1 << 16 };
+
+typedef struct rows_pass {
+    const ohm_mg_operator *op;
+    int64_t n, pieces;
+    float *rowmax;
+} rows_pass;
+
+static void largest_links_piece(void *user, int64_t i)
 {
-    row_walk r = walk_from(op, 0);
-    for (int64_t v = 0; v < n; ++v) {
+    const rows_pass *p = user;
+    int64_t lo = p->n * i / p->pieces, hi = p->n * (i + 1) / p->pieces;
+    row_walk r = walk_from(p->op, lo);
+    for (int64_t v = lo; v < hi; ++v) {
         row_links l = links_of(&r, v);
         float m = 0;
         for (int64_t k = 0; k < l.count; ++k) m = fmaxf(m, l.g[k]);
-        rowmax[v] = m;
+        p->rowmax[v] = m;
     }
+}
+
+/* Each row's largest link (0: none), for the strength test. */
+static void largest_links(const ohm_mg_operator *op, int64_t n, float *rowmax, int threads)
+{
+    rows_pass p = {op, n, n >= PARALLEL_MIN ? PIECES : 1, rowmax};
+    ohm_parallel_for(p.pieces, threads, largest_links_piece, &p);
 }
 
 /* ---- grouping ------------------------------------------------------------------------- */
@@ -110,6 +129,24 @@ typedef struct place_walk {
 static int64_t next_place(place_walk *p, int64_t v)
 {
     return p->pl->cells ? ohm_cell_cursor_next(&p->cursor) : p->pl->cell[v];
+}
+
+/* The first of the n unknowns whose cell is c or later. */
+static int64_t first_at(const ohm_mg_places *pl, int64_t n, int64_t c)
+{
+    if (pl->cells) {
+        const ohm_cell_index *ix = pl->cells;
+        int64_t word = c >> 6;
+        if (word >= ix->nwords) return ix->count;
+        return ix->rank[word] + ohm_popcount64(ix->bits[word] & (((uint64_t)1 << (c & 63)) - 1));
+    }
+    int64_t lo = 0, hi = n; /* cells are non-decreasing */
+    while (lo < hi) {
+        int64_t mid = lo + (hi - lo) / 2;
+        if (pl->cell[mid] < c) lo = mid + 1;
+        else hi = mid;
+    }
+    return lo;
 }
 
 static int64_t find_root(int64_t *parent, int64_t i)
@@ -148,18 +185,6 @@ static int slab_room(scratch *s, int64_t m)
     if (!big) return -1;
     s->big = big;
     s->cap = cap;
-    return 0;
-}
-
-static int push_cell(ohm_mg_coarse *out, int64_t *cap, int64_t cell)
-{
-    if (out->nc == *cap) {
-        int64_t grown = *cap ? 2 * *cap : 1024;
-        int64_t *p = realloc(out->cell, (size_t)grown * sizeof *p);
-        if (!p) return -1;
-        out->cell = p, *cap = grown;
-    }
-    out->cell[out->nc++] = cell;
     return 0;
 }
 
@@ -229,8 +254,11 @@ static void join_alike(const int64_t *order, int64_t count, int64_t v0, const fl
 /* The slab's parts numbered by place, then by first unknown: agg of its
  * unknowns, the coarse unknowns' cells; alike parts of a block joined
  * first (not when whole: one part a block already). */
+typedef struct slab_range slab_range;
+static int64_t push_part(slab_range *r, int64_t cell);
+
 static int number_slab(int64_t K, int64_t v0, int64_t m, int64_t cplane, const float *rowmax, double theta, int whole,
-                       scratch *s, ohm_mg_coarse *out, int64_t *cell_cap)
+                       scratch *s, slab_range *range, int32_t *agg)
 {
     int64_t *head = s->head;
     memset(head, 0, (size_t)(cplane + 1) * sizeof *head);
@@ -249,39 +277,121 @@ static int number_slab(int64_t K, int64_t v0, int64_t m, int64_t cplane, const f
     for (int64_t k = 0; k < m; ++k) {
         int64_t i = s->order[k], root = find_root(s->parent, i);
         if (s->rootid[root] < 0) {
-            s->rootid[root] = out->nc;
-            if (push_cell(out, cell_cap, s->q[i] + cplane * K)) return -1;
+            s->rootid[root] = push_part(range, s->q[i] + cplane * K);
+            if (s->rootid[root] < 0) return -1;
         }
-        out->agg[v0 + i] = (int32_t)s->rootid[root];
+        agg[v0 + i] = (int32_t)s->rootid[root];
     }
     return 0;
 }
 
-/* The level's unknowns into coarse unknowns: out's agg, slabs, cells, nc. */
-static int group_level(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *pl, const float *rowmax,
-                       double theta, int whole, scratch *s, ohm_mg_coarse *out)
+/* A run of consecutive coarse slabs, one job of a pass: its parts (numbered
+ * from 0 here, then moved to their place), its scratch, its coarse rows. */
+struct slab_range {
+    int64_t k0, k1;
+    int64_t nc, cell_cap, base; /* its parts; the first's number in the level */
+    int64_t *cell;
+    int64_t *rp, nnz, nnz_base; /* its rows' starts (from 0), entries, the first's place */
+    int32_t *col;
+    float *g;
+    int failed;
+};
+
+/* A new part of the range at cell: its number in the range, or -1 (out of
+ * memory, or more than a 32-bit map holds) */
+static int64_t push_part(slab_range *r, int64_t cell)
 {
+    if (r->nc >= INT32_MAX) return -1;
+    if (r->nc == r->cell_cap) {
+        int64_t grown = r->cell_cap ? 2 * r->cell_cap : 1024;
+        int64_t *p = realloc(r->cell, (size_t)grown * sizeof *p);
+        if (!p) return -1;
+        r->cell = p, r->cell_cap = grown;
+    }
+    r->cell[r->nc] = cell;
+    return r->nc++;
+}
+
+/* What every job of a coarsening reads. */
+typedef struct coarsening {
+    const ohm_mg_operator *op;
+    int64_t n;
+    const ohm_mg_places *pl;
+    const float *rowmax;
+    double theta;
+    int whole;
+    ohm_mg_coarse *out;
+    slab_range *range;
+} coarsening;
+
+/* Range r's unknowns into its parts: agg (numbered in the range), its
+ * slabs' starts (coarse ones in the range), its parts' cells. */
+static void group_range(void *user, int64_t ri)
+{
+    coarsening *cg = user;
+    slab_range *R = &cg->range[ri];
+    ohm_mg_coarse *out = cg->out;
+    const ohm_mg_places *pl = cg->pl;
     const int64_t *dims = pl->dims, *cdims = out->cdims;
-    int64_t plane = dims[0] * dims[1], cplane = cdims[0] * cdims[1], cell_cap = 0;
-    out->nc = 0;
+    int64_t n = cg->n, plane = dims[0] * dims[1], cplane = cdims[0] * cdims[1];
+    scratch s = {.head = malloc((size_t)(cplane + 1) * sizeof *s.head), .cut = calloc((size_t)cplane + 1, 1)};
+    R->nc = 0;
+    R->failed = !s.head || !s.cut;
     place_walk p = {.pl = pl};
-    if (pl->cells) p.cursor = ohm_cell_index_cursor(pl->cells, 0);
-    int64_t v = 0, c = n ? next_place(&p, 0) : 0; /* c: v's cell */
-    for (int64_t K = 0; K < out->nslabs; ++K) {
+    int64_t v = first_at(pl, n, R->k0 * 2 * plane), c = 0; /* c: v's cell */
+    if (pl->cells) p.cursor = ohm_cell_index_cursor(pl->cells, v);
+    if (v < n) c = next_place(&p, v);
+    for (int64_t K = R->k0; K < R->k1 && !R->failed; ++K) {
         int64_t v0 = v;
         out->fine_at[K] = v0;
-        out->coarse_at[K] = out->nc;
+        out->coarse_at[K] = R->nc;
         for (; v < n && c / plane / 2 == K; ++v) {
-            if (slab_room(s, v - v0 + 1)) return -1;
+            if (slab_room(&s, v - v0 + 1)) {
+                R->failed = 1;
+                break;
+            }
             int64_t i = c % dims[0], j = c / dims[0] % dims[1];
-            s->q[v - v0] = i / 2 + cdims[0] * (j / 2);
+            s.q[v - v0] = i / 2 + cdims[0] * (j / 2);
             if (v + 1 < n) c = next_place(&p, v + 1);
         }
-        join_slab(op, rowmax, theta, whole, v0, v - v0, cplane, s);
-        if (number_slab(K, v0, v - v0, cplane, rowmax, theta, whole, s, out, &cell_cap)) return -1;
+        if (R->failed) break;
+        join_slab(cg->op, cg->rowmax, cg->theta, cg->whole, v0, v - v0, cplane, &s);
+        if (number_slab(K, v0, v - v0, cplane, cg->rowmax, cg->theta, cg->whole, &s, R, out->agg)) R->failed = 1;
     }
-    out->fine_at[out->nslabs] = v;
-    out->coarse_at[out->nslabs] = out->nc;
+    free(s.q), free(s.parent), free(s.order), free(s.rootid), free(s.big), free(s.head), free(s.cut);
+}
+
+/* Range r's parts to their numbers in the level: base added to its agg and
+ * coarse slab starts, its cells into the level's. */
+static void place_range(void *user, int64_t ri)
+{
+    coarsening *cg = user;
+    const slab_range *R = &cg->range[ri];
+    ohm_mg_coarse *out = cg->out;
+    for (int64_t K = R->k0; K < R->k1; ++K) out->coarse_at[K] += R->base;
+    for (int64_t v = out->fine_at[R->k0]; v < out->fine_at[R->k1]; ++v) out->agg[v] += (int32_t)R->base;
+    memcpy(out->cell + R->base, R->cell, (size_t)R->nc * sizeof *R->cell);
+}
+
+/* The level's unknowns into coarse unknowns: out's agg, slabs, cells, nc,
+ * range by range on up to threads cores. */
+static int group_level(coarsening *cg, int64_t nranges, int threads)
+{
+    ohm_mg_coarse *out = cg->out;
+    for (int64_t r = 0; r < nranges; ++r) cg->range[r].nc = 0;
+    ohm_parallel_for(nranges, threads, group_range, cg);
+    int64_t nc = 0;
+    for (int64_t r = 0; r < nranges; ++r) {
+        if (cg->range[r].failed) return -1;
+        cg->range[r].base = nc;
+        nc += cg->range[r].nc;
+    }
+    out->fine_at[out->nslabs] = cg->n;
+    out->coarse_at[out->nslabs] = nc;
+    out->nc = nc;
+    free(out->cell);
+    if (!(out->cell = malloc((size_t)(nc ? nc : 1) * sizeof *out->cell))) return -1;
+    ohm_parallel_for(nranges, threads, place_range, cg);
     return 0;
 }
 
@@ -296,13 +406,15 @@ typedef struct triplet {
 typedef struct sums {
     triplet *t;
     int64_t nt, tcap;
-    int64_t *count;   /* a slab's rows + 1                     */
+    int64_t *count;   /* a slab's rows + 1                               */
     int64_t ccap;
-    triplet *sorted;  /* t by row                               */
-    int64_t *mark;    /* nc: the row that last met this column  */
-    int64_t *slot;    /* nc: its entry in that row              */
-    double *acc;      /* the entries' sums, in double           */
-    int64_t cap;      /* room of sp->col, sp->g, acc            */
+    triplet *sorted;  /* t by row                                         */
+    int64_t *mark;    /* column - base: the row that last met it         */
+    int64_t *slot;    /* column - base: its entry in that row            */
+    int64_t span;     /* room of mark and slot                            */
+    int64_t cap;      /* room of the range's col and g                    */
+    double *acc;      /* the row at hand's sums, in double                */
+    int64_t acap;     /* room of acc                                      */
 } sums;
 
 static int emit(sums *u, int64_t row, int64_t col, float g)
@@ -319,7 +431,7 @@ static int emit(sums *u, int64_t row, int64_t col, float g)
 
 /* Slab K's fine rows' links between groups, as (coarse row, coarse
  * column, g), and its groups' sinks. */
-static int slab_links(const ohm_mg_operator *op, const ohm_mg_coarse *c, int64_t K, sums *u)
+static int slab_links(const ohm_mg_operator *op, ohm_mg_coarse *c, int64_t K, sums *u)
 {
     const int32_t *agg = c->agg;
     int64_t f0 = c->fine_at[K], f1 = c->fine_at[K + 1], r0 = c->coarse_at[K];
@@ -344,23 +456,40 @@ static int slab_links(const ohm_mg_operator *op, const ohm_mg_coarse *c, int64_t
     return 0;
 }
 
-static int entry_room(sums *u, ohm_mg_sparse *sp, int64_t need)
+static int entry_room(sums *u, slab_range *R, int64_t need)
 {
     if (need <= u->cap) return 0;
     int64_t cap = need > 2 * u->cap ? need : 2 * u->cap;
-    int32_t *col = realloc(sp->col, (size_t)cap * sizeof *col);
-    if (col) sp->col = col;
-    double *acc = realloc(u->acc, (size_t)cap * sizeof *acc);
-    if (acc) u->acc = acc;
-    if (!col || !acc) return -1;
+    int32_t *col = realloc(R->col, (size_t)cap * sizeof *col);
+    if (col) R->col = col;
+    float *g = realloc(R->g, (size_t)cap * sizeof *g);
+    if (g) R->g = g;
+    if (!col || !g) return -1;
     u->cap = cap;
     return 0;
 }
 
-/* The slab's rows from its triplets: each column's links summed. */
-static int slab_rows(const ohm_mg_coarse *c, int64_t K, sums *u, ohm_mg_sparse *sp)
+/* mark and slot for columns base .. base + span - 1.  A stale mark is an
+ * earlier row's (rows go in increasing order), never the row at hand, so
+ * a new base needs no clearing; new room is cleared. */
+static int column_room(sums *u, int64_t span)
 {
-    int64_t r0 = c->coarse_at[K], rows = c->coarse_at[K + 1] - r0;
+    if (span <= u->span) return 0;
+    int64_t *mark = realloc(u->mark, (size_t)span * sizeof *mark);
+    if (mark) u->mark = mark;
+    int64_t *slot = realloc(u->slot, (size_t)span * sizeof *slot);
+    if (slot) u->slot = slot;
+    if (!mark || !slot) return -1;
+    for (int64_t j = u->span; j < span; ++j) u->mark[j] = -1;
+    u->span = span;
+    return 0;
+}
+
+/* The slab's rows from its triplets, into the range's: each column's
+ * links summed. */
+static int slab_rows(const ohm_mg_coarse *c, int64_t K, sums *u, slab_range *R)
+{
+    int64_t r0 = c->coarse_at[K], rows = c->coarse_at[K + 1] - r0, first = r0 - c->coarse_at[R->k0];
     if (rows + 1 > u->ccap) {
         int64_t *p = realloc(u->count, (size_t)(rows + 1) * sizeof *p);
         if (!p) return -1;
@@ -369,34 +498,80 @@ static int slab_rows(const ohm_mg_coarse *c, int64_t K, sums *u, ohm_mg_sparse *
     triplet *sorted = realloc(u->sorted, (size_t)(u->nt ? u->nt : 1) * sizeof *sorted);
     if (!sorted) return -1;
     u->sorted = sorted;
+    int64_t lo = INT64_MAX, hi = -1; /* the columns met */
     memset(u->count, 0, (size_t)(rows + 1) * sizeof *u->count);
-    for (int64_t t = 0; t < u->nt; ++t) u->count[u->t[t].row + 1]++;
+    for (int64_t t = 0; t < u->nt; ++t) {
+        u->count[u->t[t].row + 1]++;
+        if (u->t[t].col < lo) lo = u->t[t].col;
+        if (u->t[t].col > hi) hi = u->t[t].col;
+    }
     for (int64_t i = 0; i < rows; ++i) u->count[i + 1] += u->count[i];
     for (int64_t t = 0; t < u->nt; ++t) sorted[u->count[u->t[t].row]++] = u->t[t];
-    int64_t nnz = sp->rp[r0], t = 0;
-    if (entry_room(u, sp, nnz + u->nt)) return -1;
+    if (entry_room(u, R, R->nnz + u->nt) || (u->nt && column_room(u, hi - lo + 1))) return -1;
+    int64_t nnz = R->nnz, t = 0;
     for (int64_t i = 0; i < rows; ++i) {
-        int64_t I = r0 + i;
-        for (; t < u->nt && sorted[t].row == i; ++t) {
-            int64_t J = sorted[t].col;
-            if (u->mark[J] != I) {
-                u->mark[J] = I;
-                u->slot[J] = nnz;
-                sp->col[nnz] = (int32_t)J;
-                u->acc[nnz++] = 0;
-            }
-            u->acc[u->slot[J]] += sorted[t].g;
+        int64_t I = r0 + i, start = nnz, t0 = t;
+        while (t < u->nt && sorted[t].row == i) ++t;
+        if (t - t0 > u->acap) { /* room for the row's sums: at most a link each */
+            double *acc = realloc(u->acc, (size_t)(t - t0) * sizeof *acc);
+            if (!acc) return -1;
+            u->acc = acc, u->acap = t - t0;
         }
-        sp->rp[I + 1] = nnz;
+        for (int64_t e = t0; e < t; ++e) {
+            int64_t J = sorted[e].col, j = J - lo;
+            if (u->mark[j] != I) {
+                u->mark[j] = I;
+                u->slot[j] = nnz;
+                R->col[nnz] = (int32_t)J;
+                u->acc[nnz++ - start] = 0;
+            }
+            u->acc[u->slot[j] - start] += sorted[e].g;
+        }
+        for (int64_t k = start; k < nnz; ++k) R->g[k] = (float)u->acc[k - start];
+        R->rp[first + i + 1] = nnz;
     }
+    R->nnz = nnz;
     return 0;
 }
 
-/* Each link one float in both of its rows: row I's sum for I < J (the
- * two rows sum the same fine links in different orders). */
-static void symmetric_links(ohm_mg_sparse *sp)
+/* Range r's coarse rows (its sinks into the level's, its rows into its own
+ * arrays). */
+static void range_rows(void *user, int64_t ri)
 {
-    for (int64_t I = 0; I < sp->n; ++I)
+    coarsening *cg = user;
+    slab_range *R = &cg->range[ri];
+    ohm_mg_coarse *c = cg->out;
+    int64_t rows = c->coarse_at[R->k1] - c->coarse_at[R->k0];
+    sums u = {0};
+    R->nnz = 0;
+    R->rp = calloc((size_t)rows + 1, sizeof *R->rp);
+    R->failed = !R->rp;
+    for (int64_t K = R->k0; K < R->k1 && !R->failed; ++K)
+        R->failed = slab_links(cg->op, c, K, &u) || slab_rows(c, K, &u, R);
+    free(u.t), free(u.count), free(u.sorted), free(u.mark), free(u.slot), free(u.acc);
+}
+
+/* Range r's rows into the level's, their links as floats. */
+static void place_rows(void *user, int64_t ri)
+{
+    coarsening *cg = user;
+    const slab_range *R = &cg->range[ri];
+    ohm_mg_sparse *sp = &cg->out->sp;
+    int64_t I0 = cg->out->coarse_at[R->k0], rows = cg->out->coarse_at[R->k1] - I0;
+    for (int64_t i = 0; i < rows; ++i) sp->rp[I0 + i + 1] = R->nnz_base + R->rp[i + 1];
+    memcpy(sp->col + R->nnz_base, R->col, (size_t)R->nnz * sizeof *R->col);
+    memcpy(sp->g + R->nnz_base, R->g, (size_t)R->nnz * sizeof *R->g);
+}
+
+/* Each link one float in both of its rows: row I's sum for I < J (the
+ * two rows sum the same fine links in different orders).  By pieces of
+ * rows: a piece writes only its rows' entries of columns below the row,
+ * which no piece reads. */
+static void symmetric_piece(void *user, int64_t i)
+{
+    const ohm_mg_sparse *sp = user;
+    int64_t lo = sp->n * i / PIECES, hi = sp->n * (i + 1) / PIECES;
+    for (int64_t I = lo; I < hi; ++I)
         for (int64_t k = sp->rp[I]; k < sp->rp[I + 1]; ++k) {
             int64_t J = sp->col[k];
             if (J < I) continue;
@@ -408,68 +583,75 @@ static void symmetric_links(ohm_mg_sparse *sp)
         }
 }
 
-static int galerkin(const ohm_mg_operator *op, ohm_mg_coarse *c)
+static int galerkin(coarsening *cg, int64_t nranges, int threads)
 {
+    ohm_mg_coarse *c = cg->out;
     ohm_mg_sparse *sp = &c->sp;
     int64_t nc = c->nc;
     size_t m = (size_t)(nc ? nc : 1);
     sp->n = nc;
     sp->rp = calloc(m + 1, sizeof *sp->rp);
     sp->sink = calloc(m, sizeof *sp->sink);
-    sums u = {.mark = malloc(m * sizeof *u.mark), .slot = malloc(m * sizeof *u.slot)};
-    int rc = !sp->rp || !sp->sink || !u.mark || !u.slot || entry_room(&u, sp, 8 * nc + 1);
-    for (int64_t I = 0; !rc && I < nc; ++I) u.mark[I] = -1;
-    for (int64_t K = 0; !rc && K < c->nslabs; ++K) rc = slab_links(op, c, K, &u) || slab_rows(c, K, &u, sp);
-    if (!rc) {
-        int64_t nnz = sp->rp[nc];
-        sp->g = malloc((size_t)(nnz ? nnz : 1) * sizeof *sp->g);
-        rc = !sp->g;
-        for (int64_t k = 0; !rc && k < nnz; ++k) sp->g[k] = (float)u.acc[k];
-        if (!rc) symmetric_links(sp);
+    if (!sp->rp || !sp->sink) return -1;
+    ohm_parallel_for(nranges, threads, range_rows, cg);
+    int64_t nnz = 0, rc = 0;
+    for (int64_t r = 0; r < nranges; ++r) {
+        rc |= cg->range[r].failed;
+        cg->range[r].nnz_base = nnz;
+        nnz += cg->range[r].nnz;
     }
-    free(u.t);
-    free(u.count);
-    free(u.sorted);
-    free(u.mark);
-    free(u.slot);
-    free(u.acc);
-    return rc ? -1 : 0;
+    sp->col = malloc((size_t)(nnz ? nnz : 1) * sizeof *sp->col);
+    sp->g = malloc((size_t)(nnz ? nnz : 1) * sizeof *sp->g);
+    if (rc || !sp->col || !sp->g) return -1;
+    ohm_parallel_for(nranges, threads, place_rows, cg);
+    ohm_parallel_for(nc >= PARALLEL_MIN ? PIECES : 1, threads, symmetric_piece, sp);
+    return 0;
 }
 
 /* ---- one step ------------------------------------------------------------------------- */
 
-int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *places, double theta,
+int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *places, double theta, int threads,
                    ohm_mg_coarse *out, ohm_error *err)
 {
     memset(out, 0, sizeof *out);
     for (int a = 0; a < 3; ++a) out->cdims[a] = (places->dims[a] + 1) / 2;
     out->nslabs = out->cdims[2];
-    int64_t cplane = out->cdims[0] * out->cdims[1];
+    if (threads < 1) threads = 1;
+    /* ranges of slabs: a few per core, so that uneven slabs balance; one
+     * below a size worth a thread.  The numbering and the sums do not
+     * depend on them (parts go slab by slab, rows are summed whole). */
+    int64_t nranges = n >= PARALLEL_MIN ? 4 * (int64_t)threads : 1;
+    if (nranges > out->nslabs) nranges = out->nslabs > 0 ? out->nslabs : 1;
     size_t m = (size_t)(n ? n : 1);
     float *rowmax = malloc(m * sizeof *rowmax);
-    scratch s = {.head = malloc((size_t)(cplane + 1) * sizeof *s.head), .cut = calloc((size_t)cplane + 1, 1)};
+    slab_range *range = calloc((size_t)nranges, sizeof *range);
     out->agg = malloc(m * sizeof *out->agg);
     out->fine_at = malloc((size_t)(out->nslabs + 1) * sizeof *out->fine_at);
     out->coarse_at = malloc((size_t)(out->nslabs + 1) * sizeof *out->coarse_at);
-    int rc = !rowmax || !s.head || !s.cut || !out->agg || !out->fine_at || !out->coarse_at;
+    int rc = !rowmax || !range || !out->agg || !out->fine_at || !out->coarse_at;
+    for (int64_t r = 0; !rc && r < nranges; ++r) {
+        range[r].k0 = out->nslabs * r / nranges;
+        range[r].k1 = out->nslabs * (r + 1) / nranges;
+    }
+    coarsening cg = {op, n, places, rowmax, theta, 0, out, range};
     if (!rc) {
-        largest_links(op, n, rowmax);
-        rc = group_level(op, n, places, rowmax, theta, 0, &s, out);
+        largest_links(op, n, rowmax, threads);
+        rc = group_level(&cg, nranges, threads);
         if (!rc && (double)out->nc > OHM_MG_KEEP_MAX * (double)n) {
-            out->whole_blocks = 1;
-            rc = group_level(op, n, places, rowmax, theta, 1, &s, out);
+            out->whole_blocks = cg.whole = 1;
+            rc = group_level(&cg, nranges, threads);
         }
     }
     free(rowmax);
-    free(s.q), free(s.parent), free(s.order), free(s.rootid), free(s.big), free(s.head), free(s.cut);
-    if (!rc && out->nc > INT32_MAX) {
-        ohm_mg_coarse_free(out);
-        return ohm_fail(err, OHM_ERR_USAGE, "mg: %lld coarse cells are more than 2^31", (long long)n);
+    if (!rc) rc = galerkin(&cg, nranges, threads);
+    for (int64_t r = 0; range && r < nranges; ++r) {
+        free(range[r].cell), free(range[r].rp), free(range[r].col), free(range[r].g);
     }
-    if (!rc) rc = galerkin(op, out);
+    free(range);
     if (rc) {
         ohm_mg_coarse_free(out);
-        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells", (long long)n);
+        return ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory coarsening %lld cells, or more than 2^31 coarse ones",
+                        (long long)n);
     }
     return OHM_OK;
 }

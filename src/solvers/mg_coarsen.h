@@ -88,7 +88,8 @@ typedef struct ohm_mg_coarse {
     int whole_blocks;            /* strength kept too many: fixed blocks      */
 } ohm_mg_coarse;
 
-int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *places, double theta,
+/* threads: cores it may use; its result is the same on any number. */
+int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *places, double theta, int threads,
                    ohm_mg_coarse *out, ohm_error *err);
 
 /* A coarse level whose blocks all stayed whole (one unknown per coarse
