@@ -178,6 +178,56 @@ static int same_bits(const ohm_solution *a, const ohm_solution *b)
            a->power_out == b->power_out && a->power_absorbed == b->power_absorbed;
 }
 
+/* A relight with the clear regions' coupling: a solver kept (keep=1) and
+ * solved for one beam, then for another (the coupling and the hierarchy
+ * reused, the solve warm-started), against a fresh solve for the second:
+ * the same fluence to 1e-8 of the peak, both conserving to 1e-10; by mg
+ * and by the factor. */
+static void check_relight(const ohm_voxel_grid *g, double depth, double radius, ohm_solver_kind kind)
+{
+    ohm_error err = {0};
+    ohm_log log = {.verbosity = 0};
+    ohm_material m = ohm_scene_grey(SA, SS);
+    m.eta = 1.37;
+    ohm_light first = ohm_scene_pencil((const double[3]){0, 0, -1.0}, (const double[3]){0, 0, 1.0});
+    ohm_light second = ohm_scene_pencil((const double[3]){4.0, 3.0, -1.0}, (const double[3]){0, 0, 1.0});
+    ohm_solver *s[2] = {NULL, NULL};
+    for (int q = 0; q < 2; ++q) {
+        ohm_solve_params p;
+        memset(&p, 0, sizeof p);
+        p.op.mirrors = &MIRROR;
+        p.op.clear = OHM_CLEAR_RADIOSITY;
+        p.num.solver = kind;
+        size_t n = g->interior_cells;
+        ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+        int64_t clear_cells;
+        scene_media(sa, ss, &clear_cells, g, SCENE_VOID, depth, radius);
+        p.media.sigma_a[0] = sa;
+        p.media.sigma_s[0] = ss;
+        p.media.give_media = 1;
+        CHECK_MSG(ohm_solver_create(&s[q], g, &m, &p, 1, &log, &err) == 0, "%s", err.msg);
+    }
+    if (!s[0] || !s[1]) goto done;
+    CHECK_MSG(ohm_solver_solve(s[0], &first, 1, &err) == 0, "%s", err.msg); /* then relit: */
+    CHECK_MSG(ohm_solver_solve(s[0], &second, 1, &err) == 0, "%s", err.msg);
+    CHECK_MSG(ohm_solver_solve(s[1], &second, 1, &err) == 0, "%s", err.msg);
+    const ohm_solution *relit = ohm_solver_solution(s[0]), *fresh = ohm_solver_solution(s[1]);
+    CHECK(relit->clear_action == OHM_CLEAR_RADIOSITY && relit->clear_pairs > 0);
+    double peak = 0, off = 0;
+    for (int64_t v = 0; v < fresh->n; ++v) {
+        peak = fmax(peak, fresh->fluence[0][v]);
+        off = fmax(off, fabs(relit->fluence[0][v] - fresh->fluence[0][v]));
+    }
+    printf("cube + clear void, clear=radiosity, %s: relit %.2g of the peak off a fresh solve; conservation %.2g, "
+           "%.2g\n",
+           relit->solver, off / peak, ohm_solution_conservation_error(relit), ohm_solution_conservation_error(fresh));
+    CHECK(peak > 0 && off <= 1e-8 * peak);
+    CHECK(ohm_solution_conservation_error(relit) <= 1e-10 && ohm_solution_conservation_error(fresh) <= 1e-10);
+done:
+    ohm_solver_free(s[0]);
+    ohm_solver_free(s[1]);
+}
+
 /* mg on a scene at clear=off and clear=effective: effective finds one
  * region, conserves power to 1e-10 and converges in few iterations. */
 static void check_effective(const ohm_voxel_grid *g, scene_kind kind, double depth, double radius, const char *what)
@@ -278,6 +328,9 @@ int main(void)
     free(mask);
     ohm_solution_free(&rad), ohm_solution_free(&hand), ohm_solution_free(&eff), ohm_solution_free(&auto_solver);
     ohm_solution_free(&mg_rad);
+
+    check_relight(&cube, depth, radius, OHM_SOLVER_MG);
+    check_relight(&cube, depth, radius, OHM_SOLVER_DIRECT);
 
     /* the head slab: effective conserves power, mg converges in few iterations */
     check_effective(&slab, SCENE_SLAB, 0, 0, "head slab");
