@@ -156,6 +156,16 @@ static void scenes(void)
     const char *tf = write_tmp("eta.transfer", eta_tf, sizeof eta_tf - 1);
     snprintf(lines, sizeof lines, "%smaterial transfer=%s\nlight type=point pos=0,0,60 intensity=1000\n", walnut, tf);
     compare("walnut CT, per-cell index", lines, "solve", NULL);
+    /* clear regions coupled by view factors (clear=radiosity): the walnut's
+     * least dense class clear (sigma_s' 0.001 /mm, index 1.0), 6 364 cells
+     * in 2 698 regions; mg reads the node pairs as its stencil's links
+     * beyond the grid, on the host and, in the device pass, in the device's
+     * kernels */
+    static const char clear_tf[] = "ohm-transfer 1 eta=column\n0 0.0004 0.001 1.0\n5300 0.0004 0.001 1.0\n"
+                                   "6100 0.02 1 1.45\n15000 0.2 5 1.6\n";
+    tf = write_tmp("clear.transfer", clear_tf, sizeof clear_tf - 1);
+    snprintf(lines, sizeof lines, "%smaterial transfer=%s\nlight type=point pos=0,0,60 intensity=1000\n", walnut, tf);
+    compare("walnut CT, clear regions coupled", lines, "solve clear=radiosity", NULL);
 }
 
 /* "mg device=opencl:N" for the first device with double precision, or NULL */

@@ -61,6 +61,8 @@ typedef struct dev_level {
     int64_t n, nc; /* its cells, the next level's (0 at the coarsest) */
     int kcycle;
     int sparse;                          /* a coarse level's rows: off holds rp, c (column, g) */
+    cl_mem xs, xc, xg;                   /* level 0's links beyond the grid (has_x), else the device's none */
+    int has_x;
     cl_mem off, c, invd;                 /* the stencil                          */
     cl_mem agg, start, children;         /* into the next level, and back        */
     cl_mem b, x, t;                      /* right-hand side, correction, temporary */
@@ -80,6 +82,7 @@ struct ohm_mg_device {
     cl_mem dense, dense_y;
     int64_t ndense;
     cl_mem partial;
+    cl_mem none;               /* a buffer no kernel reads: for has_x 0 */
     double *partial_host;
     dev_level lev[OHM_MG_LEVELS_MAX];
     int nlevels;
@@ -148,13 +151,40 @@ static void reduce(ohm_mg_device *d, enum kernel_id k, int64_t n, cl_uint partia
 
 /* ---- a level's operations (mg_ops.h) ------------------------------------------------------ */
 
+/* Where a stencil kernel's four arguments for the links beyond the grid
+ * begin (mg_device.cl's EXTRA_ARGS, last in each), or 0: it has none. */
+static cl_uint extra_arg(enum kernel_id k)
+{
+    switch (k) {
+    case K_NET_RESIDUAL:
+    case K_NET_APPLY_DOTS:
+    case K_JACOBI:
+    case K_CYC_APPLY_DOT: return 8;
+    case K_CHEB: return 11;
+    case K_CYC_RESIDUAL: return 6;
+    default: return 0;
+    }
+}
+
+/* level L's links beyond the grid as kernel k's last four arguments */
+static void set_extras(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
+{
+    cl_uint a = extra_arg(k);
+    ARG_MEM(k, a, L->xs);
+    ARG_MEM(k, a + 1, L->xc);
+    ARG_MEM(k, a + 2, L->xg);
+    ARG_VAL(k, a + 3, cl_int, L->has_x);
+}
+
 /* kernel k of level L's form (a coarse level's sparse rows have their
- * own), its operator set as its first two arguments */
+ * own), its operator set as its first two arguments (and a stencil's
+ * links beyond the grid as its last four) */
 static enum kernel_id set_stencil(ohm_mg_device *d, enum kernel_id k, const dev_level *L)
 {
     if (L->sparse)
         k = k == K_JACOBI ? K_JACOBI_SP : k == K_CHEB ? K_CHEB_SP : k == K_CYC_RESIDUAL ? K_CYC_RESIDUAL_SP
                                                                                          : K_CYC_APPLY_DOT_SP;
+    else set_extras(d, k, L);
     ARG_MEM(k, 0, L->off);
     ARG_MEM(k, 1, L->c);
     return k;
@@ -336,6 +366,8 @@ static double device_bytes(const ohm_mg_view *v)
         if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 3 * 4; /* agg, children, start; b x t */
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
     }
+    const ohm_stencil *st = v->fine; /* the links beyond the grid */
+    if (st->xstart) bytes += 8.0 * (double)(st->n + 1) + 12.0 * (double)st->xstart[st->n];
     return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
 }
 
@@ -421,6 +453,16 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
     L->kcycle = lv->kcycle;
     L->nc = l < v->nlevels - 1 ? v->lev[l + 1].n : 0;
     int rc = lv->sp ? upload_rows(d, L, lv->sp, err) : upload_stencil(d, L, lv->st, l, err);
+    L->xs = L->xc = L->xg = d->none;
+    if (!rc && lv->st && lv->st->xstart) { /* level 0's links beyond the grid */
+        const ohm_stencil *st = lv->st;
+        int64_t nx = st->xstart[n];
+        L->has_x = 1;
+        L->xs = L->xc = L->xg = NULL;
+        rc = buffer(d, &L->xs, (size_t)(n + 1) * sizeof *st->xstart, st->xstart, err);
+        if (!rc) rc = buffer(d, &L->xc, (size_t)(nx ? nx : 1) * sizeof *st->xcol, nx ? st->xcol : st->xstart, err);
+        if (!rc) rc = buffer(d, &L->xg, (size_t)(nx ? nx : 1) * sizeof *st->xg, nx ? (const void *)st->xg : st->xstart, err);
+    }
     if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);
     if (!rc) rc = buffer(d, &L->b, (size_t)n * f, NULL, err);
     if (!rc) rc = buffer(d, &L->x, (size_t)n * f, NULL, err);
@@ -459,7 +501,7 @@ static int upload(ohm_mg_device *d, const ohm_mg_view *v, ohm_error *err)
     d->norm_A = v->norm_A;
     d->nlevels = v->nlevels;
     d->ndense = v->ndense;
-    int rc = OHM_OK;
+    int rc = buffer(d, &d->none, sizeof(cl_long), NULL, err);
     for (int l = 0; !rc && l < v->nlevels; ++l) rc = upload_level(d, v, l, err);
     float *g = rc ? NULL : cell_links(st, 0);
     if (!rc && !g) rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for the stencil's copy");
@@ -487,14 +529,6 @@ int ohm_mg_device_open(ohm_mg_device **out, const ohm_mg *mg, const ohm_device_r
     if (!req || req->kind == OHM_DEVICE_HOST) return OHM_OK;
     ohm_mg_view view;
     ohm_mg_view_of(mg, &view);
-    if (view.fine->xstart && req->kind == OHM_DEVICE_AUTO) {
-        ohm_log_info(log, "solve: device=auto: the clear regions' coupling runs on the host");
-        return OHM_OK;
-    }
-    if (view.fine->xstart)
-        return ohm_fail(err, OHM_ERR_USAGE,
-                        "mg: the clear regions' coupling (clear=radiosity) has links beyond the grid, which the "
-                        "device's kernels do not read yet: use device=host, or clear=effective");
     if (req->kind == OHM_DEVICE_AUTO && view.fine->n < AUTO_MIN_CELLS) {
         ohm_log_info(log, "solve: device=auto: %lld cells, fewer than %d: the cycle runs on the host",
                      (long long)view.fine->n, AUTO_MIN_CELLS);
@@ -540,8 +574,10 @@ void ohm_mg_device_free(ohm_mg_device *d)
         cl_mem *m[] = {&L->off, &L->c,  &L->invd, &L->agg, &L->start, &L->children, &L->b, &L->x,
                        &L->t,   &L->c1, &L->v1,   &L->c2,  &L->v2,    &L->rt};
         for (size_t i = 0; i < sizeof m / sizeof *m; ++i) ohm_device_release(&d->s, m[i]);
+        cl_mem *x[] = {&L->xs, &L->xc, &L->xg}; /* the level's own, or the device's none */
+        for (size_t i = 0; L->has_x && i < sizeof x / sizeof *x; ++i) ohm_device_release(&d->s, x[i]);
     }
-    cl_mem *m[] = {&d->g, &d->sink, &d->x, &d->b, &d->r, &d->p, &d->ap, &d->dense, &d->dense_y, &d->partial};
+    cl_mem *m[] = {&d->g, &d->sink, &d->x, &d->b, &d->r, &d->p, &d->ap, &d->dense, &d->dense_y, &d->partial, &d->none};
     for (size_t i = 0; i < sizeof m / sizeof *m; ++i) ohm_device_release(&d->s, m[i]);
     for (int k = 0; k < K_COUNT; ++k)
         if (d->k[k]) d->s.cl.ReleaseKernel(d->k[k]);
@@ -557,6 +593,7 @@ void ohm_mg_device_free(ohm_mg_device *d)
 /* the network's stencil as kernel k's first three arguments (off: level 0's) */
 static void set_network(ohm_mg_device *d, enum kernel_id k)
 {
+    set_extras(d, k, &d->lev[0]);
     ARG_MEM(k, 0, d->lev[0].off);
     ARG_MEM(k, 1, d->g);
     ARG_MEM(k, 2, d->sink);

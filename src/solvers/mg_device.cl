@@ -55,6 +55,32 @@ inline float cyc_diag(__global const int4 *off, __global const float4 *c, long v
     return d;
 }
 
+/* Level 0's links beyond the grid (the clear regions' coupling:
+ * physics/stencil_form.h), row v's entries xs[v] .. xs[v + 1] - 1 of xc
+ * (the other unknown) and xg; has_x 0: none (the buffers unread).  The
+ * flux form's terms in double, and in the cycle's single precision their
+ * sum g x_w and their share of the diagonal. */
+#define EXTRA_ARGS __global const long *xs, __global const long *xc, __global const float *xg, int has_x
+inline double net_extra(EXTRA_ARGS, __global const double *x, long v)
+{
+    double s = 0;
+    if (has_x)
+        for (long k = xs[v]; k < xs[v + 1]; ++k) s += xg[k] * (x[v] - x[xc[k]]);
+    return s;
+}
+
+inline float cyc_extra(EXTRA_ARGS, __global const float *x, long v, float *diag)
+{
+    float s = 0, d = 0;
+    if (has_x)
+        for (long k = xs[v]; k < xs[v + 1]; ++k) {
+            s += xg[k] * x[xc[k]];
+            d += xg[k];
+        }
+    *diag = d;
+    return s;
+}
+
 /* a coarse level's row (sparse: solvers/mg_coarsen.h): entries rp[v] ..
  * rp[v + 1] - 1 of cv, (column, g) pairs with the column's bits in a
  * float's, the first the row's sink (column -1).  Its links' sum g x_w,
@@ -101,13 +127,13 @@ inline void group_sum2(double a, double b, __local double *sa, __local double *s
 /* r = b - A x; partials ||r||^2 and sum r */
 __kernel void net_residual(__global const int4 *off, __global const float *g, __global const double *sink,
                            __global const double *x, __global const double *b, __global double *r, long n,
-                           __global double *partial)
+                           __global double *partial, EXTRA_ARGS)
 {
     __local double sa[WG], sb[WG];
     double s2 = 0, s1 = 0;
     GRID_LOOP(v, n)
     {
-        double rv = b[v] - net_apply(off, g, sink, x, v, n);
+        double rv = b[v] - net_apply(off, g, sink, x, v, n) - net_extra(xs, xc, xg, has_x, x, v);
         r[v] = rv;
         s2 += rv * rv;
         s1 += rv;
@@ -118,13 +144,13 @@ __kernel void net_residual(__global const int4 *off, __global const float *g, __
 /* q = A p; partials p.q and p.r */
 __kernel void net_apply_dots(__global const int4 *off, __global const float *g, __global const double *sink,
                              __global const double *p, __global const double *r, __global double *q, long n,
-                             __global double *partial)
+                             __global double *partial, EXTRA_ARGS)
 {
     __local double sa[WG], sb[WG];
     double pq = 0, pr = 0;
     GRID_LOOP(v, n)
     {
-        double qv = net_apply(off, g, sink, p, v, n);
+        double qv = net_apply(off, g, sink, p, v, n) + net_extra(xs, xc, xg, has_x, p, v);
         q[v] = qv;
         pq += p[v] * qv;
         pr += p[v] * r[v];
@@ -190,29 +216,39 @@ __kernel void jacobi0(__global const float *b, __global const float *invd, __glo
 
 /* out = x + w D^-1 (b - A x): the first Chebyshev step from x */
 __kernel void jacobi(__global const int4 *off, __global const float4 *c, __global const float *invd,
-                     __global const float *x, __global const float *b, __global float *out, float w, long n)
+                     __global const float *x, __global const float *b, __global float *out, float w, long n,
+                     EXTRA_ARGS)
 {
-    GRID_LOOP(v, n) out[v] = x[v] + w * ((b[v] + cyc_row(off, c, x, v, n)) * invd[v] - x[v]);
+    GRID_LOOP(v, n)
+    {
+        float dx, row = cyc_row(off, c, x, v, n) + cyc_extra(xs, xc, xg, has_x, x, v, &dx);
+        out[v] = x[v] + w * ((b[v] + row) * invd[v] - x[v]);
+    }
 }
 
 /* out = x + a (x - y) + a2 D^-1 (b - A x); y absent: 0 (has_y 0) */
 __kernel void cheb(__global const int4 *off, __global const float4 *c, __global const float *invd,
                    __global const float *x, __global const float *y, int has_y, __global const float *b,
-                   __global float *out, float a, float a2, long n)
+                   __global float *out, float a, float a2, long n, EXTRA_ARGS)
 {
     GRID_LOOP(v, n)
     {
-        float xv = x[v], yv = has_y ? y[v] : 0.0f;
-        float jac = (b[v] + cyc_row(off, c, x, v, n)) * invd[v] - xv;
+        float dx, xv = x[v], yv = has_y ? y[v] : 0.0f;
+        float row = cyc_row(off, c, x, v, n) + cyc_extra(xs, xc, xg, has_x, x, v, &dx);
+        float jac = (b[v] + row) * invd[v] - xv;
         out[v] = xv + a * (xv - yv) + a2 * jac;
     }
 }
 
 /* t = b - A x */
 __kernel void cyc_residual(__global const int4 *off, __global const float4 *c, __global const float *x,
-                           __global const float *b, __global float *t, long n)
+                           __global const float *b, __global float *t, long n, EXTRA_ARGS)
 {
-    GRID_LOOP(v, n) t[v] = b[v] - (cyc_diag(off, c, v, n) * x[v] - cyc_row(off, c, x, v, n));
+    GRID_LOOP(v, n)
+    {
+        float dx, row = cyc_row(off, c, x, v, n) + cyc_extra(xs, xc, xg, has_x, x, v, &dx);
+        t[v] = b[v] - ((cyc_diag(off, c, v, n) + dx) * x[v] - row);
+    }
 }
 
 /* rc[I] = sum of t over coarse cell I's fine cells (children[start[I] ..
@@ -237,13 +273,15 @@ __kernel void prolong(__global const float *x, __global const float *e, __global
 
 /* y = A x; partial x.q (has_q) or x.y */
 __kernel void cyc_apply_dot(__global const int4 *off, __global const float4 *c, __global const float *x,
-                            __global float *y, __global const float *q, int has_q, long n, __global double *partial)
+                            __global float *y, __global const float *q, int has_q, long n, __global double *partial,
+                            EXTRA_ARGS)
 {
     __local double sa[WG], sb[WG];
     double s = 0;
     GRID_LOOP(v, n)
     {
-        float yv = cyc_diag(off, c, v, n) * x[v] - cyc_row(off, c, x, v, n);
+        float dx, row = cyc_row(off, c, x, v, n) + cyc_extra(xs, xc, xg, has_x, x, v, &dx);
+        float yv = (cyc_diag(off, c, v, n) + dx) * x[v] - row;
         y[v] = yv;
         s += (double)x[v] * (has_q ? (double)q[v] : (double)yv);
     }

@@ -701,8 +701,8 @@ static const ohm_opt_spec solve_opts[] = {
      "whose 1/sigma_t' exceeds the cell and whose optical thickness sigma_t' x mean chord is below 2): auto (find "
      "them and treat them as best ohm can: today effective) | off (diffusion everywhere) | effective (an effective "
      "sigma_s' of 1/thickness there, Custo et al. 2006) | radiosity (transport across them: their walls exchange "
-     "light by view factors, Firbank et al. 1996; solver=direct, cg or mg, on the host); the log and the "
-     "statistics name what is found (docs/transport.md)",
+     "light by view factors, Firbank et al. 1996; solver=direct, cg or mg); the log and the statistics name "
+     "what is found (docs/transport.md)",
      NULL, 0, 0, 0},
     {"petsc_options", OHM_OPT_STRING, NULL,
      "solver=amg: options for PETSc's database, e.g. \"-pc_type gamg\" or \"-ksp_type preonly -pc_type cholesky "
