@@ -138,6 +138,26 @@ static void check_skin_has_none(void)
 
 /* A pencil-beam solve of a scene at clear=mode with solver kind; with mask,
  * the radiosity coupling of those unknowns within reach mm instead. */
+/* The scene's solve parameters: its media (given to the solve), the
+ * mirrors, clear= and the solver. */
+static ohm_solve_params scene_params(const ohm_voxel_grid *g, scene_kind kind, double depth, double radius,
+                                     ohm_clear_mode mode, ohm_solver_kind solver)
+{
+    ohm_solve_params p;
+    memset(&p, 0, sizeof p);
+    p.op.mirrors = &MIRROR;
+    p.op.clear = mode;
+    p.num.solver = solver;
+    size_t n = g->interior_cells;
+    ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
+    int64_t clear_cells;
+    scene_media(sa, ss, &clear_cells, g, kind, depth, radius);
+    p.media.sigma_a[0] = sa;
+    p.media.sigma_s[0] = ss;
+    p.media.give_media = 1;
+    return p;
+}
+
 static int scene_solve_coupled(ohm_solution *sol, const ohm_voxel_grid *g, scene_kind kind, double depth,
                                double radius, ohm_clear_mode mode, ohm_solver_kind solver, const uint8_t *mask,
                                double reach)
@@ -147,20 +167,9 @@ static int scene_solve_coupled(ohm_solution *sol, const ohm_voxel_grid *g, scene
     ohm_material m = ohm_scene_grey(SA, SS);
     m.eta = 1.37;
     ohm_light beam = ohm_scene_pencil((const double[3]){0, 0, -1.0}, (const double[3]){0, 0, 1.0});
-    ohm_solve_params p;
-    memset(&p, 0, sizeof p);
-    p.op.mirrors = &MIRROR;
-    p.op.clear = mode;
+    ohm_solve_params p = scene_params(g, kind, depth, radius, mode, solver);
     p.op.clear_cells = mask;
     p.op.clear_reach = reach;
-    p.num.solver = solver;
-    size_t n = g->interior_cells;
-    ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
-    int64_t clear_cells;
-    scene_media(sa, ss, &clear_cells, g, kind, depth, radius);
-    p.media.sigma_a[0] = sa;
-    p.media.sigma_s[0] = ss;
-    p.media.give_media = 1;
     int rc = ohm_solve(sol, g, &m, &beam, 1, &p, &log, &err);
     if (rc) fprintf(stderr, "solve: %s\n", err.msg);
     return rc;
@@ -193,18 +202,7 @@ static void check_relight(const ohm_voxel_grid *g, double depth, double radius, 
     ohm_light second = ohm_scene_pencil((const double[3]){4.0, 3.0, -1.0}, (const double[3]){0, 0, 1.0});
     ohm_solver *s[2] = {NULL, NULL};
     for (int q = 0; q < 2; ++q) {
-        ohm_solve_params p;
-        memset(&p, 0, sizeof p);
-        p.op.mirrors = &MIRROR;
-        p.op.clear = OHM_CLEAR_RADIOSITY;
-        p.num.solver = kind;
-        size_t n = g->interior_cells;
-        ohm_coeff *sa = malloc(n * sizeof *sa), *ss = malloc(n * sizeof *ss);
-        int64_t clear_cells;
-        scene_media(sa, ss, &clear_cells, g, SCENE_VOID, depth, radius);
-        p.media.sigma_a[0] = sa;
-        p.media.sigma_s[0] = ss;
-        p.media.give_media = 1;
+        ohm_solve_params p = scene_params(g, SCENE_VOID, depth, radius, OHM_CLEAR_RADIOSITY, kind);
         CHECK_MSG(ohm_solver_create(&s[q], g, &m, &p, 1, &log, &err) == 0, "%s", err.msg);
     }
     if (!s[0] || !s[1]) goto done;
