@@ -192,7 +192,7 @@ static int slab_room(scratch *s, int64_t m)
  * by strong links within a block (and link-less ones per block), or all
  * of a block's (whole). */
 static void join_slab(const ohm_mg_operator *op, const float *rowmax, double theta, int whole, int64_t v0, int64_t m,
-                      int64_t cplane, scratch *s)
+                      scratch *s)
 {
     int64_t *first = s->head; /* a block's first link-less (or, whole, any) unknown */
     for (int64_t i = 0; i < m; ++i) {
@@ -200,7 +200,6 @@ static void join_slab(const ohm_mg_operator *op, const float *rowmax, double the
         first[s->q[i]] = -1;
         s->cut[s->q[i]] = 0;
     }
-    (void)cplane;
     row_walk r = walk_from(op, v0);
     for (int64_t i = 0; i < m; ++i) {
         int64_t v = v0 + i, q = s->q[i];
@@ -251,12 +250,12 @@ static void join_alike(const int64_t *order, int64_t count, int64_t v0, const fl
     }
 }
 
-/* The slab's parts numbered by place, then by first unknown: agg of its
- * unknowns, the coarse unknowns' cells; alike parts of a block joined
- * first (not when whole: one part a block already). */
 typedef struct slab_range slab_range;
 static int64_t push_part(slab_range *r, int64_t cell);
 
+/* The slab's parts numbered by place, then by first unknown: agg of its
+ * unknowns, the coarse unknowns' cells; alike parts of a block joined
+ * first (not when whole: one part a block already). */
 static int number_slab(int64_t K, int64_t v0, int64_t m, int64_t cplane, const float *rowmax, double theta, int whole,
                        scratch *s, slab_range *range, int32_t *agg)
 {
@@ -355,7 +354,7 @@ static void group_range(void *user, int64_t ri)
             if (v + 1 < n) c = next_place(&p, v + 1);
         }
         if (R->failed) break;
-        join_slab(cg->op, cg->rowmax, cg->theta, cg->whole, v0, v - v0, cplane, &s);
+        join_slab(cg->op, cg->rowmax, cg->theta, cg->whole, v0, v - v0, &s);
         if (number_slab(K, v0, v - v0, cplane, cg->rowmax, cg->theta, cg->whole, &s, R, out->agg)) R->failed = 1;
     }
     free(s.q), free(s.parent), free(s.order), free(s.rootid), free(s.big), free(s.head), free(s.cut);
@@ -386,6 +385,7 @@ static int group_level(coarsening *cg, int64_t nranges, int threads)
         cg->range[r].base = nc;
         nc += cg->range[r].nc;
     }
+    if (nc > INT32_MAX) return -1; /* the map is 32-bit */
     out->fine_at[out->nslabs] = cg->n;
     out->coarse_at[out->nslabs] = nc;
     out->nc = nc;
