@@ -40,8 +40,10 @@
  * the cycle's vectors in single (12 B: its right-hand side, its result, and
  * one temporary, the post-smoothing done in place), and the coarse levels
  * (a fifth to an eighth as many unknowns each, with their rows of about
- * eight links, 8 B each, their map and up to seven vectors): about 78 B per
- * unknown in all at 1e7 cells (docs/multigrid.md). */
+ * eight links, 8 B each, their map and up to seven vectors): 79 and 85 B
+ * per unknown in all, the stencil's included, on the scale study's and the
+ * nine-level block media at 1e7 cells through a scan (the statistics'
+ * solver_bytes; 69.8 with fixed blocks: docs/multigrid.md). */
 #ifndef OHM_SOLVERS_MG_H
 #define OHM_SOLVERS_MG_H
 
