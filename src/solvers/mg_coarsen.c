@@ -369,7 +369,7 @@ static void place_range(void *user, int64_t ri)
     ohm_mg_coarse *out = cg->out;
     for (int64_t K = R->k0; K < R->k1; ++K) out->coarse_at[K] += R->base;
     for (int64_t v = out->fine_at[R->k0]; v < out->fine_at[R->k1]; ++v) out->agg[v] += (int32_t)R->base;
-    memcpy(out->cell + R->base, R->cell, (size_t)R->nc * sizeof *R->cell);
+    if (R->nc) memcpy(out->cell + R->base, R->cell, (size_t)R->nc * sizeof *R->cell); /* (none: no array) */
 }
 
 /* The level's unknowns into coarse unknowns: out's agg, slabs, cells, nc,
@@ -559,6 +559,7 @@ static void place_rows(void *user, int64_t ri)
     ohm_mg_sparse *sp = &cg->out->sp;
     int64_t I0 = cg->out->coarse_at[R->k0], rows = cg->out->coarse_at[R->k1] - I0;
     for (int64_t i = 0; i < rows; ++i) sp->rp[I0 + i + 1] = R->nnz_base + R->rp[i + 1];
+    if (!R->nnz) return; /* (no arrays) */
     memcpy(sp->col + R->nnz_base, R->col, (size_t)R->nnz * sizeof *R->col);
     memcpy(sp->g + R->nnz_base, R->g, (size_t)R->nnz * sizeof *R->g);
 }
