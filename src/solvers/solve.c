@@ -143,12 +143,15 @@ static int coupled_stencil(ohm_stencil *st, double *ga, double *gb, const ohm_ne
     return rc;
 }
 
-/* ohm_operator.make_stencil: the slot's stencil, made once. */
+/* ohm_operator.make_stencil: the slot's stencil, made once.  The
+ * assembly filled ga and gb already; the coupling's stencil needs them
+ * again (it rewrites them as its matrix did), the plain one not. */
 static int slot_make_stencil(void *maker, const ohm_stencil **out, ohm_error *err)
 {
     medium_slot *m = maker;
+    double *ga = m->exchange ? m->ga : NULL, *gb = m->exchange ? m->gb : NULL;
     int rc = m->stencil.gx ? OHM_OK
-                           : coupled_stencil(&m->stencil, m->ga, m->gb, m->net, &m->med, m->boundary, m->exchange, err);
+                           : coupled_stencil(&m->stencil, ga, gb, m->net, &m->med, m->boundary, m->exchange, err);
     *out = rc ? NULL : &m->stencil;
     return rc;
 }
