@@ -1012,10 +1012,25 @@ static void report_clear(ohm_stats *st, const ohm_solution *sol, const ohm_solve
     ohm_stats_set(st, "clear_volume_mm3", r->clear_volume_mm3);
     ohm_stats_set(st, "clear_min_optical_thickness", optical);
     ohm_stats_set(st, "clear_thickness_mm", thickness);
-    ohm_stats_add(st, "t_clear", sol->t_clear);
     if (sol->clear_action == OHM_CLEAR_RADIOSITY) {
         ohm_stats_set_int(st, "clear_nodes", sol->clear_nodes);
         ohm_stats_set_int(st, "clear_pairs", sol->clear_pairs);
+    }
+}
+
+/* The solver's set-up seconds into the statistics: what it took since they
+ * were last booked (a -solve books its solver's all; a relight, with the
+ * set-up kept, what it added: nothing, unless a backend set up again). */
+static void book_setup_times(ohm_state *s, const ohm_solution *sol, int relit)
+{
+    static const char *const key[OHM_SETUP_TIMES] = {"t_shadow_setup", "t_clear",    "t_cg_setup", "t_network",
+                                                     "t_assemble",     "t_analyze", "t_factor"};
+    const double t[OHM_SETUP_TIMES] = {sol->t_shadow_setup, sol->t_clear,    sol->t_cg_setup, sol->t_network,
+                                       sol->t_assemble,     sol->t_analyze, sol->t_factor};
+    for (int i = 0; i < OHM_SETUP_TIMES; ++i) {
+        if (!relit) s->setup_booked[i] = 0;
+        ohm_stats_add(&s->stats, key[i], t[i] - s->setup_booked[i]);
+        s->setup_booked[i] = t[i];
     }
 }
 
@@ -1098,7 +1113,6 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_int(st, "solves", (long long)sol->solves);
     ohm_stats_set_int(st, "solves_skipped", (long long)sol->solves_skipped);
     ohm_stats_set_str(st, "shadows", ohm_shadows_name(p.src.shadows));
-    ohm_stats_add(st, "t_shadow_setup", sol->t_shadow_setup);
     ohm_stats_set(st, "t_update_per_frame", (sol->t_source + sol->t_solve) / sol->frames);
     ohm_stats_set_str(st, "boundary", ohm_boundary_name(p.op.boundary));
     ohm_stats_set_str(st, "deposit", deposit_name(p.src.deposit));
@@ -1112,7 +1126,6 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set(st, "cg_relres", sol->cg_relres);
     ohm_stats_set_int(st, "cg_stalled", (long long)sol->cg_stalled);
     report_clear(st, sol, &p);
-    ohm_stats_add(st, "t_cg_setup", sol->t_cg_setup);
     ohm_stats_set_int(st, "ranks", sol->ranks);
     ohm_stats_set_int(st, "mg_levels", sol->mg_levels);
     ohm_stats_set_str(st, "device", sol->device[0] ? sol->device : "host");
@@ -1125,10 +1138,7 @@ static void report_solve(ohm_state *s, double t0, int relit)
     ohm_stats_set_int(st, "nnz_A", (long long)sol->nnz_A);
     ohm_stats_set_int(st, "nnz_L", (long long)sol->nnz_L);
     ohm_stats_set(st, "flops", sol->flops);
-    ohm_stats_add(st, "t_network", sol->t_network);
-    ohm_stats_add(st, "t_assemble", sol->t_assemble);
-    ohm_stats_add(st, "t_analyze", sol->t_analyze);
-    ohm_stats_add(st, "t_factor", sol->t_factor);
+    book_setup_times(s, sol, relit);
     ohm_stats_add(st, "t_source", sol->t_source);
     ohm_stats_add(st, "t_solve", sol->t_solve);
     ohm_stats_set(st, "residual", sol->residual);

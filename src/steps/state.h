@@ -15,6 +15,9 @@
 #include "base/stats.h"
 #include "grid/voxelize.h"
 
+/* The set-up times a solve books (report_solve, actions.c). */
+enum { OHM_SETUP_TIMES = 7 };
+
 typedef struct ohm_state {
     ohm_log log;
     ohm_stats stats;
@@ -56,6 +59,9 @@ typedef struct ohm_state {
     int have_solution;              /* the solver's solution is for these lights */
     char solve_options[160];        /* boundary=... fluence=...: for metadata  */
     char solution_desc[320];        /* those, the lights and the solver        */
+    /* the solver's set-up seconds (network, assembly, factor, ...) booked
+     * in the statistics so far: a relight books only what it added */
+    double setup_booked[OHM_SETUP_TIMES];
 
     /* The running chain's outputs, staged until it has succeeded
      * (ohm_chain_run); NULL outside a run: writes then rename at once. */
