@@ -241,12 +241,18 @@ def main():
             check(s.stat("solver") == "direct" and s.stat("power_out") == r["power_out"], "stats")
             vx = s.vertex_exitance()
             check(vx.shape[1] == 3 and (vx > 0).mean() > 0.25, "vertex exitance %s" % (vx.shape,))
+            setup_keys = ("t_network", "t_assemble", "t_analyze", "t_factor", "t_shadow_setup", "t_clear")
+            setup = {k: s.stat(k) for k in setup_keys}
+            check(setup["t_factor"] > 0, "the solve's factor time booked: %s" % setup)
             for light in lights[1:]:
                 s.clear_lights()
                 s.add_light(**light)
                 s.relight()
                 rr = s.result()
                 check(rr["factorizations"] == 3, "relight factored again: %s" % rr)
+                # a relight sets nothing up: the set-up times are the solve's, not added again
+                check({k: s.stat(k) for k in setup_keys} == setup,
+                      "a relight booked set-up time: %s, was %s" % ({k: s.stat(k) for k in setup_keys}, setup))
                 check(rr["power_in"] > 0 and conserves(rr), "relit conservation %s" % rr)
                 check(s.stat("factors") == 3, "the stats count %s factorizations" % s.stat("factors"))
                 with scene_with(ctx, light) as fresh:
