@@ -18,11 +18,8 @@
 #include "solvers/mg_cycle.h"
 
 /* Levels stop coarsening at this many cells, solved by a dense Cholesky
- * factor (n^2 doubles: 0.18 MB at 150, in a core's cache).  The K-cycle
- * solves the coarsest level up to eight times a cycle, each a pass over the
- * factor: at 500 (2 MB) those passes took 9% of a relight of 297 250
- * cells, and a relight 0.26 s instead of 0.23 s (docs/multigrid.md). */
-enum { COARSEST_MAX = 150, LEVELS_MAX = OHM_MG_LEVELS_MAX };
+ * factor: (n^3 / 3 flops, n^2 doubles: 0.04 GFlop and 2 MB at 500). */
+enum { COARSEST_MAX = 500, LEVELS_MAX = OHM_MG_LEVELS_MAX };
 
 /* The K-cycle's two inner steps run at the levels 1 .. KCYCLE_LEVELS and
  * always both; below, one cycle.  Measured on the block medium at 1e7 cells

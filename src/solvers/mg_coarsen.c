@@ -638,10 +638,6 @@ int ohm_mg_coarsen(const ohm_mg_operator *op, int64_t n, const ohm_mg_places *pl
     if (!rc) {
         largest_links(op, n, rowmax, threads);
         rc = group_level(&cg, nranges, threads);
-        while (!rc && (double)out->nc > OHM_MG_KEEP_MAX * (double)n && cg.theta / 4 >= OHM_MG_THETA_MIN) {
-            cg.theta /= 4; /* weaker links count as strong: fewer, larger parts */
-            rc = group_level(&cg, nranges, threads);
-        }
         if (!rc && (double)out->nc > OHM_MG_KEEP_MAX * (double)n) {
             out->whole_blocks = cg.whole = 1;
             rc = group_level(&cg, nranges, threads);

@@ -17,15 +17,9 @@
  * weak link cuts (parts only because an object's edge or hole cuts the
  * block: whole blocks keep the level a stencil, mg.c).  Where strength would keep more than
  * OHM_MG_KEEP_MAX of the unknowns (a cell-scale checkerboard, where no
- * link is strong; or a coarse level whose blocks hold several media each,
- * once its blocks are larger than the medium's pieces), theta is divided
- * by 4 and the level grouped again, down to OHM_MG_THETA_MIN, so that the
- * parts of the most alike media join first; only then does the level fall
- * back to whole blocks (every unknown of a block in one group, connected
- * or not), so that coarsening always shrinks the level.  Falling back at
- * once left a level of 472 unknowns over 4^3 places of the family's clear
- * medium at 32^3 a coarse level of 8, and 31 iterations where the sweep
- * takes 15.
+ * link is strong), the level falls back to whole blocks (every unknown of
+ * a block in one group, connected or not), so that coarsening always
+ * shrinks the level.
  *
  * Every coarse unknown keeps its block's place in the coarse grid (parts
  * of one block share it), and coarse unknowns are numbered by place, then
@@ -76,13 +70,10 @@ typedef struct ohm_mg_places {
     int64_t dims[3];
 } ohm_mg_places;
 
-/* theta of the strength test, the least it is divided down to (three
- * divisions by 4), and the fraction of a level's unknowns the coarse
- * level may keep before theta is divided, and at the least theta before
- * it falls back to whole blocks.  theta measured on the held-in family
- * (docs/multigrid.md): 0.25 as AMG's. */
+/* theta of the strength test, and the fraction of a level's unknowns the
+ * coarse level may keep before it falls back to whole blocks.  theta
+ * measured on the held-in family (docs/multigrid.md): 0.25 as AMG's. */
 #define OHM_MG_THETA 0.25
-#define OHM_MG_THETA_MIN 0.002
 #define OHM_MG_KEEP_MAX 0.7
 
 /* One step: level (n unknowns) into the coarse one. */
