@@ -12,12 +12,15 @@
 #   scripts/head-clear.sh [build/ohm]     GRIDS="2 1" PHOTONS=2e6
 #   RADIOSITY_GRIDS="2": where clear=radiosity runs too (its pairs grow with
 #   the walls' area within reach: at 1 mm, about 16x the 2 mm's 6.8e6)
+#   RADIOSITY_REACH=15: its clear_reach= (mm; default: ohm's, 5 mean chords
+#   of the thickest region, 35 mm here)
 # About 6 minutes on the project's 2-core machine; run it with nothing else
 # busy.
 set -euo pipefail
 cd "$(dirname "$0")/.."
 OHM=$(realpath "${1:-build/ohm}")
 GRIDS=${GRIDS:-"2 1"} PHOTONS=${PHOTONS:-2e6} RADIOSITY_GRIDS=${RADIOSITY_GRIDS:-"2"}
+RADIOSITY_REACH=${RADIOSITY_REACH:-}
 tmp=$(mktemp -d)
 trap 'rm -rf "$tmp"' EXIT
 rows="$tmp/rows.txt"
@@ -31,13 +34,14 @@ awk '/^[0-9]/ && $1 < 45 { print $1, 0.02, 1.0, 1.37; next } { print }' samples/
 
 run() { # grid clear solver [label transfer]: one solve, its statistics and its cells
   local h=$1 clear=$2 solver=$3 label=${4:-$2} transfer=${5:-samples/head-clear.transfer}
-  local file=samples/ch2.nii.gz photons=()
+  local file=samples/ch2.nii.gz photons=() reach=()
   [ "$h" = 2 ] && file=samples/ch2_2mm.nii.gz
   [ "$solver" = mc ] && photons=(photons="$PHOTONS") # the diffusion solves at their defaults
+  [ "$clear" = radiosity ] && [ -n "$RADIOSITY_REACH" ] && reach=(clear_reach="$RADIOSITY_REACH")
   echo "head-clear: ${h} mm, $label, solver=$solver" >&2
   /usr/bin/time -f "%M" -o "$tmp/rss" "$OHM" -read file="$file" -voxelize threshold=12 voxel="$h" \
     -material transfer="$transfer" "${light[@]}" \
-    -solve solver="$solver" clear="$clear" "${photons[@]}" -stats file="$tmp/s.json" \
+    -solve solver="$solver" clear="$clear" "${photons[@]}" "${reach[@]}" -stats file="$tmp/s.json" \
     -export csv="$tmp/$h-$label-$solver.csv" >"$tmp/out" 2>"$tmp/err" || { tail -3 "$tmp/err" >&2; exit 1; }
   grep -h "clear regions' coupling:" "$tmp/err" | grep -v "%" | tail -1 >"$tmp/coupling" || true
   /usr/bin/python3 - "$tmp/s.json" "$tmp/rss" "$h" "$label" "$solver" "$tmp/coupling" >>"$rows" <<'PY'

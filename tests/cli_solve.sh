@@ -251,6 +251,34 @@ check "hybrid: auto off there" $PY -c "
 import json
 for f in ('$T/hyn.json', '$T/hyb.json'): assert json.load(open(f))['hybrid'] == 0, f"
 
+# clear=radiosity's reach (clear_reach=): the walnut CT with its least dense
+# class clear; a nearer reach links fewer pairs, the books close either way;
+# clear_reach= with another treatment is refused
+cat >"$T/clear.transfer" <<'TF'
+ohm-transfer 1 eta=column
+0 0.0004 0.001 1.0
+5300 0.0004 0.001 1.0
+6100 0.02 1 1.45
+15000 0.2 5 1.6
+TF
+WALNUT=(-read file=samples/walnut_64x48x57_uint16.raw.gz dims=64,48,57 type=u16 -voxelize threshold=5000
+        -material transfer="$T/clear.transfer" -light type=point pos=0,0,60 intensity=1000)
+expect_exit 0 "clear=radiosity, ohm's reach" -- "$OHM" "${WALNUT[@]}" -solve clear=radiosity solver=mg \
+  -stats file="$T/reach_auto.json"
+expect_exit 0 "clear=radiosity clear_reach=2" -- "$OHM" "${WALNUT[@]}" -solve clear=radiosity clear_reach=2 \
+  solver=mg -stats file="$T/reach_2.json"
+check "clear_reach=2: fewer pairs, linked within 2 mm, the books exact" $PY - "$T/reach_auto.json" "$T/reach_2.json" <<'PY'
+import json, sys
+a, b = (json.load(open(f)) for f in sys.argv[1:3])
+assert a["clear_action"] == b["clear_action"] == "radiosity", (a["clear_action"], b["clear_action"])
+assert b["clear_reach_mm"] == 2 and a["clear_reach_mm"] > 2, (a["clear_reach_mm"], b["clear_reach_mm"])
+assert 0 < b["clear_pairs"] < a["clear_pairs"], (a["clear_pairs"], b["clear_pairs"])
+assert a["clear_nodes"] == b["clear_nodes"] > 0, (a["clear_nodes"], b["clear_nodes"])
+for s in (a, b): assert s["conservation_error"] < 1e-10, s["conservation_error"]
+PY
+expect_exit 2 "clear_reach= with clear=effective" -- "$OHM" "${WALNUT[@]}" -solve clear=effective clear_reach=5
+expect_error_line "clear_reach= with clear=effective" "clear_reach= is the reach of clear=radiosity's coupling; clear=effective has none"
+
 # the paper's Figure 1 profiles: 15 rows, symmetric, peaked in the middle
 expect_exit 0 "figure 1" -- "$OHM" validate figure1 "$T/fig1.csv"
 check "figure 1 csv" $PY - "$T/fig1.csv" <<'PY'

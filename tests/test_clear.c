@@ -304,6 +304,18 @@ int main(void)
                               ohm_clear_reach(rad.clear.region[0].thickness_mm)) == 0);
     CHECK(same_bits(&rad, &hand));
     CHECK(ohm_solution_conservation_error(&rad) <= 1e-10);
+    /* a reach asked (clear_reach=) on the regions found: the pairs within
+     * it, as the same mask coupled by hand within it; fewer, the books exact */
+    double near = 0.2 * ohm_clear_reach(rad.clear.region[0].thickness_mm); /* less than the void's diameter */
+    ohm_solution near_found, near_hand;
+    CHECK(scene_solve_coupled(&near_found, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_RADIOSITY, OHM_SOLVER_DIRECT,
+                              NULL, near) == 0);
+    CHECK(scene_solve_coupled(&near_hand, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_OFF, OHM_SOLVER_DIRECT, mask,
+                              near) == 0);
+    CHECK(near_found.clear_reach_mm == near && near_found.clear_pairs > 0 && near_found.clear_pairs < rad.clear_pairs);
+    CHECK(same_bits(&near_found, &near_hand));
+    CHECK(ohm_solution_conservation_error(&near_found) <= 1e-10);
+    ohm_solution_free(&near_found), ohm_solution_free(&near_hand);
     CHECK(scene_solve(&eff, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_DIRECT) == 0);
     CHECK(!same_bits(&rad, &eff));
     printf("cube + clear void, clear=radiosity: %lld nodes, %lld pairs within %.3g mm; conservation %.2g\n",

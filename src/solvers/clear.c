@@ -105,7 +105,7 @@ static int apply_effective(ohm_solver *s, ohm_error *err)
 }
 
 /* clear=radiosity: the coupling of the regions so treated, face pairs within
- * the reach of the thickest (ohm_clear_reach). */
+ * the reach asked (clear_reach=), else that of the thickest (ohm_clear_reach). */
 static int apply_radiosity(ohm_solver *s, ohm_error *err)
 {
     ohm_solution *sol = &s->sol;
@@ -118,10 +118,12 @@ static int apply_radiosity(ohm_solver *s, ohm_error *err)
         s->clear_mask[v] = 1;
         thickest = fmax(thickest, sol->clear.region[k].thickness_mm);
     }
-    ohm_clear_exchange_params cp = {.max_distance = ohm_clear_reach(thickest), .log = s->log};
+    double reach = s->params.op.clear_reach > 0 ? s->params.op.clear_reach : ohm_clear_reach(thickest);
+    ohm_clear_exchange_params cp = {.max_distance = reach, .log = s->log};
     int rc = ohm_clear_exchange_build(&s->exchange, &sol->net, s->clear_mask, &cp, err);
     sol->clear_nodes = s->exchange.nnodes;
     sol->clear_pairs = s->exchange.npairs;
+    sol->clear_reach_mm = reach;
     if (!rc)
         ohm_log_info(s->log,
                      "clear regions' coupling: %lld wall nodes, %lld wall faces, %lld node pairs within %.3g mm "

@@ -56,7 +56,10 @@ typedef struct ohm_operator_params {
      * diffusion everywhere.  Kept by pointer: must outlive the solver. */
     const uint8_t *clear_cells;
     double clear_reach;         /* mm: the coupling's face pairs farther apart are
-                                   not linked (clear_exchange.h); 0: every visible pair */
+                                   not linked (clear_exchange.h).  With clear_cells:
+                                   0 links every visible pair; with clear=radiosity
+                                   on the regions found: 0 is ohm_clear_reach of the
+                                   thickest region treated */
 } ohm_operator_params;
 
 /* The medium cell by cell, and who owns its arrays. */
@@ -201,6 +204,7 @@ typedef struct ohm_solution {
     double t_clear;                     /* finding them and making the treatment's media */
     int64_t clear_nodes, clear_pairs;   /* clear=radiosity: the coupling's wall nodes
                                            and linked node pairs                      */
+    double clear_reach_mm;              /* and the distance they are linked within    */
     double *band_eta, *band_g;          /* eta_v, g_v compacted to the band's unknowns, or NULL */
     double t_network;                   /* the network's topology: depth band (if any),
                                            unknowns, faces, pieces — once per grid    */
