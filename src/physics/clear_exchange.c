@@ -150,7 +150,7 @@ static double face_exchange(const wall_face *p, const double xq[3], const double
     return sum / (double)(SUB * SUB * SUB * SUB);
 }
 
-/* Growable arrays of int64 / double. */
+/* Growable arrays (elements of size bytes). */
 static int grow(void **p, int64_t *cap, int64_t need, size_t size)
 {
     if (need <= *cap) return 0;
@@ -390,18 +390,18 @@ static int exchange_pairs(ohm_clear_exchange *ce, const clear_geometry *g, const
         }
         for (int64_t t = 0; t < row.ntouched; ++t) {
             int64_t v = row.touched[t];
-            if (grow((void **)&ce->pair_u, &cap, ce->npairs + 1, sizeof(int64_t))) goto nomem;
-            int64_t *pv = realloc(ce->pair_v, (size_t)cap * sizeof *pv);
+            if (grow((void **)&ce->pair_u, &cap, ce->npairs + 1, sizeof *ce->pair_u)) goto nomem;
+            int32_t *pv = realloc(ce->pair_v, (size_t)cap * sizeof *pv);
             double *pw = pv ? realloc(ce->pair_w, (size_t)cap * sizeof *pw) : NULL;
             if (pv) ce->pair_v = pv;
             if (pw) ce->pair_w = pw;
-            double *pr = pw ? realloc(ce->pair_r, (size_t)cap * sizeof *pr) : NULL;
+            float *pr = pw ? realloc(ce->pair_r, (size_t)cap * sizeof *pr) : NULL;
             if (!pr) goto nomem;
             ce->pair_r = pr;
-            ce->pair_u[ce->npairs] = u; /* node numbers; unknowns after the renormalisation */
-            ce->pair_v[ce->npairs] = v;
+            ce->pair_u[ce->npairs] = (int32_t)u; /* node numbers; unknowns after the renormalisation */
+            ce->pair_v[ce->npairs] = (int32_t)v;
             ce->pair_w[ce->npairs] = row.w[v];
-            ce->pair_r[ce->npairs] = row.r[v] / row.w[v];
+            ce->pair_r[ce->npairs] = (float)(row.r[v] / row.w[v]);
             ce->npairs++;
             row.w[v] = row.r[v] = 0;
         }
@@ -515,6 +515,9 @@ int ohm_clear_exchange_build(ohm_clear_exchange *ce, const ohm_network *net, con
     double t0 = ohm_now();
     for (int64_t v = 0; v < net->n; ++v) ce->nclear += clear[v] != 0;
     if (!ce->nclear) return OHM_OK;
+    if (net->n > INT32_MAX)
+        return ohm_fail(err, OHM_ERR_USAGE, "clear regions: %lld unknowns are more than the coupling's 32-bit "
+                        "unknowns hold", (long long)net->n);
     if (net->active)
         return ohm_fail(err, OHM_ERR_USAGE, "clear regions: the coupling needs every interior cell (no depth band: "
                                             "band_k=0)");
@@ -560,10 +563,10 @@ int ohm_clear_exchange_build(ohm_clear_exchange *ce, const ohm_network *net, con
     if (!rc) { /* node numbers to unknowns, the cell areas to mm^2 */
         double a = grid->h * grid->h;
         for (int64_t k = 0; k < ce->npairs; ++k) {
-            ce->pair_u[k] = ce->node_unknown[ce->pair_u[k]];
-            ce->pair_v[k] = ce->node_unknown[ce->pair_v[k]];
+            ce->pair_u[k] = (int32_t)ce->node_unknown[ce->pair_u[k]];
+            ce->pair_v[k] = (int32_t)ce->node_unknown[ce->pair_v[k]];
             ce->pair_w[k] *= a;
-            ce->pair_r[k] *= grid->h;
+            ce->pair_r[k] *= (float)grid->h;
         }
         for (int64_t u = 0; u < ce->nnodes; ++u) {
             ce->self_w[u] *= a;
@@ -869,6 +872,9 @@ static int stencil_pairs(ohm_stencil *st, const ohm_clear_exchange *ce, const do
 {
     const int64_t n = st->n;
     ohm_stencil_drop_extra(st);
+    if (n > INT32_MAX)
+        return ohm_fail(err, OHM_ERR_USAGE, "clear regions: %lld unknowns are more than the coupling's 32-bit "
+                        "columns hold", (long long)n);
     st->xstart = calloc((size_t)n + 1, sizeof *st->xstart);
     st->xcol = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xcol);
     st->xg = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xg);
@@ -884,8 +890,8 @@ static int stencil_pairs(ohm_stencil *st, const ohm_clear_exchange *ce, const do
         int64_t u = ce->pair_u[k], v = ce->pair_v[k];
         float g = (float)pair_g[k];
         int64_t pu = st->xstart[u] + fill[u]++, pv = st->xstart[v] + fill[v]++;
-        st->xcol[pu] = v, st->xg[pu] = g;
-        st->xcol[pv] = u, st->xg[pv] = g;
+        st->xcol[pu] = (int32_t)v, st->xg[pu] = g;
+        st->xcol[pv] = (int32_t)u, st->xg[pv] = g;
     }
     free(fill);
     return OHM_OK;

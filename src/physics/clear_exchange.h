@@ -62,9 +62,13 @@ typedef struct ohm_clear_exchange {
     int64_t nescape;          /* boundary faces of nodes (net's face indices) */
     int64_t *escape_face;
     int64_t npairs;           /* node pairs linked by exchange */
-    int64_t *pair_u, *pair_v; /* npairs: unknowns, u < v */
+    /* the pairs, 20 B each (10^8 at a head's clear regions at 1 mm): 32-bit
+     * unknowns (fewer than the grid's cells, which the voxelizer keeps below
+     * 2^31: checked by build), the distance in a float (it only sets the
+     * absorption on the way, exp(-sigma_a r)) */
+    int32_t *pair_u, *pair_v; /* npairs: unknowns, u < v */
     double *pair_w;           /* npairs: sum of a_p F_pq over their faces (mm^2), renormalised */
-    double *pair_r;           /* npairs: its F-weighted mean distance (mm) */
+    float *pair_r;            /* npairs: its F-weighted mean distance (mm) */
     double *self_w, *self_r;  /* nnodes: a node's faces with each other and with their mirror images */
     int64_t nfill;            /* clear unknowns that are no node */
     int64_t *fill_unknown, *fill_from; /* nfill: the unknown, its nearest node's unknown */

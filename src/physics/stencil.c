@@ -26,7 +26,8 @@ void ohm_stencil_drop_extra(ohm_stencil *st)
     free(st->xstart);
     free(st->xcol);
     free(st->xg);
-    st->xstart = st->xcol = NULL;
+    st->xstart = NULL;
+    st->xcol = NULL;
     st->xg = NULL;
 }
 

@@ -460,7 +460,7 @@ static int upload_level(ohm_mg_device *d, const ohm_mg_view *v, int l, ohm_error
         L->has_x = 1;
         L->xs = L->xc = L->xg = NULL;
         rc = buffer(d, &L->xs, (size_t)(n + 1) * sizeof *st->xstart, st->xstart, err);
-        if (!rc) rc = buffer(d, &L->xc, (size_t)(nx ? nx : 1) * sizeof *st->xcol, nx ? st->xcol : st->xstart, err);
+        if (!rc) rc = buffer(d, &L->xc, (size_t)(nx ? nx : 1) * sizeof *st->xcol, nx ? (const void *)st->xcol : st->xstart, err);
         if (!rc) rc = buffer(d, &L->xg, (size_t)(nx ? nx : 1) * sizeof *st->xg, nx ? (const void *)st->xg : st->xstart, err);
     }
     if (!rc) rc = buffer(d, &L->invd, (size_t)n * f, lv->invd, err);

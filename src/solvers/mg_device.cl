@@ -60,7 +60,7 @@ inline float cyc_diag(__global const int4 *off, __global const float4 *c, long v
  * (the other unknown) and xg; has_x 0: none (the buffers unread).  The
  * flux form's terms in double, and in the cycle's single precision their
  * sum g x_w and their share of the diagonal. */
-#define EXTRA_ARGS __global const long *xs, __global const long *xc, __global const float *xg, int has_x
+#define EXTRA_ARGS __global const long *xs, __global const int *xc, __global const float *xg, int has_x
 inline double net_extra(EXTRA_ARGS, __global const double *x, long v)
 {
     double s = 0;
