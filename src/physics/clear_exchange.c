@@ -871,10 +871,7 @@ static float *link_slot(ohm_stencil *st, int64_t u, int64_t w)
 static int stencil_pairs(ohm_stencil *st, const ohm_clear_exchange *ce, const double *pair_g, ohm_error *err)
 {
     const int64_t n = st->n;
-    ohm_stencil_drop_extra(st);
-    if (n > INT32_MAX)
-        return ohm_fail(err, OHM_ERR_USAGE, "clear regions: %lld unknowns are more than the coupling's 32-bit "
-                        "columns hold", (long long)n);
+    ohm_stencil_drop_extra(st); /* (n fits the 32-bit columns: ohm_clear_exchange_build checked) */
     st->xstart = calloc((size_t)n + 1, sizeof *st->xstart);
     st->xcol = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xcol);
     st->xg = malloc((size_t)(ce->npairs ? 2 * ce->npairs : 1) * sizeof *st->xg);

@@ -367,7 +367,9 @@ static double device_bytes(const ohm_mg_view *v)
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
     }
     const ohm_stencil *st = v->fine; /* the links beyond the grid */
-    if (st->xstart) bytes += 8.0 * (double)(st->n + 1) + 12.0 * (double)st->xstart[st->n];
+    if (st->xstart)
+        bytes += (double)sizeof *st->xstart * (double)(st->n + 1) +
+                 (double)(sizeof *st->xcol + sizeof *st->xg) * (double)st->xstart[st->n];
     return bytes + 8.0 * (double)v->ndense * ((double)v->ndense + 1);
 }
 
