@@ -43,12 +43,18 @@ static inline int64_t ohm_popcount64(uint64_t x)
     return (int64_t)((x * 0x0101010101010101u) >> 56);
 }
 
+/* How many members come before cell c (any cell, past the last too). */
+static inline int64_t ohm_cell_index_rank(const ohm_cell_index *ix, size_t c)
+{
+    if ((int64_t)(c >> 6) >= ix->nwords) return ix->count;
+    return ix->rank[c >> 6] + ohm_popcount64(ix->bits[c >> 6] & (((uint64_t)1 << (c & 63)) - 1));
+}
+
 /* The number of cell c among the members (0-based, in cell order), or -1. */
 static inline int64_t ohm_cell_index_of(const ohm_cell_index *ix, size_t c)
 {
-    uint64_t word = ix->bits[c >> 6], bit = (uint64_t)1 << (c & 63);
-    if (!(word & bit)) return -1;
-    return ix->rank[c >> 6] + ohm_popcount64(word & (bit - 1));
+    if (!(ix->bits[c >> 6] & ((uint64_t)1 << (c & 63)))) return -1;
+    return ohm_cell_index_rank(ix, c);
 }
 
 /* The cell of member k (0 <= k < count): the inverse of ohm_cell_index_of,

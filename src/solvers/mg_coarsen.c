@@ -134,12 +134,7 @@ static int64_t next_place(place_walk *p, int64_t v)
 /* The first of the n unknowns whose cell is c or later. */
 static int64_t first_at(const ohm_mg_places *pl, int64_t n, int64_t c)
 {
-    if (pl->cells) {
-        const ohm_cell_index *ix = pl->cells;
-        int64_t word = c >> 6;
-        if (word >= ix->nwords) return ix->count;
-        return ix->rank[word] + ohm_popcount64(ix->bits[word] & (((uint64_t)1 << (c & 63)) - 1));
-    }
+    if (pl->cells) return ohm_cell_index_rank(pl->cells, (size_t)c);
     int64_t lo = 0, hi = n; /* cells are non-decreasing */
     while (lo < hi) {
         int64_t mid = lo + (hi - lo) / 2;
