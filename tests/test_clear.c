@@ -187,6 +187,23 @@ static int same_bits(const ohm_solution *a, const ohm_solution *b)
            a->power_out == b->power_out && a->power_absorbed == b->power_absorbed;
 }
 
+/* Two factor solves of the same coupling: the same nodes and pairs, the
+ * fluence to 1e-10 of the peak and the books to 1e-10.  Not their bits: the
+ * factor's BLAS takes as many threads as there are idle cores, and its sums'
+ * order changes with them (as under ctest -j); a coupling that differed by
+ * one pair would move the fluence by far more. */
+static int same_coupled(const ohm_solution *a, const ohm_solution *b)
+{
+    if (a->n != b->n || a->clear_nodes != b->clear_nodes || a->clear_pairs != b->clear_pairs) return 0;
+    double peak = 0, off = 0;
+    for (int64_t v = 0; v < a->n; ++v) {
+        peak = fmax(peak, fabs(a->fluence[0][v]));
+        off = fmax(off, fabs(a->fluence[0][v] - b->fluence[0][v]));
+    }
+    return off <= 1e-10 * peak && fabs(a->power_out - b->power_out) <= 1e-10 * fabs(a->power_out) &&
+           fabs(a->power_absorbed - b->power_absorbed) <= 1e-10 * fabs(a->power_absorbed);
+}
+
 /* A relight with the clear regions' coupling: a solver kept (keep=1) and
  * solved for one beam, then for another (the coupling and the hierarchy
  * reused, the solve warm-started), against a fresh solve for the second:
@@ -302,7 +319,7 @@ int main(void)
     CHECK(mask != NULL);
     CHECK(scene_solve_coupled(&hand, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_OFF, OHM_SOLVER_DIRECT, mask,
                               ohm_clear_reach(rad.clear.region[0].thickness_mm)) == 0);
-    CHECK(same_bits(&rad, &hand));
+    CHECK(same_coupled(&rad, &hand));
     CHECK(ohm_solution_conservation_error(&rad) <= 1e-10);
     /* a reach asked (clear_reach=) on the regions found: the pairs within
      * it, as the same mask coupled by hand within it; fewer, the books exact */
@@ -313,7 +330,7 @@ int main(void)
     CHECK(scene_solve_coupled(&near_hand, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_OFF, OHM_SOLVER_DIRECT, mask,
                               near) == 0);
     CHECK(near_found.clear_reach_mm == near && near_found.clear_pairs > 0 && near_found.clear_pairs < rad.clear_pairs);
-    CHECK(same_bits(&near_found, &near_hand));
+    CHECK(same_coupled(&near_found, &near_hand));
     CHECK(ohm_solution_conservation_error(&near_found) <= 1e-10);
     ohm_solution_free(&near_found), ohm_solution_free(&near_hand);
     CHECK(scene_solve(&eff, &cube, SCENE_VOID, depth, radius, OHM_CLEAR_EFFECTIVE, OHM_SOLVER_DIRECT) == 0);

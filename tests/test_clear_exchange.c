@@ -282,6 +282,14 @@ static void test_stencil_form(void)
     clear_scene_free(&sc);
 }
 
+/* The largest |a - b| over n values; with b NULL, the largest |a|. */
+static double max_off(const double *a, const double *b, size_t n)
+{
+    double m = 0;
+    for (size_t i = 0; i < n; ++i) m = fmax(m, fabs(a[i] - (b ? b[i] : 0.0)));
+    return m;
+}
+
 /* Solves: the books close with the coupling, also where the clear region
  * meets the object's surface (the head slab's CSF at the box's sides); no
  * clear cell in the mask is the solve without one, bit for bit. */
@@ -298,9 +306,13 @@ static void test_solves(void)
     uint8_t *zero = calloc(sc.n, 1);
     CHECK(clear_scene_solve(&plain, &sc, NULL, NULL, 0, &err) == 0);
     CHECK(clear_scene_solve(&none, &sc, zero, NULL, 0, &err) == 0);
-    CHECK(!memcmp(plain.fluence[0], none.fluence[0], sc.n * sizeof(double)));
-    CHECK(!memcmp(plain.face_exitance[0], none.face_exitance[0], (size_t)plain.net.nfaces * sizeof(double)));
-    CHECK(memcmp(plain.fluence[0], on.fluence[0], sc.n * sizeof(double)) != 0); /* and the mask is used */
+    /* (to 1e-12 of the peak, not bit for bit: the factor's BLAS takes as
+     * many threads as there are idle cores, and its sums' order with them) */
+    CHECK(max_off(plain.fluence[0], none.fluence[0], sc.n) <= 1e-12 * max_off(plain.fluence[0], NULL, sc.n));
+    CHECK(max_off(plain.face_exitance[0], none.face_exitance[0], (size_t)plain.net.nfaces) <=
+          1e-12 * max_off(plain.face_exitance[0], NULL, (size_t)plain.net.nfaces));
+    /* and the mask is used */
+    CHECK(max_off(plain.fluence[0], on.fluence[0], sc.n) > 1e-3 * max_off(plain.fluence[0], NULL, sc.n));
     /* cg solves the coupled matrix, and mg its stencil form (the pairs as
      * links beyond the grid, in its coarse levels too), to the direct
      * solve's answer; mg conserves power to 1e-10 and converges in few

@@ -104,6 +104,23 @@ static int apply_effective(ohm_solver *s, ohm_error *err)
     return OHM_OK;
 }
 
+int ohm_solver_couple_clear(ohm_solver *s, const uint8_t *mask, double reach, ohm_error *err)
+{
+    ohm_solution *sol = &s->sol;
+    ohm_clear_exchange_params cp = {.max_distance = reach, .log = s->log};
+    int rc = ohm_clear_exchange_build(&s->exchange, &sol->net, mask, &cp, err);
+    sol->clear_nodes = s->exchange.nnodes;
+    sol->clear_pairs = s->exchange.npairs;
+    sol->clear_reach_mm = reach;
+    if (!rc)
+        ohm_log_info(s->log,
+                     "clear regions' coupling: %lld wall nodes, %lld wall faces, %lld node pairs within %.3g mm "
+                     "(%lld rays), set up in %.2f s",
+                     (long long)s->exchange.nnodes, (long long)s->exchange.faces, (long long)s->exchange.npairs,
+                     cp.max_distance, (long long)s->exchange.rays, s->exchange.seconds);
+    return rc;
+}
+
 /* clear=radiosity: the coupling of the regions so treated, face pairs within
  * the reach asked (clear_reach=), else that of the thickest (ohm_clear_reach). */
 static int apply_radiosity(ohm_solver *s, ohm_error *err)
@@ -119,18 +136,7 @@ static int apply_radiosity(ohm_solver *s, ohm_error *err)
         thickest = fmax(thickest, sol->clear.region[k].thickness_mm);
     }
     double reach = s->params.op.clear_reach > 0 ? s->params.op.clear_reach : ohm_clear_reach(thickest);
-    ohm_clear_exchange_params cp = {.max_distance = reach, .log = s->log};
-    int rc = ohm_clear_exchange_build(&s->exchange, &sol->net, s->clear_mask, &cp, err);
-    sol->clear_nodes = s->exchange.nnodes;
-    sol->clear_pairs = s->exchange.npairs;
-    sol->clear_reach_mm = reach;
-    if (!rc)
-        ohm_log_info(s->log,
-                     "clear regions' coupling: %lld wall nodes, %lld wall faces, %lld node pairs within %.3g mm "
-                     "(%lld rays), set up in %.2f s",
-                     (long long)s->exchange.nnodes, (long long)s->exchange.faces, (long long)s->exchange.npairs,
-                     cp.max_distance, (long long)s->exchange.rays, s->exchange.seconds);
-    return rc;
+    return ohm_solver_couple_clear(s, s->clear_mask, reach, err);
 }
 
 int ohm_solver_find_clear(ohm_solver *s, ohm_error *err)

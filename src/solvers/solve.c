@@ -62,10 +62,8 @@ static int solver_prepare(ohm_solver *s, const ohm_solve_params *params, ohm_err
         s->layout = ohm_grid_layout_of(&sol->net);
         rc = ohm_keep_media(sol, &s->params.media, compact, err);
     }
-    if (!rc && params->op.clear_cells) {
-        ohm_clear_exchange_params cp = {.max_distance = params->op.clear_reach, .log = s->log};
-        rc = ohm_clear_exchange_build(&s->exchange, &sol->net, params->op.clear_cells, &cp, err);
-    }
+    if (!rc && params->op.clear_cells)
+        rc = ohm_solver_couple_clear(s, params->op.clear_cells, params->op.clear_reach, err);
     for (int q = 0; q < 2 * OHM_MAX_CHANNELS; ++q) free(compact[q]);
     /* (the stages below take seconds only at 10^7 cells and more: a
      * cancellation is taken between them) */

@@ -167,6 +167,10 @@ int ohm_check_cell_optics(const ohm_voxel_grid *grid, const ohm_media_params *p,
 
 /* clear.c */
 int ohm_solver_find_clear(ohm_solver *s, ohm_error *err);
+/* The radiosity coupling of the cells mask marks, face pairs within reach mm,
+ * built into s->exchange and booked in the solution and the log: for the
+ * regions found (clear=radiosity) and for a mask given (op.clear_cells). */
+int ohm_solver_couple_clear(ohm_solver *s, const uint8_t *mask, double reach, ohm_error *err);
 void ohm_diffusion_medium(ohm_channel_medium *med, const ohm_solver *s, int c);
 
 /* sources.c */
