@@ -76,8 +76,14 @@ struct ohm_mg {
     double *dense;                 /* the coarsest level's Cholesky factor, n x n, lower */
     double *dense_x;               /* its solution, in double (the sweeps' work)         */
     int64_t ndense;
-    double *r, *q; /* the outer flexible CG's residual and A p, in double */
-    float *p;      /* its direction, in floats, times pscale (host_direction) */
+    double *r; /* the outer flexible CG's residual, in double */
+    float *p;  /* its direction, in floats, times pscale (host_direction) */
+    /* A p's value (A times p's floats, before pscale) in two floats, hi +
+     * lo, exact to 2^-48 of it: hi kept from one iteration to the next (the
+     * flexible step's z.q), lo only from the product to the step, in level
+     * 0's t (the cycle's, unused between them): 4 B a cell held, not a
+     * double q's 8 (docs/multigrid.md, "The outer iteration") */
+    float *ap_hi;
     double pscale;
     double *x;       /* the solve's iterate and right-hand side (the caller's) */
     const double *b;
@@ -235,39 +241,43 @@ static void apply_dots_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     double pq = 0, pr = 0, a = k->a;
     const float *p = k->xf;
     const double *r = k->z;
-    double *out = k->out;
+    float *q_hi = k->outf, *q_lo = k->out_tmp;
     if (k->st->xstart)
         FOR_ROWS(k->st, lo, hi, {
-            double q = a * (net_apply_single(S, p, ROW_ARGS) + extra_apply_single(S, p, v));
-            out[v] = q;
+            double q = net_apply_single(S, p, ROW_ARGS) + extra_apply_single(S, p, v);
+            float h = (float)q;
+            q_hi[v] = h;
+            q_lo[v] = (float)(q - h);
             pq += p[v] * q;
             pr += p[v] * r[v];
         })
     else FOR_ROWS_SUM("omp simd reduction(+ : pq, pr)", k->st, lo, hi, {
-            double q = a * net_apply_single(S, p, ROW_ARGS);
-            out[v] = q;
+            double q = net_apply_single(S, p, ROW_ARGS);
+            float h = (float)q;
+            q_hi[v] = h;
+            q_lo[v] = (float)(q - h);
             pq += p[v] * q;
             pr += p[v] * r[v];
         })
-    k->partial[chunk] = pq;
+    k->partial[chunk] = a * pq;
     k->partial2[chunk] = pr;
 }
 
 /* The outer step: x += alpha p with p = a pt (alpha a in a2, pt in xf), r
- * -= alpha q, and the next cycle's right-hand side outf = a3 r in the same
- * pass (to_single_k's, not a pass of its own); returns ||r||^2, and the
- * sum of r (the power the books miss) in k.sum2. */
+ * -= alpha q with q = a (A pt) (its halves in yf and bf), and the next
+ * cycle's right-hand side outf = a3 r in the same pass (to_single_k's, not
+ * a pass of its own); returns ||r||^2, and the sum of r (the power the
+ * books miss) in k.sum2. */
 static void step_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
-    double s = 0, sr = 0, alpha = k->a, alpha_p = k->a2, scale = k->a3;
+    double s = 0, sr = 0, alpha_p = k->a2, scale = k->a3;
     double *x = k->out, *r = k->out2;
-    const float *p = k->xf;
-    const double *q = k->y;
+    const float *p = k->xf, *q_hi = k->yf, *q_lo = k->bf;
     float *rhs = k->outf;
 #pragma omp simd reduction(+ : s, sr)
     for (int64_t i = lo; i < hi; ++i) {
         x[i] += alpha_p * p[i];
-        double ri = r[i] - alpha * q[i];
+        double ri = r[i] - alpha_p * ((double)q_hi[i] + (double)q_lo[i]);
         r[i] = ri;
         rhs[i] = (float)(scale * ri);
         s += ri * ri;
@@ -284,12 +294,12 @@ static void to_single_k(kernel *k, int64_t lo, int64_t hi, int chunk)
     for (int64_t i = lo; i < hi; ++i) k->outf[i] = (float)(k->a * k->x[i]);
 }
 
-/* returns xf.y, the preconditioned residual's product with q */
+/* returns xf.yf, the preconditioned residual's product with A pt's high
+ * half (to 6e-8 of q's: what the flexible step's beta needs) */
 static void mixed_dot_k(kernel *k, int64_t lo, int64_t hi, int chunk)
 {
     double s = 0;
-    const float *z = k->xf;
-    const double *q = k->y;
+    const float *z = k->xf, *q = k->yf;
 #pragma omp simd reduction(+ : s)
     for (int64_t i = lo; i < hi; ++i) s += (double)z[i] * q[i];
     k->partial[chunk] = s;
@@ -495,7 +505,7 @@ void ohm_mg_free(ohm_mg *mg)
     free(mg->dense_x);
     free(mg->r);
     free(mg->p);
-    free(mg->q);
+    free(mg->ap_hi);
     free(mg);
 }
 
@@ -639,7 +649,7 @@ static int level_vectors(ohm_mg *m, int l, ohm_error *err)
     size_t f = sizeof(float);
     int last = l == m->nlevels - 1;
     if (!(L->b = array(m, n, f)) || !(L->x = array(m, n, f))) goto nomem;
-    if (!last && !(L->t = array(m, n, f))) goto nomem;
+    if ((l == 0 || !last) && !(L->t = array(m, n, f))) goto nomem; /* level 0's: also A p's low half */
     L->kcycle = l > 0 && l <= KCYCLE_LEVELS && !last && (double)n <= KCYCLE_MAX_RATIO * (double)m->lev[l - 1].n;
     if (L->kcycle && (!(L->c1 = array(m, n, f)) || !(L->v1 = array(m, n, f)) || !(L->c2 = array(m, n, f)) ||
                       !(L->rt = array(m, n, f))))
@@ -688,7 +698,8 @@ int ohm_mg_setup(ohm_mg **out, const ohm_stencil *st, const ohm_grid_layout *lay
     for (int l = 0; l < m->nlevels && !rc; ++l) rc = level_vectors(m, l, err);
     int64_t n = st->n;
     size_t d = sizeof(double);
-    if (!rc && (!(m->r = array(m, n, d)) || !(m->p = array(m, n, sizeof(float))) || !(m->q = array(m, n, d))))
+    if (!rc &&
+        (!(m->r = array(m, n, d)) || !(m->p = array(m, n, sizeof(float))) || !(m->ap_hi = array(m, n, sizeof(float)))))
         rc = ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for %lld unknowns", (long long)n);
     if (rc) {
         ohm_mg_free(m);
@@ -733,13 +744,13 @@ double ohm_mg_bytes_estimate(int64_t n)
     /* fine: the network's stencil 20 and its runs (24 B each, allowed 4
      * per cell: runs of 6 cells on average, where a solid's rows are one
      * run each and a voxelized surface's a few), the inverse diagonal 4,
-     * the aggregate map 4, the outer r and q in double and p in float 20,
-     * the cycle's b x t 12; the coarse levels together about n/4 unknowns
+     * the aggregate map 4, the outer r in double, p and A p's high half
+     * in floats 16, the cycle's b x t 12 (t also A p's low half); the coarse levels together about n/4 unknowns
      * (where the medium's jumps cut blocks into parts: mg_coarsen.h) of
      * rows of about eight links (8 B each: column and conductance), a row
      * start and sink 16, inverse diagonal 4, map 4 and up to seven vectors
      * of 4 */
-    double fine = 20 + 4 + 4 + 4 + 20 + 12, coarse = (64 + 16 + 4 + 4 + 28) / 4.0;
+    double fine = 20 + 4 + 4 + 4 + 16 + 12, coarse = (64 + 16 + 4 + 4 + 28) / 4.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
 }
@@ -853,8 +864,8 @@ static void host_rhs(void *self, double s)
 static double host_mixed_dot(void *self)
 {
     ohm_mg *m = self;
-    kernel kb = {.fn = mixed_dot_k, .xf = m->lev[0].x, .y = m->q};
-    return run(&kb, m->fine->n, m->threads);
+    kernel kb = {.fn = mixed_dot_k, .xf = m->lev[0].x, .yf = m->ap_hi};
+    return m->pscale * run(&kb, m->fine->n, m->threads); /* the direction's scale, not yet the next's */
 }
 
 /* p = kz z - beta p kept as pscale pt, pt in floats: any direction will do,
@@ -874,7 +885,8 @@ static void host_direction(void *self, double kz, double beta)
 static void host_apply_dots(void *self, double *pq, double *pr)
 {
     ohm_mg *m = self;
-    kernel kq = {.fn = apply_dots_k, .st = m->fine, .xf = m->p, .z = m->r, .out = m->q, .a = m->pscale};
+    kernel kq = {
+        .fn = apply_dots_k, .st = m->fine, .xf = m->p, .z = m->r, .outf = m->ap_hi, .out_tmp = m->lev[0].t, .a = m->pscale};
     *pq = m->pscale * run(&kq, m->fine->n, m->threads);
     *pr = m->pscale * kq.sum2;
 }
@@ -888,11 +900,11 @@ static double host_step(void *self, double alpha, double nr, double *nr_after, d
     double s = ohm_mg_rhs_scale(m->norm_A, nr);
     kernel ks = {.fn = step_k,
                  .xf = m->p,
-                 .y = m->q,
+                 .yf = m->ap_hi,
+                 .bf = m->lev[0].t,
                  .out = m->x,
                  .out2 = m->r,
                  .outf = m->lev[0].b,
-                 .a = alpha,
                  .a2 = alpha * m->pscale,
                  .a3 = s};
     *nr_after = sqrt(run(&ks, m->fine->n, m->threads));
