@@ -494,8 +494,8 @@ static void environment_light(void)
     ohm_context_free(ctx);
 }
 
-/* A 64 MiB array is a mapping of its own while it lives (glibc's default
- * above 128 KiB), so that freeing it gives its pages back: with mmap
+/* A 64 MiB array is a mapping of its own while it lives (libohm maps
+ * blocks of 8 MiB and more), so that freeing it gives its pages back: with mmap
  * turned off, as SuperLU_DIST's load-time constructor leaves it, it comes
  * from the heap and stays resident after the free.  (glibc only; under
  * ASan the allocator is ASan's.) */
