@@ -745,7 +745,8 @@ double ohm_mg_bytes_estimate(int64_t n)
      * per cell: runs of 6 cells on average, where a solid's rows are one
      * run each and a voxelized surface's a few), the inverse diagonal 4,
      * the aggregate map 4, the outer r in double, p and A p's high half
-     * in floats 16, the cycle's b x t 12 (t also A p's low half); the coarse levels together about n/4 unknowns
+     * in floats 16, the cycle's b x t 12 (t also A p's low half); the
+     * coarse levels together about n/4 unknowns
      * (where the medium's jumps cut blocks into parts: mg_coarsen.h) of
      * rows of about eight links (8 B each: column and conductance), a row
      * start and sink 16, inverse diagonal 4, map 4 and up to seven vectors

@@ -8,9 +8,10 @@
  *
  * A vector is an opaque handle, where the machine keeps it: the host's
  * float *, the device's cl_mem.  The cycle's vectors are single precision;
- * the outer iteration's (x, b, its residual r, direction p and q = A p) are
- * double and the machine's own, named by no handle: the outer operations
- * work on them. */
+ * the outer iteration's (x, b and its residual r in double, its direction
+ * p and q = A p as the machine keeps them: the host's p in floats times a
+ * scale, q in two floats) are the machine's own, named by no handle: the
+ * outer operations work on them. */
 #ifndef OHM_SOLVERS_MG_OPS_H
 #define OHM_SOLVERS_MG_OPS_H
 
