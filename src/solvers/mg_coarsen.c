@@ -4,6 +4,7 @@
 #include "solvers/mg_coarsen.h"
 
 #include <math.h>
+#include <stdint.h>
 #include <stdlib.h>
 #include <string.h>
 
@@ -13,10 +14,36 @@
 void ohm_mg_sparse_free(ohm_mg_sparse *sp)
 {
     free(sp->rp);
+    free(sp->rp32);
     free(sp->col);
     free(sp->g);
     free(sp->sink);
+    free(sp->sink_f);
     memset(sp, 0, sizeof *sp);
+}
+
+int ohm_mg_sparse_compact(ohm_mg_sparse *sp)
+{
+    if (sp->sink_f) return 0;
+    int64_t n = sp->n;
+    int narrow = sp->nnz <= INT32_MAX;
+    float *sink_f = malloc((size_t)(n ? n : 1) * sizeof *sink_f);
+    int32_t *rp32 = narrow ? malloc((size_t)(n + 1) * sizeof *rp32) : NULL;
+    if (!sink_f || (narrow && !rp32)) {
+        free(sink_f), free(rp32);
+        return -1;
+    }
+    for (int64_t v = 0; v < n; ++v) sink_f[v] = (float)sp->sink[v]; /* the cycle's rows' (float) sink */
+    free(sp->sink);
+    sp->sink = NULL;
+    sp->sink_f = sink_f;
+    if (narrow) {
+        for (int64_t v = 0; v <= n; ++v) rp32[v] = (int32_t)sp->rp[v];
+        free(sp->rp);
+        sp->rp = NULL;
+        sp->rp32 = rp32;
+    }
+    return 0;
 }
 
 void ohm_mg_coarse_free(ohm_mg_coarse *c)
@@ -596,6 +623,7 @@ static int galerkin(coarsening *cg, int64_t nranges, int threads)
         cg->range[r].nnz_base = nnz;
         nnz += cg->range[r].nnz;
     }
+    sp->nnz = nnz;
     sp->col = malloc((size_t)(nnz ? nnz : 1) * sizeof *sp->col);
     sp->g = malloc((size_t)(nnz ? nnz : 1) * sizeof *sp->g);
     if (rc || !sp->col || !sp->g) return -1;

@@ -42,16 +42,39 @@
 
 /* A coarse level's operator by rows: row v is
  *   sink[v] x_v + sum_k g[k] (x_v - x_col[k])   (k in rp[v] .. rp[v + 1] - 1)
- * each link in both of its rows with the same value. */
+ * each link in both of its rows with the same value.
+ *
+ * Two forms.  The set-up's: row starts in 64 bits and sinks in double, from
+ * which the next level's sums, the inverse diagonal and the coarsest
+ * factor are taken.  The cycle's (ohm_mg_sparse_compact, once the whole
+ * hierarchy is built): the sinks in floats, as the cycle's rows read them
+ * anyway, and the starts in 32 bits where the links are fewer than 2^31;
+ * 8 B a row fewer to hold and to stream on every pass. */
 typedef struct ohm_mg_sparse {
     int64_t n;
-    int64_t *rp;   /* n + 1 */
-    int32_t *col;  /* rp[n]: a coarse level has fewer unknowns than the grid's 2^31 */
-    float *g;      /* > 0 */
-    double *sink;
+    int64_t nnz;     /* links, counted in both rows */
+    int64_t *rp;     /* n + 1; NULL once compacted to rp32 */
+    int32_t *rp32;   /* n + 1, compacted (NULL: rp stays, nnz >= 2^31) */
+    int32_t *col;    /* nnz: a coarse level has fewer unknowns than the grid's 2^31 */
+    float *g;        /* > 0 */
+    double *sink;    /* the set-up's; NULL once compacted */
+    float *sink_f;   /* the cycle's, compacted */
 } ohm_mg_sparse;
 
 void ohm_mg_sparse_free(ohm_mg_sparse *sp); /* zeroed after; a zeroed one is fine */
+
+/* sp in the cycle's form (above); -1: out of memory (sp as it was). */
+int ohm_mg_sparse_compact(ohm_mg_sparse *sp);
+
+/* Row v's first link, and its sink as a float, in either form. */
+static inline int64_t ohm_mg_sparse_start(const ohm_mg_sparse *sp, int64_t v)
+{
+    return sp->rp32 ? sp->rp32[v] : sp->rp[v];
+}
+static inline float ohm_mg_sparse_sink(const ohm_mg_sparse *sp, int64_t v)
+{
+    return sp->sink_f ? sp->sink_f[v] : (float)sp->sink[v];
+}
 
 /* A level's operator as the coarsening reads it: the network's stencil
  * (the finest level; its links beyond the grid included) or a coarse

@@ -361,7 +361,7 @@ static double device_bytes(const ohm_mg_view *v)
     for (int l = 0; l < v->nlevels; ++l) {
         double n = (double)v->lev[l].n;
         const ohm_mg_sparse *sp = v->lev[l].sp;
-        bytes += sp ? 8 * (n + 1) + 8 * ((double)sp->rp[sp->n] + n) + 4 * n /* rp, (column, g), invd */
+        bytes += sp ? 8 * (n + 1) + 8 * ((double)sp->nnz + n) + 4 * n /* rp, (column, g), invd */
                     : n * (16 + 16 + 4);                                     /* off, c, invd */
         if (l < v->nlevels - 1) bytes += n * (4 + 4) + 8 * (double)v->lev[l + 1].n + n * 3 * 4; /* agg, children, start; b x t */
         if (v->lev[l].kcycle) bytes += 5 * 4 * n;
@@ -406,16 +406,16 @@ static float *cell_links(const ohm_stencil *st, int with_sink)
  * sink first (column -1), then its links; into L's off (rp) and c. */
 static int upload_rows(ohm_mg_device *d, dev_level *L, const ohm_mg_sparse *sp, ohm_error *err)
 {
-    int64_t n = sp->n, entries = sp->rp[n] + n;
+    int64_t n = sp->n, entries = sp->nnz + n;
     int64_t *rp = malloc((size_t)(n + 1) * sizeof *rp);
     cl_float2 *cv = malloc((size_t)(entries ? entries : 1) * sizeof *cv);
     int rc = !rp || !cv ? ohm_fail(err, OHM_ERR_NOMEM, "mg: out of memory for a coarse level's copy") : OHM_OK;
     for (int64_t v = 0; !rc && v < n; ++v) {
-        int64_t e = rp[v] = sp->rp[v] + v;
+        int64_t e = rp[v] = ohm_mg_sparse_start(sp, v) + v;
         int32_t none = -1;
         memcpy(&cv[e].s[0], &none, sizeof none);
-        cv[e].s[1] = (float)sp->sink[v];
-        for (int64_t k = sp->rp[v]; k < sp->rp[v + 1]; ++k) {
+        cv[e].s[1] = ohm_mg_sparse_sink(sp, v);
+        for (int64_t k = ohm_mg_sparse_start(sp, v); k < ohm_mg_sparse_start(sp, v + 1); ++k) {
             ++e;
             memcpy(&cv[e].s[0], &sp->col[k], sizeof sp->col[k]);
             cv[e].s[1] = sp->g[k];
