@@ -4,6 +4,9 @@
 #include <stdio.h>
 #include <stdint.h>
 #include <string.h>
+#ifdef __GLIBC__
+#include <malloc.h>
+#endif
 
 double ohm_memory_available(void)
 {
@@ -45,10 +48,7 @@ const char *ohm_format_bytes(double bytes, char *buf, int len)
     return buf;
 }
 
-
 #ifdef __GLIBC__
-#include <malloc.h>
-
 /* SuperLU_DIST, which PETSc brings into every process that loads libohm,
  * turns off glibc's mmap for large blocks and its trimming in a load-time
  * constructor (mallopt(M_MMAP_MAX, 0), mallopt(M_TRIM_THRESHOLD, -1)):

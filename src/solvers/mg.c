@@ -771,8 +771,8 @@ double ohm_mg_bytes_estimate(int64_t n)
      * coarse levels together about n/4 unknowns
      * (where the medium's jumps cut blocks into parts: mg_coarsen.h) of
      * rows of about eight links (8 B each: column and conductance), a row
-     * start and sink 16, inverse diagonal 4, map 4 and up to seven vectors
-     * of 4 */
+     * start and sink 16 while the level is built (8 in the cycle's form),
+     * inverse diagonal 4, map 4 and up to seven vectors of 4 */
     double fine = 20 + 4 + 4 + 4 + 16 + 12, coarse = (64 + 16 + 4 + 4 + 28) / 4.0;
     double dense = (double)(n < COARSEST_MAX ? n : COARSEST_MAX);
     return (fine + coarse) * (double)n + 8.0 * dense * dense;
